@@ -1,0 +1,477 @@
+"""Numba kernels behind :mod:`polygen.volume.mesh`.
+
+Arrays in, arrays out; nothing here imports anything of polygen's but the
+JIT options. The central trick is :func:`match_rows`: rows of node ids
+(faces, edges), each sorted, are bucketed by their smallest node with a
+counting sort and matched inside the bucket, which is linear in the number
+of rows and needs neither a global sort nor a Python loop.
+"""
+
+import numpy as np
+
+from polygen._jit import njit, prange
+
+
+@njit
+def sort_rows(rows):
+    """Sort each row of a small-width integer array in place (insertion sort)."""
+    k = rows.shape[1]
+    for r in range(rows.shape[0]):
+        for i in range(1, k):
+            v = rows[r, i]
+            j = i - 1
+            while j >= 0 and rows[r, j] > v:
+                rows[r, j + 1] = rows[r, j]
+                j -= 1
+            rows[r, j + 1] = v
+
+
+@njit
+def csr_from_keys(keys, n_keys):
+    """Group ``arange(len(keys))`` by ``keys``: returns ``(offsets, order)``.
+
+    ``order[offsets[k]:offsets[k+1]]`` are the positions holding key ``k``,
+    in increasing position (a stable counting sort).
+    """
+    offsets = np.zeros(n_keys + 1, np.int64)
+    for i in range(keys.shape[0]):
+        offsets[keys[i] + 1] += 1
+    for k in range(n_keys):
+        offsets[k + 1] += offsets[k]
+    fill = offsets[:-1].copy()
+    order = np.empty(keys.shape[0], np.int64)
+    for i in range(keys.shape[0]):
+        k = keys[i]
+        order[fill[k]] = i
+        fill[k] += 1
+    return offsets, order
+
+
+@njit
+def match_rows(rows, n_nodes):
+    """Number the distinct rows of ``rows`` (each row sorted ascending).
+
+    Returns ``(ids, first)``: ``ids[r]`` is the number of row ``r``'s
+    distinct value, numbered by smallest node then first appearance, and
+    ``first[i]`` is the first row with number ``i``.
+    """
+    n = rows.shape[0]
+    k = rows.shape[1]
+    offsets, order = csr_from_keys(rows[:, 0], n_nodes)
+    ids = np.full(n, -1, np.int64)
+    first = np.empty(n, np.int64)
+    n_unique = 0
+    for b in range(n_nodes):
+        lo = offsets[b]
+        hi = offsets[b + 1]
+        start = n_unique  # ids made in this bucket are start .. n_unique-1
+        for p in range(lo, hi):
+            r = order[p]
+            found = -1
+            for u in range(start, n_unique):
+                q = first[u]
+                same = True
+                for c in range(1, k):
+                    if rows[q, c] != rows[r, c]:
+                        same = False
+                        break
+                if same:
+                    found = u
+                    break
+            if found < 0:
+                first[n_unique] = r
+                ids[r] = n_unique
+                n_unique += 1
+            else:
+                ids[r] = found
+    return ids, first[:n_unique].copy()
+
+
+@njit
+def face_neighbors_from_ids(face_ids, n_faces_per_cell, n_unique):
+    """Pair the cell faces that carry the same face id.
+
+    Returns ``(neighbors (M, F), bad)``, where ``bad`` is the first face id
+    shared by more than two cells, or -1.
+    """
+    n_rows = face_ids.shape[0]
+    m = n_rows // n_faces_per_cell
+    first = np.full(n_unique, -1, np.int64)
+    second = np.full(n_unique, -1, np.int64)
+    bad = -1
+    for r in range(n_rows):
+        u = face_ids[r]
+        if first[u] < 0:
+            first[u] = r
+        elif second[u] < 0:
+            second[u] = r
+        elif bad < 0:
+            bad = r
+    neighbors = np.full((m, n_faces_per_cell), -1, np.int64)
+    for u in range(n_unique):
+        a = first[u]
+        b = second[u]
+        if b >= 0:
+            neighbors[a // n_faces_per_cell, a % n_faces_per_cell] = b // n_faces_per_cell
+            neighbors[b // n_faces_per_cell, b % n_faces_per_cell] = a // n_faces_per_cell
+    return neighbors, bad
+
+
+@njit
+def gather_local(cells, local):
+    """``out[c*L + i, j] = cells[c, local[i, j]]``: the faces or edges of every cell."""
+    m = cells.shape[0]
+    n_loc = local.shape[0]
+    w = local.shape[1]
+    out = np.empty((m * n_loc, w), np.int64)
+    for c in prange(m):
+        for i in range(n_loc):
+            for j in range(w):
+                out[c * n_loc + i, j] = cells[c, local[i, j]]
+    return out
+
+
+@njit(parallel=True)
+def tet_volumes6(points, cells):
+    """Six times the signed volume of each tetrahedron, and its longest edge."""
+    m = cells.shape[0]
+    vol = np.empty(m)
+    longest = np.empty(m)
+    for c in prange(m):
+        p0 = points[cells[c, 0]]
+        a = points[cells[c, 1]] - p0
+        b = points[cells[c, 2]] - p0
+        d = points[cells[c, 3]] - p0
+        vol[c] = (a[0] * (b[1] * d[2] - b[2] * d[1])
+                  - a[1] * (b[0] * d[2] - b[2] * d[0])
+                  + a[2] * (b[0] * d[1] - b[1] * d[0]))
+        e = 0.0
+        for i in range(4):
+            for j in range(i + 1, 4):
+                s = 0.0
+                for x in range(3):
+                    t = points[cells[c, i], x] - points[cells[c, j], x]
+                    s += t * t
+                if s > e:
+                    e = s
+        longest[c] = np.sqrt(e)
+    return vol, longest
+
+
+# corner, then its neighbours along r, s, t in a right-handed order (VTK hexahedron)
+HEX_CORNERS = np.array([[0, 1, 3, 4], [1, 2, 0, 5], [2, 3, 1, 6], [3, 0, 2, 7],
+                        [4, 7, 5, 0], [5, 4, 6, 1], [6, 5, 7, 2], [7, 6, 4, 3]], np.int64)
+
+
+@njit(parallel=True)
+def hex_jacobians(points, cells, corners):
+    """Corner Jacobian determinants ``(M, 8)``, volume and longest edge of each hexahedron."""
+    m = cells.shape[0]
+    jac = np.empty((m, 8))
+    vol = np.empty(m)
+    longest = np.empty(m)
+    for c in prange(m):
+        for i in range(8):
+            p0 = points[cells[c, corners[i, 0]]]
+            a = points[cells[c, corners[i, 1]]] - p0
+            b = points[cells[c, corners[i, 2]]] - p0
+            d = points[cells[c, corners[i, 3]]] - p0
+            jac[c, i] = (a[0] * (b[1] * d[2] - b[2] * d[1])
+                         - a[1] * (b[0] * d[2] - b[2] * d[0])
+                         + a[2] * (b[0] * d[1] - b[1] * d[0]))
+        # volume by the divergence theorem over the six faces split at their centroid
+        v = 0.0
+        for f in range(6):
+            q = HEX_FACE_NODES[f]
+            cx = 0.0
+            cy = 0.0
+            cz = 0.0
+            for j in range(4):
+                cx += points[cells[c, q[j]], 0] * 0.25
+                cy += points[cells[c, q[j]], 1] * 0.25
+                cz += points[cells[c, q[j]], 2] * 0.25
+            for j in range(4):
+                pa = points[cells[c, q[j]]] - points[cells[c, 0]]
+                pb = points[cells[c, q[(j + 1) % 4]]] - points[cells[c, 0]]
+                px = cx - points[cells[c, 0], 0]
+                py = cy - points[cells[c, 0], 1]
+                pz = cz - points[cells[c, 0], 2]
+                v += (px * (pa[1] * pb[2] - pa[2] * pb[1])
+                      - py * (pa[0] * pb[2] - pa[2] * pb[0])
+                      + pz * (pa[0] * pb[1] - pa[1] * pb[0]))
+        vol[c] = v / 6.0
+        e = 0.0
+        for i in range(8):
+            for j in range(1, 4):
+                s = 0.0
+                for x in range(3):
+                    t = points[cells[c, corners[i, 0]], x] - points[cells[c, corners[i, j]], x]
+                    s += t * t
+                if s > e:
+                    e = s
+        longest[c] = np.sqrt(e)
+    return jac, vol, longest
+
+
+HEX_FACE_NODES = np.array([[0, 4, 7, 3], [1, 2, 6, 5], [0, 1, 5, 4],
+                           [3, 7, 6, 2], [0, 3, 2, 1], [4, 5, 6, 7]], np.int64)
+
+
+@njit
+def union_find_rows(row_ids, n_items, row_owner):
+    """Connected components of items linked through shared row ids.
+
+    ``row_owner[r]`` is the item of row ``r``; items whose rows carry the
+    same id are joined. Returns labels ``0..n_comp-1`` numbered by first item.
+    """
+    parent = np.arange(n_items)
+    n_ids = 0
+    for r in range(row_ids.shape[0]):
+        if row_ids[r] + 1 > n_ids:
+            n_ids = row_ids[r] + 1
+    first_owner = np.full(n_ids, -1, np.int64)
+    for r in range(row_ids.shape[0]):
+        u = row_ids[r]
+        a = row_owner[r]
+        if first_owner[u] < 0:
+            first_owner[u] = a
+            continue
+        b = first_owner[u]
+        # find with path halving
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        while parent[b] != b:
+            parent[b] = parent[parent[b]]
+            b = parent[b]
+        if a != b:
+            if a < b:
+                parent[b] = a
+            else:
+                parent[a] = b
+    labels = np.full(n_items, -1, np.int64)
+    n_comp = 0
+    for i in range(n_items):
+        a = i
+        while parent[a] != a:
+            a = parent[a]
+        if labels[a] < 0:
+            labels[a] = n_comp
+            n_comp += 1
+        labels[i] = labels[a]
+    return labels, n_comp
+
+
+@njit
+def cell_components(neighbors):
+    """Connected components of cells through face neighbours."""
+    m, f = neighbors.shape
+    labels = np.full(m, -1, np.int64)
+    stack = np.empty(m, np.int64)
+    n_comp = 0
+    for s in range(m):
+        if labels[s] >= 0:
+            continue
+        labels[s] = n_comp
+        top = 0
+        stack[0] = s
+        top = 1
+        while top > 0:
+            top -= 1
+            c = stack[top]
+            for i in range(f):
+                d = neighbors[c, i]
+                if d >= 0 and labels[d] < 0:
+                    labels[d] = n_comp
+                    stack[top] = d
+                    top += 1
+        n_comp += 1
+    return labels, n_comp
+
+
+# ---------------------------------------------------------------- point location
+
+@njit
+def build_bins(points, cells, lo, inv_h, dims):
+    """Register each cell in every bin its bounding box overlaps (CSR)."""
+    m, k = cells.shape
+    nb = dims[0] * dims[1] * dims[2]
+    counts = np.zeros(nb + 1, np.int64)
+    ranges = np.empty((m, 6), np.int64)
+    for c in range(m):
+        for x in range(3):
+            mn = np.inf
+            mx = -np.inf
+            for j in range(k):
+                v = points[cells[c, j], x]
+                mn = min(mn, v)
+                mx = max(mx, v)
+            i0 = int((mn - lo[x]) * inv_h[x])
+            i1 = int((mx - lo[x]) * inv_h[x])
+            ranges[c, 2 * x] = min(max(i0, 0), dims[x] - 1)
+            ranges[c, 2 * x + 1] = min(max(i1, 0), dims[x] - 1)
+        for a in range(ranges[c, 0], ranges[c, 1] + 1):
+            for b in range(ranges[c, 2], ranges[c, 3] + 1):
+                for d in range(ranges[c, 4], ranges[c, 5] + 1):
+                    counts[(a * dims[1] + b) * dims[2] + d + 1] += 1
+    for i in range(nb):
+        counts[i + 1] += counts[i]
+    fill = counts[:-1].copy()
+    items = np.empty(counts[nb], np.int64)
+    for c in range(m):
+        for a in range(ranges[c, 0], ranges[c, 1] + 1):
+            for b in range(ranges[c, 2], ranges[c, 3] + 1):
+                for d in range(ranges[c, 4], ranges[c, 5] + 1):
+                    j = (a * dims[1] + b) * dims[2] + d
+                    items[fill[j]] = c
+                    fill[j] += 1
+    return counts, items
+
+
+@njit
+def _tet_weights(points, cells, c, q, w):
+    p0 = points[cells[c, 0]]
+    a = points[cells[c, 1]] - p0
+    b = points[cells[c, 2]] - p0
+    d = points[cells[c, 3]] - p0
+    r = q - p0
+    det = (a[0] * (b[1] * d[2] - b[2] * d[1]) - a[1] * (b[0] * d[2] - b[2] * d[0])
+           + a[2] * (b[0] * d[1] - b[1] * d[0]))
+    if det == 0.0:
+        return False
+    w1 = (r[0] * (b[1] * d[2] - b[2] * d[1]) - r[1] * (b[0] * d[2] - b[2] * d[0])
+          + r[2] * (b[0] * d[1] - b[1] * d[0])) / det
+    w2 = (a[0] * (r[1] * d[2] - r[2] * d[1]) - a[1] * (r[0] * d[2] - r[2] * d[0])
+          + a[2] * (r[0] * d[1] - r[1] * d[0])) / det
+    w3 = (a[0] * (b[1] * r[2] - b[2] * r[1]) - a[1] * (b[0] * r[2] - b[2] * r[0])
+          + a[2] * (b[0] * r[1] - b[1] * r[0])) / det
+    w[0] = 1.0 - w1 - w2 - w3
+    w[1] = w1
+    w[2] = w2
+    w[3] = w3
+    tol = -1e-10
+    return w[0] >= tol and w1 >= tol and w2 >= tol and w3 >= tol
+
+
+@njit
+def _hex_shape(r, s, t, n):
+    n[0] = (1 - r) * (1 - s) * (1 - t)
+    n[1] = r * (1 - s) * (1 - t)
+    n[2] = r * s * (1 - t)
+    n[3] = (1 - r) * s * (1 - t)
+    n[4] = (1 - r) * (1 - s) * t
+    n[5] = r * (1 - s) * t
+    n[6] = r * s * t
+    n[7] = (1 - r) * s * t
+
+
+@njit
+def _hex_weights(points, cells, c, q, w):
+    """Trilinear weights of ``q`` in hexahedron ``c`` by Newton's method on (r, s, t)."""
+    r = 0.5
+    s = 0.5
+    t = 0.5
+    jm = np.empty((3, 3))
+    for _ in range(30):
+        _hex_shape(r, s, t, w)
+        fx = -q[0]
+        fy = -q[1]
+        fz = -q[2]
+        for j in range(8):
+            p = points[cells[c, j]]
+            fx += w[j] * p[0]
+            fy += w[j] * p[1]
+            fz += w[j] * p[2]
+        # derivatives of the shape functions
+        dr = np.array([-(1 - s) * (1 - t), (1 - s) * (1 - t), s * (1 - t), -s * (1 - t),
+                       -(1 - s) * t, (1 - s) * t, s * t, -s * t])
+        ds = np.array([-(1 - r) * (1 - t), -r * (1 - t), r * (1 - t), (1 - r) * (1 - t),
+                       -(1 - r) * t, -r * t, r * t, (1 - r) * t])
+        dt = np.array([-(1 - r) * (1 - s), -r * (1 - s), -r * s, -(1 - r) * s,
+                       (1 - r) * (1 - s), r * (1 - s), r * s, (1 - r) * s])
+        for x in range(3):
+            jm[x, 0] = 0.0
+            jm[x, 1] = 0.0
+            jm[x, 2] = 0.0
+            for j in range(8):
+                p = points[cells[c, j], x]
+                jm[x, 0] += dr[j] * p
+                jm[x, 1] += ds[j] * p
+                jm[x, 2] += dt[j] * p
+        det = (jm[0, 0] * (jm[1, 1] * jm[2, 2] - jm[1, 2] * jm[2, 1])
+               - jm[0, 1] * (jm[1, 0] * jm[2, 2] - jm[1, 2] * jm[2, 0])
+               + jm[0, 2] * (jm[1, 0] * jm[2, 1] - jm[1, 1] * jm[2, 0]))
+        if det == 0.0:
+            return False
+        # Cramer's rule for J d = f
+        d0 = (fx * (jm[1, 1] * jm[2, 2] - jm[1, 2] * jm[2, 1])
+              - jm[0, 1] * (fy * jm[2, 2] - jm[1, 2] * fz)
+              + jm[0, 2] * (fy * jm[2, 1] - jm[1, 1] * fz)) / det
+        d1 = (jm[0, 0] * (fy * jm[2, 2] - jm[1, 2] * fz)
+              - fx * (jm[1, 0] * jm[2, 2] - jm[1, 2] * jm[2, 0])
+              + jm[0, 2] * (jm[1, 0] * fz - fy * jm[2, 0])) / det
+        d2 = (jm[0, 0] * (jm[1, 1] * fz - fy * jm[2, 1])
+              - jm[0, 1] * (jm[1, 0] * fz - fy * jm[2, 0])
+              + fx * (jm[1, 0] * jm[2, 1] - jm[1, 1] * jm[2, 0])) / det
+        r -= d0
+        s -= d1
+        t -= d2
+        if abs(d0) + abs(d1) + abs(d2) < 1e-13:
+            break
+        if abs(r) > 10 or abs(s) > 10 or abs(t) > 10:
+            return False
+    tol = 1e-9
+    if not (-tol <= r <= 1 + tol and -tol <= s <= 1 + tol and -tol <= t <= 1 + tol):
+        return False
+    # Newton may wander far from a point outside the cell and stop inside by
+    # chance: accept only a converged map
+    _hex_shape(r, s, t, w)
+    size = 0.0
+    res = 0.0
+    for x in range(3):
+        v = -q[x]
+        for j in range(8):
+            v += w[j] * points[cells[c, j], x]
+            size = max(size, abs(points[cells[c, j], x] - points[cells[c, 0], x]))
+        res += v * v
+    return np.sqrt(res) <= 1e-9 * size
+
+
+@njit(parallel=True)
+def locate_and_interpolate(points, cells, scalars, counts, items, lo, inv_h, dims, queries):
+    """Value of the linear (tetra) or trilinear (hexa) interpolant at each query, NaN outside."""
+    nq = queries.shape[0]
+    k = cells.shape[1]
+    out = np.full(nq, np.nan)
+    where = np.full(nq, -1, np.int64)
+    for i in prange(nq):
+        q = queries[i]
+        ix = np.empty(3, np.int64)
+        inside_grid = True
+        for x in range(3):
+            v = int(np.floor((q[x] - lo[x]) * inv_h[x]))
+            if v < 0 or v >= dims[x]:
+                # on the far face of the box the point still belongs to the last bin
+                if v == dims[x] and q[x] - lo[x] <= dims[x] / inv_h[x] * (1 + 1e-12):
+                    v = dims[x] - 1
+                else:
+                    inside_grid = False
+            ix[x] = v
+        if not inside_grid:
+            continue
+        b = (ix[0] * dims[1] + ix[1]) * dims[2] + ix[2]
+        w = np.empty(8)
+        for p in range(counts[b], counts[b + 1]):
+            c = items[p]
+            if k == 4:
+                ok = _tet_weights(points, cells, c, q, w)
+            else:
+                ok = _hex_weights(points, cells, c, q, w)
+            if ok:
+                s = 0.0
+                for j in range(k):
+                    s += w[j] * scalars[cells[c, j]]
+                out[i] = s
+                where[i] = c
+                break
+    return out, where

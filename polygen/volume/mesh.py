@@ -1,0 +1,504 @@
+"""The unstructured volume of thesis chapter 5.2 (Defs 5.1-5.10).
+
+A volume is made only of tetrahedra or only of hexahedra (Def. 5.4), in
+VTK node order, with one or more scalar fields on its nodes (Def. 5.2).
+Everything derived from the cells -- face neighbours (Def. 5.1), boundary
+faces (Def. 5.3), connected boundary-face groups with their Euler number
+and genus (Defs 5.6-5.8, 7.7), node and edge incidence -- is computed once,
+lazily, by the numba kernels of :mod:`polygen.volume._topology`.
+"""
+
+from __future__ import annotations
+
+import functools
+import warnings
+
+import numpy as np
+
+from polygen.volume import _topology as _k
+
+#: Local faces of a VTK tetrahedron, outward for a positive cell (Def. 5.3 face numbers).
+TET_FACES = np.array([[0, 1, 3], [1, 2, 3], [2, 0, 3], [0, 2, 1]], np.int64)
+#: Local faces of a VTK hexahedron, outward for a positive cell.
+HEX_FACES = _k.HEX_FACE_NODES.copy()
+#: Local edges of a VTK tetrahedron.
+TET_EDGES = np.array([[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]], np.int64)
+#: Local edges of a VTK hexahedron.
+HEX_EDGES = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4],
+                      [0, 4], [1, 5], [2, 6], [3, 7]], np.int64)
+
+_CELL_TYPES = {4: "tetra", 8: "hexa"}
+_VTK_TETRA, _VTK_VOXEL, _VTK_HEXAHEDRON = 10, 11, 12
+# VTK voxel node order -> hexahedron node order
+_VOXEL_TO_HEX = np.array([0, 1, 3, 2, 4, 5, 7, 6])
+# relative tolerance on |6V| / longest_edge**3 below which a cell is degenerate
+_DEGENERATE_RTOL = 1e-10
+
+
+class VolumeError(ValueError):
+    """A volume's input is malformed; the message names what and where."""
+
+
+class VolumeWarning(UserWarning):
+    """Something in a volume is suspicious but usable (e.g. unreferenced nodes)."""
+
+
+def _examples(idx, n=5):
+    idx = np.asarray(idx).ravel()
+    head = ", ".join(str(int(i)) for i in idx[:n])
+    return f"[{head}{', ...' if idx.size > n else ''}]"
+
+
+class UnstructuredVolume:
+    """A tetrahedral-only or hexahedral-only volume with node scalars.
+
+    Parameters
+    ----------
+    points : (N, 3) float64
+        Node coordinates.
+    cells : (M, 4) or (M, 8) int64
+        Node ids of each cell in VTK order (``VTK_TETRA`` or ``VTK_HEXAHEDRON``).
+    fields : dict of str -> (N,) float64, optional
+        Scalar fields on the nodes. The first one is the default.
+    validate : bool, keyword-only
+        Check cell geometry (zero-volume and inverted cells). Shapes, index
+        ranges and finiteness are always checked.
+    orient : bool, keyword-only
+        Reorder the nodes of inverted cells instead of raising.
+
+    Raises
+    ------
+    VolumeError
+        On wrong shapes, indices out of range, non-finite coordinates or
+        scalars, degenerate (zero-volume) or inverted cells, faces shared by
+        more than two cells.
+    """
+
+    def __init__(self, points, cells, fields=None, *, validate=True, orient=False):
+        points = np.asarray(points)
+        cells = np.asarray(cells)
+        if points.ndim != 2 or points.shape[1] != 3:
+            raise VolumeError(f"points must have shape (N, 3); got {points.shape}")
+        if not np.issubdtype(points.dtype, np.number):
+            raise VolumeError(f"points must be numeric; got dtype {points.dtype}")
+        if cells.ndim != 2 or cells.shape[1] not in _CELL_TYPES:
+            raise VolumeError(
+                f"cells must have shape (M, 4) for tetrahedra or (M, 8) for hexahedra; got {cells.shape}"
+                " (a volume mixes no cell types: Def. 5.4)"
+            )
+        if cells.shape[0] == 0:
+            raise VolumeError("cells is empty: a volume needs at least one cell")
+        if not np.issubdtype(cells.dtype, np.integer):
+            if np.issubdtype(cells.dtype, np.floating) and np.all(np.isfinite(cells)) and np.all(cells == np.round(cells)):
+                cells = cells.astype(np.int64)
+            else:
+                raise VolumeError(f"cells must hold integer node ids; got dtype {cells.dtype}")
+        self.points = np.ascontiguousarray(points, dtype=np.float64)
+        self.cells = np.ascontiguousarray(cells, dtype=np.int64)
+        n = self.points.shape[0]
+        bad_pts = np.flatnonzero(~np.all(np.isfinite(self.points), axis=1))
+        if bad_pts.size:
+            raise VolumeError(f"{bad_pts.size} points have NaN or infinite coordinates, e.g. points {_examples(bad_pts)}")
+        out_of_range = np.flatnonzero(np.any((self.cells < 0) | (self.cells >= n), axis=1))
+        if out_of_range.size:
+            c = out_of_range[0]
+            raise VolumeError(
+                f"{out_of_range.size} cells reference node ids outside 0..{n - 1}, e.g. cells "
+                f"{_examples(out_of_range)} (cell {c} has nodes {self.cells[c].tolist()})"
+            )
+        repeated = np.flatnonzero(np.any(np.diff(np.sort(self.cells, axis=1), axis=1) == 0, axis=1))
+        if repeated.size:
+            raise VolumeError(
+                f"{repeated.size} degenerate cells repeat a node, e.g. cells {_examples(repeated)} "
+                f"(cell {repeated[0]} has nodes {self.cells[repeated[0]].tolist()})"
+            )
+        self.cell_type = _CELL_TYPES[self.cells.shape[1]]
+        self.fields = {}
+        for name, values in (fields or {}).items():
+            self.add_field(name, values)
+        if validate or orient:
+            self._check_geometry(orient)
+        used = np.bincount(self.cells.ravel(), minlength=n)
+        self.unreferenced_nodes = np.flatnonzero(used == 0)
+        if self.unreferenced_nodes.size:
+            warnings.warn(
+                f"{self.unreferenced_nodes.size} of {n} nodes are used by no cell, e.g. nodes "
+                f"{_examples(self.unreferenced_nodes)}; they are kept (see remove_unreferenced_nodes)",
+                VolumeWarning,
+                stacklevel=2,
+            )
+
+    # ------------------------------------------------------------------ basics
+    @property
+    def n_points(self) -> int:
+        return self.points.shape[0]
+
+    @property
+    def n_cells(self) -> int:
+        return self.cells.shape[0]
+
+    @property
+    def local_faces(self) -> np.ndarray:
+        """``TET_FACES`` or ``HEX_FACES``."""
+        return TET_FACES if self.cell_type == "tetra" else HEX_FACES
+
+    @property
+    def local_edges(self) -> np.ndarray:
+        """``TET_EDGES`` or ``HEX_EDGES``."""
+        return TET_EDGES if self.cell_type == "tetra" else HEX_EDGES
+
+    def __repr__(self):
+        names = ", ".join(self.fields) or "no fields"
+        return f"UnstructuredVolume({self.n_cells} {self.cell_type} cells, {self.n_points} nodes; {names})"
+
+    def add_field(self, name, values):
+        """Attach a node scalar field, checking its length and finiteness."""
+        values = np.asarray(values)
+        if values.ndim != 1 or values.shape[0] != self.n_points:
+            raise VolumeError(f"field {name!r} must have shape ({self.n_points},); got {values.shape}")
+        if not np.issubdtype(values.dtype, np.number) or np.issubdtype(values.dtype, np.complexfloating):
+            raise VolumeError(f"field {name!r} must be real numbers; got dtype {values.dtype}")
+        values = np.ascontiguousarray(values, dtype=np.float64)
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            raise VolumeError(f"field {name!r} has {bad.size} NaN or infinite values, e.g. at nodes {_examples(bad)}")
+        self.fields[str(name)] = values
+
+    def scalars(self, name=None) -> np.ndarray:
+        """The node values of field ``name`` (the first field by default)."""
+        if not self.fields:
+            raise VolumeError("this volume has no scalar field; add one with add_field(name, values)")
+        if name is None:
+            return next(iter(self.fields.values()))
+        try:
+            return self.fields[name]
+        except KeyError:
+            raise VolumeError(f"no field {name!r}; the fields are {list(self.fields)}") from None
+
+    def _check_geometry(self, orient):
+        if self.cell_type == "tetra":
+            vol6, longest = _k.tet_volumes6(self.points, self.cells)
+            scale = longest**3
+            degenerate = np.flatnonzero(np.abs(vol6) <= _DEGENERATE_RTOL * scale)
+            inverted = np.flatnonzero(vol6 < -_DEGENERATE_RTOL * scale)
+        else:
+            jac, vol, longest = _k.hex_jacobians(self.points, self.cells, _k.HEX_CORNERS)
+            scale = longest**3
+            degenerate = np.flatnonzero(np.abs(vol) <= _DEGENERATE_RTOL * scale)
+            inverted = np.flatnonzero(vol < -_DEGENERATE_RTOL * scale)
+        if degenerate.size:
+            raise VolumeError(
+                f"{degenerate.size} degenerate cells have zero volume, e.g. cells {_examples(degenerate)}"
+            )
+        if inverted.size and orient:
+            if self.cell_type == "tetra":
+                self.cells[inverted[:, None], [1, 2]] = self.cells[inverted[:, None], [2, 1]]
+            else:
+                self.cells[inverted] = self.cells[inverted][:, [4, 5, 6, 7, 0, 1, 2, 3]]
+            inverted = inverted[:0]
+        if inverted.size:
+            raise VolumeError(
+                f"{inverted.size} of {self.n_cells} cells are inverted (negative volume in VTK node order), "
+                f"e.g. cells {_examples(inverted)}; pass orient=True to reorder their nodes"
+            )
+        if self.cell_type == "hexa":
+            jac, _, longest = _k.hex_jacobians(self.points, self.cells, _k.HEX_CORNERS)
+            folded = np.flatnonzero(np.any(jac <= _DEGENERATE_RTOL * (longest**3)[:, None], axis=1))
+            if folded.size:
+                raise VolumeError(
+                    f"{folded.size} hexahedra are folded or degenerate at a corner (Jacobian <= 0), "
+                    f"e.g. cells {_examples(folded)}"
+                )
+
+    def remove_unreferenced_nodes(self) -> "UnstructuredVolume":
+        """A copy without the nodes no cell uses."""
+        keep = np.ones(self.n_points, bool)
+        keep[self.unreferenced_nodes] = False
+        new_id = np.cumsum(keep) - 1
+        fields = {k: v[keep] for k, v in self.fields.items()}
+        return UnstructuredVolume(self.points[keep], new_id[self.cells], fields, validate=False)
+
+    # ------------------------------------------------------------- adjacency
+    @functools.cached_property
+    def _face_table(self):
+        faces = _k.gather_local(self.cells, self.local_faces)
+        _k.sort_rows(faces)
+        ids, first = _k.match_rows(faces, self.n_points)
+        return ids, first
+
+    @functools.cached_property
+    def face_neighbors(self) -> np.ndarray:
+        """(M, F) int64: the cell across each local face, -1 on the boundary (Def. 5.1).
+
+        Cells are neighbours only when their faces have the same nodes.
+        """
+        ids, first = self._face_table
+        nf = self.local_faces.shape[0]
+        neighbors, bad = _k.face_neighbors_from_ids(ids, nf, first.shape[0])
+        if bad >= 0:
+            shared = np.flatnonzero(ids == ids[bad]) // nf
+            raise VolumeError(
+                f"a face is shared by {shared.size} cells {_examples(shared)}; "
+                "a volume's face belongs to at most two cells"
+            )
+        return neighbors
+
+    @functools.cached_property
+    def boundary_faces(self) -> np.ndarray:
+        """(B, 2) int64 rows ``(cell, local face)`` of the faces owned by one cell (Def. 5.3)."""
+        c, f = np.nonzero(self.face_neighbors < 0)
+        return np.stack([c, f], axis=1).astype(np.int64)
+
+    @functools.cached_property
+    def boundary_face_nodes(self) -> np.ndarray:
+        """(B, 3|4) int64 node ids of each boundary face, outward oriented."""
+        bf = self.boundary_faces
+        return self.cells[bf[:, :1], self.local_faces[bf[:, 1]]]
+
+    @functools.cached_property
+    def boundary_cells(self) -> np.ndarray:
+        """(Kb,) int64 sorted cells that own a boundary face."""
+        return np.unique(self.boundary_faces[:, 0])
+
+    @functools.cached_property
+    def _edge_table(self):
+        edges = _k.gather_local(self.cells, self.local_edges)
+        _k.sort_rows(edges)
+        ids, first = _k.match_rows(edges, self.n_points)
+        return edges[first], ids.reshape(self.n_cells, -1)
+
+    @property
+    def edges(self) -> np.ndarray:
+        """(E, 2) int64 distinct cell edges, ``a < b``."""
+        return self._edge_table[0]
+
+    @property
+    def cell_edges(self) -> np.ndarray:
+        """(M, 6|12) int64 id (row of :attr:`edges`) of each local edge of each cell."""
+        return self._edge_table[1]
+
+    @functools.cached_property
+    def edge_cells(self):
+        """CSR ``(offsets (E+1,), cells)``: the cells around each edge."""
+        ce = self.cell_edges
+        offsets, order = _k.csr_from_keys(ce.ravel(), self.edges.shape[0])
+        return offsets, order // ce.shape[1]
+
+    @functools.cached_property
+    def node_cells(self):
+        """CSR ``(offsets (N+1,), cells)``: the cells using each node."""
+        offsets, order = _k.csr_from_keys(self.cells.ravel(), self.n_points)
+        return offsets, order // self.cells.shape[1]
+
+    @functools.cached_property
+    def cell_components(self):
+        """``(labels (M,), n)``: connected parts of the volume through face neighbours."""
+        return _k.cell_components(self.face_neighbors)
+
+    # ------------------------------------------------------- boundary groups
+    @functools.cached_property
+    def _groups(self):
+        bfn = self.boundary_face_nodes
+        nb, k = bfn.shape
+        if nb == 0:  # cannot happen for a finite volume, but keep shapes sane
+            z = np.zeros(0, np.int64)
+            return z, z, z, np.zeros(0), np.zeros(0, bool)
+        loc = np.array([[i, (i + 1) % k] for i in range(k)], np.int64)
+        edges = _k.gather_local(bfn, loc)
+        _k.sort_rows(edges)
+        edge_ids, _ = _k.match_rows(edges, self.n_points)
+        owner = np.repeat(np.arange(nb, dtype=np.int64), k)
+        labels, n_groups = _k.union_find_rows(edge_ids, nb, owner)
+        # Euler number V + F - E of each group (Def. 5.7)
+        faces_per = np.bincount(labels, minlength=n_groups)
+        edge_group = np.unique(labels[owner] * (edge_ids.max() + 1) + edge_ids) // (edge_ids.max() + 1)
+        edges_per = np.bincount(edge_group, minlength=n_groups)
+        node_group = np.unique(np.repeat(labels, k) * self.n_points + bfn.ravel()) // self.n_points
+        nodes_per = np.bincount(node_group, minlength=n_groups)
+        euler = nodes_per + faces_per - edges_per
+        # enclosed signed volume: positive for an outer surface, negative around a void
+        centre = self.points.mean(axis=0)
+        p = self.points[bfn] - centre
+        tri = 0.0
+        signed = np.zeros(n_groups)
+        for i in range(1, k - 1):
+            tri = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, i], p[:, i + 1])) / 6.0
+            signed += np.bincount(labels, weights=tri, minlength=n_groups)
+        is_void = signed < 0
+        # number: outer surfaces first (largest first), then voids (largest first)
+        order = np.lexsort((-np.abs(signed), is_void))
+        rank = np.empty(n_groups, np.int64)
+        rank[order] = np.arange(1, n_groups + 1)
+        return rank[labels], euler[order], signed[order], is_void[order]
+
+    @property
+    def boundary_groups(self) -> np.ndarray:
+        """(B,) int64 group of each boundary face: 1 = outer surface, 2.. = voids (Def. 7.7).
+
+        Faces are in one group when they are joined through shared edges. A
+        group that encloses negative volume (its outward faces point into
+        an empty region) is a void (Def. 5.6). With several disjoint parts
+        every outer surface is numbered before the voids.
+        """
+        return self._groups[0]
+
+    @property
+    def n_boundary_groups(self) -> int:
+        return self._groups[1].shape[0]
+
+    @property
+    def group_euler(self) -> np.ndarray:
+        """(G,) Euler number V + F - E of each boundary group (Def. 5.7); index g-1 for group g."""
+        return self._groups[1]
+
+    @property
+    def group_genus(self) -> np.ndarray:
+        """(G,) genus G = 1 - E/2 of each boundary group (Def. 5.8)."""
+        return 1 - self._groups[1] // 2
+
+    @property
+    def group_signed_volume(self) -> np.ndarray:
+        """(G,) volume enclosed by each group, negative for voids."""
+        return self._groups[2]
+
+    @property
+    def group_is_void(self) -> np.ndarray:
+        """(G,) bool: the group bounds a void (Def. 5.6)."""
+        return self._groups[3]
+
+    @property
+    def n_voids(self) -> int:
+        return int(self._groups[3].sum())
+
+    @property
+    def n_through_holes(self) -> int:
+        """Number of through-holes: the sum of the groups' genera (Def. 5.8)."""
+        return int(self.group_genus.sum())
+
+    # ------------------------------------------------------- interpolation
+    @functools.cached_property
+    def _locator(self):
+        lo = self.points.min(axis=0)
+        hi = self.points.max(axis=0)
+        extent = np.maximum(hi - lo, 1e-300)
+        # about one cell per bin on average, bins as cubic as the box allows
+        h = (np.prod(extent) / self.n_cells) ** (1.0 / 3.0)
+        dims = np.clip(np.ceil(extent / h), 1, 1024).astype(np.int64)
+        inv_h = dims / extent
+        counts, items = _k.build_bins(self.points, self.cells, lo, inv_h, dims)
+        return counts, items, lo, inv_h, dims
+
+    def locate(self, xyz) -> np.ndarray:
+        """(K,) int64 a cell containing each point of ``xyz (K, 3)``, -1 outside."""
+        return self._interpolate(xyz, np.zeros(self.n_points))[1]
+
+    def interpolate(self, xyz, field=None) -> np.ndarray:
+        """(K,) float64 the field at points ``xyz (K, 3)`` by Def. 5.5, NaN outside.
+
+        Inside a tetrahedron the interpolation is linear (barycentric); inside
+        a hexahedron it is trilinear in the cell's parametric coordinates,
+        the isoparametric interpolation of an 8-node FEM element.
+        """
+        return self._interpolate(xyz, self.scalars(field))[0]
+
+    def _interpolate(self, xyz, values):
+        xyz = np.ascontiguousarray(np.atleast_2d(np.asarray(xyz, dtype=np.float64)))
+        if xyz.ndim != 2 or xyz.shape[1] != 3:
+            raise VolumeError(f"query points must have shape (K, 3); got {xyz.shape}")
+        counts, items, lo, inv_h, dims = self._locator
+        return _k.locate_and_interpolate(self.points, self.cells, values, counts, items, lo, inv_h, dims, xyz)
+
+    # ---------------------------------------------------------- conversion
+    def to_pyvista(self):
+        """A ``pyvista.UnstructuredGrid`` with the fields as point data."""
+        import pyvista as pv
+
+        ctype = pv.CellType.TETRA if self.cell_type == "tetra" else pv.CellType.HEXAHEDRON
+        grid = pv.UnstructuredGrid({ctype: self.cells}, self.points)
+        for name, values in self.fields.items():
+            grid.point_data[name] = values
+        return grid
+
+    @classmethod
+    def from_pyvista(cls, grid, *, validate=True, orient=False):
+        """From a pyvista/VTK data set of tetrahedra, hexahedra or voxels only.
+
+        Single-component point arrays become fields; others are skipped.
+        """
+        import pyvista as pv
+
+        if not isinstance(grid, pv.UnstructuredGrid):
+            if not hasattr(grid, "cast_to_unstructured_grid"):
+                raise VolumeError(f"cannot read a volume from {type(grid).__name__}")
+            grid = grid.cast_to_unstructured_grid()
+        types = np.asarray(grid.celltypes)
+        if types.size == 0:
+            raise VolumeError("the grid has no cells")
+        kinds, counts = np.unique(types, return_counts=True)
+        if kinds.size != 1 or kinds[0] not in (_VTK_TETRA, _VTK_HEXAHEDRON, _VTK_VOXEL):
+            desc = ", ".join(f"{c} {pv.CellType(t).name.lower()}" for t, c in zip(kinds, counts))
+            raise VolumeError(f"a volume must be only tetrahedra or only hexahedra; this grid has {desc}")
+        k = 4 if kinds[0] == _VTK_TETRA else 8
+        cells = np.asarray(grid.cell_connectivity).reshape(-1, k)
+        if kinds[0] == _VTK_VOXEL:
+            cells = cells[:, _VOXEL_TO_HEX]
+        fields = {}
+        for name in grid.point_data.keys():
+            arr = np.asarray(grid.point_data[name])
+            if arr.ndim == 1 and np.issubdtype(arr.dtype, np.number):
+                fields[name] = arr
+        return cls(np.asarray(grid.points), cells, fields, validate=validate, orient=orient)
+
+    def to_meshio(self):
+        """A ``meshio.Mesh`` with one cell block and the fields as point data."""
+        import meshio
+
+        block = "tetra" if self.cell_type == "tetra" else "hexahedron"
+        return meshio.Mesh(self.points, [(block, self.cells)], point_data=dict(self.fields))
+
+    @classmethod
+    def from_meshio(cls, mesh, *, validate=True, orient=False):
+        """From a ``meshio.Mesh``.
+
+        Cell blocks of dimension 0-2 (vertices, lines, triangles, quads: the
+        boundary and physical-group elements that meshers write beside the
+        volume cells) are ignored; the 3D blocks must all be ``tetra`` or all
+        ``hexahedron``.
+        """
+        volume_blocks = {"tetra": [], "hexahedron": []}
+        other_3d = {}
+        lower = {"vertex", "line", "line3", "triangle", "triangle6", "quad", "quad8", "quad9", "polygon"}
+        for block in mesh.cells:
+            if block.type in volume_blocks:
+                volume_blocks[block.type].append(np.asarray(block.data))
+            elif block.type not in lower:
+                other_3d[block.type] = other_3d.get(block.type, 0) + len(block.data)
+        present = {t: sum(len(b) for b in bs) for t, bs in volume_blocks.items() if bs}
+        present.update(other_3d)
+        if len(present) != 1 or other_3d:
+            desc = ", ".join(f"{n} {t}" for t, n in present.items()) or "no 3D cells"
+            raise VolumeError(f"a volume must be only tetrahedra or only hexahedra; this mesh has {desc}")
+        ctype = next(iter(present))
+        cells = np.concatenate(volume_blocks[ctype])
+        fields = {}
+        for name, arr in mesh.point_data.items():
+            arr = np.asarray(arr)
+            if arr.ndim == 2 and arr.shape[1] == 1:
+                arr = arr[:, 0]
+            if arr.ndim == 1 and np.issubdtype(arr.dtype, np.number):
+                fields[name] = arr
+        return cls(np.asarray(mesh.points, dtype=np.float64)[:, :3] if mesh.points.shape[1] >= 3
+                   else mesh.points, cells, fields, validate=validate, orient=orient)
+
+    @classmethod
+    def read(cls, path, *, validate=True, orient=False):
+        """Read any file meshio reads (VTU, MSH, XDMF, ...), or else pyvista."""
+        import meshio
+
+        try:
+            mesh = meshio.read(path)
+        except meshio.ReadError:
+            import pyvista as pv
+
+            return cls.from_pyvista(pv.read(path), validate=validate, orient=orient)
+        return cls.from_meshio(mesh, validate=validate, orient=orient)

@@ -1,0 +1,315 @@
+"""The volume model against brute-force references, VTK and hand-counted topology."""
+
+import itertools
+
+import meshio
+import numpy as np
+import pytest
+import pyvista as pv
+
+from polygen.volume import UnstructuredVolume, VolumeError, VolumeWarning
+from polygen.volume.mesh import HEX_EDGES, HEX_FACES, TET_EDGES, TET_FACES
+
+
+def voxel_volume(mask, *, tetra=False, jitter=0.0, seed=0):
+    """A hexahedral (or 6-tets-per-hex) volume of the unit voxels where ``mask`` is true."""
+    mask = np.asarray(mask, bool)
+    grid = pv.ImageData(dimensions=np.array(mask.shape) + 1)
+    grid = grid.extract_cells(np.flatnonzero(mask.ravel(order="F"))).clean()
+    if tetra:
+        grid = grid.triangulate()
+    vol = UnstructuredVolume.from_pyvista(grid, orient=True)
+    if jitter:
+        rng = np.random.default_rng(seed)
+        vol = UnstructuredVolume(vol.points + rng.uniform(-jitter, jitter, vol.points.shape), vol.cells)
+    return vol
+
+
+def ring(n=4, hole=2):
+    m = np.ones((n, n, 2), bool)
+    a = (n - hole) // 2
+    m[a:a + hole, a:a + hole, :] = False
+    return m
+
+
+def hollow(n=5):
+    m = np.ones((n, n, n), bool)
+    m[2:n - 2, 2:n - 2, 2:n - 2] = False
+    return m
+
+
+def genus3():
+    m = np.ones((9, 3, 2), bool)
+    m[[1, 4, 7], 1, :] = False
+    return m
+
+
+def brute_neighbors(cells, faces):
+    seen = {}
+    for c, row in enumerate(cells):
+        for f, loc in enumerate(faces):
+            seen.setdefault(tuple(sorted(row[loc])), []).append((c, f))
+    out = -np.ones((len(cells), len(faces)), int)
+    for owners in seen.values():
+        if len(owners) == 2:
+            (a, fa), (b, fb) = owners
+            out[a, fa], out[b, fb] = b, a
+    return out
+
+
+# ---------------------------------------------------------------------- adjacency
+
+@pytest.mark.parametrize("tetra", [False, True])
+def test_face_neighbors_match_brute_force(tetra):
+    vol = voxel_volume(hollow(5), tetra=tetra, jitter=0.1)
+    ref = brute_neighbors(vol.cells, vol.local_faces)
+    np.testing.assert_array_equal(vol.face_neighbors, ref)
+    # symmetric: if b is across face f of a, a is across some face of b
+    a, f = np.nonzero(vol.face_neighbors >= 0)
+    b = vol.face_neighbors[a, f]
+    assert np.all((vol.face_neighbors[b] == a[:, None]).any(axis=1))
+
+
+def test_faces_touching_with_different_nodes_are_not_neighbours():
+    # Def. 5.1: two tets touching geometrically through a face whose nodes are duplicated
+    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, -1.0]])
+    shared = UnstructuredVolume(pts, [[0, 1, 2, 3], [0, 2, 1, 4]])
+    assert (shared.face_neighbors >= 0).sum() == 2
+    dup = np.vstack([pts, pts[:3]])
+    apart = UnstructuredVolume(dup, [[0, 1, 2, 3], [5, 7, 6, 4]])
+    assert (apart.face_neighbors >= 0).sum() == 0
+    assert apart.boundary_faces.shape == (8, 2)
+
+
+@pytest.mark.parametrize("tetra", [False, True])
+def test_boundary_faces_match_vtk_surface(tetra):
+    vol = voxel_volume(ring(5, 1), tetra=tetra)
+    surf = vol.to_pyvista().extract_surface(algorithm="dataset_surface")
+    k = 3 if tetra else 4
+    faces = surf.faces.reshape(-1, k + 1)[:, 1:]
+    ours = {tuple(sorted(f)) for f in vol.boundary_face_nodes.tolist()}
+    theirs = {tuple(sorted(f)) for f in surf["vtkOriginalPointIds"][faces].tolist()}
+    assert ours == theirs
+    # outward: the divergence theorem gives the volume of the solid
+    assert vol.group_signed_volume[0] == pytest.approx(ring(5, 1).sum())
+
+
+@pytest.mark.parametrize("tetra", [False, True])
+def test_edge_and_node_incidence(tetra):
+    vol = voxel_volume(ring(4, 2), tetra=tetra, jitter=0.05)
+    local = TET_EDGES if tetra else HEX_EDGES
+    ref = sorted({tuple(sorted(row[e])) for row in vol.cells for e in local})
+    assert sorted(map(tuple, vol.edges.tolist())) == ref
+    assert np.all(vol.edges[:, 0] < vol.edges[:, 1])
+    # cell_edges point to the right node pairs
+    pairs = np.sort(vol.cells[:, local], axis=2)
+    np.testing.assert_array_equal(vol.edges[vol.cell_edges], pairs)
+    off, cells = vol.edge_cells
+    for e in [0, len(vol.edges) // 2, len(vol.edges) - 1]:
+        around = set(cells[off[e]:off[e + 1]].tolist())
+        assert around == set(np.flatnonzero((vol.cell_edges == e).any(axis=1)).tolist())
+    off, cells = vol.node_cells
+    for n in [0, vol.n_points - 1]:
+        assert set(cells[off[n]:off[n + 1]].tolist()) == set(np.flatnonzero((vol.cells == n).any(axis=1)).tolist())
+
+
+def test_local_faces_are_outward_and_cover_every_edge():
+    for faces, edges, k in [(TET_FACES, TET_EDGES, 4), (HEX_FACES, HEX_EDGES, 8)]:
+        # every local edge is used by exactly two local faces, in opposite directions
+        used = {}
+        for f in faces:
+            for a, b in zip(f, np.roll(f, -1)):
+                used.setdefault((min(a, b), max(a, b)), []).append((a, b))
+        assert sorted(used) == sorted(tuple(sorted(e)) for e in edges.tolist())
+        assert all(len(v) == 2 and v[0] == v[1][::-1] for v in used.values())
+
+
+# ------------------------------------------------------------- topology (Defs 5.6-5.8)
+
+@pytest.mark.parametrize("tetra", [False, True])
+@pytest.mark.parametrize(
+    "mask, genus, voids",
+    [(np.ones((2, 2, 2), bool), 0, 0), (ring(4, 2), 1, 0), (hollow(5), 0, 1), (genus3(), 3, 0)],
+    ids=["block", "torus", "hollow", "genus3"],
+)
+def test_genus_and_voids_of_hand_built_volumes(mask, genus, voids, tetra):
+    vol = voxel_volume(mask, tetra=tetra)
+    assert vol.n_through_holes == genus
+    assert vol.n_voids == voids
+    assert vol.n_boundary_groups == 1 + voids
+    assert vol.group_genus[0] == genus
+    assert np.all(vol.group_euler == 2 - 2 * vol.group_genus)
+    # group 1 is the outer surface, and its faces are the ones farthest out
+    far = np.argmax(vol.points[vol.boundary_face_nodes[:, 0], 0])
+    assert vol.boundary_groups[far] == 1
+    assert set(np.unique(vol.boundary_groups)) == set(range(1, 2 + voids))
+    assert vol.group_is_void.tolist() == [False] + [True] * voids
+    assert vol.group_signed_volume.sum() == pytest.approx(mask.sum())
+
+
+def test_two_bodies_and_nested_void():
+    m = np.zeros((12, 5, 5), bool)
+    m[:5] = hollow(5)
+    m[7:, 1:4, 1:4] = True
+    vol = voxel_volume(m)
+    assert vol.cell_components[1] == 2
+    assert vol.n_voids == 1
+    assert vol.group_is_void.tolist() == [False, False, True]
+    assert vol.group_signed_volume[0] > vol.group_signed_volume[1] > 0
+
+
+# ----------------------------------------------------------------- interpolation
+
+def test_interpolation_is_linear_in_tetra_and_trilinear_in_hexa():
+    rng = np.random.default_rng(1)
+    q = rng.uniform(-0.5, 4.5, (3000, 3))
+    for tetra in [True, False]:
+        vol = voxel_volume(np.ones((4, 4, 4), bool), tetra=tetra, jitter=0.15)
+        vol.add_field("lin", 2 * vol.points[:, 0] - vol.points[:, 1] + 0.5 * vol.points[:, 2])
+        val = vol.interpolate(q, "lin")
+        cid = vol.to_pyvista().find_containing_cell(q)
+        inside = cid >= 0
+        # outside is NaN, inside agrees with VTK's point location
+        assert np.array_equal(~np.isnan(val), inside)
+        np.testing.assert_allclose(val[inside], (q[inside] @ [2, -1, 0.5]), atol=1e-12)
+    # non-linear field: agree with a brute-force barycentric search over every cell
+    vol = voxel_volume(np.ones((3, 3, 3), bool), tetra=True, jitter=0.15)
+    f = np.sin(vol.points).sum(axis=1)
+    vol.add_field("q", f)
+    q = q[:300] * 0.7
+    pts = vol.points[vol.cells]
+    lam = np.linalg.solve((pts[:, 1:] - pts[:, :1]).transpose(0, 2, 1)[None], (q[:, None] - pts[None, :, 0])[..., None])[..., 0]
+    lam = np.concatenate([1 - lam.sum(axis=2, keepdims=True), lam], axis=2)  # (K, M, 4)
+    inside = (lam >= -1e-9).all(axis=2)
+    first = np.where(inside.any(axis=1), inside.argmax(axis=1), -1)
+    ref = np.where(first >= 0, (lam[np.arange(len(q)), first] * f[vol.cells[first]]).sum(axis=1), np.nan)
+    np.testing.assert_allclose(vol.interpolate(q, "q"), ref, atol=1e-10)
+
+
+def test_trilinear_matches_shape_functions_at_nodes_and_centre():
+    vol = voxel_volume(np.ones((1, 1, 1), bool), jitter=0.1, seed=3)
+    s = np.arange(8.0) ** 2
+    vol.add_field("s", s)
+    np.testing.assert_allclose(vol.interpolate(vol.points[vol.cells[0]], "s"), s[vol.cells[0]], atol=1e-9)
+
+
+# ------------------------------------------------------------------- conversion
+
+def test_pyvista_and_meshio_round_trips(tmp_path):
+    vol = voxel_volume(ring(4, 2), tetra=True, jitter=0.1)
+    vol.add_field("f", vol.points[:, 2] ** 2)
+    back = UnstructuredVolume.from_pyvista(vol.to_pyvista())
+    np.testing.assert_array_equal(back.cells, vol.cells)
+    np.testing.assert_array_equal(back.fields["f"], vol.fields["f"])
+    m = vol.to_meshio()
+    # meshers write boundary triangles beside the tetra: they are ignored
+    m.cells.append(meshio.CellBlock("triangle", vol.boundary_face_nodes))
+    back = UnstructuredVolume.from_meshio(m)
+    np.testing.assert_array_equal(back.cells, vol.cells)
+    path = tmp_path / "v.vtu"
+    vol.to_meshio().write(path)
+    back = UnstructuredVolume.read(path)
+    np.testing.assert_allclose(back.points, vol.points)
+    np.testing.assert_allclose(back.scalars("f"), vol.fields["f"])
+
+
+def test_voxels_become_hexahedra():
+    img = pv.ImageData(dimensions=(3, 3, 3))
+    img.point_data["z"] = img.points[:, 2]
+    vol = UnstructuredVolume.from_pyvista(img)
+    assert vol.cell_type == "hexa" and vol.n_cells == 8
+    assert vol.group_signed_volume[0] == pytest.approx(8.0)
+
+
+# ------------------------------------------------------------------- bad input
+
+def unit_tet():
+    return np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]]), np.array([[0, 1, 2, 3]])
+
+
+def test_mixed_cell_types_are_refused():
+    tet = pv.UnstructuredGrid({pv.CellType.TETRA: np.array([[0, 1, 2, 3]]), pv.CellType.HEXAHEDRON: np.arange(4, 12)[None]},
+                              np.vstack([unit_tet()[0], pv.ImageData(dimensions=(2, 2, 2)).points + 2]))
+    with pytest.raises(VolumeError, match="1 tetra, 1 hexahedron"):
+        UnstructuredVolume.from_pyvista(tet)
+    m = meshio.Mesh(tet.points, [("tetra", [[0, 1, 2, 3]]), ("wedge", [[4, 5, 6, 7, 8, 9]])])
+    with pytest.raises(VolumeError, match="1 tetra, 1 wedge"):
+        UnstructuredVolume.from_meshio(m)
+
+
+@pytest.mark.parametrize(
+    "points, cells, match",
+    [
+        (np.zeros((4, 2)), [[0, 1, 2, 3]], r"points must have shape \(N, 3\); got \(4, 2\)"),
+        (unit_tet()[0], [[0, 1, 2, 3, 0]], r"cells must have shape .* got \(1, 5\)"),
+        (unit_tet()[0], np.zeros((0, 4), int), "cells is empty"),
+        (unit_tet()[0], [[0, 1, 2, 4]], r"outside 0..3, e.g. cells \[0\]"),
+        (unit_tet()[0], [[0, 1, -1, 3]], r"outside 0..3"),
+        (unit_tet()[0], [[0, 1, 1, 3]], r"repeat a node, e.g. cells \[0\]"),
+        (np.where(np.eye(4, 3) > 0, np.nan, 0.0), [[0, 1, 2, 3]], r"NaN or infinite coordinates, e.g. points \[0, 1, 2\]"),
+    ],
+)
+def test_malformed_arrays_are_named(points, cells, match):
+    with pytest.raises(VolumeError, match=match):
+        UnstructuredVolume(points, cells)
+
+
+def test_bad_scalars_are_named():
+    p, c = unit_tet()
+    with pytest.raises(VolumeError, match=r"'s' has 1 NaN or infinite values, e.g. at nodes \[2\]"):
+        UnstructuredVolume(p, c, {"s": [0, 1, np.nan, 3]})
+    with pytest.raises(VolumeError, match=r"'s' has 1 NaN or infinite values, e.g. at nodes \[0\]"):
+        UnstructuredVolume(p, c, {"s": [np.inf, 1, 2, 3]})
+    with pytest.raises(VolumeError, match=r"field 's' must have shape \(4,\)"):
+        UnstructuredVolume(p, c, {"s": [0, 1, 2]})
+    with pytest.raises(VolumeError, match="no field 't'"):
+        UnstructuredVolume(p, c, {"s": [0, 1, 2, 3]}).scalars("t")
+
+
+def test_degenerate_and_inverted_cells_are_named():
+    p, c = unit_tet()
+    pts = np.vstack([p, [[2, 0, 0], [3, 0, 0], [2, 1, 0], [3, 1, 0]]])
+    flat = [[0, 1, 2, 3], [4, 5, 6, 7]]  # the second lies in the plane z = 0
+    with pytest.raises(VolumeError, match=r"1 degenerate cells have zero volume, e.g. cells \[1\]"):
+        UnstructuredVolume(pts, flat)
+    pts = np.vstack([p, p + 3])
+    inv = [[0, 1, 2, 3], [4, 6, 5, 7]]
+    with pytest.raises(VolumeError, match=r"1 of 2 cells are inverted .* e.g. cells \[1\]"):
+        UnstructuredVolume(pts, inv)
+    fixed = UnstructuredVolume(pts, inv, orient=True)
+    assert fixed.cells[1].tolist() == [4, 5, 6, 7]
+    # an inverted hexahedron, and one folded at a corner
+    cube = pv.ImageData(dimensions=(2, 2, 2)).points[[0, 1, 3, 2, 4, 5, 7, 6]]
+    with pytest.raises(VolumeError, match=r"inverted .* cells \[0\]"):
+        UnstructuredVolume(cube, [[4, 5, 6, 7, 0, 1, 2, 3]])
+    folded = cube.copy()
+    folded[6] = [0.2, 0.2, 0.2]  # the far corner pushed inside
+    with pytest.raises(VolumeError, match=r"folded or degenerate at a corner .* cells \[0\]"):
+        UnstructuredVolume(folded, [list(range(8))])
+
+
+def test_face_shared_by_three_cells_is_refused():
+    p = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, -1], [0.3, 0.3, 2]])
+    vol = UnstructuredVolume(p, [[0, 1, 2, 3], [0, 2, 1, 4], [0, 1, 2, 5]], validate=True)
+    with pytest.raises(VolumeError, match=r"shared by 3 cells \[0, 1, 2\]"):
+        vol.face_neighbors
+
+
+def test_unreferenced_nodes_are_reported():
+    p, c = unit_tet()
+    with pytest.warns(VolumeWarning, match=r"1 of 5 nodes are used by no cell, e.g. nodes \[4\]"):
+        vol = UnstructuredVolume(np.vstack([p, [[5, 5, 5]]]), c, {"s": np.arange(5.0)})
+    assert vol.unreferenced_nodes.tolist() == [4]
+    clean = vol.remove_unreferenced_nodes()
+    assert clean.n_points == 4 and clean.fields["s"].tolist() == [0, 1, 2, 3]
+
+
+def test_same_table_as_itertools_reference_on_random_tets():
+    # Delaunay tets of random points: face neighbours match the brute-force table
+    rng = np.random.default_rng(7)
+    cloud = pv.PolyData(rng.uniform(0, 1, (300, 3))).delaunay_3d()
+    vol = UnstructuredVolume.from_pyvista(cloud, orient=True)
+    np.testing.assert_array_equal(vol.face_neighbors, brute_neighbors(vol.cells, TET_FACES))
+    # a convex hull is one sphere-like group
+    assert vol.n_boundary_groups == 1 and vol.n_through_holes == 0 and vol.n_voids == 0
+    assert len(list(itertools.islice(iter(vol.boundary_cells), 3))) == 3
