@@ -51,39 +51,45 @@ def csr_from_keys(keys, n_keys):
 def match_rows(rows, n_nodes):
     """Number the distinct rows of ``rows`` (each row sorted ascending).
 
-    Returns ``(ids, first)``: ``ids[r]`` is the number of row ``r``'s
-    distinct value, numbered by smallest node then first appearance, and
-    ``first[i]`` is the first row with number ``i``.
+    Rows are bucketed by their first (smallest) node; inside a bucket the
+    rest of the row, packed into one integer, is sorted by insertion, so
+    equal rows end up adjacent. Returns ``(ids, first)``: ``ids[r]`` is the
+    number of row ``r``'s distinct value (numbered by smallest node, then
+    by the rest), and ``first[i]`` is the first row with number ``i``.
+    Rows of width 2-3 with node ids below 2**31 are packed exactly.
     """
     n = rows.shape[0]
     k = rows.shape[1]
     offsets, order = csr_from_keys(rows[:, 0], n_nodes)
-    ids = np.full(n, -1, np.int64)
+    ids = np.empty(n, np.int64)
     first = np.empty(n, np.int64)
+    key = np.empty(n, np.int64)
+    for r in range(n):
+        v = np.int64(0)
+        for c in range(1, k):
+            v = v * n_nodes + rows[r, c]
+        key[r] = v
     n_unique = 0
     for b in range(n_nodes):
         lo = offsets[b]
         hi = offsets[b + 1]
-        start = n_unique  # ids made in this bucket are start .. n_unique-1
-        for p in range(lo, hi):
-            r = order[p]
-            found = -1
-            for u in range(start, n_unique):
-                q = first[u]
-                same = True
-                for c in range(1, k):
-                    if rows[q, c] != rows[r, c]:
-                        same = False
-                        break
-                if same:
-                    found = u
-                    break
-            if found < 0:
+        # insertion sort of order[lo:hi] by key (buckets hold tens of rows)
+        for i in range(lo + 1, hi):
+            r = order[i]
+            kr = key[r]
+            j = i - 1
+            while j >= lo and (key[order[j]] > kr or (key[order[j]] == kr and order[j] > r)):
+                order[j + 1] = order[j]
+                j -= 1
+            order[j + 1] = r
+        prev = np.int64(-1)
+        for i in range(lo, hi):
+            r = order[i]
+            if i == lo or key[r] != prev:
                 first[n_unique] = r
-                ids[r] = n_unique
                 n_unique += 1
-            else:
-                ids[r] = found
+                prev = key[r]
+            ids[r] = n_unique - 1
     return ids, first[:n_unique].copy()
 
 
