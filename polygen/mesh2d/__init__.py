@@ -1,0 +1,85 @@
+"""2-D meshing for radiosity (thesis chapter 2.3-2.4), reusable by chapters 3 and 4.
+
+A planar domain is an outer polygon (counter-clockwise) plus holes
+(clockwise), each a ``(K, 2) float64`` array; :func:`validate_domain` checks
+it with shapely.
+
+* :func:`triangulate_domain`, :func:`constrained_delaunay` -- constrained
+  Delaunay (2.3.2) with ``pythoncdt``.
+* :func:`bubble_mesh` -- the bubble mesh (2.3.3), uniform or graded by a
+  size field (:mod:`polygen.mesh2d.sizing`).
+* :func:`triangle_quality`, :func:`quality_histogram` -- min angle and
+  radius ratio.
+* :func:`subdivide_patches` (regular 1 -> 4), :func:`bubble_subdivide_patches`
+  (a finer bubble mesh constrained by the patch edges), :func:`adaptive_subdivision`,
+  :func:`is_t_vertex_free` -- patches/elements (Defs 2.2-2.5) and adaptive
+  subdivision (Def. 2.6).
+"""
+
+from polygen.mesh2d.bubble import (
+    BubbleMesh,
+    bubble_force,
+    bubble_mesh,
+    bubble_subdivide_patches,
+    edge_bubbles,
+    locate_in_triangles,
+)
+from polygen.mesh2d.delaunay import Mesh2D, constrained_delaunay, triangulate_domain
+from polygen.mesh2d.domain import (
+    Domain,
+    InvalidDomainError,
+    points_in_domain,
+    signed_area,
+    validate_domain,
+)
+from polygen.mesh2d.quality import (
+    mesh_edges,
+    quality_histogram,
+    quality_summary,
+    triangle_areas,
+    triangle_quality,
+)
+from polygen.mesh2d.sizing import GridSize, as_size_function, uniform_size
+from polygen.mesh2d.subdivision import (
+    AdaptiveSubdivision,
+    PatchElements,
+    adaptive_subdivision,
+    find_t_vertices,
+    is_t_vertex_free,
+    refine_marked,
+    subdivide_patches,
+    triangle_edges,
+)
+
+__all__ = [
+    "AdaptiveSubdivision",
+    "BubbleMesh",
+    "Domain",
+    "GridSize",
+    "InvalidDomainError",
+    "Mesh2D",
+    "PatchElements",
+    "adaptive_subdivision",
+    "as_size_function",
+    "bubble_force",
+    "bubble_mesh",
+    "bubble_subdivide_patches",
+    "constrained_delaunay",
+    "edge_bubbles",
+    "find_t_vertices",
+    "is_t_vertex_free",
+    "locate_in_triangles",
+    "mesh_edges",
+    "points_in_domain",
+    "quality_histogram",
+    "quality_summary",
+    "refine_marked",
+    "signed_area",
+    "subdivide_patches",
+    "triangle_areas",
+    "triangle_edges",
+    "triangle_quality",
+    "triangulate_domain",
+    "uniform_size",
+    "validate_domain",
+]
