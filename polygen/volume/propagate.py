@@ -1,0 +1,283 @@
+"""Isosurface propagation from seed cells (thesis 5.4.2, Fig. 5.7).
+
+The algorithm, as the thesis gives it:
+
+1. register the seed cells that the isosurface crosses in a FIFO queue and
+   mark them "processed";
+2. until the queue is empty: take a cell, find its crossed edges, look each
+   polygon vertex up in a hash table keyed by the cell edge (create it if
+   it is not there), make the cell's polygons (marching tetrahedra /
+   hexahedra), and register every face neighbour that is not marked and
+   that the isosurface crosses, marking it;
+3. compute the vertex positions by (5.2) and
+4. the vertex normals.
+
+Marks are generation stamps: ``visited[c] == generation`` means "processed
+in this query", so starting a new query costs O(1) (the generation counter
+is kept across queries by :class:`Propagator`). Every neighbour that is
+tested is marked, crossed or not, so no cell is tested twice in one query.
+The hash table is open addressing with linear probing over the global
+vertex keys of :mod:`polygen.volume.marching` (an edge id, or
+``n_edges + node`` for a crossing exactly on a node); its look-ups are
+counted.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from polygen._jit import njit
+from polygen.volume import marching as _m
+from polygen.volume.isosurface import (
+    IsoSurfaceError,
+    _check_normals,
+    _check_value,
+    _volume_arrays,
+    finish,
+    node_gradients,
+)
+
+__all__ = ["Propagator", "propagate"]
+
+_EMPTY = -1
+_GOLDEN = np.uint64(11400714819323198485)  # 2**64 / golden ratio: Fibonacci hashing
+
+
+@njit
+def _slot(key, shift):
+    return np.int64((np.uint64(key) * _GOLDEN) >> np.uint64(shift))
+
+
+@njit
+def _hash_insert(hkeys, hvals, key, val, shift):
+    mask = hkeys.shape[0] - 1
+    i = _slot(key, shift)
+    while hkeys[i] != _EMPTY:
+        i = (i + 1) & mask
+    hkeys[i] = key
+    hvals[i] = val
+
+
+@njit
+def _hash_get_or_add(hkeys, hvals, key, new_val, shift):
+    """The value stored under ``key``, or ``new_val`` after storing it (then -1 - new_val)."""
+    mask = hkeys.shape[0] - 1
+    i = _slot(key, shift)
+    while True:
+        k = hkeys[i]
+        if k == key:
+            return hvals[i]
+        if k == _EMPTY:
+            hkeys[i] = key
+            hvals[i] = new_val
+            return -1 - new_val
+        i = (i + 1) & mask
+
+
+@njit
+def _test_seeds(cells, s, value, faces, seeds, visited, generation, queue):
+    """t1: test the seeds (once each), mark them, queue the crossed ones. Returns (tested, queued)."""
+    tested = 0
+    n = 0
+    for i in range(seeds.shape[0]):
+        c = seeds[i]
+        if visited[c] == generation:
+            continue
+        visited[c] = generation
+        tested += 1
+        if _m._cell_case(cells, c, s, value, faces) >= 0:
+            queue[n] = c
+            n += 1
+    return tested, n
+
+
+@njit
+def _grow(a):
+    out = np.empty(2 * a.shape[0], a.dtype)
+    out[: a.shape[0]] = a
+    return out
+
+
+@njit
+def _grow2(a):
+    out = np.empty((2 * a.shape[0], a.shape[1]), a.dtype)
+    out[: a.shape[0]] = a
+    return out
+
+
+@njit
+def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, tri_count, local_edges,
+               visited, generation, queue, n_queued, hash_bits):
+    """t2: breadth-first propagation; returns (keys, triangles, tri_cells, n_cells, tested, lookups)."""
+    cap = 1 << hash_bits
+    shift = 64 - hash_bits
+    hkeys = np.full(cap, _EMPTY, np.int64)
+    hvals = np.empty(cap, np.int64)
+    keys = np.empty(max(16, cap // 2), np.int64)
+    n_v = 0
+    tris = np.empty((max(16, cap // 2), 3), np.int64)
+    tri_cell = np.empty(tris.shape[0], np.int64)
+    n_t = 0
+    local = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+    vids = np.empty(24, np.int64)  # per cell: vertex id of each local code
+    tested = 0
+    lookups = 0
+    head = 0
+    tail = n_queued
+    qcase = np.empty(queue.shape[0], np.int64)  # the case of each queued cell, found when it was tested
+    for i in range(n_queued):
+        qcase[i] = _m._cell_case(cells, queue[i], s, value, faces)
+    while head < tail:
+        c = queue[head]
+        case = qcase[head]
+        head += 1
+        k = _m._cell_codes(cells, c, s, value, case, tri_table, tri_count, local_edges, local)
+        vids[:] = -1
+        if n_t + k > tris.shape[0]:
+            tris = _grow2(tris)
+            tri_cell = _grow(tri_cell)
+        for t in range(k):
+            for j in range(3):
+                code = local[t, j]
+                if vids[code] < 0:
+                    key = _m._code_key(code, c, cells, cell_edges, n_edges)
+                    lookups += 1
+                    v = _hash_get_or_add(hkeys, hvals, key, n_v, shift)
+                    if v < 0:  # a new vertex
+                        v = -1 - v
+                        if n_v == keys.shape[0]:
+                            keys = _grow(keys)
+                        keys[n_v] = key
+                        n_v += 1
+                        if 2 * n_v > cap:  # keep the load factor under 1/2
+                            hash_bits += 1
+                            cap = 1 << hash_bits
+                            shift = 64 - hash_bits
+                            hkeys = np.full(cap, _EMPTY, np.int64)
+                            hvals = np.empty(cap, np.int64)
+                            for q in range(n_v):
+                                _hash_insert(hkeys, hvals, keys[q], q, shift)
+                    vids[code] = v
+                tris[n_t, j] = vids[code]
+            tri_cell[n_t] = c
+            n_t += 1
+        for f in range(face_nb.shape[1]):
+            nb = face_nb[c, f]
+            if nb < 0 or visited[nb] == generation:
+                continue
+            visited[nb] = generation
+            tested += 1
+            nb_case = _m._cell_case(cells, nb, s, value, faces)
+            if nb_case >= 0:
+                if tail == queue.shape[0]:
+                    queue = _grow(queue)
+                    qcase = _grow(qcase)
+                queue[tail] = nb
+                qcase[tail] = nb_case
+                tail += 1
+    return keys[:n_v].copy(), tris[:n_t].copy(), tri_cell[:n_t].copy(), tail, tested, lookups, queue
+
+
+class Propagator:
+    """Propagation from seeds on one volume and field, reused across queries.
+
+    Keeps the ``visited`` generation stamps (so each query starts in O(1)),
+    the field, the face neighbours and, once asked for, the node gradients.
+
+    Parameters
+    ----------
+    vol : UnstructuredVolume
+    field : str or (N,) float64, optional
+        Field name or node values (the first field by default).
+
+    Examples
+    --------
+    >>> prop = Propagator(vol)                  # doctest: +SKIP
+    >>> iso = prop.extract(0.5, seeds=[10, 99])  # doctest: +SKIP
+    """
+
+    def __init__(self, vol, field=None):
+        self.vol = vol
+        self.points, self.cells, self.s, self.cell_type = _volume_arrays(vol, field)
+        self.table, self.count, self.local_edges, self.faces = _m.local_tables(self.cell_type)
+        self.face_nb = np.ascontiguousarray(vol.face_neighbors, np.int64)
+        self.cell_edges = np.ascontiguousarray(vol.cell_edges, np.int64)
+        self.edges = np.ascontiguousarray(vol.edges, np.int64)
+        self.visited = np.zeros(self.cells.shape[0], np.int32)
+        self.generation = 0
+        self._node_grad = None
+        self._hash_bits = 10
+        #: FIFO order of the last query: the cells in the order they were registered
+        self.last_order = np.zeros(0, np.int64)
+
+    @property
+    def node_gradients(self):
+        if self._node_grad is None:
+            self._node_grad = node_gradients(self.vol, self.s)
+        return self._node_grad
+
+    def _seeds(self, seeds):
+        seeds = np.atleast_1d(np.asarray(seeds))
+        if seeds.ndim != 1:
+            raise IsoSurfaceError(f"seeds must be a 1-D array of cell ids; got shape {seeds.shape}")
+        if seeds.size and not np.issubdtype(seeds.dtype, np.integer):
+            raise IsoSurfaceError(f"seeds must be integer cell ids; got dtype {seeds.dtype}")
+        seeds = seeds.astype(np.int64)
+        m = self.cells.shape[0]
+        bad = np.flatnonzero((seeds < 0) | (seeds >= m))
+        if bad.size:
+            raise IsoSurfaceError(f"seed cells must be in 0..{m - 1}; got {seeds[bad[:5]].tolist()}")
+        return seeds
+
+    def extract(self, value, seeds, *, normals="mean"):
+        """The isosurface reached from ``seeds``; see :func:`polygen.volume.isosurface.extract`.
+
+        Parameters
+        ----------
+        value : float
+        seeds : (K,) int64
+            Cells to start from; the ones the surface does not cross are skipped.
+        normals : {"mean", "gradient", None}, keyword-only
+
+        Returns
+        -------
+        IsoSurface
+            ``method == "propagate"``; ``cells_tested`` counts the seeds and
+            the neighbours tested, each once.
+        """
+        value = _check_value(value)
+        _check_normals(normals)
+        seeds = self._seeds(seeds)
+        node_grad = self.node_gradients if normals == "gradient" else None
+        if self.generation == np.iinfo(np.int32).max:  # once in 2**31 queries: really clear the marks
+            self.visited[:] = 0
+            self.generation = 0
+        self.generation += 1
+
+        t0 = time.perf_counter()
+        queue = np.empty(max(1024, 2 * seeds.shape[0]), np.int64)
+        tested_seeds, n_queued = _test_seeds(self.cells, self.s, value, self.faces, seeds, self.visited,
+                                             self.generation, queue)
+        t1 = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        keys, tri, tri_cell, n_cells, tested, lookups, queue = _propagate(
+            self.cells, self.s, value, self.faces, self.face_nb, self.cell_edges, self.edges.shape[0],
+            self.table, self.count, self.local_edges, self.visited, self.generation, queue, n_queued,
+            self._hash_bits)
+        t2 = time.perf_counter() - t0
+        # size the next query's hash table after this one
+        self._hash_bits = max(10, int(np.ceil(np.log2(max(2, 2 * keys.shape[0])))))
+        self.last_order = queue[:n_cells]
+
+        return finish(value, keys, tri, tri_cell, points=self.points, edges=self.edges, s=self.s,
+                      normals=normals, node_grad=node_grad, method="propagate",
+                      cells_tested=tested_seeds + tested, cells_intersected=n_cells, vertex_lookups=lookups,
+                      t1=t1, t2=t2)
+
+
+def propagate(vol, value, seeds, *, field=None, normals="mean"):
+    """One isosurface by propagation from ``seeds`` (a one-off :class:`Propagator`)."""
+    return Propagator(vol, field).extract(value, seeds, normals=normals)

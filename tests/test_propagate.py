@@ -1,0 +1,157 @@
+"""Propagation from seeds (thesis 5.4.2) against the full scan."""
+
+import numpy as np
+import pytest
+
+from polygen.volume import UnstructuredVolume
+from polygen.volume.isosurface import IsoSurfaceError, extract
+from polygen.volume.propagate import Propagator, propagate
+
+pv = pytest.importorskip("pyvista")
+
+
+def grid_volume(dims, spacing=(1.0, 1.0, 1.0), *, tets=True, jitter=0.0, seed=0):
+    img = pv.ImageData(dimensions=dims, spacing=spacing)
+    grid = img.triangulate() if tets else img.cast_to_unstructured_grid()
+    vol = UnstructuredVolume.from_pyvista(grid)
+    if jitter:
+        rng = np.random.default_rng(seed)
+        vol = UnstructuredVolume(vol.points + jitter * min(spacing) * rng.uniform(-1, 1, vol.points.shape), vol.cells)
+    return vol
+
+
+def triangle_set(iso):
+    """Triangles as sets of vertex keys, with the orientation kept (rotated to start at the smallest key)."""
+    k = iso.vertex_keys[iso.triangles]
+    r = np.argmin(k, axis=1)
+    rolled = np.stack([k[np.arange(len(k)), (r + i) % 3] for i in range(3)], axis=1)
+    return {tuple(t) for t in rolled.tolist()}
+
+
+def assert_same_surface(a, b):
+    assert a.n_triangles == b.n_triangles and a.n_vertices == b.n_vertices
+    assert triangle_set(a) == triangle_set(b)  # triangle for triangle, orientation included
+    order_a, order_b = np.argsort(a.vertex_keys), np.argsort(b.vertex_keys)
+    np.testing.assert_array_equal(a.vertex_keys[order_a], b.vertex_keys[order_b])
+    np.testing.assert_array_equal(a.vertices[order_a], b.vertices[order_b])  # (5.2) bit for bit
+    np.testing.assert_allclose(a.normals[order_a], b.normals[order_b], atol=1e-12)
+    assert a.vertex_lookups == b.vertex_lookups
+    assert a.cells_intersected == b.cells_intersected
+
+
+def one_seed_per_component(vol, iso):
+    """One intersected cell in each face-connected group of intersected cells (brute force)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    cells = np.unique(iso.triangle_cells)
+    inside = np.zeros(vol.n_cells, bool)
+    inside[cells] = True
+    nb = vol.face_neighbors
+    c, f = np.nonzero((nb >= 0) & inside[:, None])
+    keep = inside[nb[c, f]]
+    g = coo_matrix((np.ones(keep.sum()), (c[keep], nb[c, f][keep])), shape=(vol.n_cells,) * 2)
+    _, labels = connected_components(g, directed=False)
+    _, first = np.unique(labels[cells], return_index=True)
+    return cells[first]
+
+
+@pytest.mark.parametrize("tets", [True, False])
+def test_propagation_from_all_intersected_cells_equals_scan(tets):
+    vol = grid_volume((9, 8, 7), spacing=(0.3, 0.5, 0.7), tets=tets, jitter=0.15 if tets else 0.0, seed=1)
+    rng = np.random.default_rng(7)
+    s = rng.random(vol.n_points)
+    prop = Propagator(vol, s)
+    for value in np.linspace(0.05, 0.95, 7):
+        scan = extract(vol, value, field=s)
+        seeds = np.unique(scan.triangle_cells)
+        iso = prop.extract(value, seeds)
+        assert iso.method == "propagate"
+        assert_same_surface(scan, iso)
+        assert iso.cells_tested <= vol.n_cells
+
+
+@pytest.mark.parametrize("tets", [True, False])
+def test_propagation_from_one_seed_per_component(tets):
+    vol = grid_volume((16, 14, 12), spacing=(0.1, 0.1, 0.1), tets=tets)
+    x = vol.points
+    # several blobs: closed surfaces and surfaces cut by the boundary
+    s = (np.sin(9 * x[:, 0]) * np.cos(8 * x[:, 1]) * np.sin(7 * x[:, 2] + 0.3) + 0.2 * x[:, 0])
+    prop = Propagator(vol, s)
+    for value in (-0.5, -0.1, 0.2, 0.6):
+        scan = extract(vol, value, field=s)
+        seeds = one_seed_per_component(vol, scan)
+        iso = prop.extract(value, seeds)
+        assert_same_surface(scan, iso)
+        assert scan.connected_components()[1] >= 1
+        # propagation tests only the surface's cells and their neighbours
+        assert iso.cells_tested < vol.n_cells
+        assert iso.cells_tested >= iso.cells_intersected
+
+
+def test_gradient_normals_agree():
+    vol = grid_volume((10, 10, 10), spacing=(0.1, 0.1, 0.1))
+    s = np.linalg.norm(vol.points - 0.45, axis=1)
+    scan = extract(vol, 0.3, field=s, normals="gradient")
+    iso = propagate(vol, 0.3, np.unique(scan.triangle_cells)[:1], field=s, normals="gradient")
+    assert_same_surface(scan, iso)
+
+
+def test_generation_counter_and_repeated_queries():
+    vol = grid_volume((8, 8, 8))
+    s = np.linalg.norm(vol.points - 3.5, axis=1)
+    prop = Propagator(vol, s)
+    seed = np.unique(extract(vol, 2.0, field=s).triangle_cells)[:1]
+    first = prop.extract(2.0, seed)
+    g = prop.generation
+    for _ in range(3):
+        again = prop.extract(2.0, seed)
+        assert_same_surface(first, again)
+        assert again.cells_tested == first.cells_tested
+    assert prop.generation == g + 3
+    # the marks are stamps: nothing was reset, the last query's cells carry its generation
+    assert np.count_nonzero(prop.visited == prop.generation) == first.cells_tested
+    assert np.count_nonzero(prop.visited > 0) >= first.cells_tested
+
+
+def test_fifo_order_is_breadth_first():
+    vol = grid_volume((10, 10, 10))
+    s = np.linalg.norm(vol.points - 4.5, axis=1)
+    prop = Propagator(vol, s)
+    seed = np.unique(extract(vol, 3.0, field=s).triangle_cells)[:1]
+    iso = prop.extract(3.0, seed)
+    order = prop.last_order
+    assert order[0] == seed[0] and order.size == iso.cells_intersected
+    assert np.unique(order).size == order.size
+    rank = np.full(vol.n_cells, -1)
+    rank[order] = np.arange(order.size)
+    nb = vol.face_neighbors[order[1:]]
+    # each later cell was registered by an earlier one: a face neighbour came before it
+    parent_rank = np.where(nb >= 0, rank[np.maximum(nb, 0)], -1)
+    parent_rank = np.where(parent_rank >= 0, parent_rank, np.iinfo(np.int64).max)
+    assert np.all(parent_rank.min(axis=1) < np.arange(1, order.size))
+
+
+def test_seeds_that_miss_and_empty_values():
+    vol = grid_volume((6, 6, 6))
+    s = vol.points[:, 0].copy()
+    prop = Propagator(vol, s)
+    far = np.flatnonzero(vol.points[vol.cells].mean(axis=1)[:, 0] > 4)[:5]
+    iso = prop.extract(0.5, far)  # the plane x = 0.5 does not cross these cells
+    assert iso.is_empty and iso.cells_tested == far.size and iso.cells_intersected == 0
+    iso = prop.extract(99.0, np.arange(vol.n_cells))  # outside the range
+    assert iso.is_empty and iso.cells_tested == vol.n_cells
+    assert prop.extract(0.5, []).is_empty
+
+
+def test_bad_seeds():
+    vol = grid_volume((3, 3, 3))
+    prop = Propagator(vol, vol.points[:, 0].copy())
+    with pytest.raises(IsoSurfaceError, match="seed"):
+        prop.extract(0.5, [vol.n_cells])
+    with pytest.raises(IsoSurfaceError, match="seed"):
+        prop.extract(0.5, [0.5])
+    with pytest.raises(IsoSurfaceError, match="seed"):
+        prop.extract(0.5, [[0, 1]])
+    with pytest.raises(IsoSurfaceError, match="normals"):
+        prop.extract(0.5, [0], normals="flat")
