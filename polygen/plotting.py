@@ -122,3 +122,22 @@ def table(rows, columns, *, floatfmt="{:.4g}"):
     out = ["  ".join(c.rjust(w) for c, w in zip(columns, widths)), "  ".join("-" * w for w in widths)]
     out += ["  ".join(v.rjust(w) for v, w in zip(row, widths)) for row in cells]
     return "\n".join(out)
+
+
+def plot_isosurfaces(vol, surfaces, values=None, *, plotter=None, cmap="viridis", opacity=0.6):
+    """Several isosurfaces coloured by value inside the volume's outline."""
+    p = plotter or _plotter()
+    p.add_mesh(boundary_surface(vol), color="lightgray", opacity=0.12)
+    values = [s.value for s in surfaces] if values is None else list(values)
+    lo, hi = (min(values), max(values)) if values else (0.0, 1.0)
+    bar = True
+    for iso, v in zip(surfaces, values):
+        if iso.is_empty:
+            continue
+        poly = iso.to_pyvista()
+        poly.point_data["isovalue"] = np.full(poly.n_points, v)
+        p.add_mesh(poly, scalars="isovalue", clim=(lo, hi), cmap=cmap, opacity=opacity, smooth_shading=True,
+                   show_scalar_bar=bar)
+        bar = False
+    p.view_isometric()
+    return p

@@ -1,0 +1,172 @@
+"""``polygen isosurface``: the main job, every method against VTK on one volume.
+
+With no argument it loads (or builds) data set 4, extracts 20 isosurfaces
+(``linspace(min, max, 22)[1:-1]``) with every registered method and with
+VTK's ``vtkContourFilter``, prints a table, and writes the surfaces
+(``.vtp``) and one PNG.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+DEFAULT_DATA = "data4"
+
+
+def configure(parser):
+    parser.add_argument("mesh", nargs="?", default=DEFAULT_DATA,
+                        help="a mesh file that meshio or pyvista reads, or a data-set name "
+                             f"(see 'polygen datasets'; default: {DEFAULT_DATA})")
+    parser.add_argument("--field", help="the node field to contour (default: the mesh's first field)")
+    vals = parser.add_mutually_exclusive_group()
+    vals.add_argument("--values", type=int, default=20, metavar="N",
+                      help="N values evenly inside the field's range (default: 20)")
+    vals.add_argument("--value", type=float, action="append", metavar="V", help="an isovalue (repeatable)")
+    parser.add_argument("--method", action="append", metavar="NAME",
+                        help="a method to run (repeatable; default: all). One of: " + ", ".join(_method_names()))
+    parser.add_argument("--compare-vtk", action=argparse.BooleanOptionalAction, default=True,
+                        help="time VTK's vtkContourFilter on the same values (default: on)")
+    parser.add_argument("--json", metavar="FILE", help="write the measurements as JSON")
+    parser.add_argument("--output", metavar="DIR", default="polygen-output",
+                        help="where the .vtp surfaces and the PNG go (default: ./polygen-output)")
+    parser.add_argument("--no-files", action="store_true", help="write no surfaces or image")
+
+
+def _method_names():
+    from polygen.volume import methods
+
+    return methods.names()
+
+
+def _load(spec, progress):
+    from polygen.volume import UnstructuredVolume, datasets
+
+    if spec in datasets.names():
+        return spec, datasets.load(spec, progress=progress)
+    path = Path(spec)
+    if not path.exists():
+        raise SystemExit(f"polygen isosurface: {spec!r} is neither a file nor a data set "
+                         f"(data sets: {', '.join(datasets.names())})")
+    return path.name, UnstructuredVolume.read(path)
+
+
+def _vtk_time(vol, field, values):
+    """Seconds for VTK's contour filter (merged points, normals on) on all values, and its triangles."""
+    grid = vol.to_pyvista()
+    name = field or next(iter(vol.fields))
+    # a first call loads VTK's code paths; the second is timed
+    grid.contour([values[0]], scalars=name, compute_normals=True, method="contour")
+    t0 = time.perf_counter()
+    tris = 0
+    for v in values:
+        out = grid.contour([v], scalars=name, compute_normals=True, method="contour")
+        tris += out.n_cells
+    return time.perf_counter() - t0, tris
+
+
+def run(args):
+    os.environ.setdefault("VTK_SMP_BACKEND_IN_USE", "STDThread")
+    from tqdm.auto import tqdm
+
+    from polygen.volume import methods
+
+    progress = sys.stderr.isatty()
+    label, vol = _load(args.mesh, progress)
+    s = vol.scalars(args.field)
+    if args.value:
+        values = np.asarray(args.value, float)
+    else:
+        if args.values < 1:
+            raise SystemExit("polygen isosurface: --values needs at least 1")
+        values = np.linspace(s.min(), s.max(), args.values + 2)[1:-1]
+    chosen = args.method or methods.names()
+    for m in chosen:
+        methods.get(m)  # unknown names fail here, before any work
+    print(f"{label}: {vol}; field {args.field or next(iter(vol.fields))!r} in [{s.min():.6g}, {s.max():.6g}]; "
+          f"{len(values)} values")
+
+    rows = []
+    keep = None
+    for name in chosen:
+        method = methods.get(name)(vol, field=args.field)
+        method.extract(values[0])  # first call: thread pool start-up and dispatch, not timed
+        query = 0.0
+        tested = tris = verts = 0
+        counts = []
+        surfaces = []
+        for v in tqdm(values, desc=name, disable=not progress, leave=False):
+            t0 = time.perf_counter()
+            iso = method.extract(v)
+            query += time.perf_counter() - t0
+            tested += iso.cells_tested
+            tris += iso.n_triangles
+            verts += iso.n_vertices
+            counts.append(iso.n_triangles)
+            if keep is None:
+                surfaces.append(iso)
+        if keep is None:
+            keep = surfaces
+        rows.append({"method": name, "preprocess_s": method.preprocess_s, "query_s": query,
+                     "cells_tested": tested, "triangles": tris, "vertices": verts, "_counts": counts})
+    reference = rows[0]["_counts"]
+    for r in rows:
+        r["same_as_first"] = r.pop("_counts") == reference
+
+    vtk_s = vtk_tris = None
+    if args.compare_vtk:
+        vtk_s, vtk_tris = _vtk_time(vol, args.field, values)
+    _print_table(rows, vtk_s, vtk_tris)
+    for v, iso in zip(values, keep):
+        if iso.is_empty:
+            print(f"value {v:.6g}: empty surface (0 triangles; {iso.cells_tested} cells tested)")
+
+    if args.json:
+        out = {"mesh": label, "cells": vol.n_cells, "cell_type": vol.cell_type, "values": values.tolist(),
+               "methods": {r["method"]: {k: r[k] for k in ("preprocess_s", "query_s", "cells_tested",
+                                                           "triangles", "vertices", "same_as_first")}
+                           for r in rows},
+               "vtk_s": vtk_s, "vtk_triangles": vtk_tris}
+        Path(args.json).write_text(json.dumps(out, indent=2) + "\n")
+    if not args.no_files:
+        _write_files(Path(args.output), label, vol, keep, values)
+    return 0 if all(r["same_as_first"] for r in rows) else 1
+
+
+def _print_table(rows, vtk_s, vtk_tris):
+    head = f"{'method':15s} {'preprocess s':>12s} {'query s':>9s} {'cells tested':>13s} {'triangles':>10s} {'vertices':>10s}"
+    if vtk_s is not None:
+        head += f" {'VTK s':>7s} {'VTK/ours':>8s}"
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        line = (f"{r['method']:15s} {r['preprocess_s']:12.3f} {r['query_s']:9.3f} {r['cells_tested']:13d} "
+                f"{r['triangles']:10d} {r['vertices']:10d}")
+        if vtk_s is not None:
+            line += f" {vtk_s:7.3f} {vtk_s / max(r['query_s'], 1e-12):8.2f}"
+        if not r["same_as_first"]:
+            line += "  (triangle counts differ from the first method!)"
+        print(line)
+    if vtk_tris is not None:
+        print(f"VTK vtkContourFilter: {vtk_tris} triangles in {vtk_s:.3f} s")
+
+
+def _write_files(out, label, vol, surfaces, values):
+    out.mkdir(parents=True, exist_ok=True)
+    written = 0
+    for i, iso in enumerate(surfaces):
+        if not iso.is_empty:
+            iso.to_pyvista().save(out / f"{label}-iso{i:02d}.vtp")
+            written += 1
+    from polygen import plotting
+
+    png = out / f"{label}-isosurfaces.png"
+    plotting.setup_notebook()
+    plotting.plot_isosurfaces(vol, surfaces, values).screenshot(str(png))
+    print(f"wrote {written} surfaces and {png.name} to {out}/")

@@ -1,0 +1,148 @@
+"""Isosurface extraction methods under one name each, for the CLI and the benchmarks.
+
+A method is built once on a volume and a field (its preprocessing is timed
+as ``preprocess_s``) and then extracts one isosurface per call::
+
+    m = methods.get("span-space")(vol, field="fem")
+    iso = m.extract(0.5)          # an IsoSurface with counters and t1/t2/t3
+
+``cells_tested`` of the result counts every cell whose intersection with
+the surface was examined, by the search structure and by the propagation
+together; ``seed_cells_tested`` of the method (after a call) counts the
+search alone, the N_cg of Table 6.5.
+
+Later chapters register their own methods (``extrema-graph``, ``thinning``,
+``edge-centred``) with :func:`register`.
+"""
+
+from __future__ import annotations
+
+import abc
+import dataclasses
+import time
+
+from polygen.volume import seeds as _seeds
+from polygen.volume.isosurface import extract as _extract
+from polygen.volume.propagate import Propagator
+
+__all__ = ["IsosurfaceMethod", "METHODS", "register", "get", "names"]
+
+#: name -> class, in the order they were registered
+METHODS: dict = {}
+
+
+def register(cls):
+    """Class decorator: make an :class:`IsosurfaceMethod` available by its ``name``."""
+    if not cls.name or cls.name in METHODS:
+        raise ValueError(f"a method needs a unique name; got {cls.name!r}")
+    METHODS[cls.name] = cls
+    return cls
+
+
+def names():
+    """Registered method names."""
+    _load_plugins()
+    return list(METHODS)
+
+
+def get(name):
+    """The method class registered as ``name``."""
+    _load_plugins()
+    try:
+        return METHODS[name]
+    except KeyError:
+        raise ValueError(f"unknown isosurface method {name!r}; the methods are {list(METHODS)}") from None
+
+
+# modules of later chapters that register methods when they exist
+_PLUGINS = ("polygen.volume.extrema_graph", "polygen.volume.thinning", "polygen.volume.edge_centred")
+
+
+def _load_plugins():
+    import importlib
+    import importlib.util
+
+    for mod in _PLUGINS:
+        if importlib.util.find_spec(mod) is not None:
+            importlib.import_module(mod)
+
+
+class IsosurfaceMethod(abc.ABC):
+    """An isosurface method prepared on one volume and field.
+
+    Parameters
+    ----------
+    vol : UnstructuredVolume
+    field : str, optional
+        Field name (the volume's first field by default).
+    **params
+        Method-specific tuning, keyword-only.
+    """
+
+    name: str = ""
+    description: str = ""
+
+    def __init__(self, vol, field=None, **params):
+        self.vol = vol
+        self.field = field
+        self.seed_cells_tested = 0
+        t0 = time.perf_counter()
+        self._prepare(**params)
+        self.preprocess_s = time.perf_counter() - t0
+
+    def _prepare(self, **params):
+        """Build what the method needs once per volume (timed as preprocessing)."""
+
+    @abc.abstractmethod
+    def extract(self, value, *, normals="mean"):
+        """The isosurface ``S = value`` as an :class:`~polygen.volume.isosurface.IsoSurface`."""
+
+    def __repr__(self):
+        return f"{type(self).__name__}({self.vol!r}, preprocess_s={self.preprocess_s:.3g})"
+
+
+@register
+class FullScan(IsosurfaceMethod):
+    name = "scan"
+    description = "test every cell (the 'all cells' column of the thesis's tables)"
+
+    def extract(self, value, *, normals="mean"):
+        iso = _extract(self.vol, value, field=self.field, method="scan", normals=normals)
+        self.seed_cells_tested = iso.cells_tested
+        return iso
+
+
+class SearchThenPropagate(IsosurfaceMethod):
+    """An active-cell search structure (Table 5.2) finds the cells; propagation builds the surface."""
+
+    search: str = ""
+
+    def _prepare(self, **params):
+        cmin, cmax = _seeds.cell_ranges(self.vol.cells, self.vol.scalars(self.field))
+        self.structure = _seeds.get(self.search).build(cmin, cmax, **params)
+        self.propagator = Propagator(self.vol, self.field)
+
+    def extract(self, value, *, normals="mean"):
+        t0 = time.perf_counter()
+        found = self.structure.query(value)
+        t_search = time.perf_counter() - t0
+        iso = self.propagator.extract(value, found.cells, normals=normals)
+        self.seed_cells_tested = found.n_tested
+        # every candidate is tested again by the propagation; the search's own tests come on top
+        return dataclasses.replace(iso, cells_tested=iso.cells_tested + found.n_tested, t1=iso.t1 + t_search)
+
+
+def _search_method(search_name, doc):
+    cls = type(search_name.title().replace("-", ""), (SearchThenPropagate,),
+               {"name": search_name, "search": search_name, "description": doc})
+    return register(cls)
+
+
+for _name, _doc in [
+    ("sorted-lists", "Giles-Haimes sorted min/max lists"),
+    ("span-filter", "Gallagher span filtering"),
+    ("span-space", "Livnat span-space k-d tree"),
+    ("issue-lattice", "Shen's ISSUE lattice"),
+    ("interval-tree", "Cignoni's interval tree"),
+]:
+    _search_method(_name, _doc)

@@ -1,0 +1,44 @@
+"""The ``polygen`` command line on small volumes."""
+
+import json
+
+import numpy as np
+import pytest
+
+from polygen.cli import main
+from polygen.volume import datasets, methods
+
+
+def test_isosurface_runs_every_method_and_agrees_with_vtk(tmp_path, capsys):
+    out = tmp_path / "r.json"
+    rc = main(["isosurface", "torus", "--values", "4", "--json", str(out), "--output", str(tmp_path / "o")])
+    assert rc == 0
+    res = json.loads(out.read_text())
+    assert set(res["methods"]) == set(methods.names())
+    tris = {m["triangles"] for m in res["methods"].values()}
+    assert len(tris) == 1 and all(m["same_as_first"] for m in res["methods"].values())
+    # tetrahedra: the same number of triangles as VTK's contour filter
+    assert res["vtk_triangles"] == tris.pop() > 0
+    assert res["methods"]["scan"]["cells_tested"] == 4 * datasets.load("torus").n_cells
+    assert list((tmp_path / "o").glob("*.vtp")) and list((tmp_path / "o").glob("*.png"))
+    text = capsys.readouterr().out
+    assert "scan" in text and "VTK" in text
+
+
+def test_isosurface_on_a_mesh_file_with_an_empty_value(tmp_path, capsys):
+    vol = datasets.load("hollow_cube_hex")
+    path = tmp_path / "part.vtu"
+    vol.to_meshio().write(path)
+    s = vol.scalars()
+    rc = main(["isosurface", str(path), "--value", str(s.max() + 1), "--value", str(np.median(s)),
+               "--method", "scan", "--method", "span-space", "--no-compare-vtk", "--no-files"])
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert "empty surface (0 triangles" in text
+
+
+def test_isosurface_bad_arguments(tmp_path):
+    with pytest.raises(ValueError, match="unknown isosurface method 'nope'"):
+        main(["isosurface", "torus", "--method", "nope", "--no-files"])
+    with pytest.raises(SystemExit, match="neither a file nor a data set"):
+        main(["isosurface", str(tmp_path / "missing.vtu")])
