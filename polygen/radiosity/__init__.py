@@ -1,0 +1,80 @@
+"""Radiosity (thesis chapter 2): scenes, patches/elements, form factors, solvers, display.
+
+Layers, each usable on its own (chapters 3 and 4 build on them):
+
+* :mod:`~polygen.radiosity.scene` -- planar polygons with holes, area,
+  point and parallel lights (Def. 2.1); :mod:`~polygen.radiosity.scenes`
+  -- the Cornell box and the thesis's scenes;
+* :mod:`~polygen.radiosity.mesh` -- patches, elements, nodes (Defs 2.2-2.4)
+  and a pluggable per-polygon mesher;
+* :mod:`~polygen.radiosity.formfactor` (Lambert's contour formula, ray-cast
+  visibility) and :mod:`~polygen.radiosity.hemicube` (2.2.1);
+* :mod:`~polygen.radiosity.solve` -- progressive refinement (2.2.2) and
+  Gauss-Seidel (2.3);
+* :mod:`~polygen.radiosity.raster` -- node intensities (2.8) and a Gouraud
+  scanline z-buffer (2.9, 2.10).
+"""
+
+from polygen.radiosity.formfactor import (
+    FormFactorError,
+    analytic_column,
+    point_polygon_form_factor,
+    polygon_form_factor,
+)
+from polygen.radiosity.hemicube import HemicubeError, delta_form_factors, hemicube_form_factors
+from polygen.radiosity.mesh import (
+    MeshError,
+    RadiosityMesh,
+    assemble_mesh,
+    lattice_delaunay_mesher,
+    mesh_scene,
+    split_triangles,
+)
+from polygen.radiosity.raster import Camera, RasterError, node_intensities, render, to_pyvista
+from polygen.radiosity.scene import (
+    AreaLight,
+    ParallelLight,
+    PointLight,
+    Polygon,
+    Scene,
+    SceneError,
+)
+from polygen.radiosity.solve import (
+    RadiosityResult,
+    SolverError,
+    form_factor_matrix,
+    gauss_seidel,
+    progressive_refinement,
+)
+
+__all__ = [
+    "AreaLight",
+    "Camera",
+    "FormFactorError",
+    "HemicubeError",
+    "MeshError",
+    "ParallelLight",
+    "PointLight",
+    "Polygon",
+    "RadiosityMesh",
+    "RadiosityResult",
+    "RasterError",
+    "Scene",
+    "SceneError",
+    "SolverError",
+    "analytic_column",
+    "assemble_mesh",
+    "delta_form_factors",
+    "form_factor_matrix",
+    "gauss_seidel",
+    "hemicube_form_factors",
+    "lattice_delaunay_mesher",
+    "mesh_scene",
+    "node_intensities",
+    "point_polygon_form_factor",
+    "polygon_form_factor",
+    "progressive_refinement",
+    "render",
+    "split_triangles",
+    "to_pyvista",
+]

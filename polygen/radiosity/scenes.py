@@ -1,0 +1,272 @@
+"""Standard radiosity scenes: the Cornell box and the thesis's test scenes.
+
+All polygons face the viewer-relevant side: room walls face inwards, solid
+objects outwards, thin floating rectangles are two polygons back to back.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from polygen.radiosity.scene import AreaLight, Polygon, Scene
+
+__all__ = [
+    "box_room",
+    "cornell_box",
+    "furnace_box",
+    "unit_cube",
+    "two_rectangles_room",
+    "three_rectangles_box",
+    "sphere_scene",
+    "chair_scene",
+    "CORNELL_WHITE",
+    "CORNELL_RED",
+    "CORNELL_GREEN",
+]
+
+# RGB reflectances commonly used for the Cornell box (from its measured spectra)
+CORNELL_WHITE = (0.725, 0.71, 0.68)
+CORNELL_RED = (0.63, 0.065, 0.05)
+CORNELL_GREEN = (0.14, 0.45, 0.091)
+CORNELL_LIGHT = (17.0, 12.0, 4.0)
+
+
+def _facing(vertices, toward, away=False):
+    """Order the ring so that its right-hand normal points toward (or away from) a point."""
+    v = np.asarray(vertices, dtype=np.float64)
+    n = np.cross(np.roll(v, -1, axis=0), v).sum(axis=0) * -1.0  # Newell, right-hand
+    s = n @ (np.asarray(toward, dtype=np.float64) - v.mean(axis=0))
+    if (s < 0) != away:
+        v = v[::-1]
+    return v
+
+
+def _box_faces(lo, hi):
+    """The six rectangles of an axis-aligned box, each as a (4, 3) ring (unoriented)."""
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    return {
+        "x0": [[x0, y0, z0], [x0, y1, z0], [x0, y1, z1], [x0, y0, z1]],
+        "x1": [[x1, y0, z0], [x1, y1, z0], [x1, y1, z1], [x1, y0, z1]],
+        "y0": [[x0, y0, z0], [x1, y0, z0], [x1, y0, z1], [x0, y0, z1]],
+        "y1": [[x0, y1, z0], [x1, y1, z0], [x1, y1, z1], [x0, y1, z1]],
+        "z0": [[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0]],
+        "z1": [[x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]],
+    }
+
+
+def _solid_box(lo, hi, *, reflectance, name, faces=("x0", "x1", "y0", "y1", "z0", "z1")):
+    """Outward-facing faces of a solid box."""
+    centre = 0.5 * (np.asarray(lo, float) + np.asarray(hi, float))
+    rings = _box_faces(lo, hi)
+    return [Polygon(_facing(rings[f], centre, away=True), reflectance=reflectance,
+                    name=f"{name}_{f}") for f in faces]
+
+
+def _rectangle(centre, size_u, size_v, axis_u, axis_v):
+    c = np.asarray(centre, dtype=np.float64)
+    u = np.asarray(axis_u, dtype=np.float64) * 0.5 * size_u
+    v = np.asarray(axis_v, dtype=np.float64) * 0.5 * size_v
+    return np.array([c - u - v, c + u - v, c + u + v, c - u + v])
+
+
+def _two_sided(ring, *, reflectance, name):
+    p = Polygon(ring, reflectance=reflectance, name=name + "_front")
+    return [p, p.flipped(name=name + "_back")]
+
+
+def box_room(size=(1.0, 1.0, 1.0), *, reflectance=0.5, emission=0.0, light=None, hole_for_light=True,
+             name="box_room"):
+    """The inside of an axis-aligned box [0, size], walls facing in; y is up.
+
+    Parameters
+    ----------
+    size : (3,) float
+    reflectance, emission : float or (3,) or dict face -> value, keyword-only
+        Face keys ``x0, x1, y0 (floor), y1 (ceiling), z0, z1``.
+    light : (4, 3) ring, keyword-only
+        A convex light in the ceiling plane; the ceiling gets a hole there
+        when ``hole_for_light``.
+
+    Returns
+    -------
+    list of Polygon
+    """
+    size = np.asarray(size, dtype=np.float64)
+    centre = 0.5 * size
+    rings = _box_faces(np.zeros(3), size)
+    polys = []
+    for f in ("y0", "y1", "x0", "x1", "z0", "z1"):
+        rho = reflectance[f] if isinstance(reflectance, dict) else reflectance
+        em = emission[f] if isinstance(emission, dict) else emission
+        holes = []
+        if f == "y1" and light is not None and hole_for_light:
+            holes = [np.asarray(light, dtype=np.float64)]
+        polys.append(Polygon(_facing(rings[f], centre), holes, reflectance=rho, emission=em,
+                             name=f"{name}_{f}"))
+    return polys
+
+
+def furnace_box(*, emission=1.0, reflectance=0.5, size=(1.0, 1.0, 1.0)):
+    """A closed box whose six faces all emit and reflect: B = E / (1 - rho) everywhere."""
+    return Scene(box_room(size, reflectance=reflectance, emission=emission, name="furnace"),
+                 name="furnace_box")
+
+
+def unit_cube(*, ceiling_emission=1.0, reflectance=0.5):
+    """The inside of a unit cube, only the ceiling (y = 1) emitting."""
+    em = {f: 0.0 for f in ("x0", "x1", "y0", "y1", "z0", "z1")}
+    em["y1"] = ceiling_emission
+    return Scene(box_room((1.0, 1.0, 1.0), reflectance=reflectance, emission=em, name="cube"),
+                 name="unit_cube")
+
+
+def cornell_box(*, blocks=True, light_emission=CORNELL_LIGHT):
+    """The Cornell box, in millimetres, from the published Cornell geometry.
+
+    Floor, ceiling (with a hole where the light is), back, left (red) and
+    right (green) walls; the 130 x 105 light at y = 548.8 facing down; the
+    short and the tall block.  The front is open.  The published left wall
+    is not planar (one corner is 3.2 mm off the plane of the other three),
+    so it is given as two triangles.
+
+    Returns
+    -------
+    Scene
+    """
+    inside = np.array([278.0, 274.4, 279.6])
+    light = np.array([[343.0, 548.8, 227.0], [343.0, 548.8, 332.0], [213.0, 548.8, 332.0],
+                      [213.0, 548.8, 227.0]])
+    light_ring = _facing(light, [278.0, 0.0, 279.6])
+    polys = [
+        Polygon(_facing([[552.8, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 559.2],
+                         [549.6, 0.0, 559.2]], inside), reflectance=CORNELL_WHITE, name="floor"),
+        Polygon(_facing([[556.0, 548.8, 0.0], [556.0, 548.8, 559.2], [0.0, 548.8, 559.2],
+                         [0.0, 548.8, 0.0]], inside), [light_ring], reflectance=CORNELL_WHITE,
+                name="ceiling"),
+        Polygon(_facing([[549.6, 0.0, 559.2], [0.0, 0.0, 559.2], [0.0, 548.8, 559.2],
+                         [556.0, 548.8, 559.2]], inside), reflectance=CORNELL_WHITE,
+                name="back_wall"),
+        Polygon(_facing([[0.0, 0.0, 559.2], [0.0, 0.0, 0.0], [0.0, 548.8, 0.0],
+                         [0.0, 548.8, 559.2]], inside), reflectance=CORNELL_GREEN,
+                name="right_wall"),
+        Polygon(_facing([[552.8, 0.0, 0.0], [549.6, 0.0, 559.2], [556.0, 548.8, 559.2]], inside),
+                reflectance=CORNELL_RED, name="left_wall_a"),
+        Polygon(_facing([[552.8, 0.0, 0.0], [556.0, 548.8, 559.2], [556.0, 548.8, 0.0]], inside),
+                reflectance=CORNELL_RED, name="left_wall_b"),
+        AreaLight(light_ring, emission=light_emission, name="light"),
+    ]
+    if blocks:
+        short_top = [[130.0, 165.0, 65.0], [82.0, 165.0, 225.0], [240.0, 165.0, 272.0],
+                     [290.0, 165.0, 114.0]]
+        tall_top = [[423.0, 330.0, 247.0], [265.0, 330.0, 296.0], [314.0, 330.0, 456.0],
+                    [472.0, 330.0, 406.0]]
+        for name, top in (("short_block", short_top), ("tall_block", tall_top)):
+            top = np.asarray(top)
+            h = top[0, 1]
+            centre = top.mean(axis=0) - np.array([0.0, 0.5 * h, 0.0])
+            polys.append(Polygon(_facing(top, centre, away=True), reflectance=CORNELL_WHITE,
+                                 name=f"{name}_top"))
+            for k in range(4):
+                a, b = top[k], top[(k + 1) % 4]
+                side = [a, b, b - [0.0, h, 0.0], a - [0.0, h, 0.0]]
+                polys.append(Polygon(_facing(side, centre, away=True), reflectance=CORNELL_WHITE,
+                                     name=f"{name}_side{k}"))
+    return Scene(polys, name="cornell_box")
+
+
+def _ceiling_light(room, size, *, emission, drop=0.0):
+    cx, cz = 0.5 * room[0], 0.5 * room[2]
+    y = room[1] - drop
+    ring = _rectangle([cx, y, cz], size[0], size[1], [1, 0, 0], [0, 0, 1])
+    return _facing(ring, [cx, 0.0, cz])
+
+
+def two_rectangles_room(*, emission=10.0, reflectance=0.6):
+    """A box room with one rectangular area light and two floating rectangles (Fig. 3.15).
+
+    Room 10 x 10 x 10 (y up); light 2 x 2 in the ceiling; two horizontal
+    two-sided rectangles at different heights that cast overlapping
+    shadows on the floor.
+    """
+    room = np.array([10.0, 10.0, 10.0])
+    light = _ceiling_light(room, (2.0, 2.0), emission=emission)
+    polys = box_room(room, reflectance=reflectance, light=light, name="room")
+    polys.append(AreaLight(light, emission=emission, name="light"))
+    polys += _two_sided(_rectangle([4.0, 6.0, 4.5], 3.0, 2.0, [1, 0, 0], [0, 0, 1]),
+                        reflectance=reflectance, name="rect1")
+    polys += _two_sided(_rectangle([6.0, 3.5, 6.0], 2.0, 3.0, [1, 0, 0], [0, 0, 1]),
+                        reflectance=reflectance, name="rect2")
+    return Scene(polys, name="two_rectangles_room")
+
+
+def three_rectangles_box(*, emission=10.0, reflectance=0.6):
+    """A box with three floating rectangles (Fig. 4.8).
+
+    Room 10 x 10 x 10 (y up); a 2 x 2 ceiling light; one horizontal, one
+    tilted and one vertical two-sided rectangle.
+    """
+    room = np.array([10.0, 10.0, 10.0])
+    light = _ceiling_light(room, (2.0, 2.0), emission=emission)
+    polys = box_room(room, reflectance=reflectance, light=light, name="box")
+    polys.append(AreaLight(light, emission=emission, name="light"))
+    s = np.sqrt(0.5)
+    polys += _two_sided(_rectangle([3.5, 6.5, 4.0], 3.0, 2.5, [1, 0, 0], [0, 0, 1]),
+                        reflectance=reflectance, name="rect_flat")
+    polys += _two_sided(_rectangle([6.5, 4.5, 6.0], 2.5, 2.5, [s, s, 0], [0, 0, 1]),
+                        reflectance=reflectance, name="rect_tilted")
+    polys += _two_sided(_rectangle([5.0, 2.5, 2.5], 3.0, 2.0, [1, 0, 0], [0, 1, 0]),
+                        reflectance=reflectance, name="rect_upright")
+    return Scene(polys, name="three_rectangles_box")
+
+
+def sphere_scene(*, n_lat=12, n_lon=15, emission=2000.0, reflectance=0.6, light_size=0.2):
+    """A 180-polygon sphere in a room with a very small area light (Fig. 3.19).
+
+    The sphere (radius 2.5, centre (5, 3, 5) in a 10^3 room) is a
+    latitude-longitude polyhedron: ``n_lat * n_lon`` faces (12 * 15 = 180),
+    triangles at the poles and planar trapezoids elsewhere.
+    """
+    room = np.array([10.0, 10.0, 10.0])
+    light = _ceiling_light(room, (light_size, light_size), emission=emission)
+    polys = box_room(room, reflectance=reflectance, light=light, name="room")
+    polys.append(AreaLight(light, emission=emission, name="light"))
+    c = np.array([5.0, 3.0, 5.0])
+    r = 2.5
+    th = np.linspace(0.0, np.pi, n_lat + 1)
+    ph = np.linspace(0.0, 2.0 * np.pi, n_lon + 1)
+
+    def pt(i, j):
+        return c + r * np.array([np.sin(th[i]) * np.cos(ph[j]), np.cos(th[i]),
+                                 np.sin(th[i]) * np.sin(ph[j])])
+
+    for i in range(n_lat):
+        for j in range(n_lon):
+            if i == 0:
+                ring = [pt(0, 0), pt(1, j), pt(1, j + 1)]
+            elif i == n_lat - 1:
+                ring = [pt(i, j), pt(i, j + 1), pt(n_lat, 0)]
+            else:
+                ring = [pt(i, j), pt(i, j + 1), pt(i + 1, j + 1), pt(i + 1, j)]
+            polys.append(Polygon(_facing(ring, c, away=True), reflectance=reflectance,
+                                 name=f"sphere_{i}_{j}"))
+    return Scene(polys, name="sphere_scene")
+
+
+def chair_scene(*, emission=2000.0, reflectance=0.6, light_size=0.2):
+    """A chair-like object (seat, four legs, back) under a very small area light (Fig. 3.20)."""
+    room = np.array([10.0, 10.0, 10.0])
+    light = _ceiling_light(room, (light_size, light_size), emission=emission)
+    polys = box_room(room, reflectance=reflectance, light=light, name="room")
+    polys.append(AreaLight(light, emission=emission, name="light"))
+    x0, z0, w, t, hs = 3.5, 3.5, 3.0, 0.3, 2.5
+    polys += _solid_box([x0, hs, z0], [x0 + w, hs + t, z0 + w], reflectance=reflectance,
+                        name="seat")
+    leg = 0.3
+    for k, (lx, lz) in enumerate([(x0, z0), (x0 + w - leg, z0), (x0, z0 + w - leg),
+                                  (x0 + w - leg, z0 + w - leg)]):
+        polys += _solid_box([lx, 0.0, lz], [lx + leg, hs, lz + leg], reflectance=reflectance,
+                            name=f"leg{k}", faces=("x0", "x1", "z0", "z1"))
+    polys += _solid_box([x0, hs + t, z0 + w - t], [x0 + w, hs + t + 3.0, z0 + w],
+                        reflectance=reflectance, name="back", faces=("x0", "x1", "y1", "z0", "z1"))
+    return Scene(polys, name="chair_scene")
