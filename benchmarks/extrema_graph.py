@@ -1,0 +1,232 @@
+"""Tables 6.2-6.5 measured: the extrema graph against sorted lists, span filtering and the full scan.
+
+For data 1-4 (one run each, as the thesis did): preprocessing of every
+method (Table 6.2), the extrema graph's preprocessing broken down (Table
+6.3: T_pe extrema, T_pc graph, T_pb boundary lists; extrema, graph cells,
+polyline arcs), twenty isosurfaces ``linspace(min, max, 22)[1:-1]`` with
+every method (Table 6.4) and the extrema graph's stages (Table 6.5: T_mg,
+T_mb, T_mt, T_mv, N_cg, N_ci). Every isosurface is checked against the full
+scan's (same triangles). Then the O(m^2 log m) growth of T_pc in the
+number of extrema m (6.4, Table 7.1's data 5): data 5's mesh with its FEM
+field (thousands of extrema) and with a smooth field plus seeded noise of
+growing amplitude.
+
+The volume's topology tables (face neighbours, node cells, edges) are
+built before any clock starts, and every kernel is compiled first.
+Timings are wall-clock seconds of one run on a shared machine.
+
+    python benchmarks/extrema_graph.py            # data 1-4 and the growth sweep
+    python benchmarks/extrema_graph.py --quick    # data 1-2, a short sweep
+"""
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+from _common import RESULTS, machine
+from polygen.volume import datasets, methods
+from polygen.volume.extrema_graph import build_extrema_graph
+
+METHODS = ["scan", "sorted-lists", "span-filter", "extrema-graph"]
+
+THESIS = {
+    "T_sort": [1.228, 6.259, 38.027, 58.579],
+    "T_filt": [0.285, 0.647, 4.084, 6.589],
+    "T_egra": [0.684, 1.823, 8.028, 15.229],
+    "T_pe": [0.541, 1.382, 6.290, 9.719],
+    "T_pc": [0.062, 0.166, 0.600, 4.151],
+    "T_pb": [0.081, 0.275, 1.138, 1.359],
+    "extrema": [21, 46, 135, 540],
+    "graph_cells": [468, 1048, 3250, 10210],
+    "polyline_arcs": [1, 0, 16, 36],
+    "Q_all": [5.068, 11.416, 63.113, 103.072],
+    "Q_sort": [2.696, 3.142, 12.125, 20.717],
+    "Q_filt": [2.800, 3.945, 17.801, 22.153],
+    "Q_egra": [2.065, 2.561, 6.524, 11.786],
+    "T_mg": [0.008, 0.088, 0.248, 0.197],
+    "T_mb": [0.019, 0.032, 0.091, 0.144],
+    "T_mt": [1.471, 1.748, 4.495, 8.331],
+    "T_mv": [0.567, 0.693, 1.690, 3.114],
+    "N_cg": [3063, 4774, 15659, 14196],
+    "N_ci": [51357, 62377, 148836, 277457],
+}
+SHORT = {"scan": "all", "sorted-lists": "sort", "span-filter": "filt", "extrema-graph": "egra"}
+
+
+def triangle_set(iso):
+    t = np.sort(iso.vertex_keys[iso.triangles], axis=1)
+    return t[np.lexsort(t.T[::-1])]
+
+
+def warm():
+    """Compile every kernel on a tiny volume, so that no timing below includes numba."""
+    vol = datasets.load("hollow_cube")
+    for name in METHODS:
+        m = methods.get(name)(vol)
+        m.extract(float(np.median(vol.scalars())))
+
+
+def run_data(name):
+    vol = datasets.load(name)
+    for attr in ("face_neighbors", "node_cells", "boundary_cells", "cell_edges", "edge_cells"):
+        getattr(vol, attr)
+    s = vol.scalars()
+    values = np.linspace(s.min(), s.max(), 22)[1:-1]
+    row = {"data": name, "cells": vol.n_cells, "nodes": vol.n_points, "boundary_cells": int(vol.boundary_cells.size)}
+    ref = {}
+    for mname in METHODS:
+        m = methods.get(mname)(vol)
+        row[f"pre_{SHORT[mname]}"] = m.preprocess_s
+        q = 0.0
+        search = 0.0
+        tested = 0
+        stages = {"T_mg": 0.0, "T_mb": 0.0, "T_mt": 0.0, "T_mv": 0.0, "N_cg": 0, "N_ci": 0, "N_cg_arcs": 0,
+                  "N_cg_boundary": 0}
+        same = True
+        for v in values:
+            t0 = time.perf_counter()
+            iso = m.extract(v)
+            q += time.perf_counter() - t0
+            search += iso.t1
+            tested += m.seed_cells_tested
+            key = triangle_set(iso)
+            if mname == "scan":
+                ref[v] = key
+            else:
+                same &= key.shape == ref[v].shape and bool(np.array_equal(key, ref[v]))
+            if mname == "extrema-graph":
+                for k in ("T_mg", "T_mb", "T_mt", "T_mv", "N_cg", "N_ci"):
+                    stages[k] += m.stats[k]
+                stages["N_cg_arcs"] += m.stats["seeds"].tested_arcs
+                stages["N_cg_boundary"] += m.stats["seeds"].tested_boundary
+        row[f"Q_{SHORT[mname]}"] = q
+        row[f"t1_{SHORT[mname]}"] = search
+        row[f"tested_{SHORT[mname]}"] = tested
+        row[f"same_{SHORT[mname]}"] = same
+        if mname == "extrema-graph":
+            row.update(stages)
+            g = m.graph.stats
+            for k in ("T_pe", "T_pc", "T_pb", "extrema", "graph_cells", "graph_cells_unique", "polyline_arcs",
+                      "search_arcs", "straight_failures"):
+                row[k] = g[k]
+            row["T_egra"] = g["T_pe"] + g["T_pc"] + g["T_pb"]
+    row["T_sort"], row["T_filt"] = row["pre_sort"], row["pre_filt"]
+    return row
+
+
+def growth(quick):
+    """T_pc against the number of extrema m on data 5's mesh."""
+    vol = datasets.load("data5")
+    vol.face_neighbors
+    vol.node_cells
+    vol.boundary_cells
+    base = vol.scalars("distance")
+    rng = np.random.default_rng(0)
+    noise = rng.standard_normal(vol.n_points) * np.ptp(base)
+    amps = [0.003, 0.004, 0.006] if quick else [0.003, 0.004, 0.005, 0.006, 0.008, 0.01, 0.012]
+    rows = []
+    fields = [("fem", vol.scalars("fem"))] + [(f"distance+{a:g} noise", base + a * noise) for a in amps]
+    for label, f in fields:
+        g = build_extrema_graph(vol, f)
+        st = g.stats
+        rows.append({"field": label, "extrema": st["extrema"], "T_pe": st["T_pe"], "T_pc": st["T_pc"],
+                     "T_pb": st["T_pb"], "graph_cells": st["graph_cells"], "straight_failures": st["straight_failures"],
+                     "polyline_arcs": st["polyline_arcs"], "search_arcs": st["search_arcs"]})
+    m = np.array([r["extrema"] for r in rows], float)
+    t = np.array([r["T_pc"] for r in rows], float)
+    keep = m >= 1000
+    slope = float(np.polyfit(np.log(m[keep]), np.log(t[keep]), 1)[0]) if keep.sum() >= 2 else None
+    # T_pc / (m^2 log m) should level off if the sort dominates
+    for r in rows:
+        r["T_pc / (m^2 log2 m) ns"] = 1e9 * r["T_pc"] / (r["extrema"] ** 2 * np.log2(max(2, r["extrema"])))
+    return rows, slope, int(vol.n_cells)
+
+
+def fmt(v):
+    if isinstance(v, (bool, np.bool_)):
+        return str(bool(v))
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    return str(v)
+
+
+def table(title, rows, keys, thesis_keys=()):
+    lines = [f"## {title}", "", "| quantity | " + " | ".join(r["data"] for r in rows) + " |",
+             "|---|" + "---|" * len(rows)]
+    for k in keys:
+        cells = []
+        for i, r in enumerate(rows):
+            c = fmt(r.get(k, ""))
+            if k in thesis_keys:
+                c += f" ({fmt(THESIS[k][int(r['data'][-1]) - 1])})"
+            cells.append(c)
+        lines.append(f"| {k} | " + " | ".join(cells) + " |")
+    return lines + [""]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true")
+    args = ap.parse_args()
+    warm()
+    names = ["data1", "data2"] if args.quick else ["data1", "data2", "data3", "data4"]
+    rows = []
+    for n in names:
+        t0 = time.perf_counter()
+        rows.append(run_data(n))
+        print(f"{n}: {time.perf_counter() - t0:.1f} s", flush=True)
+    grows, slope, n5 = growth(args.quick)
+    print(f"growth: slope {slope}", flush=True)
+
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    (RESULTS / "extrema_graph.json").write_text(json.dumps(
+        {"machine": machine(), "thesis": THESIS, "rows": rows, "growth": grows, "growth_slope_m>=1000": slope},
+        indent=2, default=float) + "\n")
+    md = ["# Extrema graph (thesis chapter 6): Tables 6.2-6.5 on our data 1-4", "",
+          "One run each, wall-clock seconds on a shared 2-core machine (other engineers' jobs running). "
+          "Thesis values (IBM RS/6000 560) in parentheses. Twenty isovalues `linspace(min, max, 22)[1:-1]` of "
+          "the FEM field. Topology tables and numba compilation are excluded from every timing.", ""]
+    md += table("Table 6.1 - data", rows, ["cells", "boundary_cells", "nodes"])
+    md += table("Table 6.2 - preprocessing (s)", rows, ["T_sort", "T_filt", "T_egra"], THESIS)
+    md += table("Table 6.3 - extrema graph preprocessing", rows,
+                ["T_pe", "T_pc", "T_pb", "extrema", "graph_cells", "graph_cells_unique", "polyline_arcs",
+                 "search_arcs", "straight_failures"], THESIS)
+    md += table("Table 6.4 - twenty isosurfaces (s)", rows, ["Q_all", "Q_sort", "Q_filt", "Q_egra"], THESIS)
+    md += table("Seed search alone: t1 = finding the intersected cells (search + testing the candidates), s, "
+                "sums over the twenty (cf. Table 7.4)", rows, ["t1_all", "t1_sort", "t1_filt", "t1_egra"])
+    md += table("Table 6.5 - extrema graph stages (sums over the twenty)", rows,
+                ["T_mg", "T_mb", "T_mt", "T_mv", "N_cg", "N_cg_arcs", "N_cg_boundary", "N_ci"], THESIS)
+    md += table("Cells tested to find seeds, per method (sums) and same triangles as the scan", rows,
+                ["tested_all", "tested_sort", "tested_filt", "tested_egra", "same_sort", "same_filt", "same_egra"])
+    last = rows[-1]
+    md += ["## Observations", "",
+           f"- Finding the intersected cells on {last['data']}: extrema graph {fmt(last['t1_egra'])} s, sorted lists "
+           f"{fmt(last['t1_sort'])} s, span filter {fmt(last['t1_filt'])} s, full scan {fmt(last['t1_all'])} s.",
+           f"- Totals: propagation (T_mt = {fmt(last['T_mt'])} s) dominates and is shared by the three search "
+           "methods; from the extrema graph's few seeds it walks memory less orderly than from all intersected "
+           "cells in cell order, which eats the search's gain (Q_egra vs Q_sort/Q_filt above; one run, noisy).",
+           f"- The full scan (Q_all = {fmt(last['Q_all'])} s vs Q_egra = {fmt(last['Q_egra'])} s) classifies cells in "
+           "parallel numba passes and numbers vertices without a hash table, while propagation is serial with a "
+           "vertex hash: the thesis's ordering of Table 6.4 (egra < sort, filt < all) is not a property of this "
+           "implementation on this machine; the seed-search stage above is where the methods differ.",
+           f"- Seed tests on the arcs are far below the cells intersected ({last['N_cg_arcs']} vs {last['N_ci']}); "
+           f"the boundary lists add {last['N_cg_boundary']} (about a quarter of the boundary cells per value: "
+           "our boundary values span the whole range and we have ~3x the thesis's boundary cells).",
+           f"- Graph cells are far below boundary cells ({last['graph_cells']} vs {last['boundary_cells']}).", ""]
+    md += [f"## 6.4 - T_pc against the number of extrema m (data 5's mesh, {n5} cells)", "",
+           "| field | extrema m | T_pe | T_pc | T_pb | T_pc/(m^2 log2 m) ns | graph cells | straight failures |"
+           " polyline | search |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in grows:
+        md.append(f"| {r['field']} | {r['extrema']} | {fmt(r['T_pe'])} | {fmt(r['T_pc'])} | {fmt(r['T_pb'])} | "
+                  f"{fmt(r['T_pc / (m^2 log2 m) ns'])} | {r['graph_cells']} | {r['straight_failures']} | "
+                  f"{r['polyline_arcs']} | {r['search_arcs']} |")
+    md += ["", f"Log-log slope of T_pc against m (m >= 1000): {fmt(slope)} (m^2 log m gives a bit over 2).", "",
+           f"- machine: {machine()}"]
+    (RESULTS / "extrema_graph.md").write_text("\n".join(md) + "\n")
+    print((RESULTS / "extrema_graph.md").read_text())
+
+
+if __name__ == "__main__":
+    main()

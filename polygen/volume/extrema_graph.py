@@ -1,0 +1,468 @@
+"""The extrema graph: fast isosurfaces from a graph joining the extrema (thesis chapter 6).
+
+Preprocessing (once per volume and field, Fig. 6.4):
+
+1. **Extrema** (6.3.1, Fig. 6.5, :func:`find_extrema`). Each cell marks
+   all its nodes but the largest "not-maximum" and all but the smallest
+   "not-minimum"; when several nodes tie at the cell's largest (smallest)
+   value they get a "plural-maximums" ("plural-minimums") mark. A node
+   never marked "not-maximum" is a maximum (Def. 6.3, non-strictly); one
+   that carries a plural mark stands for its flat group of equal nodes,
+   whose marks are cleared by a search through the cells, so each flat
+   group gives one extremum.
+2. **The graph** (6.3.2, Figs 6.6-6.10, :func:`build_extrema_graph`).
+   Every extremum carries a component number. Each extremum in turn
+   sorts the extrema numbered differently by distance and is joined to
+   the nearest one that a straight segment reaches inside the volume,
+   walked cell by cell through face neighbours (Fig. 6.7); when the
+   segment leaves the volume (concave parts, voids) the next nearest is
+   tried (Fig. 6.8); when no segment stays inside, the polyline walk
+   (Fig. 6.9) crosses, from cell to cell, the non-boundary face to an
+   unvisited cell with the smallest sum of node distances to the goal.
+   The joined sides take the smaller number (Fig. 6.6). Each arc keeps its
+   cells and the smallest and largest node value of those cells (S_min,
+   S_max, Def. 6.8). The thesis leaves open what to do when the polyline
+   walk dead-ends; we then join the nearest differently numbered extremum
+   in face steps by a breadth-first search, so the graph always spans
+   every face-connected part of the volume (counted as ``search`` arcs).
+3. **Boundary cell lists** (6.3.3): the cells with a boundary face, each
+   once, sorted by S_min and by S_max.
+
+The query for an isovalue ``C`` (6.3.4, :meth:`ExtremaGraph.seeds`): arcs
+whose ``[S_min, S_max]`` cannot hold an intersected cell are skipped, the
+cells of the others are tested; the boundary cells are taken from the list
+on the near side of ``C`` (the shorter of ``S_min < C`` and ``S_max >= C``)
+and tested; every cell is tested once per query. Propagation
+(:class:`~polygen.volume.propagate.Propagator`) grows the surface from
+every hit. Closed isosurfaces enclose an extremum and so cross an arc
+(Thms 6.1, 6.2); the others reach the boundary.
+
+The method is registered as ``extrema-graph`` in
+:mod:`polygen.volume.methods`::
+
+    m = methods.get("extrema-graph")(vol)
+    iso = m.extract(0.5)
+    m.stats        # T_mg, T_mb, T_mt, T_mv, N_cg, N_ci of Table 6.5 for this call
+    m.graph.stats  # T_pe, T_pc, T_pb, extrema, graph cells, polyline arcs of Table 6.3
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from polygen.volume import _extrema_kernels as _k
+from polygen.volume.isosurface import IsoSurfaceError, _check_value, _volume_arrays
+from polygen.volume.methods import IsosurfaceMethod, register
+from polygen.volume.propagate import Propagator
+
+__all__ = [
+    "ExtremaGraphError",
+    "Extrema",
+    "ExtremaGraph",
+    "GraphSeeds",
+    "ExtremaGraphMethod",
+    "find_extrema",
+    "build_extrema_graph",
+    "extrema_graph_2d",
+    "ARC_KINDS",
+]
+
+#: names of ``ExtremaGraph.arc_kind`` values
+ARC_KINDS = ("straight", "polyline", "search")
+
+
+class ExtremaGraphError(IsoSurfaceError):
+    """Bad input to the extrema graph (the message says what)."""
+
+
+# ------------------------------------------------------------------ extrema
+@dataclasses.dataclass(frozen=True, eq=False)
+class Extrema:
+    """The extrema of a node field (6.3.1) and the marks that found them (Fig. 6.5).
+
+    Attributes
+    ----------
+    nodes : (m,) int64
+        Node ids of the extrema, ascending; one per flat group.
+    is_max, is_min : (m,) bool
+        Whether each is a maximum / a minimum (a node of a constant region is both).
+    not_max, not_min : (N,) bool
+        The "not-maximum" / "not-minimum" marks after the cell loop.
+    plural_max, plural_min : (N,) bool
+        The "plural-maximums" / "plural-minimums" marks after the cell loop
+        (before the flat groups were cleared).
+    n_flat : int
+        Extrema that stand for a flat group of tied nodes.
+    """
+
+    nodes: np.ndarray
+    is_max: np.ndarray
+    is_min: np.ndarray
+    not_max: np.ndarray
+    not_min: np.ndarray
+    plural_max: np.ndarray
+    plural_min: np.ndarray
+    n_flat: int
+
+    @property
+    def n(self) -> int:
+        return int(self.nodes.shape[0])
+
+    @property
+    def maxima(self) -> np.ndarray:
+        return self.nodes[self.is_max]
+
+    @property
+    def minima(self) -> np.ndarray:
+        return self.nodes[self.is_min]
+
+
+def _cells_and_values(cells, values):
+    cells = np.asarray(cells)
+    if cells.ndim != 2 or cells.shape[1] < 2 or not np.issubdtype(cells.dtype, np.integer):
+        raise ExtremaGraphError(f"cells must be an (M, k) integer array; got {cells.dtype} {cells.shape}")
+    s = np.asarray(values, dtype=np.float64)
+    if s.ndim != 1:
+        raise ExtremaGraphError(f"node values must be 1-D; got shape {s.shape}")
+    if not np.all(np.isfinite(s)):
+        raise ExtremaGraphError(f"node values must be finite; {int(np.sum(~np.isfinite(s)))} are not")
+    if cells.size and (cells.min() < 0 or cells.max() >= s.shape[0]):
+        raise ExtremaGraphError(f"cells refer to nodes outside 0..{s.shape[0] - 1}")
+    return np.ascontiguousarray(cells, np.int64), np.ascontiguousarray(s)
+
+
+def _node_cells_csr(cells, n):
+    flat = cells.ravel()
+    order = np.argsort(flat, kind="stable")
+    off = np.zeros(n + 1, np.int64)
+    np.cumsum(np.bincount(flat, minlength=n), out=off[1:])
+    return off, (order // cells.shape[1]).astype(np.int64)
+
+
+def _extrema_from_arrays(cells, s, node_off, node_cells):
+    n = s.shape[0]
+    not_max = np.zeros(n, np.bool_)
+    not_min = np.zeros(n, np.bool_)
+    plural_max = np.zeros(n, np.bool_)
+    plural_min = np.zeros(n, np.bool_)
+    _k._mark_cells(cells, s, not_max, not_min, plural_max, plural_min)
+    kind = np.zeros(n, np.int8)
+    _k._register_strict(not_max, not_min, plural_max, plural_min, kind)
+    n_fmax, n_fmin = _k._register_extrema(s, cells, node_off, node_cells, not_max, not_min, plural_max.copy(),
+                                          plural_min.copy(), kind)
+    nodes = np.flatnonzero(kind).astype(np.int64)
+    kk = kind[nodes]
+    return Extrema(nodes=nodes, is_max=(kk & _k.KIND_MAX) > 0, is_min=(kk & _k.KIND_MIN) > 0, not_max=not_max,
+                   not_min=not_min, plural_max=plural_max, plural_min=plural_min, n_flat=int(n_fmax + n_fmin))
+
+
+def find_extrema(vol, field=None):
+    """Local maxima and minima of a node field by the marks of Fig. 6.5 (thesis 6.3.1).
+
+    Parameters
+    ----------
+    vol : UnstructuredVolume
+    field : str or (N,) float64, optional
+        Field name or node values; the volume's first field by default.
+
+    Returns
+    -------
+    Extrema
+        A node is a maximum when no cell has a larger node (Def. 6.3, ties
+        allowed); each flat group of tied extreme nodes joined through
+        cells gives one extremum, its first node.
+    """
+    _, cells, s, _ = _volume_arrays(vol, field)
+    off, nc = vol.node_cells
+    return _extrema_from_arrays(np.ascontiguousarray(cells, np.int64), s, np.ascontiguousarray(off, np.int64),
+                                np.ascontiguousarray(nc, np.int64))
+
+
+# ------------------------------------------------------------------ the graph
+@dataclasses.dataclass(frozen=True, eq=False)
+class GraphSeeds:
+    """Seeds of one query (6.3.4) and its counters (Table 6.5).
+
+    Attributes
+    ----------
+    value : float
+    cells : (K,) int64
+        Intersected cells found on arcs, then on the boundary.
+    n_from_arcs : int
+        How many of ``cells`` came from arcs (the rest from the boundary lists).
+    tested_arcs, tested_boundary : int
+        Cells tested on arcs / taken from a boundary list and tested (each cell once per query).
+    arcs_tested : int
+        Arcs whose [S_min, S_max] admitted ``value``.
+    used_max_list : bool
+        The boundary cells came from the list sorted by S_max (``C`` near the top).
+    t_graph, t_boundary : float
+        Seconds (T_mg, T_mb).
+    """
+
+    value: float
+    cells: np.ndarray
+    n_from_arcs: int
+    tested_arcs: int
+    tested_boundary: int
+    arcs_tested: int
+    used_max_list: bool
+    t_graph: float
+    t_boundary: float
+
+    @property
+    def n_tested(self) -> int:
+        """N_cg: cells tested to find the seeds."""
+        return self.tested_arcs + self.tested_boundary
+
+
+@dataclasses.dataclass(eq=False)
+class ExtremaGraph:
+    """The extrema graph and the boundary cell lists of one volume and field (Defs 6.6-6.9).
+
+    Attributes
+    ----------
+    extrema : Extrema
+    arc_ends : (A, 2) int64
+        Node ids of the two extrema of each arc (start point, goal point).
+    arc_offsets : (A+1,) int64, arc_cells : (L,) int64
+        CSR: the cells each arc passes through, in walking order.
+    arc_smin, arc_smax : (A,) float64
+        Smallest / largest node value over the cells of each arc (Def. 6.8).
+    arc_kind : (A,) int64
+        0 straight, 1 polyline, 2 breadth-first search (:data:`ARC_KINDS`).
+    component : (m,) int64
+        Component number of each extremum after the construction (all 0 for a connected volume).
+    blist_min, blist_max : (Kb,) int64
+        Boundary cells, each once, by ascending S_min / ascending S_max (6.3.3).
+    blist_min_values, blist_max_values : (Kb,) float64
+        Their S_min / S_max, ascending.
+    stats : dict
+        Table 6.3: ``T_pe``, ``T_pc``, ``T_pb`` (s), ``extrema``, ``graph_cells``
+        (sum of arc lengths), ``graph_cells_unique``, ``polyline_arcs``,
+        ``search_arcs``, ``straight_failures``, ``polyline_failures``,
+        ``failed_walk_cells``, ``sorts``, ``boundary_cells``.
+    """
+
+    vol: object
+    s: np.ndarray
+    extrema: Extrema
+    arc_ends: np.ndarray
+    arc_offsets: np.ndarray
+    arc_cells: np.ndarray
+    arc_smin: np.ndarray
+    arc_smax: np.ndarray
+    arc_kind: np.ndarray
+    component: np.ndarray
+    blist_min: np.ndarray
+    blist_min_values: np.ndarray
+    blist_max: np.ndarray
+    blist_max_values: np.ndarray
+    stats: dict
+    _max_by_min: np.ndarray = dataclasses.field(repr=False, default=None)
+    _min_by_max: np.ndarray = dataclasses.field(repr=False, default=None)
+    _mark: np.ndarray = dataclasses.field(repr=False, default=None)
+    _stamp: int = 0
+
+    @property
+    def n_arcs(self) -> int:
+        return int(self.arc_ends.shape[0])
+
+    def __repr__(self):
+        st = self.stats
+        return (f"ExtremaGraph({st['extrema']} extrema, {self.n_arcs} arcs over {st['graph_cells']} cells "
+                f"({st['polyline_arcs']} polyline, {st['search_arcs']} search), "
+                f"{st['boundary_cells']} boundary cells)")
+
+    def arc(self, a):
+        """(k,) int64 cells of arc ``a``."""
+        return self.arc_cells[self.arc_offsets[a]:self.arc_offsets[a + 1]]
+
+    def graph_cells(self):
+        """(G,) int64 distinct cells registered on the arcs."""
+        return np.unique(self.arc_cells)
+
+    def seeds(self, value):
+        """The intersected cells that the graph and the boundary lists give for ``C = value`` (6.3.4).
+
+        Parameters
+        ----------
+        value : float
+
+        Returns
+        -------
+        GraphSeeds
+        """
+        value = _check_value(value)
+        if self._stamp == np.iinfo(np.int64).max:  # pragma: no cover - 2**63 queries
+            self._mark[:] = 0
+            self._stamp = 0
+        self._stamp += 1
+        cells = np.ascontiguousarray(self.vol.cells, np.int64)
+        hits = np.empty(self.arc_cells.shape[0] + self.blist_min.shape[0], np.int64)
+        t0 = time.perf_counter()
+        n_arc_hits, tested_arcs, arcs_tested = _k._query_arcs(cells, self.s, self.arc_offsets, self.arc_cells,
+                                                             self.arc_smin, self.arc_smax, value, self._mark,
+                                                             self._stamp, hits, 0)
+        t1 = time.perf_counter()
+        n_hits, tested_b, used_max = _k._query_boundary(self.blist_min, self.blist_min_values, self._max_by_min,
+                                                        self.blist_max, self.blist_max_values, self._min_by_max,
+                                                        value, self._mark, self._stamp, hits, n_arc_hits)
+        t2 = time.perf_counter()
+        return GraphSeeds(value=value, cells=hits[:n_hits].copy(), n_from_arcs=int(n_arc_hits),
+                          tested_arcs=int(tested_arcs), tested_boundary=int(tested_b), arcs_tested=int(arcs_tested),
+                          used_max_list=bool(used_max), t_graph=t1 - t0, t_boundary=t2 - t1)
+
+    def arc_polylines(self):
+        """(A, 2, 3) float64 end points of each arc (for plots)."""
+        return self.vol.points[self.arc_ends]
+
+
+def build_extrema_graph(vol, field=None, *, polyline=True):
+    """Extrema, extrema graph and boundary cell lists of ``vol`` (thesis 6.3.1-6.3.3).
+
+    Parameters
+    ----------
+    vol : UnstructuredVolume
+    field : str or (N,) float64, optional
+        Field name or node values; the volume's first field by default.
+    polyline : bool, keyword-only
+        Use the polyline walk of Fig. 6.9 before the breadth-first fallback
+        (``False`` skips straight to the fallback; for experiments).
+
+    Returns
+    -------
+    ExtremaGraph
+        ``stats`` holds the Table 6.3 timings and counters. The volume's
+        topology tables (face neighbours, node cells, boundary faces) are
+        computed before the clocks start.
+    """
+    _, cells, s, cell_type = _volume_arrays(vol, field)
+    cells = np.ascontiguousarray(cells, np.int64)
+    # topology is the volume model's, not part of Table 6.3
+    face_nb = np.ascontiguousarray(vol.face_neighbors, np.int64)
+    off, nc = vol.node_cells
+    off = np.ascontiguousarray(off, np.int64)
+    nc = np.ascontiguousarray(nc, np.int64)
+    bcells = np.ascontiguousarray(vol.boundary_cells, np.int64)
+    faces = np.ascontiguousarray(vol.local_faces, np.int64)
+    points = np.ascontiguousarray(vol.points, np.float64)
+
+    t0 = time.perf_counter()
+    ext = _extrema_from_arrays(cells, s, off, nc)
+    t1 = time.perf_counter()
+    arc_ext, arc_off, arc_cells, arc_kind, comp, counters = _k._build_graph(points, cells, s, faces, face_nb, off,
+                                                                            nc, ext.nodes, bool(polyline))
+    smin = np.empty(arc_ext.shape[0])
+    smax = np.empty(arc_ext.shape[0])
+    _k._arc_ranges(cells, s, arc_off, arc_cells, smin, smax)
+    t2 = time.perf_counter()
+    # 6.3.3: S_min and S_max of each boundary cell (each cell once), two sorted lists
+    lo = np.empty(bcells.shape[0])
+    hi = np.empty(bcells.shape[0])
+    _k._cell_min_max(cells, s, bcells, lo, hi)
+    o_min = np.argsort(lo, kind="stable")
+    o_max = np.argsort(hi, kind="stable")
+    t3 = time.perf_counter()
+
+    stats = {
+        "T_pe": t1 - t0,
+        "T_pc": t2 - t1,
+        "T_pb": t3 - t2,
+        "extrema": ext.n,
+        "maxima": int(ext.is_max.sum()),
+        "minima": int(ext.is_min.sum()),
+        "flat_extrema": ext.n_flat,
+        "arcs": int(arc_ext.shape[0]),
+        "graph_cells": int(arc_cells.shape[0]),
+        "graph_cells_unique": int(np.unique(arc_cells).shape[0]),
+        "polyline_arcs": int(np.sum(arc_kind == _k.ARC_POLYLINE)),
+        "search_arcs": int(np.sum(arc_kind == _k.ARC_SEARCH)),
+        "straight_failures": int(counters[0]),
+        "polyline_failures": int(counters[1]),
+        "failed_walk_cells": int(counters[2]),
+        "sorts": int(counters[3]),
+        "boundary_cells": int(bcells.shape[0]),
+    }
+    return ExtremaGraph(
+        vol=vol, s=s, extrema=ext, arc_ends=ext.nodes[arc_ext].reshape(-1, 2), arc_offsets=arc_off,
+        arc_cells=arc_cells, arc_smin=smin, arc_smax=smax, arc_kind=arc_kind, component=comp,
+        blist_min=bcells[o_min], blist_min_values=lo[o_min], blist_max=bcells[o_max], blist_max_values=hi[o_max],
+        stats=stats, _max_by_min=hi[o_min], _min_by_max=lo[o_max], _mark=np.zeros(cells.shape[0], np.int64),
+    )
+
+
+# ------------------------------------------------------------------ 2D illustration
+def extrema_graph_2d(points, triangles, values):
+    """Fig. 6.2 in the plane: extrema of a field on a triangulation, joined nearest-first.
+
+    The extrema are found with the marks of Fig. 6.5 (the same kernel as
+    in 3D, on triangles); each extremum in turn is joined by a straight
+    segment to the nearest extremum numbered differently (Fig. 6.6). The
+    segments are not walked through the triangles, so this is meant for a
+    convex domain (an illustration, not a search structure).
+
+    Parameters
+    ----------
+    points : (N, 2) float64
+    triangles : (T, 3) int64
+    values : (N,) float64
+
+    Returns
+    -------
+    extrema : Extrema
+    arcs : (A, 2) int64
+        Node ids of the joined extrema.
+    """
+    pts = np.asarray(points, np.float64)
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise ExtremaGraphError(f"points must be (N, 2); got {pts.shape}")
+    tri, s = _cells_and_values(triangles, values)
+    if s.shape[0] != pts.shape[0]:
+        raise ExtremaGraphError(f"values must have one entry per point ({pts.shape[0]}); got {s.shape[0]}")
+    off, nc = _node_cells_csr(tri, s.shape[0])
+    ext = _extrema_from_arrays(tri, s, off, nc)
+    xyz = np.zeros((pts.shape[0], 3))
+    xyz[:, :2] = pts
+    arcs = _k._join_nearest(xyz, ext.nodes)
+    return ext, ext.nodes[arcs].reshape(-1, 2)
+
+
+# ------------------------------------------------------------------ the method
+@register
+class ExtremaGraphMethod(IsosurfaceMethod):
+    """The extrema graph method (thesis chapter 6) for :mod:`polygen.volume.methods`.
+
+    After each :meth:`extract`, ``stats`` holds Table 6.5's quantities for
+    that call: ``T_mg``, ``T_mb`` (seed search on arcs / boundary lists),
+    ``T_mt`` (triangles: propagation), ``T_mv`` (vertex positions and
+    normals), ``N_cg`` (cells tested to find seeds), ``N_ci`` (cells
+    intersected), and ``seeds`` (the :class:`GraphSeeds`).
+    """
+
+    name = "extrema-graph"
+    description = "Itoh's extrema graph: arcs between extrema plus sorted boundary cell lists (chapter 6)"
+
+    def _prepare(self, polyline=True):
+        self.graph = build_extrema_graph(self.vol, self.field, polyline=polyline)
+        self.propagator = Propagator(self.vol, self.field)
+        self.stats = {}
+
+    def extract(self, value, *, normals="mean"):
+        found = self.graph.seeds(value)
+        iso = self.propagator.extract(value, found.cells, normals=normals)
+        self.seed_cells_tested = found.n_tested
+        self.stats = {
+            "T_mg": found.t_graph,
+            "T_mb": found.t_boundary,
+            "T_mt": iso.t1 + iso.t2,
+            "T_mv": iso.t3,
+            "N_cg": found.n_tested,
+            "N_ci": iso.cells_intersected,
+            "seeds": found,
+        }
+        return dataclasses.replace(iso, cells_tested=iso.cells_tested + found.n_tested,
+                                   t1=iso.t1 + found.t_graph + found.t_boundary)

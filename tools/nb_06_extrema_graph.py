@@ -1,0 +1,310 @@
+"""Source of notebooks/06_extrema_graph.ipynb (thesis chapter 6, Tables 6.1-6.5, Figs 6.2-6.15)."""
+
+from nbbuild import write
+
+cells = [
+    ("md", """
+# Chapter 6 — the extrema graph
+
+Itoh's first fast isosurface method. A **closed** isosurface encloses a local maximum or
+minimum on each side (Thm 6.1), so a graph whose arcs join all the extrema crosses it
+(Thm 6.2); an isosurface **with boundary** touches the volume's boundary. Preprocessing
+therefore (Fig. 6.4):
+
+1. finds the extrema with per-cell "not-maximum / not-minimum" marks (6.3.1, Fig. 6.5),
+2. joins them, nearest first, by arcs walked cell by cell through face neighbours — straight
+   segments, or polylines where the straight segment would leave the volume (6.3.2), each
+   arc keeping its cells and its value range [S_min, S_max],
+3. sorts the boundary cells by S_min and by S_max (6.3.3).
+
+A query tests the cells of the arcs whose range holds C and the boundary cells on the near
+side of C, and grows the surface from every hit by propagation (6.3.4). Everything here is
+`polygen.volume.extrema_graph`; the figures come from `polygen.plot_extrema`.
+"""),
+    ("code", """
+import os
+import time
+
+FULL = os.environ.get("POLYGEN_FULL") == "1"   # all data sets and the long sweep when set
+
+import numpy as np
+from scipy.spatial import Delaunay
+
+from polygen import plot_extrema, plotting
+from polygen.volume import datasets, methods
+from polygen.volume.extrema_graph import build_extrema_graph, extrema_graph_2d, find_extrema
+from polygen.volume.isosurface import extract
+
+pv = plotting.setup_notebook()
+TABLE_DATA = ["data1", "data2", "data3", "data4"]   # Tables 6.1-6.5: fits in the default run
+NOISE = [0.003, 0.004, 0.005, 0.006, 0.008, 0.01, 0.012] if FULL else [0.004, 0.006]
+THESIS = {  # Tables 6.1-6.5, data 1-4 (IBM RS/6000 model 560)
+    "N_e": [20736, 61680, 346644, 557868], "N_b": [2048, 5432, 16908, 17876], "N_n": [4002, 11624, 62107, 97473],
+    "T_sort": [1.228, 6.259, 38.027, 58.579], "T_filt": [0.285, 0.647, 4.084, 6.589],
+    "T_egra": [0.684, 1.823, 8.028, 15.229],
+    "T_pe": [0.541, 1.382, 6.290, 9.719], "T_pc": [0.062, 0.166, 0.600, 4.151], "T_pb": [0.081, 0.275, 1.138, 1.359],
+    "extrema": [21, 46, 135, 540], "N_g": [468, 1048, 3250, 10210], "N_pa": [1, 0, 16, 36],
+    "Q_all": [5.068, 11.416, 63.113, 103.072], "Q_sort": [2.696, 3.142, 12.125, 20.717],
+    "Q_filt": [2.800, 3.945, 17.801, 22.153], "Q_egra": [2.065, 2.561, 6.524, 11.786],
+    "T_mg": [0.008, 0.088, 0.248, 0.197], "T_mb": [0.019, 0.032, 0.091, 0.144],
+    "T_mt": [1.471, 1.748, 4.495, 8.331], "T_mv": [0.567, 0.693, 1.690, 3.114],
+    "N_cg": [3063, 4774, 15659, 14196], "N_ci": [51357, 62377, 148836, 277457],
+}
+"""),
+    ("md", """
+## Fig. 6.2 — the idea in two dimensions
+
+A field on a triangulated square: its contours, its maxima (▲) and minima (▼), found with the
+same marks as in 3D (Fig. 6.5 works for any cell), and the graph that joins every extremum
+to the nearest one of another component (Fig. 6.6). The thick contours are closed curves:
+each has an extremum inside and outside, so some arc crosses it.
+"""),
+    ("code", """
+rng = np.random.default_rng(6)
+pts2 = np.vstack([rng.random((900, 2)), [[0, 0], [1, 0], [0, 1], [1, 1]]])
+tri2 = Delaunay(pts2).simplices.astype(np.int64)
+f2 = (np.exp(-((pts2 - [0.3, 0.35]) ** 2).sum(1) / 0.02) - 0.8 * np.exp(-((pts2 - [0.7, 0.65]) ** 2).sum(1) / 0.03)
+      + 0.5 * np.exp(-((pts2 - [0.75, 0.2]) ** 2).sum(1) / 0.01) + 0.3 * pts2[:, 1])
+ext2, arcs2 = extrema_graph_2d(pts2, tri2, f2)
+closed = [0.75, -0.35]
+plot_extrema.plot_2d_graph(pts2, tri2, f2, ext2, arcs2, highlight=closed);
+"""),
+    ("code", """
+# the graph spans all extrema, and each thick closed contour separates the two ends of some arc
+print(f"{ext2.n} extrema ({len(ext2.maxima)} maxima, {len(ext2.minima)} minima), {len(arcs2)} arcs")
+assert len(arcs2) == ext2.n - 1
+for c in closed:
+    ends = f2[arcs2]
+    assert np.any((ends.min(axis=1) < c) & (ends.max(axis=1) >= c)), c
+"""),
+    ("md", """
+## Fig. 6.5 — extrema by marks
+
+Every cell marks all its nodes but the largest "not-maximum" and all but the smallest
+"not-minimum"; ties at a cell's extreme get a "plural" mark. Unmarked nodes are extrema;
+a node with a plural mark stands for its flat group of tied nodes, which is then cleared, so
+each flat group (e.g. a Dirichlet patch held at one temperature) gives one extremum.
+Def. 6.3 compares a node with all nodes of its cells, so in hexahedra the face and body
+diagonals count too; `datasets.node_extrema` (strict, over edges) is printed beside.
+"""),
+    ("code", """
+rows = []
+for name in ["data1", "hexa1"] + TABLE_DATA[1:]:
+    vol = datasets.load(name)
+    ext = find_extrema(vol)
+    strict_max, strict_min = datasets.node_extrema(vol)
+    rows.append({"data": name, "maxima": int(ext.is_max.sum()), "minima": int(ext.is_min.sum()),
+                 "flat groups": ext.n_flat, "strict max": len(strict_max), "strict min": len(strict_min),
+                 "not-max marks": int(ext.not_max.sum()), "plural-max marks": int(ext.plural_max.sum()),
+                 "nodes": vol.n_points})
+    if vol.cell_type == "tetra":  # cell-mates are edge neighbours: every strict extremum is one of ours
+        assert np.isin(strict_max, ext.maxima).all() and np.isin(strict_min, ext.minima).all()
+print(plotting.table(rows, list(rows[0])))
+"""),
+    ("md", """
+## Figs 6.12 and 6.13 — extrema graphs
+
+Purple: the extrema; lines: the arcs through the centroids of their cells, coloured by value.
+"""),
+    ("code", """
+vol1 = datasets.load("data1")
+g1 = build_extrema_graph(vol1)
+plot_extrema.plot_graph(vol1, g1, title=f"data 1: {g1.stats['extrema']} extrema, {g1.n_arcs} arcs").show()
+"""),
+    ("code", """
+volh = datasets.load("hexa1")
+gh = build_extrema_graph(volh)
+plot_extrema.plot_graph(volh, gh, title=f"hexahedral data 1: {gh.stats['extrema']} extrema", show_cells=True).show()
+"""),
+    ("md", """
+## Figs 6.14 and 6.15 — isosurfaces generated from the graph
+
+Five isosurfaces each, coloured by value, over the graph that found them.
+"""),
+    ("code", """
+m1 = methods.get("extrema-graph")(vol1)
+s1 = vol1.scalars()
+isos = [m1.extract(v) for v in np.linspace(s1.min(), s1.max(), 7)[1:-1]]
+plot_extrema.plot_graph_isosurface(vol1, m1.graph, isos).show()
+for iso in isos:  # the same triangles as testing every cell
+    ref = extract(vol1, iso.value)
+    assert np.array_equal(np.unique(np.sort(iso.vertex_keys[iso.triangles], 1), axis=0),
+                          np.unique(np.sort(ref.vertex_keys[ref.triangles], 1), axis=0))
+"""),
+    ("code", """
+mh = methods.get("extrema-graph")(volh)
+sh = volh.scalars()
+isos_h = [mh.extract(v) for v in np.linspace(sh.min(), sh.max(), 7)[1:-1]]
+plot_extrema.plot_graph_isosurface(volh, mh.graph, isos_h).show()
+"""),
+    ("md", """
+## Fig. 6.11 — seeds on arcs and on the boundary
+
+A closed isosurface is found on an arc (red); a surface that ends on the boundary and
+misses every arc — here one cut by a through-hole of the ring-shaped volume — is found in the
+boundary lists (blue). (Chapter 7 starts from this: a graph that keeps the genus needs no
+boundary lists.)
+"""),
+    ("code", """
+ring = datasets.load("torus")
+mr = methods.get("extrema-graph")(ring, "linear")
+iso_r = mr.extract(1.5)
+seeds_r = mr.stats["seeds"]
+plot_extrema.plot_seeds(ring, mr.graph, iso_r, seeds_r).show()
+print(f"{seeds_r.n_from_arcs} seeds on arcs, {len(seeds_r.cells) - seeds_r.n_from_arcs} from the boundary lists; "
+      f"{iso_r.connected_components()[1]} surface parts")
+assert seeds_r.n_from_arcs >= 1 and len(seeds_r.cells) > seeds_r.n_from_arcs
+"""),
+    ("code", """
+# the same on data 1: which seeds each of twenty surfaces came from
+v1 = float(np.quantile(s1, 0.8))
+iso1 = m1.extract(v1)
+plot_extrema.plot_seeds(vol1, m1.graph, iso1, m1.stats["seeds"]).show()
+"""),
+    ("md", """
+## Tables 6.1–6.5 — data 1–4
+
+Twenty isovalues `linspace(min, max, 22)[1:-1]` of the FEM field, one run, with the thesis's
+numbers beside ours. Timings come from this (shared) machine and only their ratios mean
+anything; the counts are machine-independent. Every method's isosurfaces are checked against
+the full scan's.
+"""),
+    ("code", """
+rows = []
+for name in TABLE_DATA:
+    vol = datasets.load(name)
+    vol.face_neighbors, vol.node_cells, vol.cell_edges   # topology once, outside the clocks
+    s = vol.scalars()
+    values = np.linspace(s.min(), s.max(), 22)[1:-1]
+    row = {"data": name, "N_e": vol.n_cells, "N_b": len(vol.boundary_cells), "N_n": vol.n_points}
+    ref = [extract(vol, v) for v in values]
+    ref = [np.unique(np.sort(r.vertex_keys[r.triangles], 1), axis=0) for r in ref]
+    for mname, key in [("scan", "all"), ("sorted-lists", "sort"), ("span-filter", "filt"), ("extrema-graph", "egra")]:
+        m = methods.get(mname)(vol)
+        row[f"T_{key}"] = m.preprocess_s
+        q = t1 = n_cg = n_arcs = n_ci = t_mg = t_mb = t_mt = t_mv = 0
+        for v, r in zip(values, ref):
+            t0 = time.perf_counter()
+            iso = m.extract(v)
+            q += time.perf_counter() - t0
+            t1 += iso.t1   # finding the intersected cells: search + testing the candidates
+            n_cg += m.seed_cells_tested
+            assert np.array_equal(np.unique(np.sort(iso.vertex_keys[iso.triangles], 1), axis=0), r), (name, mname, v)
+            if key == "egra":
+                n_arcs += m.stats["seeds"].tested_arcs
+                n_ci += m.stats["N_ci"]
+                t_mg, t_mb = t_mg + m.stats["T_mg"], t_mb + m.stats["T_mb"]
+                t_mt, t_mv = t_mt + m.stats["T_mt"], t_mv + m.stats["T_mv"]
+        row[f"Q_{key}"] = q
+        row[f"t1_{key}"] = t1
+        row[f"tested_{key}"] = n_cg
+    g = m.graph.stats
+    row.update({"T_pe": g["T_pe"], "T_pc": g["T_pc"], "T_pb": g["T_pb"], "extrema": g["extrema"],
+                "N_g": g["graph_cells"], "N_pa": g["polyline_arcs"], "search arcs": g["search_arcs"],
+                "T_mg": t_mg, "T_mb": t_mb, "T_mt": t_mt, "T_mv": t_mv, "N_cg": n_cg, "N_cg arcs": n_arcs,
+                "N_ci": n_ci})
+    rows.append(row)
+    print(name, "done")
+"""),
+    ("code", """
+print("Table 6.1 - the data (thesis in parentheses)")
+print(plotting.table([{"data": r["data"], **{k: f"{r[k]} ({THESIS[k][i]})" for k in ["N_e", "N_b", "N_n"]}}
+                      for i, r in enumerate(rows)], ["data", "N_e", "N_b", "N_n"]))
+print()
+print("Table 6.2 - preprocessing, s (thesis in parentheses)")
+print(plotting.table([{"data": r["data"], **{k: f"{r[k]:.4f} ({THESIS[k][i]})" for k in ["T_sort", "T_filt", "T_egra"]}}
+                      for i, r in enumerate(rows)], ["data", "T_sort", "T_filt", "T_egra"]))
+"""),
+    ("code", """
+print("Table 6.3 - extrema graph preprocessing (thesis in parentheses)")
+cols = ["T_pe", "T_pc", "T_pb", "extrema", "N_g", "N_pa"]
+print(plotting.table([{"data": r["data"], "N_b": r["N_b"], "search arcs": r["search arcs"],
+                       **{k: (f"{r[k]:.4f}" if k[0] == "T" else str(r[k])) + f" ({THESIS[k][i]})" for k in cols}}
+                      for i, r in enumerate(rows)], ["data"] + cols + ["search arcs", "N_b"]))
+for r in rows:
+    assert r["N_g"] * 5 < r["N_b"], r          # graph cells far below boundary cells (6.5)
+"""),
+    ("code", """
+print("Table 6.4 - twenty isosurfaces, s (thesis in parentheses)")
+cols = ["Q_all", "Q_sort", "Q_filt", "Q_egra"]
+print(plotting.table([{"data": r["data"], **{k: f"{r[k]:.4f} ({THESIS[k][i]})" for k in cols}}
+                      for i, r in enumerate(rows)], ["data"] + cols))
+print()
+print("finding the intersected cells alone (t1, s; cf. Table 7.4)")
+cols = ["t1_all", "t1_sort", "t1_filt", "t1_egra"]
+print(plotting.table([{"data": r["data"], **{k: f"{r[k]:.4f}" for k in cols}} for r in rows], ["data"] + cols))
+print()
+print("Table 6.5 - extrema graph stages, sums over the twenty (thesis in parentheses)")
+cols = ["T_mg", "T_mb", "T_mt", "T_mv", "N_cg", "N_ci"]
+print(plotting.table([{"data": r["data"], "N_cg arcs": r["N_cg arcs"], "sorted lists tested": r["tested_sort"],
+                       **{k: (f"{r[k]:.4f}" if k[0] == "T" else str(r[k])) + f" ({THESIS[k][i]})" for k in cols}}
+                      for i, r in enumerate(rows)], ["data"] + cols + ["N_cg arcs", "sorted lists tested"]))
+"""),
+    ("md", """
+**What holds and what does not.** The cells tested *on the arcs* are a small fraction of the
+cells intersected, as the thesis reports. The boundary lists are another matter on our
+volumes: for a value in the middle of the range the near side of a sorted list is still
+about half of the boundary cells whose range lies below (or above) C, i.e. about a quarter
+of all boundary cells per isosurface. Our parts have about three times the thesis's boundary
+cells (Table 6.1) and their boundary values span the whole range (heat sources next to
+the surface), so the boundary scan dominates N_cg and brings it to between half of N_ci
+and N_ci. It is still far below what sorted lists over all cells test.
+
+**Table 6.4 on this machine.** Finding the intersected cells (t1) is several times faster
+with the extrema graph than with sorted lists or span filtering on data 3–4, as in the
+thesis. The totals, though, are dominated by building the triangles (T_mt), which the three
+methods share, and the extrema graph's few seeds make the propagation walk the surface
+breadth-first from a handful of cells, which touches memory less orderly than starting from
+every intersected cell in cell order (for data 4's twenty surfaces, best of three runs:
+0.41 s from the graph's seeds against 0.35 s from all intersected cells in cell order);
+that costs about as much as the search saves,
+so the extrema graph is not the fastest in total here (the thesis's 1990s machine spent far
+more on the search itself). The full scan is even faster in total on this 2-core machine: it
+classifies the cells in parallel passes and numbers the vertices without a hash table, while
+propagation is serial. The ordering of Table 6.4 is therefore not reproduced; that of the
+seed search is. See `benchmarks/results/extrema_graph.md`.
+"""),
+    ("code", """
+for r in rows:
+    assert r["N_cg arcs"] * 5 < r["N_ci"], r           # seed search on the arcs: far below the cells intersected
+    assert r["N_cg"] * 3 < r["tested_sort"], r          # the whole seed search: far below sorted lists'
+    assert r["N_cg"] * 10 < 20 * r["N_e"], r            # ... and below a tenth of the full scan's
+"""),
+    ("md", """
+## 6.4 — preprocessing grows like O(m² log m) in the number of extrema
+
+Each extremum sorts the others by distance, so the graph costs O(m² log m): negligible for
+tens of extrema, dominant for thousands (Table 7.1 names data 5, with 5986 extrema, as the
+extrema graph's weak point). Data 5's mesh with its FEM field and with a smooth field plus
+seeded noise of growing amplitude:
+"""),
+    ("code", """
+vol5 = datasets.load("data5")
+vol5.face_neighbors, vol5.node_cells
+base = vol5.scalars("distance")
+noise = np.random.default_rng(0).standard_normal(vol5.n_points) * np.ptp(base)
+grow = []
+for label, f in [("fem", vol5.scalars("fem"))] + [(f"distance + {a:g} noise", base + a * noise) for a in NOISE]:
+    st = build_extrema_graph(vol5, f).stats
+    grow.append({"field": label, "m": st["extrema"], "arcs": st["arcs"],
+                 "T_pe": st["T_pe"], "T_pc": st["T_pc"], "T_pb": st["T_pb"],
+                 "T_pc/(m^2 log2 m) ns": 1e9 * st["T_pc"] / (st["extrema"] ** 2 * np.log2(st["extrema"]))})
+grow.sort(key=lambda r: r["m"])
+print(plotting.table(grow, list(grow[0])))
+"""),
+    ("code", """
+import matplotlib.pyplot as plt
+
+m_ = np.array([r["m"] for r in grow], float)
+t_ = np.array([r["T_pc"] for r in grow])
+fig, ax = plt.subplots(figsize=(5, 4))
+ax.loglog(m_, t_, "o-", label="T_pc (graph)")
+ax.loglog(m_, [r["T_pe"] for r in grow], "s-", label="T_pe (extrema)")
+ax.loglog(m_, t_[-1] * (m_ ** 2 * np.log(m_)) / (m_[-1] ** 2 * np.log(m_[-1])), "k--", label="m² log m")
+ax.set_xlabel("extrema m"); ax.set_ylabel("s"); ax.legend();
+# machine-independent: one sort per joined extremum, m - 1 arcs in this connected volume
+assert grow[-1]["m"] > 1000 and all(r["arcs"] == r["m"] - 1 for r in grow)
+"""),
+]
+
+write("notebooks/06_extrema_graph.ipynb", cells)
