@@ -1,0 +1,183 @@
+"""Figures of chapter 5's isosurfaces (notebook ``05_isosurfaces``).
+
+Like :mod:`polygen.plotting` (whose ``_plotter`` and ``boundary_surface``
+these use), nothing in polygen's algorithms imports this module; pyvista and
+matplotlib are imported inside the functions. 3D functions return a
+``pyvista.Plotter``, 2D ones a ``matplotlib`` figure.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from polygen import plotting
+
+__all__ = [
+    "plot_marching_cases",
+    "plot_isosurface_strip",
+    "show_isosurface",
+    "plot_propagation_order",
+    "fifo_steps",
+    "loglog_slope",
+    "plot_loglog",
+]
+
+_TET_REF = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+_HEX_REF = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
+                     [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
+
+
+def plot_marching_cases(cell_type, cases, *, ncols=4, size=2.6):
+    """Fig. 5.4: cells of the given cases with their triangles, read off the case tables.
+
+    Parameters
+    ----------
+    cell_type : {'tetra', 'hexa'}
+    cases : sequence of int
+        Case indices of :func:`polygen.volume.marching.case_table` (4 node
+        bits for a tetrahedron; 8 node bits + 6 face-centre bits for a
+        hexahedron).
+
+    Nodes above the isovalue are filled red, the others hollow; triangle
+    corners sit at the edge midpoints (the crossing (5.2) for a value halfway
+    between the nodes' values).
+    """
+    import matplotlib.pyplot as plt
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    from polygen.volume import marching as m
+
+    table, count = m.case_table(cell_type)
+    ref, edges = (_TET_REF, m.TET_EDGES) if cell_type == "tetra" else (_HEX_REF, m.HEX_EDGES)
+    n_nodes = ref.shape[0]
+    mid = ref[edges].mean(axis=1)
+    nrows = -(-len(cases) // ncols)
+    fig = plt.figure(figsize=(size * ncols, size * nrows))
+    for i, case in enumerate(cases):
+        ax = fig.add_subplot(nrows, ncols, i + 1, projection="3d")
+        for a, b in edges:
+            ax.plot(*ref[[a, b]].T, color="0.4", lw=0.8)
+        above = (int(case) >> np.arange(n_nodes)) & 1
+        ax.scatter(*ref[above == 1].T, color="crimson", s=40, depthshade=False)
+        ax.scatter(*ref[above == 0].T, facecolors="white", edgecolors="k", s=40, depthshade=False)
+        k = int(count[case])
+        tris = mid[table[case, : 3 * k].reshape(k, 3).astype(np.int64)]
+        if k:
+            ax.add_collection3d(Poly3DCollection(tris, facecolor="gold", edgecolor="darkorange", alpha=0.8))
+        up = [f for f in range(6) if (int(case) >> (8 + f)) & 1]
+        faces = f", centre of face {up} above" if up else ""
+        ax.set_title(f"{cell_type} nodes {int(case) & 0xFF}{faces}: {k} triangle{'s' * (k != 1)}", fontsize=9)
+        ax.set_axis_off()
+        ax.view_init(elev=20, azim=-60)
+    fig.tight_layout()
+    return fig
+
+
+def plot_isosurface_strip(vol, surfaces, *, window_size=None):
+    """Fig. 5.5: one isosurface per panel, left to right, inside the volume's outline."""
+    k = max(len(surfaces), 1)
+    p = plotting._plotter(shape=(1, k), window_size=window_size or (300 * k, 320))
+    outline = plotting.boundary_surface(vol)
+    lo = min(s.value for s in surfaces)
+    hi = max(s.value for s in surfaces)
+    for i, iso in enumerate(surfaces):
+        p.subplot(0, i)
+        p.add_mesh(outline, color="lightgray", opacity=0.1)
+        if not iso.is_empty:
+            poly = iso.to_pyvista()
+            poly.point_data["isovalue"] = np.full(poly.n_points, iso.value)
+            p.add_mesh(poly, scalars="isovalue", clim=(lo, hi), cmap="viridis", smooth_shading=True,
+                       show_scalar_bar=False)
+        p.add_text(f"C = {iso.value:.3g}\n{iso.n_triangles} triangles", font_size=8)
+        p.view_isometric()
+    p.link_views()
+    return p
+
+
+def show_isosurface(vol, value, *, field=None, method="scan"):
+    """Extract ``S = value`` and show it in the volume's outline (the slider of Fig. 5.5).
+
+    Meant for ``ipywidgets.interact(show_isosurface, vol=fixed(vol), value=FloatSlider(...))``.
+    """
+    from polygen.volume.isosurface import extract
+
+    iso = extract(vol, value, field=field, method=method)
+    p = plotting.plot_isosurfaces(vol, [iso], [value])
+    p.add_text(f"C = {value:.4g}: {iso.n_triangles} triangles, {iso.cells_intersected} cells", font_size=9)
+    p.show()
+    return iso
+
+
+def fifo_steps(order, triangle_cells, n_cells):
+    """(T,) int64: the FIFO position of each triangle's cell in ``order`` (-1 if not in it)."""
+    rank = np.full(n_cells, -1, np.int64)
+    rank[np.asarray(order, np.int64)] = np.arange(len(order))
+    return rank[np.asarray(triangle_cells, np.int64)]
+
+
+def plot_propagation_order(vol, iso, order, *, seeds=(), cmap="plasma"):
+    """Fig. 5.7: the isosurface coloured by the FIFO step at which its cell was registered.
+
+    Parameters
+    ----------
+    iso : IsoSurface
+        A propagated isosurface.
+    order : (K,) int64
+        The cells in FIFO order (``Propagator.last_order``).
+    seeds : sequence of int
+        Seed cells, drawn in red.
+    """
+    import pyvista as pv
+
+    p = plotting._plotter()
+    p.add_mesh(plotting.boundary_surface(vol), color="lightgray", opacity=0.1)
+    poly = iso.to_pyvista()
+    poly.cell_data["FIFO step"] = fifo_steps(order, iso.triangle_cells, vol.n_cells)
+    p.add_mesh(poly, scalars="FIFO step", cmap=cmap, show_edges=False)
+    seeds = np.asarray(seeds, np.int64)
+    if seeds.size:
+        centres = vol.points[vol.cells[seeds]].mean(axis=1)
+        p.add_mesh(pv.PolyData(centres), color="red", point_size=14, render_points_as_spheres=True)
+    p.add_text(f"propagation from {seeds.size} seed(s): {len(order)} cells in FIFO order", font_size=9)
+    p.view_isometric()
+    return p
+
+
+def loglog_slope(n, y, *, n_from=0):
+    """Least-squares slope of ``log y`` on ``log n`` over ``n >= n_from`` and ``y > 0`` (None if < 2 points)."""
+    n = np.asarray(n, float)
+    y = np.asarray(y, float)
+    keep = (n >= n_from) & (y > 0)
+    if keep.sum() < 2:
+        return None
+    return float(np.polyfit(np.log(n[keep]), np.log(y[keep]), 1)[0])
+
+
+def plot_loglog(rows, ys, *, x="n", group="method", n_from=0, titles=None):
+    """Log-log panels of ``rows[y]`` against ``rows[x]``, one line per ``group``, slopes in the legend.
+
+    Returns ``(figure, slopes)`` with ``slopes[y][group]`` the fitted slope.
+    """
+    import matplotlib.pyplot as plt
+
+    ncols = min(len(ys), 2)
+    nrows = -(-len(ys) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(6 * ncols, 4 * nrows), squeeze=False)
+    groups = list(dict.fromkeys(r[group] for r in rows))
+    slopes = {}
+    for ax, y in zip(axes.ravel(), ys):
+        slopes[y] = {}
+        for g in groups:
+            rs = [r for r in rows if r[group] == g]
+            xs, vs = [r[x] for r in rs], [r[y] for r in rs]
+            b = loglog_slope(xs, vs, n_from=n_from)
+            slopes[y][g] = b
+            pos = [(a, v) for a, v in zip(xs, vs) if v > 0]
+            if pos:
+                ax.loglog(*zip(*pos), "o-", label=f"{g} (slope {b:.2f})" if b is not None else g)
+        ax.set_xlabel(x)
+        ax.set_title((titles or {}).get(y, y))
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig, slopes
