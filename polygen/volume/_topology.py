@@ -481,3 +481,43 @@ def locate_and_interpolate(points, cells, scalars, counts, items, lo, inv_h, dim
                 where[i] = c
                 break
     return out, where
+
+
+@njit
+def _spread_bits(x):
+    """Insert two zero bits after each of the 21 low bits of ``x`` (Morton interleave)."""
+    x &= 0x1FFFFF
+    x = (x | (x << 32)) & 0x1F00000000FFFF
+    x = (x | (x << 16)) & 0x1F0000FF0000FF
+    x = (x | (x << 8)) & 0x100F00F00F00F00F
+    x = (x | (x << 4)) & 0x10C30C30C30C30C3
+    x = (x | (x << 2)) & 0x1249249249249249
+    return x
+
+
+@njit(parallel=True)
+def morton_codes(xyz, lo, scale):
+    """63-bit Morton (Z-order) code of each point, 21 bits per axis: ``(n,)`` int64."""
+    n = xyz.shape[0]
+    out = np.empty(n, np.int64)
+    for i in prange(n):
+        code = 0
+        for a in range(3):
+            q = np.int64((xyz[i, a] - lo[a]) * scale)
+            q = min(max(q, 0), 0x1FFFFF)
+            code |= _spread_bits(q) << a
+        out[i] = code
+    return out
+
+
+@njit(parallel=True)
+def cell_centroids(points, cells):
+    m, k = cells.shape
+    out = np.zeros((m, 3))
+    for c in prange(m):
+        for i in range(k):
+            for a in range(3):
+                out[c, a] += points[cells[c, i], a]
+        for a in range(3):
+            out[c, a] /= k
+    return out

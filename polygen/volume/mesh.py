@@ -218,6 +218,39 @@ class UnstructuredVolume:
         fields = {k: v[keep] for k, v in self.fields.items()}
         return UnstructuredVolume(self.points[keep], new_id[self.cells], fields, validate=False)
 
+    def reordered(self, *, return_permutations=False):
+        """A copy with nodes and cells renumbered along a Morton (Z-order) curve.
+
+        Neighbouring cells and nodes get nearby numbers, so walks through the
+        mesh (propagation, thinning) and scans read memory nearly in order.
+        Meshers often number cells in an order far from spatial (gmsh's
+        parallel HXT: face neighbours are typically hundreds of thousands of
+        cell ids apart); renumbering such a mesh roughly halves isosurface
+        times, for VTK as well as for polygen. Geometry and fields are
+        unchanged; only the numbering moves.
+
+        Parameters
+        ----------
+        return_permutations : bool, keyword-only
+            Also return ``(node_order, cell_order)``: new node ``i`` is old
+            node ``node_order[i]``, new cell ``j`` is old cell ``cell_order[j]``.
+        """
+        lo = self.points.min(axis=0)
+        span = float((self.points.max(axis=0) - lo).max())
+        scale = (2**21 - 1) / span if span > 0 else 0.0
+        node_order = np.argsort(_k.morton_codes(self.points, lo, scale), kind="stable")
+        new_id = np.empty(self.n_points, np.int64)
+        new_id[node_order] = np.arange(self.n_points)
+        centroids = _k.cell_centroids(self.points, self.cells)
+        cell_order = np.argsort(_k.morton_codes(centroids, lo, scale), kind="stable")
+        out = UnstructuredVolume(
+            self.points[node_order],
+            new_id[self.cells[cell_order]],
+            {k: v[node_order] for k, v in self.fields.items()},
+            validate=False,
+        )
+        return (out, node_order, cell_order) if return_permutations else out
+
     # ------------------------------------------------------------- adjacency
     @functools.cached_property
     def _face_table(self):

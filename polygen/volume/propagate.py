@@ -109,16 +109,22 @@ def _grow2(a):
 
 @njit
 def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, tri_count, local_edges,
-               visited, generation, queue, n_queued, hash_bits):
-    """t2: breadth-first propagation; returns (keys, triangles, tri_cells, n_cells, tested, lookups)."""
-    cap = 1 << hash_bits
+               visited, generation, queue, qcase, n_queued, hkeys, hvals, keys, tris, tri_cell):
+    """t2: breadth-first propagation.
+
+    ``queue`` holds the ``n_queued`` crossed seeds; ``hkeys`` (a power of
+    two long) must be all ``_EMPTY``; ``keys``, ``tris``, ``tri_cell`` and
+    ``qcase`` are scratch buffers. Each buffer that fills up is replaced by
+    one twice as large, so the caller gets them all back to reuse:
+    returns (n_vertices, n_triangles, n_cells, tested, lookups, queue,
+    qcase, hkeys, hvals, keys, tris, tri_cell).
+    """
+    cap = hkeys.shape[0]
+    hash_bits = 0
+    while (1 << hash_bits) < cap:
+        hash_bits += 1
     shift = 64 - hash_bits
-    hkeys = np.full(cap, _EMPTY, np.int64)
-    hvals = np.empty(cap, np.int64)
-    keys = np.empty(max(16, cap // 2), np.int64)
     n_v = 0
-    tris = np.empty((max(16, cap // 2), 3), np.int64)
-    tri_cell = np.empty(tris.shape[0], np.int64)
     n_t = 0
     local = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
     vids = np.empty(24, np.int64)  # per cell: vertex id of each local code
@@ -126,15 +132,15 @@ def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, 
     lookups = 0
     head = 0
     tail = n_queued
-    qcase = np.empty(queue.shape[0], np.int64)  # the case of each queued cell, found when it was tested
-    for i in range(n_queued):
+    for i in range(n_queued):  # the case of each queued cell, kept from when it was tested
         qcase[i] = _m._cell_case(cells, queue[i], s, value, faces)
     while head < tail:
         c = queue[head]
         case = qcase[head]
         head += 1
         k = _m._cell_codes(cells, c, s, value, case, tri_table, tri_count, local_edges, local)
-        vids[:] = -1
+        for i in range(24):
+            vids[i] = -1
         if n_t + k > tris.shape[0]:
             tris = _grow2(tris)
             tri_cell = _grow(tri_cell)
@@ -177,7 +183,7 @@ def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, 
                 queue[tail] = nb
                 qcase[tail] = nb_case
                 tail += 1
-    return keys[:n_v].copy(), tris[:n_t].copy(), tri_cell[:n_t].copy(), tail, tested, lookups, queue
+    return n_v, n_t, tail, tested, lookups, queue, qcase, hkeys, hvals, keys, tris, tri_cell
 
 
 class Propagator:
@@ -208,7 +214,14 @@ class Propagator:
         self.visited = np.zeros(self.cells.shape[0], np.int32)
         self.generation = 0
         self._node_grad = None
-        self._hash_bits = 10
+        # scratch buffers reused across queries; the kernel doubles the ones that fill up
+        self._queue = np.empty(1024, np.int64)
+        self._qcase = np.empty(1024, np.int64)
+        self._hkeys = np.full(1 << 10, _EMPTY, np.int64)
+        self._hvals = np.empty(1 << 10, np.int64)
+        self._keys = np.empty(512, np.int64)
+        self._tris = np.empty((1024, 3), np.int64)
+        self._tri_cell = np.empty(1024, np.int64)
         #: FIFO order of the last query: the cells in the order they were registered
         self.last_order = np.zeros(0, np.int64)
 
@@ -257,20 +270,25 @@ class Propagator:
         self.generation += 1
 
         t0 = time.perf_counter()
-        queue = np.empty(max(1024, 2 * seeds.shape[0]), np.int64)
+        if self._queue.shape[0] < seeds.shape[0]:
+            self._queue = np.empty(2 * seeds.shape[0], np.int64)
+            self._qcase = np.empty(2 * seeds.shape[0], np.int64)
         tested_seeds, n_queued = _test_seeds(self.cells, self.s, value, self.faces, seeds, self.visited,
-                                             self.generation, queue)
+                                             self.generation, self._queue)
         t1 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
-        keys, tri, tri_cell, n_cells, tested, lookups, queue = _propagate(
+        self._hkeys.fill(_EMPTY)
+        (n_v, n_t, n_cells, tested, lookups, self._queue, self._qcase, self._hkeys, self._hvals, self._keys,
+         self._tris, self._tri_cell) = _propagate(
             self.cells, self.s, value, self.faces, self.face_nb, self.cell_edges, self.edges.shape[0],
-            self.table, self.count, self.local_edges, self.visited, self.generation, queue, n_queued,
-            self._hash_bits)
+            self.table, self.count, self.local_edges, self.visited, self.generation, self._queue, self._qcase,
+            n_queued, self._hkeys, self._hvals, self._keys, self._tris, self._tri_cell)
+        keys = self._keys[:n_v].copy()
+        tri = self._tris[:n_t].copy()
+        tri_cell = self._tri_cell[:n_t].copy()
         t2 = time.perf_counter() - t0
-        # size the next query's hash table after this one
-        self._hash_bits = max(10, int(np.ceil(np.log2(max(2, 2 * keys.shape[0])))))
-        self.last_order = queue[:n_cells]
+        self.last_order = self._queue[:n_cells].copy()
 
         return finish(value, keys, tri, tri_cell, points=self.points, edges=self.edges, s=self.s,
                       normals=normals, node_grad=node_grad, method="propagate",
