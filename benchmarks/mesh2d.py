@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from _common import best_of  # noqa: E402  (benchmarks/ is the script's directory)
 from polygen.mesh2d import (
     adaptive_subdivision,
     bubble_mesh,
@@ -35,15 +36,6 @@ def hole(h):
     k = int(round(2 * np.pi * 0.25 / h))
     th = np.linspace(0, 2 * np.pi, k, endpoint=False)[::-1]
     return 0.5 + 0.25 * np.c_[np.cos(th), np.sin(th)]
-
-
-def best_of(fn, repeat):
-    times, out = [], None
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t)
-    return min(times), out
 
 
 def main(argv=None):

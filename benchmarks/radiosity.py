@@ -3,6 +3,11 @@
 Writes ``benchmarks/results/radiosity.json`` and ``radiosity.md``.
 
     python benchmarks/radiosity.py [--patch-size 80] [--levels 2] [--tol 0.01] [--threads both]
+                                   [--meshers lattice,bubble,bubble-bubble]
+
+Meshers: ``lattice`` (lattice + constrained Delaunay patches, 1 -> 4 split
+elements), ``bubble`` (bubble-mesh patches, 1 -> 4 split elements) and
+``bubble-bubble`` (bubble-mesh patches, bubble-mesh elements in each patch).
 
 JIT compilation is excluded (a short warm-up run first).  The thesis's
 own radiosity times (Table 3.1, T_rs 156.63 / 289.02 s for 6090 / 17150
@@ -22,8 +27,14 @@ from pathlib import Path
 import numpy as np
 
 from polygen.radiosity import scenes
-from polygen.radiosity.mesh import mesh_scene
+from polygen.radiosity.mesh import bubble_element_mesher, bubble_mesher, mesh_scene
 from polygen.radiosity.solve import progressive_refinement
+
+MESHERS = {
+    "lattice": {},
+    "bubble": {"mesher": bubble_mesher},
+    "bubble-bubble": {"mesher": bubble_mesher, "element_mesher": bubble_element_mesher},
+}
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -54,14 +65,23 @@ def _one(mesh, method, resolution, tol, parallel):
     }
 
 
-def run(patch_size, levels, tol, resolution, modes):
+def run(patch_size, levels, tol, resolution, modes, meshers):
     scene = scenes.cornell_box()
-    t0 = time.perf_counter()
-    mesh = mesh_scene(scene, patch_size, element_levels=levels)
-    t_mesh = time.perf_counter() - t0
-    rows = [_one(mesh, method, resolution, tol, par)
-            for method in ("analytic", "hemicube") for par in modes]
-    return mesh, t_mesh, rows
+    out = []
+    for name in meshers:
+        mesh_scene(scene, 4 * patch_size, element_levels=0, **MESHERS[name])  # warm-up
+        t0 = time.perf_counter()
+        mesh = mesh_scene(scene, patch_size, element_levels=levels, **MESHERS[name])
+        t_mesh = time.perf_counter() - t0
+        _, q = mesh.element_quality()
+        info = {"mesher": name, "n_patches": mesh.n_patches, "n_elements": mesh.n_elements,
+                "n_nodes": mesh.n_nodes, "mesh_seconds": round(t_mesh, 3),
+                "q_mean": round(float(q.mean()), 4), "frac_q_below_0.8": round(float(np.mean(q < 0.8)), 4),
+                "t_vertices": int(len(mesh.t_vertices()))}
+        rows = [dict(info, **_one(mesh, method, resolution, tol, par))
+                for method in ("analytic", "hemicube") for par in modes]
+        out.append((mesh, info, rows))
+    return out
 
 
 def main(argv=None):
@@ -71,23 +91,26 @@ def main(argv=None):
     ap.add_argument("--tol", type=float, default=0.01)
     ap.add_argument("--resolution", type=int, default=100)
     ap.add_argument("--threads", choices=("both", "single", "multi"), default="both")
+    ap.add_argument("--meshers", default="lattice,bubble,bubble-bubble")
     args = ap.parse_args(argv)
     modes = {"both": (False, True), "single": (False,), "multi": (True,)}[args.threads]
-    mesh, t_mesh, rows = run(args.patch_size, args.levels, args.tol, args.resolution, modes)
+    meshers = [m for m in args.meshers.split(",") if m]
+    unknown = set(meshers) - set(MESHERS)
+    if unknown:
+        ap.error(f"unknown mesher(s) {sorted(unknown)}; choose from {sorted(MESHERS)}")
+    results = run(args.patch_size, args.levels, args.tol, args.resolution, modes, meshers)
     load = os.getloadavg() if hasattr(os, "getloadavg") else None
+    scene = results[0][0].scene
     out = {
         "benchmark": "cornell_box_progressive_refinement",
         "scene": "cornell_box (published Cornell geometry, mm)",
-        "n_polygons": len(mesh.scene.polygons),
-        "n_patches": mesh.n_patches,
-        "n_elements": mesh.n_elements,
-        "n_nodes": mesh.n_nodes,
+        "n_polygons": len(scene.polygons),
         "patch_size_mm": args.patch_size,
         "element_levels": args.levels,
         "tol_unshot_fraction": args.tol,
         "threads": args.threads,
-        "mesh_seconds": round(t_mesh, 3),
-        "runs": rows,
+        "meshes": [info for _, info, _ in results],
+        "runs": [r for _, _, rows in results for r in rows],
         "machine": {
             "platform": platform.platform(),
             "processor": platform.processor(),
@@ -104,21 +127,30 @@ def main(argv=None):
     lines = [
         "# Radiosity benchmark: Cornell box, progressive refinement",
         "",
-        f"{mesh.n_elements} elements, {mesh.n_patches} patches, {mesh.n_nodes} nodes "
-        f"({len(mesh.scene.polygons)} polygons; patch size {args.patch_size} mm, "
-        f"{4 ** args.levels} elements per patch). Stop at unshot < {args.tol:.0%} of emitted. "
-        f"Meshing {t_mesh:.2f} s.",
+        f"{len(scene.polygons)} polygons; patch size {args.patch_size} mm, element size "
+        f"{args.patch_size / 2 ** args.levels:g} mm. Stop at unshot < {args.tol:.0%} of emitted. "
+        "Meshing and solving times exclude JIT compilation (warm-up runs first).",
         "",
-        "| form factors | threads | seconds | shots | ms/shot | converged | final unshot | "
-        "energy balance |",
-        "|---|---|---:|---:|---:|---|---:|---:|",
+        "| mesher | patches | elements | nodes | mesh s | mean q | q < 0.8 | T-vertices |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
-    for r in rows:
-        name = r["method"] + (f" (res {r['hemicube_resolution']})" if r["hemicube_resolution"]
-                              else "")
-        lines.append(f"| {name} | {r['threads']} | {r['seconds']:.2f} | {r['shots']} | {r['ms_per_shot']:.2f} | "
-                     f"{r['converged']} | {r['final_unshot_fraction']:.4f} | "
-                     f"{r['energy_balance_min']:.6f} |")
+    for _, info, _ in results:
+        lines.append(f"| {info['mesher']} | {info['n_patches']} | {info['n_elements']} | "
+                     f"{info['n_nodes']} | {info['mesh_seconds']:.2f} | {info['q_mean']:.4f} | "
+                     f"{info['frac_q_below_0.8']:.1%} | {info['t_vertices']} |")
+    lines += [
+        "",
+        "| mesher | form factors | threads | seconds | shots | ms/shot | converged | final unshot | "
+        "energy balance |",
+        "|---|---|---|---:|---:|---:|---|---:|---:|",
+    ]
+    for _, info, rows in results:
+        for r in rows:
+            name = r["method"] + (f" (res {r['hemicube_resolution']})" if r["hemicube_resolution"]
+                                  else "")
+            lines.append(f"| {info['mesher']} | {name} | {r['threads']} | {r['seconds']:.2f} | "
+                         f"{r['shots']} | {r['ms_per_shot']:.2f} | {r['converged']} | "
+                         f"{r['final_unshot_fraction']:.4f} | {r['energy_balance_min']:.6f} |")
     lines += [
         "",
         f"Target: < 60 s. Machine: {os.cpu_count()} cores, shared with other engineers' jobs "

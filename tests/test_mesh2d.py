@@ -479,3 +479,17 @@ def test_adaptive_subdivision_interpolates_and_rgb(coarse):
     check_conforming_mesh(res.nodes, res.triangles, dom)
     with pytest.raises(ValueError, match="values"):
         adaptive_subdivision(bm.nodes, bm.triangles, rgb[:-1], 0.2)
+
+
+def test_bubble_subdivide_patches_slanted_edges():
+    # A quadrilateral whose sides are nearly but not exactly axis-parallel (like the published
+    # Cornell floor): patch nodes on a side are collinear only up to round-off, and the convex
+    # hull of the element bubbles leaves zero-area slivers there; none may survive as elements.
+    quad = np.array([[-277.2, -279.6], [275.6, -279.6], [275.6, 279.6], [-274.0, 279.6]])
+    bm = bubble_mesh(quad, (), 80.0, seed=0)
+    pe = bubble_subdivide_patches(bm.nodes, bm.triangles, 40.0, seed=0)
+    dom = validate_domain(quad)
+    check_conforming_mesh(pe.nodes, pe.elements, dom)
+    ang, q = triangle_quality(pe.nodes, pe.elements)
+    assert ang.min() > 20.0
+    np.testing.assert_allclose(triangle_areas(pe.nodes, pe.elements).sum(), dom.area, rtol=1e-12)

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from polygen.radiosity import scenes
+from polygen.radiosity.adaptive import adaptive_refine, element_jumps, mark_jumps
 from polygen.radiosity.formfactor import (
     _gauss_triangle,
     analytic_column,
@@ -16,8 +17,21 @@ from polygen.radiosity.formfactor import (
     point_polygon_form_factor,
     polygon_form_factor,
 )
-from polygen.radiosity.hemicube import HemicubeError, delta_form_factors, hemicube_form_factors
-from polygen.radiosity.mesh import RadiosityMesh, mesh_scene, split_triangles
+from polygen.radiosity.hemicube import (
+    HemicubeError,
+    delta_form_factors,
+    hemicube_form_factors,
+    hemicube_polygon_form_factor,
+)
+from polygen.radiosity.mesh import (
+    MeshError,
+    RadiosityMesh,
+    bubble_element_mesher,
+    bubble_mesher,
+    lattice_delaunay_mesher,
+    mesh_scene,
+    split_triangles,
+)
 from polygen.radiosity.raster import Camera, RasterError, node_intensities, render, to_pyvista
 from polygen.radiosity.scene import (
     AreaLight,
@@ -283,6 +297,22 @@ def test_hemicube_converges_as_res_squared():
     f_centre = hemicube_form_factors(x, [0, 0, 1], nodes, tris, resolution=100).sum()
     assert f_centre == pytest.approx(0.2395, abs=1e-3)
     assert abs(f_centre - F_PARALLEL_SQUARES) > 0.03
+
+
+def test_hemicube_point_factors_within_one_percent():
+    # Howell B-3 (corner of a 1 x 2 rectangle at height 1) and the coaxial disk r = h
+    rect = np.array([[0, 0, 1], [1, 0, 1], [1, 2, 1], [0, 2, 1]], dtype=float)
+    f = hemicube_form_factors([0, 0, 0], [0, 0, 1], rect, np.array([[0, 2, 1], [0, 3, 2]]),
+                              resolution=100).sum()
+    assert f == pytest.approx(F_CORNER_1x2, rel=0.01)
+    k = 512
+    th = np.linspace(0.0, 2 * np.pi, k, endpoint=False)
+    disk = np.vstack([[0, 0, 1], np.c_[np.cos(th), np.sin(th), np.ones(k)]])
+    fan = np.c_[np.zeros(k, dtype=np.int64), 1 + (np.arange(k) + 1) % k, 1 + np.arange(k)]
+    f = hemicube_form_factors([0, 0, 0], [0, 0, 1], disk, fan, resolution=100).sum()
+    exact = point_polygon_form_factor([0, 0, 0], [0, 0, 1], [disk[1:]])  # the inscribed 512-gon
+    assert exact == pytest.approx(0.5, abs=1e-4)
+    assert f == pytest.approx(exact, rel=0.01)
 
 
 def _hemicube_area_factor(emitter, nodes, tris, res, order):
@@ -638,3 +668,180 @@ def test_hemicube_item_buffer():
     assert np.sum(items[0] >= 0) == 32 * 32
     assert np.all(items[1:] < 0)
     assert f.sum() == pytest.approx(0.2395, abs=2e-3)
+
+
+# ----------------------------------------------------------------------------
+# the bubble mesh as the radiosity mesher
+# ----------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def cornell_lattice():
+    return mesh_scene(scenes.cornell_box(), 100.0, element_levels=1)
+
+
+@pytest.mark.parametrize("elements", ["split", "bubble"])
+def test_bubble_mesher_scene(elements, cornell_lattice):
+    s = scenes.cornell_box()
+    h = 100.0
+    em = bubble_element_mesher if elements == "bubble" else None
+    m = mesh_scene(s, h, element_levels=1, mesher=bubble_mesher, element_mesher=em)
+    # areas: elements tile their polygons and their patches exactly
+    per_poly = np.bincount(m.element_polygon, weights=m.element_area, minlength=len(s.polygons))
+    np.testing.assert_allclose(per_poly, [p.area for p in s.polygons], rtol=1e-9)
+    t = m.nodes[m.patches]
+    tri_area = 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
+    np.testing.assert_allclose(m.patch_area, tri_area, rtol=1e-9)
+    # ... and every element lies in its patch (barycentric coordinates of its centroid >= 0)
+    a, b, c = (m.nodes[m.patches[m.element_patch, k]] for k in range(3))
+    x = m.element_centroid
+    n = m.element_normal
+    for u, v in ((a, b), (b, c), (c, a)):
+        assert np.all(np.einsum("ij,ij->i", np.cross(v - u, x - u), n) > 0)
+    # elements face their polygon's front
+    e = m.nodes[m.elements]
+    cr = np.cross(e[:, 1] - e[:, 0], e[:, 2] - e[:, 0])
+    assert np.all(np.einsum("ij,ij->i", cr, n) > 0)
+    # counts: an equilateral packing of edge h has 4 A / (sqrt(3) h^2) triangles
+    target = sum(4 * p.area / (np.sqrt(3) * h * h) for p in s.polygons)
+    assert 0.85 * target <= m.n_patches <= 1.15 * target
+    per_patch = np.bincount(m.element_patch)
+    if elements == "split":
+        assert np.all(per_patch == 4)
+    else:
+        assert 0.9 * 4 <= per_patch.mean() <= 1.15 * 4 and per_patch.min() >= 1
+    # no T-vertices (Def. 2.5) inside any polygon
+    assert len(m.t_vertices()) == 0
+    # quality: the bubble mesh beats the lattice Delaunay on the same scene
+    ang, q = m.element_quality()
+    lang, lq = cornell_lattice.element_quality()
+    assert q.mean() > lq.mean()
+    if elements == "split":  # 1 -> 4 splitting keeps the patch shapes
+        assert ang.min() >= lang.min()
+
+
+def test_bubble_mesher_furnace_and_determinism():
+    s = scenes.furnace_box()
+    m = mesh_scene(s, 0.4, element_levels=1, mesher=bubble_mesher,
+                   element_mesher=bubble_element_mesher)
+    m2 = mesh_scene(s, 0.4, element_levels=1, mesher=bubble_mesher,
+                    element_mesher=bubble_element_mesher)
+    np.testing.assert_array_equal(m.nodes, m2.nodes)
+    np.testing.assert_array_equal(m.elements, m2.elements)
+    r = progressive_refinement(m, form_factors="analytic", tol=1e-6)
+    np.testing.assert_allclose(r.radiosity, 2.0, rtol=1e-3)  # E / (1 - rho) on any mesh
+    # the analytic factors are point values at element centroids, so sum_e A_e F(e -> p) = A_p
+    # (conservation) holds up to that quadrature only
+    np.testing.assert_allclose(r.absorbed_power(m) + r.unshot_power(m), r.emitted_power,
+                               rtol=1e-6)
+
+
+def test_polygon_views_quality_and_t_vertices():
+    s = Scene([square(), square(1.0, down=True)])
+    m = mesh_scene(s, 0.3, element_levels=1, mesher=bubble_mesher)
+    ang, q = m.element_quality()
+    # brute force in 3D: the same angles and radius ratios from the element's own edge lengths
+    t = m.nodes[m.elements]
+    lens = np.linalg.norm(t[:, [1, 2, 0]] - t[:, [2, 0, 1]], axis=2)  # opposite vertex k
+    a, b, c = lens.T
+    cosines = np.stack([(b * b + c * c - a * a) / (2 * b * c), (a * a + c * c - b * b) / (2 * a * c),
+                        (a * a + b * b - c * c) / (2 * a * b)], axis=1)
+    np.testing.assert_allclose(ang, np.degrees(np.arccos(cosines)).min(axis=1), atol=1e-9)
+    area = m.element_area
+    np.testing.assert_allclose(q, 2 * (2 * area / (a + b + c)) / (a * b * c / (4 * area)),
+                               rtol=1e-9)
+    xy, tris, el, nodes = m.polygon_elements(1)
+    np.testing.assert_array_equal(el, np.flatnonzero(m.element_polygon == 1))
+    np.testing.assert_allclose(s.polygons[1].to_3d(xy), m.nodes[nodes], atol=1e-12)
+    np.testing.assert_array_equal(nodes[tris], m.elements[el])
+    assert len(m.t_vertices()) == 0
+    # a hanging node: C = (0, 2, 3) has node 4 on its edge 0-2
+    sq = Scene([square()])
+    nodes3 = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 0]], dtype=float)
+    bad = RadiosityMesh(sq, nodes3, [[0, 1, 4], [4, 1, 2], [0, 2, 3]], [0, 0, 0], [[0, 1, 2]], [0])
+    assert bad.t_vertices().tolist() == [4]
+
+
+def test_hemicube_polygon_form_factor():
+    floor = square(0.0)
+    assert hemicube_polygon_form_factor(floor, square(1.0, down=True)) == pytest.approx(
+        F_PARALLEL_SQUARES, rel=0.01)
+    wall = Polygon([[0, 0, 0], [0, 1, 0], [0, 1, 1], [0, 0, 1]])
+    assert hemicube_polygon_form_factor(floor, wall) == pytest.approx(F_PERPENDICULAR_SQUARES,
+                                                                      rel=0.01)
+
+
+def test_mesher_input_checks():
+    ring = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    with pytest.raises(MeshError, match="size"):
+        bubble_mesher(ring, [], 0.0)
+    with pytest.raises(MeshError, match="bubble mesh"):
+        bubble_mesher(np.array([[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]]), [], 0.2)
+    with pytest.raises(MeshError, match="element_size"):
+        bubble_element_mesher(*lattice_delaunay_mesher(ring, [], 0.5), -1.0)
+
+    def shuffled(points, patches, size):
+        return points[::-1], patches, np.zeros(len(patches), dtype=np.int64)
+
+    with pytest.raises(MeshError, match="patch nodes first"):
+        mesh_scene(Scene([square()]), 0.5, element_mesher=shuffled)
+    with pytest.raises(MeshError, match="element_levels"):
+        mesh_scene(Scene([square()]), 0.5, element_levels=-1)
+
+
+# ----------------------------------------------------------------------------
+# adaptive subdivision (Def. 2.6)
+# ----------------------------------------------------------------------------
+def _shadow_scene():
+    floor = Polygon([[-2, 0, -2], [-2, 0, 2], [2, 0, 2], [2, 0, -2]], reflectance=0.5, name="floor")
+    light = AreaLight(np.array([[-0.1, 3, -0.1], [-0.1, 3, 0.1], [0.1, 3, 0.1],
+                                [0.1, 3, -0.1]])[::-1], emission=100.0)
+    blocker = Polygon([[-0.5, 1.5, -0.5], [0.5, 1.5, -0.5], [0.5, 1.5, 0.5], [-0.5, 1.5, 0.5]],
+                      reflectance=0.0, name="blocker")
+    return Scene([floor, light, blocker])
+
+
+def test_adaptive_refine_conforming_and_local():
+    s = _shadow_scene()
+    m = mesh_scene(s, 0.5, element_levels=1)
+    # 64 visibility samples on the light: a soft penumbra rather than a binary shadow
+    r = progressive_refinement(m, form_factors="analytic", visibility_level=3, tol=1e-6)
+    b = r.radiosity
+    thr = 0.1 * b[m.element_polygon == 0].max()
+    marked = mark_jumps(m, b, thr)
+    # brute force: pairs of elements sharing two nodes whose values differ by more than thr
+    ref = np.zeros(m.n_elements, dtype=bool)
+    for i in range(m.n_elements):
+        share = (np.isin(m.elements, m.elements[i]).sum(axis=1) == 2)
+        nb = np.flatnonzero(share)
+        if np.any(np.abs(b[nb] - b[i]).max(axis=1) > thr):
+            ref[i] = True
+    np.testing.assert_array_equal(marked, ref)
+    assert marked.any() and not marked.all()
+    ad = adaptive_refine(m, b, thr)
+    new = ad.mesh
+    assert ad.n_marked == marked.sum()
+    # the same patches; children tile their parents and stay in their patches
+    assert new.n_patches == m.n_patches
+    np.testing.assert_allclose(new.patch_area, m.patch_area, rtol=1e-12)
+    np.testing.assert_allclose(np.bincount(ad.parent, weights=new.element_area,
+                                           minlength=m.n_elements), m.element_area, rtol=1e-12)
+    np.testing.assert_array_equal(new.element_patch, m.element_patch[ad.parent])
+    children = np.bincount(ad.parent, minlength=m.n_elements)
+    assert np.all(children[marked] == 4) and set(np.unique(children)) <= {1, 2, 4}
+    assert new.n_elements > m.n_elements
+    # no T-vertices within any polygon
+    assert len(new.t_vertices()) == 0
+    # marking everything is the regular 1 -> 4 split
+    everything = adaptive_refine(m, b, 0.0, marked=np.ones(m.n_elements, dtype=bool)).mesh
+    assert everything.n_elements == 4 * m.n_elements
+    # the penumbra is continuous: solved again on the refined mesh, the largest jump between
+    # neighbouring floor elements shrinks
+    r2 = progressive_refinement(new, form_factors="analytic", visibility_level=3, tol=1e-6)
+    j1 = element_jumps(m, b)[m.element_polygon == 0].max()
+    j2 = element_jumps(new, r2.radiosity)[new.element_polygon == 0].max()
+    assert j2 < 0.8 * j1
+    with pytest.raises(MeshError, match="element_values"):
+        mark_jumps(m, b[:-1], thr)
+    with pytest.raises(MeshError, match="threshold"):
+        mark_jumps(m, b, -1.0)
+    # min_area stops the refinement
+    assert not mark_jumps(m, b, thr, min_area=m.element_area.max()).any()

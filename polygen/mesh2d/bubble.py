@@ -896,9 +896,17 @@ def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cyc
     cons = _boundary_edges(n_vertex, seg, eseg)
     mesh = constrained_delaunay(xy, cons, erase_outside=not internal)
     if internal:
-        # internal constraints defeat the parity rule: keep triangles by centroid
-        cen = mesh.nodes[mesh.triangles].mean(axis=1)
-        mesh = mesh._replace(triangles=mesh.triangles[loc.locate(cen)[0]])
+        # internal constraints defeat the parity rule: keep triangles by centroid.
+        # Between boundary nodes that are collinear up to round-off (a slanted
+        # edge split into patch nodes) the convex hull leaves zero-area slivers
+        # whose centroids sit on the boundary; no element can be that flat, so
+        # drop them (they would be T-vertices along the boundary).
+        tri = mesh.triangles
+        cen = mesh.nodes[tri].mean(axis=1)
+        a, b, c = (mesh.nodes[tri[:, k]] for k in range(3))
+        area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+        flat = np.abs(area2) <= 1e-8 * h_min * h_min
+        mesh = mesh._replace(triangles=tri[loc.locate(cen)[0] & ~flat])
     kind = np.full(len(xy), 2, np.int8)
     kind[:n_vertex] = 0
     kind[n_vertex:n_fixed] = 1

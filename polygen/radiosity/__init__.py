@@ -6,26 +6,41 @@ Layers, each usable on its own (chapters 3 and 4 build on them):
   point and parallel lights (Def. 2.1); :mod:`~polygen.radiosity.scenes`
   -- the Cornell box and the thesis's scenes;
 * :mod:`~polygen.radiosity.mesh` -- patches, elements, nodes (Defs 2.2-2.4)
-  and a pluggable per-polygon mesher;
+  and pluggable per-polygon meshers (lattice Delaunay, bubble mesh);
 * :mod:`~polygen.radiosity.formfactor` (Lambert's contour formula, ray-cast
   visibility) and :mod:`~polygen.radiosity.hemicube` (2.2.1);
 * :mod:`~polygen.radiosity.solve` -- progressive refinement (2.2.2) and
   Gauss-Seidel (2.3);
 * :mod:`~polygen.radiosity.raster` -- node intensities (2.8) and a Gouraud
-  scanline z-buffer (2.9, 2.10).
+  scanline z-buffer (2.9, 2.10);
+* :mod:`~polygen.radiosity.adaptive` -- adaptive subdivision of elements
+  (Def. 2.6), the baseline of chapters 3 and 4.
 """
 
+from polygen.radiosity.adaptive import (
+    AdaptiveRefinement,
+    adaptive_refine,
+    element_jumps,
+    mark_jumps,
+)
 from polygen.radiosity.formfactor import (
     FormFactorError,
     analytic_column,
     point_polygon_form_factor,
     polygon_form_factor,
 )
-from polygen.radiosity.hemicube import HemicubeError, delta_form_factors, hemicube_form_factors
+from polygen.radiosity.hemicube import (
+    HemicubeError,
+    delta_form_factors,
+    hemicube_form_factors,
+    hemicube_polygon_form_factor,
+)
 from polygen.radiosity.mesh import (
     MeshError,
     RadiosityMesh,
     assemble_mesh,
+    bubble_element_mesher,
+    bubble_mesher,
     lattice_delaunay_mesher,
     mesh_scene,
     split_triangles,
@@ -48,6 +63,7 @@ from polygen.radiosity.solve import (
 )
 
 __all__ = [
+    "AdaptiveRefinement",
     "AreaLight",
     "Camera",
     "FormFactorError",
@@ -62,13 +78,19 @@ __all__ = [
     "Scene",
     "SceneError",
     "SolverError",
+    "adaptive_refine",
     "analytic_column",
     "assemble_mesh",
+    "bubble_element_mesher",
+    "bubble_mesher",
     "delta_form_factors",
+    "element_jumps",
     "form_factor_matrix",
     "gauss_seidel",
     "hemicube_form_factors",
+    "hemicube_polygon_form_factor",
     "lattice_delaunay_mesher",
+    "mark_jumps",
     "mesh_scene",
     "node_intensities",
     "point_polygon_form_factor",

@@ -25,7 +25,7 @@ import numpy as np
 from polygen._jit import njit, prange
 
 __all__ = ["HemicubeError", "delta_form_factors", "hemicube_form_factors", "hemicube_column",
-           "plane_frame"]
+           "hemicube_polygon_form_factor", "plane_frame"]
 
 
 class HemicubeError(ValueError):
@@ -296,6 +296,48 @@ def hemicube_form_factors(centre, normal, nodes, triangles, *, resolution=100, f
     return _hemicube_raw(np.asarray(centre, dtype=np.float64), frame, nodes, tris, tri_normal,
                          np.ascontiguousarray(t.mean(axis=1)), skip, near, dtop, dside, res,
                          return_items)
+
+
+def hemicube_polygon_form_factor(emitter, receiver, *, resolution=100, order=4):
+    """Area-to-area form factor F(emitter -> receiver) by hemicubes on the emitter.
+
+    The hemicube gives point-to-polygon factors; averaging them over the
+    emitter (hemicubes at the points of a collapsed Gauss rule of
+    ``order**2`` points per emitter triangle) gives the area factor, the
+    quantity Howell's catalogue tabulates.  Compare with
+    :func:`polygen.radiosity.formfactor.polygon_form_factor` (the same
+    average of exact point factors).
+
+    Parameters
+    ----------
+    emitter, receiver : Polygon
+    resolution : int, keyword-only
+        Even top-face resolution.
+    order : int, keyword-only
+
+    Returns
+    -------
+    float
+    """
+    from polygen.radiosity.formfactor import _gauss_triangle
+    from polygen.radiosity.mesh import lattice_delaunay_mesher
+
+    def triangulated(poly):
+        pts2, tris = lattice_delaunay_mesher(poly.exterior_2d, poly.holes_2d, 10.0 * poly.diameter)
+        return poly.to_3d(pts2), tris
+
+    e3, etris = triangulated(emitter)
+    r3, rtris = triangulated(receiver)
+    bary, w = _gauss_triangle(order)
+    tp = e3[etris]
+    area = 0.5 * np.linalg.norm(np.cross(tp[:, 1] - tp[:, 0], tp[:, 2] - tp[:, 0]), axis=1)
+    qp = np.einsum("qk,tkc->tqc", bary, tp).reshape(-1, 3)
+    qw = (area[:, None] * w[None, :]).ravel()
+    frame = np.ascontiguousarray(np.stack([emitter.u, emitter.v, emitter.normal]))
+    delta = delta_form_factors(resolution)
+    f = np.array([hemicube_form_factors(x, emitter.normal, r3, rtris, frame=frame,
+                                        delta=delta).sum() for x in qp])
+    return float(np.sum(qw * f) / emitter.area)
 
 
 def _hemicube_raw(centre, frame, nodes, tris, tri_normal, tri_centroid, skip, near, dtop, dside,

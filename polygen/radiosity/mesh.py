@@ -1,4 +1,4 @@
-"""Patches, elements and nodes (thesis Defs 2.2-2.4) and a placeholder mesher.
+"""Patches, elements and nodes (thesis Defs 2.2-2.4) and the meshers that make them.
 
 A :class:`RadiosityMesh` is what the solvers take: any triangulation of the
 scene's polygons into *patches* (which shoot light), each patch subdivided
@@ -11,10 +11,15 @@ How patches are made is pluggable: :func:`mesh_scene` calls a *mesher*
 its plane.  The default, :func:`lattice_delaunay_mesher`, is the simplest
 thing that meets requirement 2.1 (concave polygons with holes): boundary
 edges split to the target size, a triangular lattice of interior nodes, and
-a constrained Delaunay triangulation (pythoncdt).  The bubble mesh of
-``polygen.mesh2d`` plugs in at the same place.  Elements come from patches
-by regular 1 -> 4 splitting, the "simple method" the thesis itself allows
-for this step (3.3.6 step 6).
+a constrained Delaunay triangulation (pythoncdt).  :func:`bubble_mesher`
+plugs the bubble mesh of ``polygen.mesh2d`` (2.3.3) in at the same place.
+
+Elements come from patches either by regular 1 -> 4 splitting (the default,
+the "simple method" the thesis itself allows for this step, 3.3.6 step 6),
+or by an *element mesher* ``element_mesher(points, patches, element_size)``
+such as :func:`bubble_element_mesher`, a finer bubble mesh constrained by
+the patch edges.  Either way the elements of one polygon share their nodes
+across patch edges, so there are no T-vertices (Def. 2.5).
 """
 
 from __future__ import annotations
@@ -27,6 +32,8 @@ __all__ = [
     "MeshError",
     "RadiosityMesh",
     "lattice_delaunay_mesher",
+    "bubble_mesher",
+    "bubble_element_mesher",
     "split_triangles",
     "mesh_scene",
     "assemble_mesh",
@@ -199,6 +206,61 @@ class RadiosityMesh:
                     (order // 3).astype(np.int64))
         return self._cached("ne", f)
 
+    # -- per-polygon views -----------------------------------------------------
+    def polygon_elements(self, polygon):
+        """The elements of one polygon as a planar mesh in the polygon's (u, v) frame.
+
+        Parameters
+        ----------
+        polygon : int
+
+        Returns
+        -------
+        xy : (n, 2) float64
+            Plane coordinates of the polygon's nodes.
+        triangles : (m, 3) int64
+            Its elements in local node numbers, counter-clockwise.
+        elements : (m,) int64
+            Their indices in the mesh.
+        nodes : (n,) int64
+            The mesh indices of the local nodes.
+        """
+        poly = self.scene.polygons[polygon]
+        el = np.flatnonzero(self.element_polygon == polygon)
+        nodes = np.unique(self.elements[el])
+        return poly.to_2d(self.nodes[nodes]), np.searchsorted(nodes, self.elements[el]), el, nodes
+
+    def element_quality(self):
+        """Smallest angle (degrees) and radius ratio ``2 r_in / R_circ`` of every element.
+
+        Returns
+        -------
+        min_angle : (M,) float64
+        q : (M,) float64
+        """
+        from polygen.mesh2d import triangle_quality
+
+        ang = np.empty(self.n_elements)
+        q = np.empty(self.n_elements)
+        for k in range(len(self.scene.polygons)):
+            xy, tris, el, _ = self.polygon_elements(k)
+            ang[el], q[el] = triangle_quality(xy, tris)
+        return ang, q
+
+    def t_vertices(self):
+        """Nodes that lie inside an edge of their polygon's element mesh (Def. 2.5).
+
+        Returns
+        -------
+        (K,) int64
+            Mesh node indices; empty for a conforming mesh.
+        """
+        from polygen.mesh2d import find_t_vertices
+
+        out = [nodes[find_t_vertices(xy, tris)[0]]
+               for xy, tris, _, nodes in map(self.polygon_elements, range(len(self.scene.polygons)))]
+        return np.concatenate(out).astype(np.int64) if out else np.zeros(0, dtype=np.int64)
+
     def __repr__(self):
         return (f"RadiosityMesh(scene={self.scene.name!r}, n_nodes={self.n_nodes}, "
                 f"n_elements={self.n_elements}, n_patches={self.n_patches})")
@@ -288,6 +350,88 @@ def lattice_delaunay_mesher(exterior, holes, size):
     signed = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
     triangles[signed < 0] = triangles[signed < 0][:, [0, 2, 1]]
     return points, triangles
+
+
+def bubble_mesher(exterior, holes, size, *, seed=0, **kwargs):
+    """Triangulate a 2D polygon with holes into patches by the bubble mesh (2.3.3).
+
+    Bubbles of diameter ``size`` on the polygon's vertices, then on its
+    edges, then inside, relaxed by the damped dynamics (2.13) with the cubic
+    inter-bubble force (2.12), and joined by constrained Delaunay; see
+    :func:`polygen.mesh2d.bubble_mesh`.  Same signature as
+    :func:`lattice_delaunay_mesher`, so it plugs into :func:`mesh_scene`
+    (use ``functools.partial`` to change ``seed`` or the relaxation).
+
+    Parameters
+    ----------
+    exterior : (n, 2) float64
+        Outer ring, not closed.
+    holes : list of (k, 2) float64
+        Hole rings.
+    size : float or callable
+        Target patch edge length, or a size field ``size(xy) -> (K,)``.
+    seed : int, keyword-only
+        Seed of the initial bubble placement.
+    **kwargs
+        Passed on to :func:`polygen.mesh2d.bubble_mesh`.
+
+    Returns
+    -------
+    points : (N, 2) float64
+        Vertex bubbles (the polygon's vertices), then edge, then face bubbles.
+    triangles : (T, 3) int64
+        Counter-clockwise.
+    """
+    from polygen.mesh2d import InvalidDomainError, bubble_mesh
+
+    if np.isscalar(size) and not size > 0:
+        raise MeshError(f"size must be > 0, got {size}")
+    try:
+        bm = bubble_mesh(np.asarray(exterior, dtype=np.float64),
+                         [np.asarray(h, dtype=np.float64) for h in holes], size, seed=seed,
+                         **kwargs)
+    except InvalidDomainError as exc:
+        raise MeshError(f"bubble mesh: {exc}") from None
+    return bm.nodes, bm.triangles
+
+
+def bubble_element_mesher(points, patches, element_size, *, seed=0, **kwargs):
+    """Split the patches of one polygon into elements by a finer bubble mesh.
+
+    Every patch node is a fixed bubble, every patch edge carries edge
+    bubbles shared by the two patches on it, and face bubbles fill each
+    patch; the constrained Delaunay of all bubbles keeps every patch edge,
+    so each element lies in one patch and neighbouring patches share their
+    element nodes (no T-vertex, Def. 2.5).  See
+    :func:`polygen.mesh2d.bubble_subdivide_patches`.
+
+    Parameters
+    ----------
+    points : (N, 2) float64
+        Patch nodes.
+    patches : (P, 3) int64
+        Counter-clockwise patch triangles of one polygon.
+    element_size : float or callable
+        Target element edge length (or a size field).
+    seed : int, keyword-only
+    **kwargs
+        Passed on to the relaxation.
+
+    Returns
+    -------
+    points : (N', 2) float64
+        The patch nodes first (same indices), then the new nodes.
+    elements : (M, 3) int64
+        Counter-clockwise.
+    element_patch : (M,) int64
+        The patch of each element.
+    """
+    from polygen.mesh2d import bubble_subdivide_patches
+
+    if np.isscalar(element_size) and not element_size > 0:
+        raise MeshError(f"element_size must be > 0, got {element_size}")
+    pe = bubble_subdivide_patches(points, patches, element_size, seed=seed, **kwargs)
+    return pe.nodes, pe.elements, pe.element_patch
 
 
 def split_triangles(points, triangles, levels):
@@ -383,7 +527,8 @@ def _ccw(pts2, tris):
     return np.where((signed < 0)[:, None], tris[:, [0, 2, 1]], tris)
 
 
-def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_mesher):
+def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_mesher,
+               element_mesher=None):
     """Mesh every polygon of a scene into patches and elements.
 
     Parameters
@@ -392,12 +537,21 @@ def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_m
     patch_size : float or sequence of float
         Target patch edge length, one for all polygons or one per polygon.
     element_levels : int, keyword-only
-        Each patch is split 1 -> 4 this many times into elements
-        (``4**element_levels`` elements per patch).
+        Element size is ``patch_size / 2**element_levels``: without an
+        ``element_mesher`` each patch is split 1 -> 4 this many times
+        (``4**element_levels`` elements per patch); with one, that is the
+        element size it is asked for (about ``4**element_levels`` elements
+        per patch on average).
     mesher : callable, keyword-only
         ``mesher(exterior (n, 2), holes [(k, 2)], size) -> (points (N, 2),
-        triangles (T, 3))`` in the polygon's (u, v) plane frame.  The
-        default is :func:`lattice_delaunay_mesher`.
+        triangles (T, 3))`` in the polygon's (u, v) plane frame: the
+        patches.  The default is :func:`lattice_delaunay_mesher`; the bubble
+        mesh is :func:`bubble_mesher`.
+    element_mesher : callable or None, keyword-only
+        ``element_mesher(points (N, 2), patches (P, 3), element_size) ->
+        (points (N', 2), elements (M, 3), element_patch (M,))`` with the
+        patch nodes first, e.g. :func:`bubble_element_mesher`.  None: regular
+        1 -> 4 splitting (:func:`split_triangles`).
 
     Returns
     -------
@@ -408,6 +562,8 @@ def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_m
     sizes = np.broadcast_to(np.asarray(patch_size, dtype=np.float64), (len(scene.polygons),))
     if np.any(~(sizes > 0)):
         raise MeshError(f"patch_size must be > 0, got {patch_size}")
+    if int(element_levels) != element_levels or element_levels < 0:
+        raise MeshError(f"element_levels must be a non-negative integer, got {element_levels}")
     per = 4 ** int(element_levels)
     pieces = []
     for k, poly in enumerate(scene.polygons):
@@ -416,6 +572,19 @@ def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_m
         tris = _ccw(pts2, np.asarray(tris, dtype=np.int64).reshape(-1, 3))
         if len(tris) == 0:
             raise MeshError(f"mesher returned no triangles for polygon {k} ({poly.name})")
-        epts, etris = split_triangles(pts2, tris, element_levels)
-        pieces.append((epts, tris, etris, np.repeat(np.arange(len(tris)), per)))
+        if element_mesher is None:
+            epts, etris = split_triangles(pts2, tris, element_levels)
+            epatch = np.repeat(np.arange(len(tris)), per)
+        else:
+            epts, etris, epatch = element_mesher(pts2, tris, float(sizes[k]) / 2 ** int(element_levels))
+            epts = np.asarray(epts, dtype=np.float64)
+            if len(epts) < len(pts2) or not np.array_equal(epts[:len(pts2)], pts2):
+                raise MeshError(f"element mesher must keep the patch nodes first "
+                                f"(polygon {k}, {poly.name})")
+            epatch = np.asarray(epatch, dtype=np.int64)
+            if len(epatch) != len(etris) or (len(epatch) and (epatch.min() < 0
+                                                             or epatch.max() >= len(tris))):
+                raise MeshError(f"element mesher returned a bad element -> patch map "
+                                f"(polygon {k}, {poly.name})")
+        pieces.append((epts, tris, etris, epatch))
     return assemble_mesh(scene, pieces)

@@ -19,6 +19,7 @@ __all__ = [
     "three_rectangles_box",
     "sphere_scene",
     "chair_scene",
+    "small_shadows_room",
     "CORNELL_WHITE",
     "CORNELL_RED",
     "CORNELL_GREEN",
@@ -198,6 +199,28 @@ def two_rectangles_room(*, emission=10.0, reflectance=0.6):
     polys += _two_sided(_rectangle([6.0, 3.5, 6.0], 2.0, 3.0, [1, 0, 0], [0, 0, 1]),
                         reflectance=reflectance, name="rect2")
     return Scene(polys, name="two_rectangles_room")
+
+
+def small_shadows_room(*, sizes=(0.4, 0.8, 1.6), height=2.0, light_size=1.0, emission=10.0,
+                       reflectance=0.6):
+    """A box room with a ceiling light and small floating squares (Fig. 2.8).
+
+    Room 10 x 10 x 10 (y up); a square light of side ``light_size`` in the
+    ceiling centre; two-sided horizontal squares of the given sides at
+    ``height`` above the floor, along the line z = 5 at x = 2.5, 5, 7.5
+    (for three squares).  Their shadows on the floor are about
+    ``1.25 * size`` wide (for the default height), so a first mesh coarser
+    than that can miss them.
+    """
+    room = np.array([10.0, 10.0, 10.0])
+    light = _ceiling_light(room, (light_size, light_size), emission=emission)
+    polys = box_room(room, reflectance=reflectance, light=light, name="room")
+    polys.append(AreaLight(light, emission=emission, name="light"))
+    xs = np.linspace(2.5, 7.5, len(sizes)) if len(sizes) > 1 else [5.0]
+    for k, (x, a) in enumerate(zip(xs, sizes)):
+        polys += _two_sided(_rectangle([x, height, 5.0], a, a, [1, 0, 0], [0, 0, 1]),
+                            reflectance=reflectance, name=f"square{k}")
+    return Scene(polys, name="small_shadows_room")
 
 
 def three_rectangles_box(*, emission=10.0, reflectance=0.6):

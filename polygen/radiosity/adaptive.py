@@ -1,0 +1,162 @@
+"""Adaptive subdivision of radiosity elements (thesis Def. 2.6, Fig. 2.8).
+
+After a first radiosity solution, elements whose radiosity differs from an
+edge neighbour's by more than a threshold are split 1 -> 4; neighbours are
+split at the same time (red-green closure of
+:func:`polygen.mesh2d.refine_marked`) so that no T-vertex (Def. 2.5)
+appears.  Patches are kept: every child element stays in its parent's
+patch, so the shooting side of progressive refinement is unchanged and only
+the gathering side gets finer.  Then the radiosity is solved again.
+
+This is the h-method baseline that chapters 3 (discontinuity meshing) and
+4 (intensity-based bubble mesh) are compared against.  Elements of
+different polygons share no nodes, so jumps across polygon edges (a wall
+meeting the floor) are not marks.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from polygen.mesh2d import refine_marked, triangle_edges
+from polygen.radiosity.mesh import MeshError, RadiosityMesh, assemble_mesh
+
+__all__ = ["AdaptiveRefinement", "element_jumps", "mark_jumps", "adaptive_refine"]
+
+
+@dataclass(frozen=True, eq=False)
+class AdaptiveRefinement:
+    """Result of :func:`adaptive_refine`.
+
+    Attributes
+    ----------
+    mesh : RadiosityMesh
+        The refined mesh (same patches, finer elements).
+    parent : (M2,) int64
+        The element of the input mesh that each new element lies in.
+    marked : (M,) bool
+        Elements of the input mesh marked by the threshold (before the
+        closure that keeps the mesh conforming).
+    """
+
+    mesh: RadiosityMesh
+    parent: np.ndarray
+    marked: np.ndarray
+
+    @property
+    def n_marked(self):
+        return int(self.marked.sum())
+
+
+def _polygon_pieces(mesh, k):
+    """Local node numbering of polygon k: (global nodes, elements, patches, element ids, patch ids)."""
+    el = np.flatnonzero(mesh.element_polygon == k)
+    pa = np.flatnonzero(mesh.patch_polygon == k)
+    used = np.unique(np.concatenate([mesh.elements[el].ravel(), mesh.patches[pa].ravel()]))
+    local = np.full(mesh.n_nodes, -1, dtype=np.int64)
+    local[used] = np.arange(len(used))
+    return used, local[mesh.elements[el]], local[mesh.patches[pa]], el, pa
+
+
+def element_jumps(mesh, element_values):
+    """Largest value difference between each element and its edge neighbours.
+
+    Parameters
+    ----------
+    mesh : RadiosityMesh
+    element_values : (M,) or (M, C) float64
+        E.g. element radiosities; the largest channel difference counts.
+
+    Returns
+    -------
+    (M,) float64
+        0 for an element without neighbours.
+    """
+    v = np.asarray(element_values, dtype=np.float64)
+    v = v.reshape(len(v), -1)
+    if v.shape[0] != mesh.n_elements:
+        raise MeshError(f"element_values must have {mesh.n_elements} rows, got {v.shape[0]}")
+    if not np.all(np.isfinite(v)):
+        raise MeshError("element_values contain NaN or inf")
+    # edges of the element mesh: nodes are shared within a polygon only, so an
+    # edge used twice joins two elements of the same polygon
+    _, tri_edge = triangle_edges(mesh.elements)
+    flat = tri_edge.ravel()
+    order = np.argsort(flat, kind="stable")
+    fs = flat[order]
+    pair = np.flatnonzero(fs[1:] == fs[:-1])
+    t1 = order[pair] // 3
+    t2 = order[pair + 1] // 3
+    d = np.abs(v[t1] - v[t2]).max(axis=1)
+    out = np.zeros(mesh.n_elements)
+    np.maximum.at(out, t1, d)
+    np.maximum.at(out, t2, d)
+    return out
+
+
+def mark_jumps(mesh, element_values, threshold, *, min_area=0.0):
+    """Elements whose value differs from an edge neighbour's by more than ``threshold``.
+
+    Parameters
+    ----------
+    mesh : RadiosityMesh
+    element_values : (M,) or (M, C) float64
+        E.g. element radiosities; the largest channel difference counts.
+    threshold : float
+        Absolute difference that marks both elements of an edge.
+    min_area : float, keyword-only
+        Elements not larger than this are never marked (stops the refinement
+        at a true discontinuity).
+
+    Returns
+    -------
+    (M,) bool
+    """
+    if not (np.isfinite(threshold) and threshold >= 0):
+        raise MeshError(f"threshold must be finite and >= 0, got {threshold}")
+    return (element_jumps(mesh, element_values) > threshold) & (mesh.element_area > min_area)
+
+
+def adaptive_refine(mesh, element_values, threshold, *, min_area=0.0, marked=None):
+    """One round of adaptive subdivision (Def. 2.6): split elements across big jumps.
+
+    Parameters
+    ----------
+    mesh : RadiosityMesh
+    element_values : (M,) or (M, C) float64
+        The first solution's element radiosities.
+    threshold : float
+        Split both elements of an edge whose values differ by more than this
+        (largest RGB channel).
+    min_area : float, keyword-only
+        Do not split elements of this area or smaller.
+    marked : (M,) bool, keyword-only
+        Use these marks instead of the threshold test.
+
+    Returns
+    -------
+    AdaptiveRefinement
+        Conforming within every polygon: marked elements split 1 -> 4, the
+        closure splitting neighbours 1 -> 4 or 1 -> 2.
+    """
+    if not isinstance(mesh, RadiosityMesh):
+        raise MeshError(f"mesh must be a RadiosityMesh, got {type(mesh).__name__}")
+    if marked is None:
+        marked = mark_jumps(mesh, element_values, threshold, min_area=min_area)
+    marked = np.asarray(marked, dtype=np.bool_).reshape(-1)
+    if marked.shape != (mesh.n_elements,):
+        raise MeshError(f"marked must have {mesh.n_elements} flags, got {marked.shape}")
+    pieces = []
+    parents = []
+    for k, poly in enumerate(mesh.scene.polygons):
+        used, el_local, pa_local, el, pa = _polygon_pieces(mesh, k)
+        pts2 = poly.to_2d(mesh.nodes[used])
+        patch_local = np.full(mesh.n_patches, -1, dtype=np.int64)
+        patch_local[pa] = np.arange(len(pa))
+        n2, t2, par, _ = refine_marked(pts2, el_local, marked[el])
+        pieces.append((n2, pa_local, t2, patch_local[mesh.element_patch[el[par]]]))
+        parents.append(el[par])
+    new = assemble_mesh(mesh.scene, pieces)
+    return AdaptiveRefinement(new, np.concatenate(parents).astype(np.int64), marked)
