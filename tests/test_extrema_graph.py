@@ -20,6 +20,13 @@ from polygen.volume.extrema_graph import (
 )
 from polygen.volume.isosurface import extract
 
+from _surfaces import assert_complete as _assert_complete  # noqa: E402
+
+
+def assert_complete(vol, field, values, **params):
+    """The extrema-graph isosurface equals the full scan's for every value."""
+    return _assert_complete("extrema-graph", vol, field, values, **params)
+
 # ------------------------------------------------------------------ helpers
 _KUHN = np.array([[0, 1, 2, 6], [0, 1, 5, 6], [0, 4, 5, 6], [0, 4, 7, 6], [0, 3, 7, 6], [0, 3, 2, 6]])
 _CORNERS = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]])
@@ -45,24 +52,6 @@ def grid_volume(keep, cell_type="tetra", jitter=0.0, seed=0):
         neg = vol6 < 0
         cells[neg, 1], cells[neg, 2] = cells[neg, 2], cells[neg, 1].copy()
     return UnstructuredVolume(pts, cells)
-
-
-def triangle_set(iso):
-    t = np.sort(iso.vertex_keys[iso.triangles], axis=1)
-    return t[np.lexsort(t.T[::-1])]
-
-
-def assert_complete(vol, field, values):
-    """The extrema-graph isosurface equals the full scan's for every value."""
-    m = methods.get("extrema-graph")(vol, field)
-    for v in values:
-        ours = m.extract(v)
-        ref = extract(vol, v, field=field)
-        a, b = triangle_set(ours), triangle_set(ref)
-        assert a.shape == b.shape and np.array_equal(a, b), (
-            f"value {v}: {a.shape[0]} triangles by the extrema graph, {b.shape[0]} by the scan")
-        assert m.stats["N_ci"] == ref.cells_intersected
-    return m
 
 
 def iso_values(s, n=200, seed=0):

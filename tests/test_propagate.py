@@ -9,23 +9,8 @@ from polygen.volume.propagate import Propagator, propagate
 
 pv = pytest.importorskip("pyvista")
 
-
-def grid_volume(dims, spacing=(1.0, 1.0, 1.0), *, tets=True, jitter=0.0, seed=0):
-    img = pv.ImageData(dimensions=dims, spacing=spacing)
-    grid = img.triangulate() if tets else img.cast_to_unstructured_grid()
-    vol = UnstructuredVolume.from_pyvista(grid)
-    if jitter:
-        rng = np.random.default_rng(seed)
-        vol = UnstructuredVolume(vol.points + jitter * min(spacing) * rng.uniform(-1, 1, vol.points.shape), vol.cells)
-    return vol
-
-
-def triangle_set(iso):
-    """Triangles as sets of vertex keys, with the orientation kept (rotated to start at the smallest key)."""
-    k = iso.vertex_keys[iso.triangles]
-    r = np.argmin(k, axis=1)
-    rolled = np.stack([k[np.arange(len(k)), (r + i) % 3] for i in range(3)], axis=1)
-    return {tuple(t) for t in rolled.tolist()}
+from _surfaces import grid_volume  # noqa: E402
+from _surfaces import oriented_triangles as triangle_set  # noqa: E402
 
 
 def assert_same_surface(a, b):
