@@ -1,0 +1,543 @@
+"""numba kernels of volume thinning (thesis 7.5, Fig. 7.5) and of 2D image thinning (7.3).
+
+Arrays only; the Python driver is :mod:`polygen.volume.thinning`.
+
+Cell classes (Def. 7.6) are ``int8``: ``-1`` marked (an extremum's cell),
+``0`` removed, ``n > 0`` the number of non-removed face neighbours.
+Node boundary-group numbers ``n_B`` (Def. 7.8) are ``int64``, 0 inside.
+Faces are given by a bit mask of their local nodes, so one kernel serves
+tetrahedra (4 faces of 3 nodes) and hexahedra (6 faces of 4 nodes).
+"""
+
+import numpy as np
+
+from polygen._jit import njit
+
+# slots of the ``stats`` array the thinning kernel fills
+ST_PROCESSED = 0  # 8 slots: cells taken from the FIFO of class q (index q)
+ST_REMOVED = 8  # 8 slots: cells removed from class q
+ST_WALKS = 16  # walks around a triple-shared edge
+ST_WALKS_OK = 17
+ST_PRICKS = 18  # voids pricked open
+ST_PRICK_FAILED = 19  # voids for which no layer cells could be found
+ST_PRICK_CELLS = 20  # cells removed by pricking
+ST_IMPLICIT = 21  # unmarked cells whose last non-removed neighbour was removed
+ST_STALE = 22  # FIFO entries skipped because the cell had moved to a lower class
+N_STATS = 24
+
+
+@njit
+def face_masks(local_faces, n_nodes):
+    """(F,) int64 bit mask of the local nodes of each local face."""
+    out = np.zeros(local_faces.shape[0], np.int64)
+    for f in range(local_faces.shape[0]):
+        m = 0
+        for j in range(local_faces.shape[1]):
+            m |= 1 << local_faces[f, j]
+        out[f] = m
+    return out
+
+
+@njit
+def _popcount(m):
+    n = 0
+    while m:
+        m &= m - 1
+        n += 1
+    return n
+
+
+@njit
+def _lowest_bit(m):
+    i = 0
+    while not (m >> i) & 1:
+        i += 1
+    return i
+
+
+@njit
+def _local_index(cells, c, node):
+    for i in range(cells.shape[1]):
+        if cells[c, i] == node:
+            return i
+    return -1
+
+
+@njit
+def initial_classes(face_nb, marked, cls):
+    """Def. 7.6: class = number of face neighbours; -1 for marked cells."""
+    m, nf = face_nb.shape
+    for c in range(m):
+        n = 0
+        for f in range(nf):
+            if face_nb[c, f] >= 0:
+                n += 1
+        cls[c] = n
+    for i in range(marked.shape[0]):
+        cls[marked[i]] = -1
+
+
+@njit
+def _walk(cells, face_nb, fmask, cls, e, start, goal, a, b):
+    """Walk around the edge (a, b) from ``start`` away from ``e`` through non-removed cells.
+
+    True when the walk reaches ``goal``: the edge shared by ``e``, ``start``
+    and ``goal`` (a triple-shared edge, Def. 7.3) is then not on the boundary
+    of the non-removed cells (Fig. 7.6 (a)).
+    """
+    prev = e
+    cur = start
+    for _ in range(100000):
+        la = _local_index(cells, cur, a)
+        lb = _local_index(cells, cur, b)
+        if la < 0 or lb < 0:
+            return False
+        m = (1 << la) | (1 << lb)
+        nxt = -2
+        for f in range(fmask.shape[0]):
+            if fmask[f] & m == m:
+                n = face_nb[cur, f]
+                if n != prev:
+                    nxt = n
+                    break
+        if nxt == goal:
+            return True
+        if nxt < 0 or nxt == e or cls[nxt] == 0:
+            return False
+        prev = cur
+        cur = nxt
+    return False
+
+
+@njit
+def _removable(c, cells, face_nb, fmask, cls, nb_node, stats, fa):
+    """The tests of 7.5.2 for an unmarked cell ``c`` of class >= 1 (tetrahedra and hexahedra).
+
+    ``fa`` is scratch space for the faces towards non-removed neighbours (6 entries).
+    """
+    nf = face_nb.shape[1]
+    q = cls[c]
+    if q == 1:
+        return True  # C1: no triple-shared edge, no quadruple-shared node
+    k = 0
+    for f in range(nf):
+        n = face_nb[c, f]
+        if n >= 0 and cls[n] != 0:
+            fa[k] = f
+            k += 1
+    if q == 2:
+        shared = fmask[fa[0]] & fmask[fa[1]]
+        if _popcount(shared) != 2:
+            return False  # hexahedron with opposite faces: no triple-shared edge (Fig. 7.13 (a))
+        la = _lowest_bit(shared)
+        lb = _lowest_bit(shared & ~(1 << la))
+        stats[ST_WALKS] += 1
+        ok = _walk(cells, face_nb, fmask, cls, c, face_nb[c, fa[0]], face_nb[c, fa[1]], cells[c, la], cells[c, lb])
+        if ok:
+            stats[ST_WALKS_OK] += 1
+        return ok
+    # quadruple-shared nodes: local nodes that lie on three of the non-removed faces
+    n_quad = 0
+    all_inside = True
+    for i in range(cells.shape[1]):
+        cnt = 0
+        for j in range(k):
+            if (fmask[fa[j]] >> i) & 1:
+                cnt += 1
+        if cnt >= 3:
+            n_quad += 1
+            if nb_node[cells[c, i]] != 0:
+                all_inside = False
+    if nf == 4:  # tetrahedron C3: one quadruple-shared node (Fig. 7.6 (b))
+        return all_inside
+    # hexahedra (7.5.2, Fig. 7.13)
+    if q == 3:
+        if n_quad == 1:
+            return all_inside
+        # two triple-shared edges: E_a-E_b and E_b-E_c, E_b adjacent to both
+        for mid in range(3):
+            o1 = (mid + 1) % 3
+            o2 = (mid + 2) % 3
+            s1 = fmask[fa[mid]] & fmask[fa[o1]]
+            s2 = fmask[fa[mid]] & fmask[fa[o2]]
+            if _popcount(s1) == 2 and _popcount(s2) == 2:
+                eb = face_nb[c, fa[mid]]
+                for side in range(2):
+                    s = s1 if side == 0 else s2
+                    other = face_nb[c, fa[o1]] if side == 0 else face_nb[c, fa[o2]]
+                    la = _lowest_bit(s)
+                    lb = _lowest_bit(s & ~(1 << la))
+                    stats[ST_WALKS] += 1
+                    if not _walk(cells, face_nb, fmask, cls, c, other, eb, cells[c, la], cells[c, lb]):
+                        return False
+                    stats[ST_WALKS_OK] += 1
+                return True
+        return False
+    if q == 4:
+        # two quadruple-shared nodes (adjacent open faces) or four triple-shared edges (opposite
+        # open faces: removing E could open an unneeded loop, so E stays)
+        return n_quad == 2 and all_inside
+    if q == 5:
+        return n_quad == 4 and all_inside
+    return False
+
+
+@njit
+def _remove(c, cells, face_nb, cls, nb_node, queue, head, tail, order, n_removed):
+    """Class C0 for ``c``; neighbours move one class down and into that class's FIFO (7.5.1)."""
+    nf = face_nb.shape[1]
+    cls[c] = 0
+    if order.shape[0] > 0:
+        order[n_removed] = c
+    # Def. 7.8: nodes of c with n_B = 0 come onto the boundary; they take the group of c's other nodes
+    lab = 0
+    for i in range(cells.shape[1]):
+        v = nb_node[cells[c, i]]
+        if v != 0:
+            lab = v
+            break
+    if lab != 0:
+        for i in range(cells.shape[1]):
+            if nb_node[cells[c, i]] == 0:
+                nb_node[cells[c, i]] = lab
+    implicit = 0
+    for f in range(nf):
+        n = face_nb[c, f]
+        if n >= 0 and cls[n] > 0:
+            cls[n] -= 1
+            q = cls[n]
+            if q > 0:
+                queue[q, tail[q]] = n
+                tail[q] += 1
+            else:
+                implicit += 1
+    return implicit
+
+
+@njit
+def _out_side(lab, root, is_void):
+    return lab > 0 and not is_void[root[lab]]
+
+
+@njit
+def _face_side(c, f, cells, local_faces, nb_node, root, is_void, g):
+    """1 when every node of local face f of c is on an outer (or already pricked) group, 2 when on void g, else 0."""
+    all_out = True
+    all_in = True
+    for j in range(local_faces.shape[1]):
+        lab = nb_node[cells[c, local_faces[f, j]]]
+        if not _out_side(lab, root, is_void):
+            all_out = False
+        if lab <= 0 or root[lab] != g:
+            all_in = False
+    if all_out:
+        return 1
+    if all_in:
+        return 2
+    return 0
+
+
+@njit
+def _open_sides(c, cells, face_nb, local_faces, cls, nb_node, root, is_void, g):
+    """Bit 1: c has an open face on the outer side; bit 2: an open face on void g."""
+    out = 0
+    for f in range(face_nb.shape[1]):
+        n = face_nb[c, f]
+        if n < 0 or cls[n] == 0:
+            out |= _face_side(c, f, cells, local_faces, nb_node, root, is_void, g)
+    return out
+
+
+@njit
+def _find_prick(cells, face_nb, local_faces, cls, nb_node, root, is_void, g, picked):
+    """Cells whose removal joins void g's layer to the outer boundary (7.5.3, Fig. 7.7).
+
+    A cell with open faces on both sides (hexahedra in a one-cell layer), else
+    the thesis's three: E with nodes on both sides, a neighbour E_1 with an
+    open face on the outer side and a neighbour E_2 with an open face on the
+    void. Returns how many cells were written to ``picked``.
+    """
+    m = cells.shape[0]
+    for c in range(m):
+        if cls[c] > 0 and _open_sides(c, cells, face_nb, local_faces, cls, nb_node, root, is_void, g) == 3:
+            picked[0] = c
+            return 1
+    for c in range(m):
+        if cls[c] <= 0:
+            continue
+        n_out = 0
+        n_in = 0
+        for i in range(cells.shape[1]):
+            lab = nb_node[cells[c, i]]
+            if _out_side(lab, root, is_void):
+                n_out += 1
+            elif lab > 0 and root[lab] == g:
+                n_in += 1
+        if n_out == 0 or n_in == 0:
+            continue
+        e1 = -1
+        e2 = -1
+        for f in range(face_nb.shape[1]):
+            n = face_nb[c, f]
+            if n < 0 or cls[n] <= 0:
+                continue
+            sides = _open_sides(n, cells, face_nb, local_faces, cls, nb_node, root, is_void, g)
+            if sides == 1 and e1 < 0:
+                e1 = n
+            elif sides == 2 and e2 < 0:
+                e2 = n
+        if e1 >= 0 and e2 >= 0:
+            picked[0] = e1
+            picked[1] = c
+            picked[2] = e2
+            return 3
+    return 0
+
+
+@njit
+def thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, prick, order, prick_log, stats):
+    """Volume thinning (Fig. 7.5) in place on ``cls`` (classes) and ``nb_node`` (n_B).
+
+    Parameters
+    ----------
+    cells (M, k), face_nb (M, F), local_faces (F, 3|4), fmask (F,)
+    cls : (M,) int8, from :func:`initial_classes`
+    nb_node : (N,) int64, boundary-group number of each node (0 inside)
+    root : (G+1,) int64, root[g] = g; a pricked void is joined to an outer group here
+    is_void : (G+1,) bool, group g bounds a void
+    prick : bool, open the layers around voids (7.5.3)
+    order : (M,) int64 or (0,); removed cells in removal order are written here (the recorder)
+    prick_log : (G+1, 3) int64; per prick: removals before it, the void's group, cells removed
+    stats : (N_STATS,) int64 counters
+
+    Returns
+    -------
+    n_removed : int
+    n_pricks : int
+    """
+    m = cells.shape[0]
+    nf = face_nb.shape[1]
+    queue = np.empty((nf, m), np.int32)  # one FIFO per class 1 .. F-1 (row 0 unused)
+    head = np.zeros(nf, np.int64)
+    tail = np.zeros(nf, np.int64)
+    for c in range(m):
+        q = cls[c]
+        if 0 < q < nf:  # touches the boundary and has a neighbour
+            queue[q, tail[q]] = c
+            tail[q] += 1
+    n_removed = 0
+    n_pricks = 0
+    tried = np.zeros(is_void.shape[0], np.bool_)
+    picked = np.empty(3, np.int64)
+    fa = np.empty(6, np.int64)
+    while True:
+        q = 1
+        c = -1
+        while q < nf:  # the lowest class first (7.5.2)
+            while head[q] < tail[q]:
+                x = queue[q, head[q]]
+                head[q] += 1
+                if cls[x] == q:
+                    c = x
+                    break
+                stats[ST_STALE] += 1
+            if c >= 0:
+                break
+            q += 1
+        if c >= 0:
+            stats[ST_PROCESSED + q] += 1
+            if _removable(c, cells, face_nb, fmask, cls, nb_node, stats, fa):
+                stats[ST_REMOVED + q] += 1
+                stats[ST_IMPLICIT] += _remove(c, cells, face_nb, cls, nb_node, queue, head, tail, order, n_removed)
+                n_removed += 1
+            continue
+        if not prick:
+            break
+        # every FIFO is empty: prick one layer around a void and resume (7.5.3)
+        g = -1
+        for h in range(1, is_void.shape[0]):
+            if is_void[h] and root[h] == h and not tried[h]:
+                g = h
+                break
+        if g < 0:
+            break
+        tried[g] = True
+        k = _find_prick(cells, face_nb, local_faces, cls, nb_node, root, is_void, g, picked)
+        if k == 0:
+            stats[ST_PRICK_FAILED] += 1
+            continue
+        # the void's group joins the outer group of the cells' outer side
+        out_lab = 0
+        for i in range(cells.shape[1]):
+            lab = nb_node[cells[picked[0], i]]
+            if _out_side(lab, root, is_void):
+                out_lab = root[lab]
+                break
+        prick_log[n_pricks, 0] = n_removed
+        prick_log[n_pricks, 1] = g
+        prick_log[n_pricks, 2] = k
+        n_pricks += 1
+        for j in range(k):
+            stats[ST_IMPLICIT] += _remove(picked[j], cells, face_nb, cls, nb_node, queue, head, tail, order, n_removed)
+            n_removed += 1
+        root[g] = out_lab
+        stats[ST_PRICKS] += 1
+        stats[ST_PRICK_CELLS] += k
+    return n_removed, n_pricks
+
+
+@njit
+def neighbour_counts(face_nb, cls, cells_of_interest, out):
+    """Non-removed face neighbours of each listed cell (the classes of Table 7.2)."""
+    for i in range(cells_of_interest.shape[0]):
+        c = cells_of_interest[i]
+        n = 0
+        for f in range(face_nb.shape[1]):
+            nb = face_nb[c, f]
+            if nb >= 0 and cls[nb] != 0:
+                n += 1
+        out[i] = n
+
+
+@njit
+def query(skel_cells, skel_min, skel_max, offsets, ids, lo, hi, width, nb, value, hits):
+    """Test the skeleton cells of the value class of ``value`` (7.5.4, 7.5.5 step 4 (a)).
+
+    A cell is crossed when ``S_min < C <= S_max`` (the marching cases'
+    "node >= C" convention). Returns ``(n_hits, n_tested)``.
+    """
+    if not (lo <= value <= hi):
+        return 0, 0
+    if width <= 0.0:
+        b = 0
+    else:
+        t = (value - lo) / width
+        if t <= 0.0:
+            b = 0
+        elif t >= nb - 1:
+            b = nb - 1
+        else:
+            b = int(t)
+    k = 0
+    for j in range(offsets[b], offsets[b + 1]):
+        i = ids[j]
+        if skel_min[i] < value <= skel_max[i]:
+            hits[k] = skel_cells[i]
+            k += 1
+    return k, offsets[b + 1] - offsets[b]
+
+
+# ------------------------------------------------------------------ 2D image thinning (7.3)
+# the 8 neighbours of a pixel in cyclic order, starting east, counter-clockwise (Fig. 7.2 numbering)
+_DI = np.array([0, -1, -1, -1, 0, 1, 1, 1], np.int64)
+_DJ = np.array([1, 1, 0, -1, -1, -1, 0, 1], np.int64)
+
+
+@njit
+def _pixel(img, i, j):
+    if i < 0 or j < 0 or i >= img.shape[0] or j >= img.shape[1]:
+        return False
+    return img[i, j]
+
+
+@njit
+def _pixel_removable(img, i, j):
+    """The two conditions of 7.3 for a border pixel (Fig. 7.2 (b)-(e))."""
+    nb = np.zeros(8, np.bool_)
+    n_edge = 0
+    n_all = 0
+    for k in range(8):
+        nb[k] = _pixel(img, i + _DI[k], j + _DJ[k])
+        if nb[k]:
+            n_all += 1
+            if k % 2 == 0:
+                n_edge += 1
+    if n_edge == 0:
+        return False  # an isolated pixel or one joined by corners only: keep it
+    if n_edge == 1 and n_all == 1:
+        return False  # the end of a line: removing it would shorten the skeleton
+    # the remaining pixels around p must form one run that holds every edge neighbour
+    start = -1
+    for k in range(8):
+        if not nb[k]:
+            start = k
+            break
+    if start < 0:
+        return False  # an interior pixel
+    runs = 0
+    edge_runs = 0
+    k = 0
+    while k < 8:
+        idx = (start + k) % 8
+        if nb[idx]:
+            runs += 1
+            has_edge = False
+            while k < 8 and nb[(start + k) % 8]:
+                if (start + k) % 2 == 0:
+                    has_edge = True
+                k += 1
+            if has_edge:
+                edge_runs += 1
+        else:
+            k += 1
+    return edge_runs == 1
+
+
+@njit
+def thin_image(img, order):
+    """Remove border pixels, layer by layer, until no pixel can go (7.3). Returns removals."""
+    n = 0
+    h, w = img.shape
+    border = np.empty((h * w, 2), np.int64)
+    while True:
+        nb_ = 0
+        for i in range(h):
+            for j in range(w):
+                if img[i, j] and (not _pixel(img, i - 1, j) or not _pixel(img, i + 1, j)
+                                  or not _pixel(img, i, j - 1) or not _pixel(img, i, j + 1)):
+                    border[nb_, 0] = i
+                    border[nb_, 1] = j
+                    nb_ += 1
+        removed = 0
+        for t in range(nb_):
+            i = border[t, 0]
+            j = border[t, 1]
+            if _pixel_removable(img, i, j):
+                img[i, j] = False
+                if order.shape[0] > 0:
+                    order[n, 0] = i
+                    order[n, 1] = j
+                n += 1
+                removed += 1
+        if removed == 0:
+            return n
+
+
+# ------------------------------------------------------------------ is the boundary a 2-manifold?
+@njit
+def _find(parent, i):
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@njit
+def corner_fans(n_corners, edge_corners):
+    """Union-find over the corners (face, local node) of the boundary faces.
+
+    ``edge_corners`` (E, 4): for each boundary edge shared by exactly two
+    faces, the corner ids of its first node in both faces and of its second
+    node in both faces. Returns the root of every corner: the corners of a
+    node in one root form one fan of faces around it.
+    """
+    parent = np.arange(n_corners)
+    for e in range(edge_corners.shape[0]):
+        for j in range(2):
+            a = _find(parent, edge_corners[e, 2 * j])
+            b = _find(parent, edge_corners[e, 2 * j + 1])
+            if a != b:
+                parent[max(a, b)] = min(a, b)
+    for i in range(n_corners):
+        parent[i] = _find(parent, i)
+    return parent

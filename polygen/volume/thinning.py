@@ -1,0 +1,515 @@
+"""Volume thinning: isosurfaces from a skeleton that keeps the volume's genus (thesis chapter 7).
+
+With through-holes an extrema graph can miss parts of an isosurface (Fig.
+7.1, Thm 7.3): a surface cut in two by a hole is crossed by the graph only
+once. A skeleton that joins the extrema *and* keeps a loop around every
+through-hole crosses every part, so no boundary cell lists are needed. The
+skeleton is made by removing cells one at a time from the outside, as 2D
+image thinning removes pixels (7.3, :func:`thin_image`).
+
+Preprocessing (once per volume and field, Fig. 7.5, :func:`thin_volume`):
+
+1. **Marks** (Defs 7.1, 7.9). The extrema are found as in chapter 6
+   (:func:`polygen.volume.extrema_graph.find_extrema`); one cell touching
+   each extremum is marked, class C_-1, and is never removed. (A
+   face-connected part of the volume that holds no extremum of its own --
+   possible only when parts touch at a node -- gets one marked cell too, so
+   no part vanishes.)
+2. **Classes and boundary groups** (7.5.1, Defs 7.6-7.8). The class C_n of
+   a cell is its number of non-removed face neighbours; removed cells are
+   C_0. Every node on the boundary gets the number ``n_B`` of its connected
+   boundary-face group (1 = outer surface, 2.. = voids; see
+   :attr:`UnstructuredVolume.boundary_groups`), inner nodes 0. The cells
+   that touch the boundary go into one FIFO per class (C_1 .. C_3 for
+   tetrahedra, C_1 .. C_5 for hexahedra).
+3. **Removal** (7.5.2, Figs 7.6, 7.13), always from the lowest non-empty
+   class: C_1 cells go; a C_2 cell goes when the walk around the edge it
+   shares with its two neighbours E_a, E_b (the triple-shared edge, Def.
+   7.3) leads from E_a to E_b through non-removed cells; a tetrahedral C_3
+   cell goes when the node shared with its three neighbours (the
+   quadruple-shared node, Def. 7.4) has ``n_B = 0``. Hexahedra: C_2 needs a
+   triple-shared edge (adjacent neighbours) and the walk; C_3 either one
+   inner quadruple-shared node or two successful walks; C_4 two inner
+   quadruple-shared nodes (with opposite open faces it stays); C_5 four.
+   A removed cell's inner nodes come onto the boundary and take the group
+   of its other nodes; its neighbours move one class down, into that
+   class's FIFO.
+4. **Voids** (7.5.3, Fig. 7.7). When every FIFO is empty, each void is
+   still wrapped in a layer of cells. One layer is pricked open: the
+   thesis's three cells -- E with nodes on the outer side and on the void,
+   a neighbour E_1 open to the outer side and a neighbour E_2 open to the
+   void (for hexahedra a single cell open to both sides when there is one)
+   -- are removed, and thinning resumes. Once per void.
+5. **Registration** (7.5.4). The cells left (classes other than C_0) are
+   the skeleton; they are put into value classes by their node range
+   (Gallagher's span filter, :class:`polygen.volume.seeds.span_filter.SpanFilter`).
+
+The query (7.5.5, :meth:`Skeleton.seeds`) tests the skeleton cells of the
+value class of C and grows the surface from every hit by propagation
+(:class:`polygen.volume.propagate.Propagator`). Preprocessing is O(n): each
+cell enters each class's FIFO at most once (7.6).
+
+The method is registered as ``thinning`` in :mod:`polygen.volume.methods`::
+
+    m = methods.get("thinning")(vol)
+    iso = m.extract(0.5)
+    m.skeleton.stats   # Table 7.1/7.2 quantities; m.stats: this call's T_mg, N_cg, N_ci
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+import warnings
+
+import numpy as np
+
+from polygen.volume import _thinning_kernels as _k
+from polygen.volume.extrema_graph import Extrema, find_extrema
+from polygen.volume.isosurface import IsoSurfaceError, _check_value, _volume_arrays
+from polygen.volume.methods import IsosurfaceMethod, register
+from polygen.volume.propagate import Propagator
+from polygen.volume.seeds.span_filter import SpanFilter
+
+__all__ = [
+    "ThinningError",
+    "ThinningWarning",
+    "boundary_defects",
+    "ThinningRecord",
+    "Skeleton",
+    "SkeletonSeeds",
+    "ThinningMethod",
+    "thin_volume",
+    "thin_image",
+    "pixel_removable",
+    "cell_subset_volume",
+]
+
+
+class ThinningError(IsoSurfaceError):
+    """Bad input to volume or image thinning (the message says what)."""
+
+
+class ThinningWarning(UserWarning):
+    """The volume is outside the theorems' assumptions (its boundary is no 2-manifold)."""
+
+
+def boundary_defects(vol):
+    """Where the boundary of ``vol`` is not a 2-manifold.
+
+    Thms 7.4-7.6 count the genus of the boundary surface (Def. 5.8), which
+    needs a surface: every boundary edge on exactly two boundary faces, and
+    the boundary faces around every boundary node joined through edges in
+    one fan. Cells that touch only at an edge or a node break this; the
+    skeleton may then miss parts of an isosurface.
+
+    Returns
+    -------
+    edges : (E, 2) int64
+        Boundary edges on other than two boundary faces.
+    nodes : (V,) int64
+        Boundary nodes whose boundary faces form more than one fan.
+    """
+    fn = np.ascontiguousarray(vol.boundary_face_nodes, np.int64)
+    nbf, k = fn.shape
+    corner = np.arange(nbf * k, dtype=np.int64).reshape(nbf, k)
+    a = fn.ravel()
+    b = np.roll(fn, -1, axis=1).ravel()
+    ca = corner.ravel()
+    cb = np.roll(corner, -1, axis=1).ravel()
+    swap = a > b
+    lo, hi = np.where(swap, b, a), np.where(swap, a, b)
+    clo, chi = np.where(swap, cb, ca), np.where(swap, ca, cb)
+    order = np.lexsort((hi, lo))
+    lo, hi, clo, chi = lo[order], hi[order], clo[order], chi[order]
+    start = np.flatnonzero(np.r_[True, (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])])
+    count = np.diff(np.r_[start, lo.size])
+    bad_edges = np.stack([lo[start[count != 2]], hi[start[count != 2]]], axis=1)
+    two = start[count == 2]
+    pairs = np.ascontiguousarray(np.stack([clo[two], clo[two + 1], chi[two], chi[two + 1]], axis=1))
+    root = _k.corner_fans(nbf * k, pairs)
+    key = np.unique(a * (nbf * k) + root)
+    node_of = key // (nbf * k)
+    fans = np.bincount(node_of, minlength=vol.n_points)
+    return bad_edges.astype(np.int64), np.flatnonzero(fans > 1).astype(np.int64)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class ThinningRecord:
+    """The thinning process, for Figs 7.18-7.21: which cells remain after k removals.
+
+    Attributes
+    ----------
+    removal_order : (R,) int64
+        Cells in the order they were removed (pricked cells included).
+    pricks : (P, 3) int64
+        Per pricked void: removals before it, the void's boundary group, cells it removed.
+    n_cells : int
+    """
+
+    removal_order: np.ndarray
+    pricks: np.ndarray
+    n_cells: int
+
+    @property
+    def n_removed(self) -> int:
+        return int(self.removal_order.shape[0])
+
+    def remaining(self, k):
+        """(M,) bool: the cells not removed after the first ``k`` removals."""
+        k = int(k)
+        if not 0 <= k <= self.n_removed:
+            raise ThinningError(f"k must be in 0..{self.n_removed}; got {k}")
+        keep = np.ones(self.n_cells, bool)
+        keep[self.removal_order[:k]] = False
+        return keep
+
+    def steps(self, n):
+        """``n`` removal counts from 0 to the end, evenly spaced (for a strip of figures)."""
+        return np.unique(np.linspace(0, self.n_removed, int(n)).round().astype(np.int64))
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class SkeletonSeeds:
+    """The seeds of one query (7.5.5) and its counters.
+
+    Attributes
+    ----------
+    value : float
+    cells : (K,) int64
+        Skeleton cells the surface crosses.
+    n_tested : int
+        Skeleton cells of the value class, all tested (N_cg).
+    t_search : float
+        Seconds.
+    """
+
+    value: float
+    cells: np.ndarray
+    n_tested: int
+    t_search: float
+
+
+@dataclasses.dataclass(eq=False)
+class Skeleton:
+    """The skeleton of one volume and field after thinning (7.5.1-7.5.4).
+
+    Attributes
+    ----------
+    vol : UnstructuredVolume
+    s : (N,) float64
+    extrema : Extrema
+    marked : (X,) int64
+        Marked cells (class C_-1), one per extremum (plus one per part without an extremum).
+    classes : (M,) int8
+        Final class of every cell: -1 marked, 0 removed, n non-removed neighbours.
+    cells : (K,) int64
+        The skeleton: cells of class other than C_0, ascending.
+    neighbour_counts : (K,) int64
+        Non-removed face neighbours of each skeleton cell, marked ones included
+        (the classes of Table 7.2).
+    node_groups : (N,) int64
+        ``n_B`` after thinning (nodes that came onto the boundary took a group).
+    group_root : (G+1,) int64
+        After pricking, the outer group a void was joined to (``group_root[g] == g`` otherwise).
+    unpricked_voids : (V,) int64
+        Voids whose layer no cell configuration could open (their layer stays).
+    record : ThinningRecord or None
+    stats : dict
+        ``T_topology`` (face neighbours and boundary groups, when not cached),
+        ``T_check`` (:func:`boundary_defects`), ``nonmanifold_edges``, ``nonmanifold_nodes``,
+        ``T_pe`` (extrema and marks), ``T_thin`` (classes, n_B, removal),
+        ``T_register`` (value classes), ``T_total`` (all but topology), ``extrema``,
+        ``skeleton_cells`` (N_e2 of Table 7.1), ``C1`` .. ``C6`` (Table 7.2),
+        ``processed``/``removed`` per class, ``walks``, ``pricks``, ``prick_cells``.
+    """
+
+    vol: object
+    s: np.ndarray
+    extrema: Extrema
+    marked: np.ndarray
+    classes: np.ndarray
+    cells: np.ndarray
+    neighbour_counts: np.ndarray
+    node_groups: np.ndarray
+    group_root: np.ndarray
+    unpricked_voids: np.ndarray
+    record: ThinningRecord | None
+    stats: dict
+    _cmin: np.ndarray = dataclasses.field(repr=False, default=None)
+    _cmax: np.ndarray = dataclasses.field(repr=False, default=None)
+    _buckets: SpanFilter = dataclasses.field(repr=False, default=None)
+    _hits: np.ndarray = dataclasses.field(repr=False, default=None)
+
+    @property
+    def n_cells(self) -> int:
+        return int(self.cells.shape[0])
+
+    def __repr__(self):
+        st = self.stats
+        return (f"Skeleton({self.n_cells} of {self.vol.n_cells} cells, {st['extrema']} extrema, "
+                f"{st['pricks']} voids pricked, preprocess {st['T_total']:.3g} s)")
+
+    def mask(self):
+        """(M,) bool: the skeleton cells."""
+        return self.classes != 0
+
+    def seeds(self, value):
+        """Skeleton cells crossed by ``S = value``, from its value class (7.5.4, 7.5.5).
+
+        Parameters
+        ----------
+        value : float
+
+        Returns
+        -------
+        SkeletonSeeds
+        """
+        value = _check_value(value)
+        b = self._buckets
+        t0 = time.perf_counter()
+        k, tested = _k.query(self.cells, self._cmin, self._cmax, b.offsets, b.ids, b.lo, b.hi, b.width,
+                             b.n_buckets, value, self._hits)
+        t = time.perf_counter() - t0
+        return SkeletonSeeds(value=value, cells=self._hits[:k].copy(), n_tested=int(tested), t_search=t)
+
+    def as_volume(self):
+        """The skeleton as an :class:`UnstructuredVolume` of its own (nodes compacted, fields kept)."""
+        return cell_subset_volume(self.vol, self.cells)
+
+
+def cell_subset_volume(vol, cells):
+    """A volume made of some cells of ``vol``, its unused nodes dropped.
+
+    Parameters
+    ----------
+    vol : UnstructuredVolume
+    cells : (K,) int64 cell ids, or (M,) bool mask
+
+    Returns
+    -------
+    UnstructuredVolume
+        Fields are carried over; boundary groups, genus and voids are the subset's own.
+    """
+    from polygen.volume.mesh import UnstructuredVolume
+
+    idx = np.asarray(cells)
+    if idx.dtype == bool:
+        if idx.shape != (vol.n_cells,):
+            raise ThinningError(f"a cell mask must have shape ({vol.n_cells},); got {idx.shape}")
+        idx = np.flatnonzero(idx)
+    if idx.ndim != 1 or idx.size == 0:
+        raise ThinningError("cell_subset_volume needs at least one cell")
+    sub = vol.cells[idx]
+    used, inv = np.unique(sub, return_inverse=True)
+    return UnstructuredVolume(vol.points[used], inv.reshape(sub.shape), {k: v[used] for k, v in vol.fields.items()},
+                              validate=False)
+
+
+def _marked_cells(vol, ext):
+    """One cell per extremum (Def. 7.9), plus one for each face-connected part with none."""
+    off, nc = vol.node_cells
+    marked = np.asarray(nc)[np.asarray(off)[ext.nodes]]
+    labels, n = vol.cell_components
+    if n > 1:
+        has = np.zeros(n, bool)
+        has[labels[marked]] = True
+        if not has.all():
+            _, first = np.unique(labels, return_index=True)
+            marked = np.concatenate([marked, first[~has]])
+    return np.unique(marked).astype(np.int64)
+
+
+def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=None):
+    """Thin ``vol`` to a skeleton joining its extrema that keeps its genus (thesis 7.4-7.5).
+
+    Parameters
+    ----------
+    vol : UnstructuredVolume
+        Tetrahedra or hexahedra.
+    field : str or (N,) float64, optional
+        Field name or node values; the volume's first field by default.
+    prick_voids : bool, keyword-only
+        Open the layers left around voids and resume thinning (7.5.3).
+    record : bool, keyword-only
+        Keep the removal order (:class:`ThinningRecord`, Figs 7.18-7.21).
+    n_buckets : int, keyword-only, optional
+        Value classes of the skeleton (7.5.4); by default about one per
+        eight skeleton cells, at most 1024.
+
+    Returns
+    -------
+    Skeleton
+    """
+    _, cells, s, cell_type = _volume_arrays(vol, field)
+    if n_buckets is not None and (isinstance(n_buckets, bool) or not isinstance(n_buckets, (int, np.integer))
+                                  or n_buckets < 1):
+        raise ThinningError(f"n_buckets must be a positive integer; got {n_buckets!r}")
+    cells = np.ascontiguousarray(cells, np.int64)
+    t0 = time.perf_counter()
+    face_nb = np.ascontiguousarray(vol.face_neighbors, np.int64)
+    groups = vol.boundary_groups
+    bfn = vol.boundary_face_nodes
+    is_void_g = vol.group_is_void
+    vol.node_cells
+    vol.cell_components
+    t_topology = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    bad_edges, bad_nodes = boundary_defects(vol)
+    t_check = time.perf_counter() - t0
+    if bad_edges.size or bad_nodes.size:
+        warnings.warn(
+            f"the boundary of this volume is not a 2-manifold ({bad_edges.shape[0]} edges and {bad_nodes.size} "
+            "nodes where cells touch without a shared face, e.g. nodes "
+            f"{(bad_nodes if bad_nodes.size else bad_edges.ravel())[:5].tolist()}): Thms 7.4-7.6 do not apply "
+            "and the skeleton may miss parts of isosurfaces", ThinningWarning, stacklevel=2)
+
+    t0 = time.perf_counter()
+    ext = find_extrema(vol, s)
+    marked = _marked_cells(vol, ext)
+    t1 = time.perf_counter()
+
+    # 7.5.1: classes (Def. 7.6) and node boundary-group numbers (Def. 7.8)
+    m = cells.shape[0]
+    cls = np.empty(m, np.int8)
+    _k.initial_classes(face_nb, marked, cls)
+    nb_node = np.zeros(vol.n_points, np.int64)
+    nb_node[bfn.ravel()] = np.repeat(groups, bfn.shape[1])
+    n_groups = is_void_g.shape[0]
+    root = np.arange(n_groups + 1, dtype=np.int64)
+    is_void = np.zeros(n_groups + 1, np.bool_)
+    is_void[1:] = is_void_g
+    local_faces = np.ascontiguousarray(vol.local_faces, np.int64)
+    fmask = _k.face_masks(local_faces, cells.shape[1])
+    order = np.empty(m if record else 0, np.int64)
+    prick_log = np.zeros((n_groups + 1, 3), np.int64)
+    counters = np.zeros(_k.N_STATS, np.int64)
+    n_removed, n_pricks = _k.thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void,
+                                  bool(prick_voids), order, prick_log, counters)
+    t2 = time.perf_counter()
+
+    # 7.5.4: the skeleton and its value classes
+    skel = np.flatnonzero(cls != 0).astype(np.int64)
+    counts = np.empty(skel.shape[0], np.int64)
+    _k.neighbour_counts(face_nb, cls, skel, counts)
+    vals = s[cells[skel]]
+    cmin = np.ascontiguousarray(vals.min(axis=1))
+    cmax = np.ascontiguousarray(vals.max(axis=1))
+    nb_ = int(n_buckets) if n_buckets is not None else int(np.clip(skel.shape[0] // 8, 1, 1024))
+    buckets = SpanFilter.build(cmin, cmax, n_buckets=nb_, layout="replicate")
+    t3 = time.perf_counter()
+
+    unpricked = np.flatnonzero(is_void & (root == np.arange(n_groups + 1))) if prick_voids else \
+        np.flatnonzero(is_void)
+    nf = face_nb.shape[1]
+    stats = {
+        "T_topology": t_topology,
+        "T_check": t_check,
+        "nonmanifold_edges": int(bad_edges.shape[0]),
+        "nonmanifold_nodes": int(bad_nodes.size),
+        "T_pe": t1 - t0,
+        "T_thin": t2 - t1,
+        "T_register": t3 - t2,
+        "T_total": t3 - t0,
+        "extrema": ext.n,
+        "marked": int(marked.shape[0]),
+        "skeleton_cells": int(skel.shape[0]),
+        "removed": int(n_removed),
+        "processed": {q: int(counters[_k.ST_PROCESSED + q]) for q in range(1, nf)},
+        "removed_by_class": {q: int(counters[_k.ST_REMOVED + q]) for q in range(1, nf)},
+        "walks": int(counters[_k.ST_WALKS]),
+        "walks_reached": int(counters[_k.ST_WALKS_OK]),
+        "pricks": int(n_pricks),
+        "prick_failures": int(counters[_k.ST_PRICK_FAILED]),
+        "prick_cells": int(counters[_k.ST_PRICK_CELLS]),
+        "implicit_removals": int(counters[_k.ST_IMPLICIT]),
+        "stale_fifo_entries": int(counters[_k.ST_STALE]),
+        "n_buckets": nb_,
+    }
+    for q in range(0, 7):
+        stats[f"C{q}"] = int(np.sum(counts == q))
+    rec = None
+    if record:
+        rec = ThinningRecord(removal_order=order[:n_removed].copy(), pricks=prick_log[:n_pricks].copy(), n_cells=m)
+    return Skeleton(vol=vol, s=s, extrema=ext, marked=marked, classes=cls, cells=skel, neighbour_counts=counts,
+                    node_groups=nb_node, group_root=root, unpricked_voids=unpricked, record=rec, stats=stats,
+                    _cmin=cmin, _cmax=cmax, _buckets=buckets, _hits=np.empty(skel.shape[0], np.int64))
+
+
+# ------------------------------------------------------------------ 2D image thinning
+def thin_image(image, *, record=False):
+    """Thin a binary image to a one-pixel skeleton (thesis 7.3, Fig. 7.2).
+
+    Border pixels are visited layer by layer; a pixel goes when all its
+    edge-sharing black neighbours can be visited in one sweep around it
+    through black neighbours (edge or corner), unless it is the end of a
+    line (one edge neighbour and no corner neighbour). Black regions are
+    4-connected, white ones 8-connected; both keep their number.
+
+    Parameters
+    ----------
+    image : (H, W) bool
+    record : bool, keyword-only
+        Also return the removed pixels in order, ``(R, 2)`` rows ``(i, j)``.
+
+    Returns
+    -------
+    skeleton : (H, W) bool
+    order : (R, 2) int64, only when ``record``
+    """
+    img = np.asarray(image)
+    if img.ndim != 2:
+        raise ThinningError(f"image must be 2-D (H, W); got shape {img.shape}")
+    if img.dtype != bool:
+        if not np.issubdtype(img.dtype, np.number) or not np.isin(img, (0, 1)).all():
+            raise ThinningError("image must be boolean (or hold only 0 and 1)")
+    out = np.ascontiguousarray(img, dtype=np.bool_).copy()
+    order = np.empty((int(out.sum()) if record else 0, 2), np.int64)
+    n = _k.thin_image(out, order)
+    return (out, order[:n]) if record else out
+
+
+def pixel_removable(patch):
+    """Whether the centre pixel of a 3x3 ``patch`` may go by the two conditions of 7.3 (Fig. 7.2 (b)-(e)).
+
+    Parameters
+    ----------
+    patch : (3, 3) bool
+        The pixel and its 8 neighbours (black = True); the centre must be black.
+    """
+    p = np.asarray(patch)
+    if p.shape != (3, 3):
+        raise ThinningError(f"patch must be 3x3; got shape {p.shape}")
+    p = p.astype(bool)
+    if not p[1, 1]:
+        raise ThinningError("the centre pixel of the patch must be black (True)")
+    return bool(_k._pixel_removable(np.ascontiguousarray(p), 1, 1))
+
+
+# ------------------------------------------------------------------ the method
+@register
+class ThinningMethod(IsosurfaceMethod):
+    """Volume thinning (thesis chapter 7) for :mod:`polygen.volume.methods`.
+
+    After each :meth:`extract`, ``stats`` holds that call's ``T_mg`` (seed
+    search on the skeleton), ``T_mt`` (triangles: propagation), ``T_mv``
+    (vertex positions and normals), ``N_cg`` (skeleton cells tested), ``N_ci``
+    (cells intersected) and ``seeds`` (the :class:`SkeletonSeeds`).
+    """
+
+    name = "thinning"
+    description = "Itoh's volume thinning: a genus-keeping skeleton of cells, no boundary lists (chapter 7)"
+
+    def _prepare(self, prick_voids=True, record=False, n_buckets=None):
+        self.skeleton = thin_volume(self.vol, self.field, prick_voids=prick_voids, record=record,
+                                    n_buckets=n_buckets)
+        self.propagator = Propagator(self.vol, self.field)
+        self.stats = {}
+
+    def extract(self, value, *, normals="mean"):
+        found = self.skeleton.seeds(value)
+        iso = self.propagator.extract(value, found.cells, normals=normals)
+        self.seed_cells_tested = found.n_tested
+        self.stats = {"T_mg": found.t_search, "T_mt": iso.t1 + iso.t2, "T_mv": iso.t3, "N_cg": found.n_tested,
+                      "N_ci": iso.cells_intersected, "seeds": found}
+        return dataclasses.replace(iso, cells_tested=iso.cells_tested + found.n_tested, t1=iso.t1 + found.t_search)
