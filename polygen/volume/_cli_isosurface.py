@@ -30,7 +30,7 @@ def configure(parser):
                       help="N values evenly inside the field's range (default: 20)")
     vals.add_argument("--value", type=float, action="append", metavar="V", help="an isovalue (repeatable)")
     parser.add_argument("--method", action="append", metavar="NAME",
-                        help="a method to run (repeatable; default: all). One of: " + ", ".join(_method_names()))
+                        help="a method to run (repeatable; default: all, the fastest first). One of: " + ", ".join(_method_names()))
     parser.add_argument("--compare-vtk", action=argparse.BooleanOptionalAction, default=True,
                         help="time VTK's vtkContourFilter on the same values (default: on)")
     parser.add_argument("--json", metavar="FILE", help="write the measurements as JSON")
@@ -135,7 +135,7 @@ def run(args):
                "vtk_s": vtk_s, "vtk_triangles": vtk_tris}
         Path(args.json).write_text(json.dumps(out, indent=2) + "\n")
     if not args.no_files:
-        _write_files(Path(args.output), label, vol, keep, values)
+        _write_files(Path(args.output), label, vol, keep, values, rows[0]["method"])
     return 0 if all(r["same_as_first"] for r in rows) else 1
 
 
@@ -157,7 +157,7 @@ def _print_table(rows, vtk_s, vtk_tris):
         print(f"VTK vtkContourFilter: {vtk_tris} triangles in {vtk_s:.3f} s")
 
 
-def _write_files(out, label, vol, surfaces, values):
+def _write_files(out, label, vol, surfaces, values, method):
     out.mkdir(parents=True, exist_ok=True)
     written = 0
     for i, iso in enumerate(surfaces):
@@ -169,4 +169,4 @@ def _write_files(out, label, vol, surfaces, values):
     png = out / f"{label}-isosurfaces.png"
     plotting.setup_notebook()
     plotting.plot_isosurfaces(vol, surfaces, values).screenshot(str(png))
-    print(f"wrote {written} surfaces and {png.name} to {out}/")
+    print(f"wrote {written} surfaces (by {method}) and {png.name} to {out}/")

@@ -1,0 +1,465 @@
+"""Numba kernels of the cell-edge-centred polygon construction (2001 paper, Fig. 5).
+
+Arrays in, arrays out; the only polygen imports are the marching kernels
+and the JIT options. See :mod:`polygen.volume.edge_centred` for the
+algorithm.
+
+Everything a query needs to know about a cell sits in one *record*, a row
+of ``rec`` (M, R) int32 in whole 64-byte cache lines (R = 32 for
+tetrahedra, 64 for hexahedra), so that visiting a cell touches one line
+(tetrahedra) or two:
+
+``rec[c, R_GEN]``
+    generation stamp: the query that last touched the cell;
+``rec[c, R_STATE]``
+    its state in that query: ``NOT_CROSSED``, ``QUEUED`` (a crossed seed
+    whose polygon is not constructed yet) or, ``>= 0``, the constructed
+    polygon: marching case ``| exact << 16`` (bit ``i`` of ``exact``: node
+    ``i`` lies exactly at the isovalue);
+``rec[c, R_NODES:R_NODES+nn]``
+    the node ids;
+``rec[c, os:os+W]`` with ``os = R_NODES + nn``
+    the polygon's vertex slots, ``W = n_local_edges + nn``: slot ``e`` holds
+    the vertex on local edge ``e``, slot ``n_local_edges + i`` the vertex
+    that is node ``i`` itself (a crossing exactly on a node). The slots are
+    cleared when the polygon is constructed, so they are valid only in the
+    query that constructed it;
+``rec[c, oe:oe+ne]`` with ``oe = os + W``
+    per local edge, where the list of the cells around it starts in ``ec``,
+    so that creating a vertex goes from the cell straight to its neighbours;
+``rec[c, oe+ne:oe+2*ne]``
+    the edge ids (the vertex keys), on the same cache line.
+
+The cells around an edge (``ec``) and around a node (``nc``) are stored
+as ``cell << 5 | last << 4 | local``: the cell, whether it ends the list,
+and the local index of the edge (node) in that cell. Registering a vertex
+into a polygon is one store into the slot of that local index; nothing is
+ever looked up by key.
+
+The construction is a chain of dependent loads into arrays much larger
+than the caches (record -> list of cells -> their records). The kernels ask
+the processor to fetch the lines they are about to need a little early
+(``llvm.prefetch``, which changes no result), so that those misses overlap
+instead of waiting one after the other.
+"""
+
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+from polygen._jit import njit
+from polygen.volume import marching as _m
+
+NOT_CROSSED = -1
+QUEUED = -2
+#: kernel status codes: 0 done, else the buffer that overflowed
+OK, FULL_QUEUE, FULL_TRIANGLES, FULL_VERTICES = 0, 1, 2, 3
+#: counters written by :func:`construct` (indices into ``counters``)
+C_POPS, C_VISITS, C_TOUCHED, C_CONSTRUCTED, C_NODE_TESTS, C_NODE_VERTICES = 0, 1, 2, 3, 4, 5
+N_COUNTERS = 6
+#: how far ahead in a FIFO the next cells' records are fetched
+LOOKAHEAD = 16
+#: record fields
+R_GEN, R_STATE, R_NODES = 0, 1, 2
+#: incidence packing: ``cell << CELL_SHIFT | LAST | local``
+CELL_SHIFT = 5
+LAST = 16
+LOCAL = 15
+
+
+def record_width(n_nodes, n_local_edges):
+    """Record length in int32: stamp, state, nodes, slots, edge lists, edge ids, in whole 64-byte lines."""
+    need = 2 + n_nodes + (n_local_edges + n_nodes) + 2 * n_local_edges
+    return -(-need // 16) * 16
+
+
+def case_masks(tri_table, tri_count):
+    """(n_cases,) int32: the local edges the triangles of each case use, as bits."""
+    out = np.zeros(tri_count.shape[0], np.int32)
+    for case in range(tri_count.shape[0]):
+        for e in tri_table[case, :3 * tri_count[case]]:
+            out[case] |= 1 << int(e)
+    return out
+
+
+# ------------------------------------------------------------------ intrinsics
+def _prefetch_codegen(rw):
+    def codegen(context, builder, signature, args):
+        aryty = signature.args[0]
+        ary = context.make_array(aryty)(context, builder, args[0])
+        idx = [context.cast(builder, a, t, types.intp) for a, t in zip(args[1:], signature.args[1:])]
+        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, idx, wraparound=False)
+        i8p = builder.bitcast(ptr, ir.IntType(8).as_pointer())
+        i32 = ir.IntType(32)
+        fnty = ir.FunctionType(ir.VoidType(), [i8p.type, i32, i32, i32])
+        fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.prefetch.p0")
+        builder.call(fn, [i8p, i32(rw), i32(3), i32(1)])  # rw, keep in every cache level, data
+        return context.get_dummy_value()
+
+    return codegen
+
+
+@intrinsic
+def _prefetch_row(typingctx, arr, i):
+    """Fetch the line of ``arr[i, 0]`` for writing (a hint; no effect on results)."""
+    if not isinstance(arr, types.Array) or arr.ndim != 2 or not isinstance(i, types.Integer):
+        return None
+    return types.void(arr, i), _prefetch_codegen(1)
+
+
+@intrinsic
+def _prefetch_item(typingctx, arr, i):
+    """Fetch the line of ``arr[i]`` of a 1-D array for reading (a hint; no effect on results)."""
+    if not isinstance(arr, types.Array) or arr.ndim != 1 or not isinstance(i, types.Integer):
+        return None
+    return types.void(arr, i), _prefetch_codegen(0)
+
+
+@intrinsic
+def _ctz(typingctx, x):
+    """Index of the lowest set bit of ``x`` (``llvm.cttz``); ``x`` must not be 0."""
+    if not isinstance(x, types.Integer):
+        return None
+
+    def codegen(context, builder, signature, args):
+        ty = context.get_value_type(signature.args[0])
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ty, [ty, ir.IntType(1)]),
+                                            f"llvm.cttz.i{ty.width}")
+        r = builder.call(fn, [args[0], ir.IntType(1)(1)])
+        return context.cast(builder, r, signature.args[0], types.int64)
+
+    return types.int64(x), codegen
+
+
+# ------------------------------------------------------------------ preprocessing
+@njit
+def pack_incidence(offsets, order, width):
+    """CSR values ``order`` (flat positions ``cell * width + local``) packed as ``cell << 5 | last << 4 | local``."""
+    out = np.empty(order.shape[0], np.int32)
+    for k in range(offsets.shape[0] - 1):
+        for q in range(offsets[k], offsets[k + 1]):
+            flat = order[q]
+            last = LAST if q == offsets[k + 1] - 1 else 0
+            out[q] = np.int32(((flat // width) << CELL_SHIFT) | last | (flat % width))
+    return out
+
+
+@njit
+def fill_records(rec, cells, cell_edges, ec_off, oe):
+    """Node ids, edge-list starts and edge ids into the records (stamps and slots zeroed)."""
+    nn = cells.shape[1]
+    ne = cell_edges.shape[1]
+    for c in range(rec.shape[0]):
+        rec[c, R_GEN] = 0
+        rec[c, R_STATE] = 0
+        for i in range(nn):
+            rec[c, R_NODES + i] = cells[c, i]
+        for w in range(ne + nn):
+            rec[c, R_NODES + nn + w] = -1
+        for w in range(ne):
+            e = cell_edges[c, w]
+            rec[c, oe + w] = np.int32(ec_off[e])
+            rec[c, oe + ne + w] = np.int32(e)
+
+
+# ------------------------------------------------------------------ cells
+@njit(inline="always")
+def _node_values(rec, c, nn, s, value, faces, vals):
+    """Node values of cell ``c`` into ``vals``; returns ``(case, exact)``.
+
+    ``case`` is :func:`polygen.volume.marching._cell_case`'s (-1: not
+    crossed), from values read once; bit ``i`` of ``exact``: node ``i`` is
+    exactly at ``value``.
+    """
+    case = 0
+    exact = 0
+    for i in range(nn):
+        x = s[rec[c, R_NODES + i]]
+        vals[i] = x
+        if x >= value:
+            case |= 1 << i
+        if x == value:
+            exact |= 1 << i
+    if case == 0 or case == (1 << nn) - 1:
+        return -1, exact
+    for f in range(faces.shape[0]):
+        a = vals[faces[f, 0]]
+        b = vals[faces[f, 1]]
+        d = vals[faces[f, 2]]
+        e = vals[faces[f, 3]]
+        ua, ub, ud, ue = a >= value, b >= value, d >= value, e >= value
+        if ua == ud and ub == ue and ua != ub:
+            # face-centre value [71]: the mean of the four corners (as marching._cell_case)
+            if _m._sorted_sum4(a, b, d, e) * 0.25 >= value:
+                case |= 1 << (8 + f)
+    return case, exact
+
+
+@njit(inline="always")
+def _polygon_codes(case, exact, vals, value, tri_table, tri_count, local_edges, out):
+    """Triangles of a polygon with a node at the isovalue, as slots.
+
+    ``marching._cell_codes`` with node codes ``n_local_edges + i``; returns
+    ``(k, mask)``: the triangles kept (zero-area ones are dropped) and the
+    slots they use.
+    """
+    ne = local_edges.shape[0]
+    k = 0
+    mask = 0
+    for t in range(tri_count[case]):
+        for j in range(3):
+            e = tri_table[case, 3 * t + j]
+            a = local_edges[e, 0]
+            hi = a if vals[a] >= value else local_edges[e, 1]
+            out[k, j] = ne + hi if (exact >> hi) & 1 else e
+        if out[k, 0] != out[k, 1] and out[k, 0] != out[k, 2] and out[k, 1] != out[k, 2]:
+            for j in range(3):
+                mask |= 1 << out[k, j]
+            k += 1
+    return k, mask
+
+
+@njit(inline="always")
+def _make_polygon(rec, c, case, exact, n_slots, os_):
+    """Construct P_c in its record: its state, its vertex slots cleared."""
+    rec[c, R_STATE] = case | (exact << 16)
+    for w in range(n_slots):
+        rec[c, os_ + w] = -1
+
+
+@njit
+def test_seeds(rec, nn, s, value, faces, seeds, gen, queue):
+    """t1: test each seed once, queue the crossed ones. Returns ``(tested, queued)``.
+
+    A crossed seed is ``QUEUED``: its polygon is constructed when it is taken
+    from the FIFO or reached from a neighbour, whichever comes first.
+    """
+    vals = np.empty(8, np.float64)
+    tested = 0
+    n = 0
+    for i in range(seeds.shape[0]):
+        c = seeds[i]
+        if rec[c, R_GEN] == gen:
+            continue
+        rec[c, R_GEN] = gen
+        tested += 1
+        case, _ = _node_values(rec, c, nn, s, value, faces, vals)
+        if case >= 0:
+            rec[c, R_STATE] = QUEUED
+            queue[n] = c
+            n += 1
+        else:
+            rec[c, R_STATE] = NOT_CROSSED
+    return tested, n
+
+
+@njit
+def _node_vertex(rec, nn, n_slots, s, value, faces, ne, nc_off, nc, node, v, gen, queue, tail):
+    """For-loop (3) for a vertex that is ``node`` itself: register it in every crossed cell around the node.
+
+    A cell around the node may lie wholly above the isovalue, so each cell
+    seen for the first time is tested. Returns ``(status, tail, tested,
+    constructed)``.
+    """
+    os_ = R_NODES + nn
+    vals = np.empty(8, np.float64)
+    tested = 0
+    made = 0
+    for q in range(nc_off[node], nc_off[node + 1]):
+        packed = nc[q]
+        j = packed >> CELL_SHIFT
+        if rec[j, R_GEN] != gen:
+            rec[j, R_GEN] = gen
+            tested += 1
+            cj, xj = _node_values(rec, j, nn, s, value, faces, vals)
+            if cj < 0:
+                rec[j, R_STATE] = NOT_CROSSED
+                continue
+            if tail == queue.shape[0]:
+                return FULL_QUEUE, tail, tested, made
+            _make_polygon(rec, j, cj, xj, n_slots, os_)
+            made += 1
+            queue[tail] = j
+            tail += 1
+        else:
+            sj = rec[j, R_STATE]
+            if sj == NOT_CROSSED:
+                continue
+            if sj == QUEUED:
+                cj, xj = _node_values(rec, j, nn, s, value, faces, vals)
+                _make_polygon(rec, j, cj, xj, n_slots, os_)
+                made += 1
+        rec[j, os_ + ne + (packed & LOCAL)] = v
+    return OK, tail, tested, made
+
+
+# ------------------------------------------------------------------ the construction
+@njit
+def construct(rec, nn, s, value, faces, tri_table, tri_count, case_mask, local_edges, n_edges,
+              ec, nc_off, nc, gen, queue, n_queued, lifo, tris, tri_cell, vkey, vend, counters):
+    """t2: the cell-edge-centred construction (Fig. 5, for-loops (1)-(3)).
+
+    ``queue`` holds the ``n_queued`` crossed seeds (marked ``QUEUED``);
+    ``lifo`` takes the most recent cell first instead of the oldest (the
+    same surface; better cache reuse). A cell's triangles are written, as
+    vertex ids, when it is taken from the queue: by then every vertex of
+    its polygon has been registered. Vertex ``v`` gets its key ``vkey[v]``
+    and the ends of its edge ``vend[v]`` (smaller node id first; the node
+    twice for a crossing on a node).
+
+    Returns ``(status, n_polygons, n_triangles, n_vertices,
+    any_node_vertex)``; ``status != OK`` names the buffer that was too
+    small (the caller grows it and starts the query again under a new
+    generation).
+    """
+    ne = local_edges.shape[0]
+    n_slots = ne + nn
+    os_ = R_NODES + nn
+    oe = os_ + n_slots
+    cap_t = tris.shape[0] - _m.MAX_TRIANGLES
+    cap_v = vkey.shape[0]
+    cap_q = queue.shape[0]
+    vals = np.empty(8, np.float64)
+    codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+    n_p = 0
+    n_t = 0
+    n_v = 0
+    head = 0
+    tail = n_queued
+    pops = 0
+    visits = 0
+    touched = 0
+    node_tests = 0
+    node_vertices = 0
+    while head < tail:  # for-loop (1): cells taken from the FIFO
+        if lifo:
+            tail -= 1
+            c = queue[tail]
+        else:
+            c = queue[head]
+            head += 1
+            if head + LOOKAHEAD < tail:
+                _prefetch_row(rec, queue[head + LOOKAHEAD])
+        pops += 1
+        st = rec[c, R_STATE]
+        if st == QUEUED:  # a seed nobody reached before: construct P_i
+            case, exact = _node_values(rec, c, nn, s, value, faces, vals)
+            _make_polygon(rec, c, case, exact, n_slots, os_)
+            n_p += 1
+            st = rec[c, R_STATE]
+        case = st & 0xFFFF
+        exact = st >> 16
+        if exact == 0:
+            k = tri_count[case]
+            todo = case_mask[case]
+        else:  # a node at the isovalue: node codes, zero-area triangles dropped
+            for i in range(nn):
+                vals[i] = s[rec[c, R_NODES + i]]
+            k, todo = _polygon_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
+        # the cell lists of its open edges, fetched together before for-loop (2) walks them one by one
+        pre = todo & ((1 << ne) - 1)
+        while pre:
+            w = _ctz(pre)
+            pre &= pre - 1
+            if rec[c, os_ + w] < 0:
+                _prefetch_item(ec, rec[c, oe + w])
+        # for-loop (2): the vertices of P_i not registered yet
+        while todo:
+            w = _ctz(todo)
+            todo &= todo - 1
+            if rec[c, os_ + w] >= 0:
+                continue
+            if n_v == cap_v:
+                return FULL_VERTICES, n_p, n_t, n_v, node_vertices > 0
+            v = n_v
+            n_v += 1
+            if w < ne:  # a vertex on cell edge E_n: its cells, straight from the record
+                vkey[v] = rec[c, oe + ne + w]
+                x = rec[c, R_NODES + local_edges[w, 0]]
+                y = rec[c, R_NODES + local_edges[w, 1]]
+                vend[v, 0] = min(x, y)
+                vend[v, 1] = max(x, y)
+                lo = rec[c, oe + w]
+                q = lo
+                while True:
+                    packed = ec[q]
+                    _prefetch_row(rec, packed >> CELL_SHIFT)
+                    q += 1
+                    if packed & LAST:
+                        break
+                end = q
+                visits += end - lo
+                # for-loop (3): every cell C_j sharing E_n; all are crossed, since E_n is
+                for q in range(lo, end):
+                    packed = ec[q]
+                    j = packed >> CELL_SHIFT
+                    if rec[j, R_GEN] != gen:
+                        rec[j, R_GEN] = gen
+                        touched += 1
+                        cj, xj = _node_values(rec, j, nn, s, value, faces, vals)
+                        if tail == cap_q:
+                            return FULL_QUEUE, n_p, n_t, n_v, node_vertices > 0
+                        _make_polygon(rec, j, cj, xj, n_slots, os_)  # construct P_j
+                        n_p += 1
+                        queue[tail] = j  # insert C_j into the FIFO
+                        tail += 1
+                    elif rec[j, R_STATE] == QUEUED:  # a seed still in the FIFO: construct P_j, it is queued
+                        cj, xj = _node_values(rec, j, nn, s, value, faces, vals)
+                        _make_polygon(rec, j, cj, xj, n_slots, os_)
+                        n_p += 1
+                    rec[j, os_ + (packed & LOCAL)] = v  # register V_n into P_j
+            else:  # a crossing exactly on a node: shared by every cell around the node
+                node = rec[c, R_NODES + w - ne]
+                vkey[v] = n_edges + node
+                vend[v, 0] = node
+                vend[v, 1] = node
+                node_vertices += 1
+                visits += nc_off[node + 1] - nc_off[node]
+                status, tail, tested, made = _node_vertex(rec, nn, n_slots, s, value, faces, ne, nc_off, nc, node,
+                                                          v, gen, queue, tail)
+                node_tests += tested
+                touched += tested
+                n_p += made
+                if status != OK:
+                    return status, n_p, n_t, n_v, True
+        # every vertex of P_i is registered: its triangles, as vertex ids
+        if n_t > cap_t:
+            return FULL_TRIANGLES, n_p, n_t, n_v, node_vertices > 0
+        if exact == 0:
+            for t in range(k):
+                for jj in range(3):
+                    tris[n_t, jj] = rec[c, os_ + tri_table[case, 3 * t + jj]]
+                tri_cell[n_t] = c
+                n_t += 1
+        else:
+            for t in range(k):
+                for jj in range(3):
+                    tris[n_t, jj] = rec[c, os_ + codes[t, jj]]
+                tri_cell[n_t] = c
+                n_t += 1
+    counters[C_POPS] = pops
+    counters[C_VISITS] = visits
+    counters[C_TOUCHED] = touched
+    counters[C_CONSTRUCTED] = n_p
+    counters[C_NODE_TESTS] = node_tests
+    counters[C_NODE_VERTICES] = node_vertices
+    return OK, n_p, n_t, n_v, node_vertices > 0
+
+
+@njit
+def positions(vend, n_v, points, s, value, out):
+    """(5.2) crossing points from the edge ends (the smaller node id first, as in ``mesh.edges``)."""
+    for v in range(n_v):
+        a = vend[v, 0]
+        b = vend[v, 1]
+        if a == b:
+            for d in range(3):
+                out[v, d] = points[a, d]
+        else:
+            c1 = s[a]
+            c2 = s[b]
+            # (5.2) P_c = ((C - C1) P2 - (C - C2) P1) / (C2 - C1)
+            for d in range(3):
+                out[v, d] = ((value - c1) * points[b, d] - (value - c2) * points[a, d]) / (c2 - c1)

@@ -1,0 +1,282 @@
+"""Cell-edge-centred construction (Itoh et al. 2001) against the full scan and the hash-based propagation."""
+
+import numpy as np
+import pytest
+
+from polygen.volume import UnstructuredVolume, datasets, methods
+from polygen.volume.edge_centred import EdgeCentred, EdgeCentredMethod, edge_centred, seed_source
+from polygen.volume.isosurface import IsoSurfaceError, extract
+from polygen.volume.propagate import Propagator
+
+pv = pytest.importorskip("pyvista")
+
+from _surfaces import grid_volume  # noqa: E402
+from _surfaces import oriented_triangles as triangle_set  # noqa: E402
+
+
+def assert_same_surface(ref, iso, *, cells=True):
+    assert iso.n_triangles == ref.n_triangles and iso.n_vertices == ref.n_vertices
+    assert triangle_set(iso) == triangle_set(ref)  # triangle for triangle, orientation included
+    assert np.unique(iso.vertex_keys).size == iso.n_vertices  # no vertex twice
+    oa, ob = np.argsort(ref.vertex_keys), np.argsort(iso.vertex_keys)
+    np.testing.assert_array_equal(ref.vertex_keys[oa], iso.vertex_keys[ob])
+    np.testing.assert_array_equal(ref.vertices[oa], iso.vertices[ob])  # (5.2) bit for bit
+    if ref.normals is not None:
+        np.testing.assert_allclose(ref.normals[oa], iso.normals[ob], atol=1e-12)
+    if cells:
+        assert iso.cells_intersected == ref.cells_intersected
+    # each triangle made in the same cell
+    ka = {tuple(sorted(t)) + (c,) for t, c in zip(ref.vertex_keys[ref.triangles].tolist(), ref.triangle_cells)}
+    kb = {tuple(sorted(t)) + (c,) for t, c in zip(iso.vertex_keys[iso.triangles].tolist(), iso.triangle_cells)}
+    assert ka == kb
+
+
+def one_seed_per_component(iso):
+    """One cell per connected part of the surface (parts joined through shared vertices)."""
+    labels, n = iso.connected_components()
+    _, first = np.unique(labels, return_index=True)
+    return iso.triangle_cells[first]
+
+
+def expected_visits(vol, iso):
+    """For-loop (3) visits, by brute force: the cells around each vertex's edge (or node)."""
+    e_off, _ = vol.edge_cells
+    n_off, _ = vol.node_cells
+    ne = vol.edges.shape[0]
+    k = iso.vertex_keys
+    on_edge = k < ne
+    return int(np.sum(np.diff(e_off)[k[on_edge]]) + np.sum(np.diff(n_off)[k[~on_edge] - ne]))
+
+
+@pytest.mark.parametrize("tets", [True, False])
+def test_same_as_scan_and_hash_propagation(tets):
+    vol = grid_volume((9, 8, 7), spacing=(0.3, 0.5, 0.7), tets=tets, jitter=0.15 if tets else 0.0, seed=1)
+    s = np.random.default_rng(7).random(vol.n_points)
+    ec = EdgeCentred(vol, s)
+    prop = Propagator(vol, s)
+    for value in np.linspace(0.05, 0.95, 7):
+        scan = extract(vol, value, field=s)
+        seeds = np.unique(scan.triangle_cells)
+        iso = ec.extract(value, seeds)
+        hashed = prop.extract(value, seeds)
+        assert iso.method == "edge-centred"
+        assert_same_surface(scan, iso)
+        assert_same_surface(hashed, iso)
+        # the paper's point: no vertex is ever looked up again
+        assert iso.vertex_lookups == 0 and hashed.vertex_lookups > iso.n_vertices
+        st = ec.stats
+        assert st["pops"] == st["constructed"] == iso.cells_intersected
+        assert st["visits"] == expected_visits(vol, iso)
+        assert st["visits"] > st["constructed"]  # a cell is visited several times by for-loop (3)
+        assert iso.cells_tested == seeds.size  # every seed tested once; nothing else needs a test
+
+
+@pytest.mark.parametrize("tets", [True, False])
+@pytest.mark.parametrize("order", ["fifo", "lifo"])
+def test_one_seed_per_surface_part(tets, order):
+    vol = grid_volume((16, 14, 12), spacing=(0.1, 0.1, 0.1), tets=tets)
+    x = vol.points
+    s = np.sin(9 * x[:, 0]) * np.cos(8 * x[:, 1]) * np.sin(7 * x[:, 2] + 0.3) + 0.2 * x[:, 0]
+    ec = EdgeCentred(vol, s, order=order)
+    for value in (-0.5, -0.1, 0.2, 0.6):
+        scan = extract(vol, value, field=s)
+        seeds = one_seed_per_component(scan)
+        assert seeds.size >= 2
+        iso = ec.extract(value, seeds)
+        assert_same_surface(scan, iso)
+        assert iso.cells_tested < vol.n_cells
+
+
+@pytest.mark.parametrize("tets", [True, False])
+def test_values_exactly_on_nodes(tets):
+    """Crossings on nodes: the vertex is the node, shared by every cell around the node."""
+    vol = grid_volume((8, 7, 6), tets=tets)
+    rng = np.random.default_rng(3)
+    s = rng.integers(0, 5, vol.n_points).astype(float)  # many nodes exactly at each value
+    ec = EdgeCentred(vol, s)
+    every = np.arange(vol.n_cells)
+    n_node_vertices = 0
+    for value in (1.0, 2.0, 3.0, 4.0, 2.5):
+        scan = extract(vol, value, field=s)
+        iso = ec.extract(value, every)
+        assert_same_surface(scan, iso)
+        n_node_vertices += int(np.sum(iso.vertex_keys >= vol.edges.shape[0]))
+        # from one seed per part: the node vertices carry the propagation across the node
+        part = ec.extract(value, one_seed_per_component(scan))
+        assert_same_surface(scan, part, cells=False)
+        assert part.vertex_lookups == 0
+        assert ec.stats["visits"] == expected_visits(vol, part)
+    assert n_node_vertices > 0
+
+
+def test_face_exactly_at_the_value_kept_once():
+    vol = datasets.load("two_tets")
+    ab = vol.cells[0][np.isin(vol.cells[0], vol.cells[1])]  # the shared face
+    s = np.zeros(vol.n_points)
+    s[ab] = 1.0
+    scan = extract(vol, 1.0, field=s)
+    iso = EdgeCentred(vol, s).extract(1.0, [1])
+    assert scan.n_triangles == 1
+    assert_same_surface(scan, iso)
+
+
+@pytest.mark.parametrize("name", ["torus", "hollow_cube", "genus3", "torus_hex", "hollow_cube_hex", "genus3_hex"])
+def test_tiny_volumes_all_fields(name):
+    vol = datasets.load(name)
+    for field in vol.fields:
+        s = vol.scalars(field)
+        ec = EdgeCentred(vol, field)
+        for value in np.unique(np.concatenate([np.linspace(s.min(), s.max(), 7), s[:5]])):
+            scan = extract(vol, value, field=field)
+            assert_same_surface(scan, ec.extract(value, np.arange(vol.n_cells)))
+
+
+@pytest.mark.parametrize("name", ["data1", "data2", "hexa1"])
+def test_thinning_seeds_on_data(name):
+    """The registered method (volume-thinning seeds) against the full scan and the hash-based thinning method."""
+    vol = datasets.load(name)
+    s = vol.scalars("fem")
+    ours = methods.get("edge-centred")(vol, field="fem")
+    hashed = methods.get("thinning")(vol, field="fem")
+    assert ours.source.name == "thinning"
+    for value in np.linspace(s.min(), s.max(), 22)[1:-1][::4]:
+        scan = extract(vol, value, field="fem")
+        iso = ours.extract(value)
+        old = hashed.extract(value)
+        assert_same_surface(scan, iso)
+        assert_same_surface(old, iso)
+        assert iso.vertex_lookups == 0 and old.vertex_lookups > 0
+        assert ours.stats["N_cg"] == hashed.stats["N_cg"]  # the same skeleton cells tested
+        assert ours.stats["visits"] == expected_visits(vol, iso)
+        assert iso.cells_tested < scan.cells_tested
+
+
+@pytest.mark.parametrize("source", ["extrema-graph", "span-filter", "interval-tree"])
+def test_other_seed_sources(source):
+    vol = datasets.load("data1")
+    s = vol.scalars("fem")
+    m = methods.get("edge-centred")(vol, field="fem", seeds=source)
+    assert m.source.name == source and m.seed_preprocess_s >= 0
+    for value in np.linspace(s.min(), s.max(), 6)[1:-1]:
+        assert_same_surface(extract(vol, value, field="fem"), m.extract(value))
+
+
+def test_gradient_and_no_normals():
+    vol = grid_volume((10, 10, 10), spacing=(0.1, 0.1, 0.1))
+    s = np.linalg.norm(vol.points - 0.45, axis=1)
+    scan = extract(vol, 0.3, field=s, normals="gradient")
+    iso = edge_centred(vol, 0.3, np.unique(scan.triangle_cells)[:1], field=s, normals="gradient")
+    assert_same_surface(scan, iso)
+    bare = edge_centred(vol, 0.3, np.unique(scan.triangle_cells)[:1], field=s, normals=None)
+    assert bare.normals is None and bare.n_triangles == scan.n_triangles
+
+
+def test_buffers_grow_and_queries_repeat():
+    vol = grid_volume((12, 12, 12), tets=True)
+    s = np.linalg.norm(vol.points - 5.5, axis=1)
+    ec = EdgeCentred(vol, s)
+    seed = np.unique(extract(vol, 4.0, field=s).triangle_cells)[:1]
+    first = ec.extract(4.0, seed)
+    # shrink every buffer: the query is redone until they fit, the surface is the same
+    ec._queue = ec._queue[:1].copy()
+    ec._tris = ec._tris[:13].copy()
+    ec._tri_cell = ec._tri_cell[:13].copy()
+    ec._vkey = ec._vkey[:1].copy()
+    ec._vend = ec._vend[:1].copy()
+    g = ec.generation
+    again = ec.extract(4.0, seed)
+    assert ec.stats["restarts"] > 0 and ec.generation > g + 1
+    assert_same_surface(first, again)
+    for _ in range(3):
+        assert_same_surface(first, ec.extract(4.0, seed))
+    assert ec.stats["restarts"] == 0
+
+
+def test_empty_surfaces_and_missing_seeds():
+    vol = grid_volume((6, 6, 6))
+    s = vol.points[:, 0].copy()
+    ec = EdgeCentred(vol, s)
+    far = np.flatnonzero(vol.points[vol.cells].mean(axis=1)[:, 0] > 4)[:5]
+    iso = ec.extract(0.5, far)  # the plane x = 0.5 does not cross these cells
+    assert iso.is_empty and iso.cells_tested == far.size and iso.vertex_lookups == 0
+    assert ec.extract(99.0, np.arange(vol.n_cells)).is_empty
+    assert ec.extract(0.5, []).is_empty
+    m = methods.get("edge-centred")(vol, field=s, seeds="span-filter")
+    assert m.extract(-3.0).is_empty
+
+
+def test_bad_input():
+    vol = grid_volume((4, 4, 4))
+    s = vol.points[:, 0].copy()
+    ec = EdgeCentred(vol, s)
+    with pytest.raises(IsoSurfaceError, match="seed cells must be in"):
+        ec.extract(0.5, [vol.n_cells])
+    with pytest.raises(IsoSurfaceError, match="seed cells must be in"):
+        ec.extract(0.5, [-1])
+    with pytest.raises(IsoSurfaceError, match="integer"):
+        ec.extract(0.5, [0.5])
+    with pytest.raises(IsoSurfaceError, match="1-D"):
+        ec.extract(0.5, [[0, 1]])
+    with pytest.raises(IsoSurfaceError, match="value must be"):
+        ec.extract(float("nan"), [0])
+    with pytest.raises(IsoSurfaceError, match="normals"):
+        ec.extract(0.5, [0], normals="flat")
+    with pytest.raises(IsoSurfaceError, match="order"):
+        EdgeCentred(vol, s, order="random")
+    with pytest.raises(IsoSurfaceError, match="unknown seed source"):
+        seed_source(vol, s, "nope")
+    with pytest.raises(IsoSurfaceError, match="UnstructuredVolume"):
+        EdgeCentred(np.zeros((3, 3)))
+    with pytest.raises(IsoSurfaceError, match="field values"):
+        EdgeCentred(vol, np.zeros(3))
+
+
+def test_registered():
+    assert "edge-centred" in methods.names()
+    assert methods.get("edge-centred") is EdgeCentredMethod
+
+
+def test_volume_isosurface_uses_the_default_method_prepared_once():
+    vol = grid_volume((7, 6, 5), tets=True, jitter=0.2, seed=3)
+    vol.add_field("r", np.linalg.norm(vol.points - vol.points.mean(axis=0), axis=1))
+    vol.add_field("x", vol.points[:, 0].copy())
+    assert methods.default() == "edge-centred" == methods.names()[0]
+    iso = vol.isosurface(1.7)
+    assert iso.vertex_lookups == 0 and iso.n_triangles > 0
+    assert_same_surface(extract(vol, 1.7), iso)
+    first = vol._iso_methods[("r", "edge-centred")]
+    vol.isosurface(2.1)
+    assert vol._iso_methods[("r", "edge-centred")] is first  # prepared once per field
+    assert_same_surface(extract(vol, 2.5, field="x"), vol.isosurface(2.5, field="x"))
+    assert_same_surface(extract(vol, 2.5, field="x"), vol.isosurface(2.5, field="x", method="scan"))
+    vol.add_field("r", -vol.fields["r"])  # replacing a field drops what was prepared on it
+    assert ("r", "edge-centred") not in vol._iso_methods
+    assert_same_surface(extract(vol, -1.7), vol.isosurface(-1.7))
+    with pytest.raises(Exception, match="no field 'nope'"):
+        vol.isosurface(0.5, field="nope")
+    with pytest.raises(ValueError, match="unknown isosurface method"):
+        vol.isosurface(0.5, method="nope")
+
+
+@pytest.mark.parametrize("tets", [True, False])
+def test_extract_many_two_at_a_time_gives_the_same_surfaces(tets):
+    vol = grid_volume((9, 8, 7), tets=tets, jitter=0.15, seed=5)
+    c = vol.points.mean(axis=0)
+    vol.add_field("f", np.sin(vol.points[:, 0]) + np.cos(1.3 * vol.points[:, 1]) + 0.2 * (vol.points[:, 2] - c[2]))
+    s = vol.scalars()
+    values = np.linspace(s.min(), s.max(), 13)[1:-1]
+    m = methods.get("edge-centred")(vol)
+    one = [m.extract(v) for v in values]
+    stats_one = [m.extract(v) and dict(m.stats) for v in values]  # counters of each query
+    many = m.extract_many(values, threads=2)
+    assert len(m._builders) == 2 and m._builders[1].rec is not m.builder.rec
+    for a, b, st_a, st_b in zip(one, many, stats_one, m.stats_many):
+        assert_same_surface(a, b)
+        np.testing.assert_array_equal(a.triangles, b.triangles)  # the same order, too
+        st_a.pop("T_search"), st_b.pop("T_search")  # seconds
+        assert st_a == st_b and b.vertex_lookups == 0
+    assert_same_surface(extract(vol, values[4]), many[4])
+    assert [i.n_triangles for i in m.extract_many(values[::-1], threads=3)] == [i.n_triangles for i in one[::-1]]
+    assert m.extract_many([], threads=2) == []
+    with pytest.raises(IsoSurfaceError):
+        m.extract_many([0.5, np.nan])
