@@ -161,6 +161,8 @@ class ActiveCellSearch(abc.ABC):
     """
 
     name: ClassVar[str] = ""
+    #: whether ``query`` returns its cells in ascending id order (else the order of the structure)
+    cells_in_order: ClassVar[bool] = False
 
     def __init__(self, cmin, cmax):
         self.cmin = cmin

@@ -25,6 +25,7 @@ class FullScan(ActiveCellSearch):
     """
 
     name = "full-scan"
+    cells_in_order = True
 
     @classmethod
     def _build(cls, cmin, cmax):

@@ -152,6 +152,7 @@ class SpanFilter(ActiveCellSearch):
         nb = int(n_buckets)
         obj.n_buckets = nb
         obj.layout = layout
+        obj.cells_in_order = layout == "replicate"  # one class's cells, ascending
         if cmin.size:
             obj.lo = float(cmin.min())
             obj.hi = float(cmax.max())
