@@ -453,11 +453,16 @@ class ExtremaGraphMethod(IsosurfaceMethod):
 
     def extract(self, value, *, normals="mean"):
         found = self.graph.seeds(value)
-        iso = self.propagator.extract(value, found.cells, normals=normals)
+        t0 = time.perf_counter()
+        # the boundary hits come in the lists' value order; in id order (cells numbered along a
+        # space-filling curve) the propagation reads memory nearly in order (data4: 0.40 -> 0.33 s)
+        seeds = np.sort(found.cells)
+        t_sort = time.perf_counter() - t0
+        iso = self.propagator.extract(value, seeds, normals=normals)
         self.seed_cells_tested = found.n_tested
         self.stats = {
             "T_mg": found.t_graph,
-            "T_mb": found.t_boundary,
+            "T_mb": found.t_boundary + t_sort,
             "T_mt": iso.t1 + iso.t2,
             "T_mv": iso.t3,
             "N_cg": found.n_tested,
@@ -465,4 +470,4 @@ class ExtremaGraphMethod(IsosurfaceMethod):
             "seeds": found,
         }
         return dataclasses.replace(iso, cells_tested=iso.cells_tested + found.n_tested,
-                                   t1=iso.t1 + found.t_graph + found.t_boundary)
+                                   t1=iso.t1 + found.t_graph + found.t_boundary + t_sort)
