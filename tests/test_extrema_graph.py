@@ -21,6 +21,7 @@ from polygen.volume.extrema_graph import (
 from polygen.volume.isosurface import extract
 
 from _surfaces import assert_complete as _assert_complete  # noqa: E402
+from _surfaces import sorted_triangles  # noqa: E402
 
 
 def assert_complete(vol, field, values, **params):
@@ -284,6 +285,30 @@ def test_seeds_are_intersected_and_cover_every_component(name):
         # Fig. 6.11 (b) and 7.1: a through-hole splits a surface; the part off the graph is
         # reached only through the boundary lists
         assert boundary_only > 0
+
+
+@pytest.mark.parametrize("name", ["data1", "torus", "genus3_hex"])
+def test_thesis_order_tests_fewer_boundary_cells_for_the_same_surface(name):
+    vol = datasets.load(name)
+    s = vol.scalars()
+    thesis = methods.get("extrema-graph")(vol, s)
+    separate = methods.get("extrema-graph")(vol, s, order="separate")
+    assert thesis.order == "thesis"
+    fewer = 0
+    for v in iso_values(s, 30, seed=5):
+        a, b = thesis.extract(v), separate.extract(v)
+        assert np.array_equal(sorted_triangles(a), sorted_triangles(b))
+        fa, fb = thesis.stats["seeds"], separate.stats["seeds"]
+        assert fa.tested_arcs == fb.tested_arcs and fa.n_from_arcs == fb.n_from_arcs
+        assert fa.tested_boundary <= fb.tested_boundary <= thesis.graph.boundary_candidates(v)[0].size
+        fewer += fa.tested_boundary < fb.tested_boundary
+        assert thesis.stats["N_cg"] == fa.tested_arcs + fa.tested_boundary
+        hit, lab = intersected_components(vol, s, v)
+        assert hit[fa.cells].all()  # every seed is crossed, every part of the surface has one
+        assert set(np.unique(lab[hit]).tolist()) == set(lab[fa.cells].tolist())
+    assert fewer > 0
+    with pytest.raises(ExtremaGraphError, match="order"):
+        methods.get("extrema-graph")(vol, s, order="fast")
 
 
 def test_tiny_volumes_complete():

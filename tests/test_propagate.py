@@ -74,6 +74,35 @@ def test_propagation_from_one_seed_per_component(tets):
         assert iso.cells_tested >= iso.cells_intersected
 
 
+@pytest.mark.parametrize("tets", [True, False])
+def test_then_cells_are_tested_only_where_the_propagation_did_not_reach(tets):
+    vol = grid_volume((16, 14, 12), spacing=(0.1, 0.1, 0.1), tets=tets)
+    x = vol.points
+    s = np.sin(9 * x[:, 0]) * np.cos(8 * x[:, 1]) * np.sin(7 * x[:, 2] + 0.3) + 0.2 * x[:, 0]
+    prop = Propagator(vol, s)
+    rng = np.random.default_rng(3)
+    for value in (-0.5, -0.1, 0.2, 0.6):
+        scan = extract(vol, value, field=s)
+        seeds = one_seed_per_component(vol, scan)
+        first, later = seeds[:1], rng.permutation(np.r_[seeds[1:], rng.integers(0, vol.n_cells, 300)])
+        iso = prop.extract(value, first, then=later)
+        assert_same_surface(scan, iso)
+        reached_first = set(prop.extract(value, first).triangle_cells.tolist())
+        prop.extract(value, first, then=later)
+        # a later cell is tested only if the propagations before it did not reach it ...
+        assert prop.last_then_tested <= np.unique(later).size
+        assert not set(prop.last_then_seeds.tolist()) & reached_first
+        # ... and each crossed one starts a part of the surface of its own (in a hexahedral mesh one
+        # propagation can also pass between parts that meet only in a cell)
+        labels, n = scan.connected_components()
+        part = dict(zip(scan.triangle_cells.tolist(), labels.tolist()))
+        started = [part[c] for c in prop.last_then_seeds.tolist()]
+        assert len(set(started)) == len(started) <= n - 1
+        if tets:
+            assert len(started) == n - 1
+        assert prop.last_seeds_tested == 1 and prop.last_seeds_crossed == 1
+
+
 def test_gradient_normals_agree():
     vol = grid_volume((10, 10, 10), spacing=(0.1, 0.1, 0.1))
     s = np.linalg.norm(vol.points - 0.45, axis=1)

@@ -316,6 +316,43 @@ class ExtremaGraph:
                           tested_arcs=int(tested_arcs), tested_boundary=int(tested_b), arcs_tested=int(arcs_tested),
                           used_max_list=bool(used_max), t_graph=t1 - t0, t_boundary=t2 - t1)
 
+    def arc_candidates(self, value):
+        """Step 3 of 6.3.4 without the tests: the cells of every arc whose [S_min, S_max] admits ``value``.
+
+        Returns
+        -------
+        cells : (K,) int64
+            In arc order (a cell on two arcs appears twice).
+        arcs : int
+            Arcs admitted.
+        """
+        value = _check_value(value)
+        adm = np.flatnonzero((self.arc_smax >= value) & (self.arc_smin < value))
+        starts = self.arc_offsets[adm]
+        lens = self.arc_offsets[adm + 1] - starts
+        shift = np.repeat(starts - (np.cumsum(lens) - lens), lens)
+        return self.arc_cells[np.arange(int(lens.sum())) + shift], int(adm.size)
+
+    def boundary_candidates(self, value):
+        """Step 4 of 6.3.4 without the tests: the boundary cells on the near side of the range.
+
+        Cells with ``S_min < C`` (a prefix of the list by S_min) or with
+        ``S_max >= C`` (a suffix of the list by S_max), whichever is
+        shorter; every boundary cell the surface crosses is among them.
+
+        Returns
+        -------
+        cells : (K,) int64
+        used_max_list : bool
+        """
+        value = _check_value(value)
+        nb = self.blist_min.shape[0]
+        k_lo = int(np.searchsorted(self.blist_min_values, value, side="left"))
+        k_hi = nb - int(np.searchsorted(self.blist_max_values, value, side="left"))
+        if k_lo <= k_hi:
+            return self.blist_min[:k_lo], False
+        return self.blist_max[nb - k_hi:], True
+
     def arc_polylines(self):
         """(A, 2, 3) float64 end points of each arc (for plots)."""
         return self.vol.points[self.arc_ends]
@@ -436,22 +473,70 @@ def extrema_graph_2d(points, triangles, values):
 class ExtremaGraphMethod(IsosurfaceMethod):
     """The extrema graph method (thesis chapter 6) for :mod:`polygen.volume.methods`.
 
+    Parameters (keyword-only, after ``vol`` and ``field``)
+    ------------------------------------------------------
+    polyline : bool
+        Passed to :func:`build_extrema_graph`.
+    order : {"thesis", "separate"}
+        ``"thesis"`` (6.3.4 as written): the cells of the admitted arcs are
+        tested and propagated from, and only then the boundary cells on the
+        near side of the range, each one only if no propagation has reached
+        it yet, each crossed one propagated from at once. ``"separate"``:
+        :meth:`ExtremaGraph.seeds` finds every intersected arc and boundary
+        cell first (its own marks), then one propagation starts from all of
+        them (in id order). The surface is the same; the thesis's order
+        tests fewer boundary cells.
+
     After each :meth:`extract`, ``stats`` holds Table 6.5's quantities for
-    that call: ``T_mg``, ``T_mb`` (seed search on arcs / boundary lists),
-    ``T_mt`` (triangles: propagation), ``T_mv`` (vertex positions and
-    normals), ``N_cg`` (cells tested to find seeds), ``N_ci`` (cells
-    intersected), and ``seeds`` (the :class:`GraphSeeds`).
+    that call: ``T_mg``, ``T_mb`` (seed search on arcs / boundary lists; in
+    the thesis's order the boundary cells' tests run inside the propagation
+    and count in ``T_mt``), ``T_mt`` (triangles: propagation), ``T_mv``
+    (vertex positions and normals), ``N_cg`` (cells tested to find seeds),
+    ``N_ci`` (cells intersected), and ``seeds`` (a :class:`GraphSeeds`:
+    in the thesis's order, the boundary seeds are those that started a
+    propagation).
     """
 
     name = "extrema-graph"
     description = "Itoh's extrema graph: arcs between extrema plus sorted boundary cell lists (chapter 6)"
 
-    def _prepare(self, polyline=True):
+    def _prepare(self, polyline=True, order="thesis"):
+        if order not in ("thesis", "separate"):
+            raise ExtremaGraphError(f"order must be 'thesis' or 'separate'; got {order!r}")
+        self.order = order
         self.graph = build_extrema_graph(self.vol, self.field, polyline=polyline)
         self.propagator = Propagator(self.vol, self.field)
         self.stats = {}
 
     def extract(self, value, *, normals="mean"):
+        if self.order == "separate":
+            return self._extract_separate(value, normals)
+        value = _check_value(value)
+        t0 = time.perf_counter()
+        arc_cells, arcs = self.graph.arc_candidates(value)
+        t1 = time.perf_counter()
+        boundary, used_max = self.graph.boundary_candidates(value)
+        t2 = time.perf_counter()
+        prop = self.propagator
+        iso = prop.extract(value, arc_cells, normals=normals, then=boundary)
+        found = GraphSeeds(value=value,
+                           cells=np.concatenate([prop.last_order[:prop.last_seeds_crossed], prop.last_then_seeds]),
+                           n_from_arcs=prop.last_seeds_crossed, tested_arcs=prop.last_seeds_tested,
+                           tested_boundary=prop.last_then_tested, arcs_tested=arcs, used_max_list=used_max,
+                           t_graph=t1 - t0 + iso.t1, t_boundary=t2 - t1)
+        self.seed_cells_tested = found.n_tested
+        self.stats = {
+            "T_mg": found.t_graph,
+            "T_mb": found.t_boundary,
+            "T_mt": iso.t2,
+            "T_mv": iso.t3,
+            "N_cg": found.n_tested,
+            "N_ci": iso.cells_intersected,
+            "seeds": found,
+        }
+        return dataclasses.replace(iso, t1=found.t_graph + found.t_boundary)  # t_graph includes the arc tests
+
+    def _extract_separate(self, value, normals):
         found = self.graph.seeds(value)
         t0 = time.perf_counter()
         # the boundary hits come in the lists' value order; in id order (cells numbered along a

@@ -109,15 +109,20 @@ def _grow2(a):
 
 @njit
 def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, tri_count, local_edges,
-               visited, generation, queue, qcase, n_queued, hkeys, hvals, keys, tris, tri_cell):
+               visited, generation, queue, qcase, n_queued, cand, hkeys, hvals, keys, tris, tri_cell):
     """t2: breadth-first propagation.
 
-    ``queue`` holds the ``n_queued`` crossed seeds; ``hkeys`` (a power of
-    two long) must be all ``_EMPTY``; ``keys``, ``tris``, ``tri_cell`` and
-    ``qcase`` are scratch buffers. Each buffer that fills up is replaced by
-    one twice as large, so the caller gets them all back to reuse:
-    returns (n_vertices, n_triangles, n_cells, tested, lookups, queue,
-    qcase, hkeys, hvals, keys, tris, tri_cell).
+    ``queue`` holds the ``n_queued`` crossed seeds. ``cand`` are more seeds
+    tested lazily, in order: whenever the FIFO runs empty, the next
+    candidate not marked yet is tested and, if crossed, propagated from (so
+    a candidate that an earlier propagation reached is never tested); the
+    crossed ones are written over the front of ``cand``. ``hkeys`` (a
+    power of two long) must be all ``_EMPTY``; ``keys``, ``tris``,
+    ``tri_cell`` and ``qcase`` are scratch buffers. Each buffer that fills
+    up is replaced by one twice as large, so the caller gets them all back
+    to reuse: returns (n_vertices, n_triangles, n_cells, tested,
+    cand_tested, cand_crossed, lookups, queue, qcase, hkeys, hvals, keys,
+    tris, tri_cell).
     """
     cap = hkeys.shape[0]
     hash_bits = 0
@@ -129,12 +134,34 @@ def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, 
     local = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
     vids = np.empty(24, np.int64)  # per cell: vertex id of each local code
     tested = 0
+    cand_tested = 0
+    cand_crossed = 0
     lookups = 0
     head = 0
     tail = n_queued
+    nxt = 0  # next candidate
     for i in range(n_queued):  # the case of each queued cell, kept from when it was tested
         qcase[i] = _m._cell_case(cells, queue[i], s, value, faces)
-    while head < tail:
+    while True:
+        while head == tail and nxt < cand.shape[0]:  # FIFO empty: the next unmarked candidate
+            c = cand[nxt]
+            nxt += 1
+            if visited[c] == generation:
+                continue
+            visited[c] = generation
+            cand_tested += 1
+            case = _m._cell_case(cells, c, s, value, faces)
+            if case >= 0:
+                cand[cand_crossed] = c  # cand_crossed < nxt: no candidate still to come is overwritten
+                cand_crossed += 1
+                if tail == queue.shape[0]:
+                    queue = _grow(queue)
+                    qcase = _grow(qcase)
+                queue[tail] = c
+                qcase[tail] = case
+                tail += 1
+        if head == tail:
+            break
         c = queue[head]
         case = qcase[head]
         head += 1
@@ -183,7 +210,7 @@ def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, 
                 queue[tail] = nb
                 qcase[tail] = nb_case
                 tail += 1
-    return n_v, n_t, tail, tested, lookups, queue, qcase, hkeys, hvals, keys, tris, tri_cell
+    return n_v, n_t, tail, tested, cand_tested, cand_crossed, lookups, queue, qcase, hkeys, hvals, keys, tris, tri_cell
 
 
 class Propagator:
@@ -224,6 +251,13 @@ class Propagator:
         self._tri_cell = np.empty(1024, np.int64)
         #: FIFO order of the last query: the cells in the order they were registered
         self.last_order = np.zeros(0, np.int64)
+        #: the last query's seeds: how many were tested and crossed (the crossed ones open ``last_order``)
+        self.last_seeds_tested = 0
+        self.last_seeds_crossed = 0
+        #: the last query's ``then`` cells: how many were tested, and the crossed ones that started a propagation
+        self.last_then_tested = 0
+        self.last_then_seeds = np.zeros(0, np.int64)
+        self._no_cand = np.zeros(0, np.int64)
 
     @property
     def node_gradients(self):
@@ -244,7 +278,7 @@ class Propagator:
             raise IsoSurfaceError(f"seed cells must be in 0..{m - 1}; got {seeds[bad[:5]].tolist()}")
         return seeds
 
-    def extract(self, value, seeds, *, normals="mean"):
+    def extract(self, value, seeds, *, normals="mean", then=None):
         """The isosurface reached from ``seeds``; see :func:`polygen.volume.isosurface.extract`.
 
         Parameters
@@ -253,6 +287,12 @@ class Propagator:
         seeds : (K,) int64
             Cells to start from; the ones the surface does not cross are skipped.
         normals : {"mean", "gradient", None}, keyword-only
+        then : (L,) int64, optional, keyword-only
+            More seeds, tested only after the propagation from ``seeds``
+            and only if it has not reached them, one at a time, each crossed
+            one propagated from before the next is tested: the extrema
+            graph's boundary cells after its arcs (thesis 6.3.4, step 4).
+            ``last_then_tested`` and ``last_then_seeds`` tell what happened.
 
         Returns
         -------
@@ -269,6 +309,8 @@ class Propagator:
             self.generation = 0
         self.generation += 1
 
+        cand = self._no_cand if then is None else self._seeds(then)  # a copy: the kernel writes over it
+
         t0 = time.perf_counter()
         if self._queue.shape[0] < seeds.shape[0]:
             self._queue = np.empty(2 * seeds.shape[0], np.int64)
@@ -279,11 +321,16 @@ class Propagator:
 
         t0 = time.perf_counter()
         self._hkeys.fill(_EMPTY)
-        (n_v, n_t, n_cells, tested, lookups, self._queue, self._qcase, self._hkeys, self._hvals, self._keys,
-         self._tris, self._tri_cell) = _propagate(
+        (n_v, n_t, n_cells, tested, cand_tested, cand_crossed, lookups, self._queue, self._qcase, self._hkeys,
+         self._hvals, self._keys, self._tris, self._tri_cell) = _propagate(
             self.cells, self.s, value, self.faces, self.face_nb, self.cell_edges, self.edges.shape[0],
             self.table, self.count, self.local_edges, self.visited, self.generation, self._queue, self._qcase,
-            n_queued, self._hkeys, self._hvals, self._keys, self._tris, self._tri_cell)
+            n_queued, cand, self._hkeys, self._hvals, self._keys, self._tris, self._tri_cell)
+        self.last_seeds_tested = int(tested_seeds)
+        self.last_seeds_crossed = int(n_queued)
+        self.last_then_tested = int(cand_tested)
+        self.last_then_seeds = cand[:cand_crossed].copy()
+        tested_seeds += cand_tested
         keys = self._keys[:n_v].copy()
         tri = self._tris[:n_t].copy()
         tri_cell = self._tri_cell[:n_t].copy()
