@@ -6,6 +6,8 @@ import platform
 import time
 from pathlib import Path
 
+import numpy as np
+
 RESULTS = Path(__file__).resolve().parent / "results"
 
 
@@ -38,3 +40,31 @@ def write_results(name, rows, columns, *, title, notes=()):
     lines += [""] + [f"- {n}" for n in notes] + [f"- machine: {machine()}"]
     (RESULTS / f"{name}.md").write_text("\n".join(lines) + "\n")
     return RESULTS / f"{name}.md"
+
+
+def fmt(v):
+    """A table cell: booleans as words, floats to 4 significant digits."""
+    if isinstance(v, (bool, np.bool_)):
+        return str(bool(v))
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    return str(v)
+
+
+def thesis_table(title, rows, keys, thesis=None):
+    """Markdown lines: one column per data set (``row["data"]`` = "dataK"), one line per key.
+
+    Keys found in ``thesis`` (key -> values for data1, data2, ...) get the
+    thesis's value in parentheses.
+    """
+    lines = [f"## {title}", "", "| quantity | " + " | ".join(r["data"] for r in rows) + " |",
+             "|---|" + "---|" * len(rows)]
+    for k in keys:
+        cells = []
+        for r in rows:
+            c = fmt(r.get(k, ""))
+            if thesis and k in thesis:
+                c += f" ({fmt(thesis[k][int(r['data'][-1]) - 1])})"
+            cells.append(c)
+        lines.append(f"| {k} | " + " | ".join(cells) + " |")
+    return lines + [""]

@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from _common import RESULTS, machine
+from _common import RESULTS, machine, fmt, thesis_table
 from polygen.volume import datasets, methods
 from polygen.volume.extrema_graph import build_extrema_graph
 
@@ -166,26 +166,8 @@ def growth(quick):
     return rows, slope, int(vol.n_cells)
 
 
-def fmt(v):
-    if isinstance(v, (bool, np.bool_)):
-        return str(bool(v))
-    if isinstance(v, float):
-        return f"{v:.4g}"
-    return str(v)
-
-
-def table(title, rows, keys, thesis_keys=()):
-    lines = [f"## {title}", "", "| quantity | " + " | ".join(r["data"] for r in rows) + " |",
-             "|---|" + "---|" * len(rows)]
-    for k in keys:
-        cells = []
-        for i, r in enumerate(rows):
-            c = fmt(r.get(k, ""))
-            if k in thesis_keys:
-                c += f" ({fmt(THESIS[k][int(r['data'][-1]) - 1])})"
-            cells.append(c)
-        lines.append(f"| {k} | " + " | ".join(cells) + " |")
-    return lines + [""]
+def table(title, rows, keys, thesis_keys=None):
+    return thesis_table(title, rows, keys, thesis_keys)
 
 
 def main():

@@ -37,7 +37,7 @@ import time
 
 import numpy as np
 
-from _common import RESULTS, machine
+from _common import RESULTS, machine, fmt, thesis_table
 from polygen.volume import UnstructuredVolume, datasets, methods
 from polygen.volume.thinning import thin_volume
 
@@ -229,26 +229,8 @@ def plot_scaling(rows, path):
 
 
 # ------------------------------------------------------------------ report
-def fmt(v):
-    if isinstance(v, (bool, np.bool_)):
-        return str(bool(v))
-    if isinstance(v, float):
-        return f"{v:.4g}"
-    return str(v)
-
-
 def table(title, rows, keys, thesis=True):
-    lines = [f"## {title}", "", "| quantity | " + " | ".join(r["data"] for r in rows) + " |",
-             "|---|" + "---|" * len(rows)]
-    for k in keys:
-        cells = []
-        for r in rows:
-            c = fmt(r.get(k, ""))
-            if thesis and k in THESIS:
-                c += f" ({fmt(THESIS[k][int(r['data'][-1]) - 1])})"
-            cells.append(c)
-        lines.append(f"| {k} | " + " | ".join(cells) + " |")
-    return lines + [""]
+    return thesis_table(title, rows, keys, THESIS if thesis else None)
 
 
 def main():

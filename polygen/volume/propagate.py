@@ -107,6 +107,17 @@ def _grow2(a):
     return out
 
 
+@njit(inline="always")
+def _enqueue(queue, qcase, tail, c, case):
+    """Append cell ``c`` and its case to the FIFO, doubling it when full."""
+    if tail == queue.shape[0]:
+        queue = _grow(queue)
+        qcase = _grow(qcase)
+    queue[tail] = c
+    qcase[tail] = case
+    return queue, qcase, tail + 1
+
+
 @njit
 def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, tri_count, local_edges,
                visited, generation, queue, qcase, n_queued, cand, hkeys, hvals, keys, tris, tri_cell):
@@ -154,12 +165,7 @@ def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, 
             if case >= 0:
                 cand[cand_crossed] = c  # cand_crossed < nxt: no candidate still to come is overwritten
                 cand_crossed += 1
-                if tail == queue.shape[0]:
-                    queue = _grow(queue)
-                    qcase = _grow(qcase)
-                queue[tail] = c
-                qcase[tail] = case
-                tail += 1
+                queue, qcase, tail = _enqueue(queue, qcase, tail, c, case)
         if head == tail:
             break
         c = queue[head]
@@ -204,12 +210,7 @@ def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, 
             tested += 1
             nb_case = _m._cell_case(cells, nb, s, value, faces)
             if nb_case >= 0:
-                if tail == queue.shape[0]:
-                    queue = _grow(queue)
-                    qcase = _grow(qcase)
-                queue[tail] = nb
-                qcase[tail] = nb_case
-                tail += 1
+                queue, qcase, tail = _enqueue(queue, qcase, tail, nb, nb_case)
     return n_v, n_t, tail, tested, cand_tested, cand_crossed, lookups, queue, qcase, hkeys, hvals, keys, tris, tri_cell
 
 
