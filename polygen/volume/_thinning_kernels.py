@@ -249,13 +249,31 @@ def _open_sides(c, cells, face_nb, local_faces, cls, nb_node, root, is_void, g):
 
 
 @njit
+def _side_counts(c, cells, nb_node, root, is_void, g):
+    """Nodes of ``c`` on an outer (or pricked) group, and on void g."""
+    n_out = 0
+    n_in = 0
+    for i in range(cells.shape[1]):
+        lab = nb_node[cells[c, i]]
+        if _out_side(lab, root, is_void):
+            n_out += 1
+        elif lab > 0 and root[lab] == g:
+            n_in += 1
+    return n_out, n_in
+
+
+@njit
 def _find_prick(cells, face_nb, local_faces, cls, nb_node, root, is_void, g, picked):
     """Cells whose removal joins void g's layer to the outer boundary (7.5.3, Fig. 7.7).
 
     A cell with open faces on both sides (hexahedra in a one-cell layer), else
     the thesis's three: E with nodes on both sides, a neighbour E_1 with an
     open face on the outer side and a neighbour E_2 with an open face on the
-    void. Returns how many cells were written to ``picked``.
+    void. E_1 and E_2 must themselves have nodes on both sides, as they do in
+    the thesis's configuration (E with two nodes on each side, E_1 and E_2
+    sharing three of them): a neighbour touching only the outer side may be
+    a one-cell strand of the skeleton, whose removal would cut it off.
+    Returns how many cells were written to ``picked``.
     """
     m = cells.shape[0]
     for c in range(m):
@@ -265,14 +283,7 @@ def _find_prick(cells, face_nb, local_faces, cls, nb_node, root, is_void, g, pic
     for c in range(m):
         if cls[c] <= 0:
             continue
-        n_out = 0
-        n_in = 0
-        for i in range(cells.shape[1]):
-            lab = nb_node[cells[c, i]]
-            if _out_side(lab, root, is_void):
-                n_out += 1
-            elif lab > 0 and root[lab] == g:
-                n_in += 1
+        n_out, n_in = _side_counts(c, cells, nb_node, root, is_void, g)
         if n_out == 0 or n_in == 0:
             continue
         e1 = -1
@@ -280,6 +291,9 @@ def _find_prick(cells, face_nb, local_faces, cls, nb_node, root, is_void, g, pic
         for f in range(face_nb.shape[1]):
             n = face_nb[c, f]
             if n < 0 or cls[n] <= 0:
+                continue
+            a, b = _side_counts(n, cells, nb_node, root, is_void, g)
+            if a == 0 or b == 0:
                 continue
             sides = _open_sides(n, cells, face_nb, local_faces, cls, nb_node, root, is_void, g)
             if sides == 1 and e1 < 0:
