@@ -124,6 +124,24 @@ def table(rows, columns, *, floatfmt="{:.4g}"):
     return "\n".join(out)
 
 
+def with_thesis(rows, columns, thesis, *, key="data", floatfmt="{:.4g}"):
+    """Rows for :func:`table` with the thesis's value in parentheses after ours.
+
+    ``thesis`` maps a column to the thesis's values for data 1, 2, ...; a
+    row's data set number is the last character of ``row[key]`` ("data3").
+    Columns the thesis does not give are shown alone.
+    """
+    out = []
+    for r in rows:
+        i = int(str(r[key])[-1]) - 1
+        cells = {key: r[key]}
+        for c in columns:
+            v = floatfmt.format(r[c]) if isinstance(r[c], float) else str(r[c])
+            cells[c] = v + (f" ({thesis[c][i]})" if c in thesis else "")
+        out.append(cells)
+    return out
+
+
 def plot_isosurfaces(vol, surfaces, values=None, *, plotter=None, cmap="viridis", opacity=0.6):
     """Several isosurfaces coloured by value inside the volume's outline."""
     p = plotter or _plotter()

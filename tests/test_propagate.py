@@ -1,5 +1,7 @@
 """Propagation from seeds (thesis 5.4.2) against the full scan."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -169,3 +171,24 @@ def test_bad_seeds():
         prop.extract(0.5, [[0, 1]])
     with pytest.raises(IsoSurfaceError, match="normals"):
         prop.extract(0.5, [0], normals="flat")
+
+
+def test_same_surface_and_sweep():
+    from polygen.volume import methods
+    from polygen.volume.isosurface import same_surface
+
+    vol = grid_volume((8, 7, 6), tets=True, jitter=0.1, seed=2)
+    vol.add_field("f", np.sin(vol.points[:, 0]) + vol.points[:, 1] * 0.3)
+    values = [0.2, 0.9, 1.4]
+    ref = [extract(vol, v) for v in values]
+    m = methods.get("span-filter")(vol)
+    sw = methods.sweep(m, values, reference=ref)
+    assert sw.same_as_reference and len(sw.surfaces) == 3
+    assert sw.triangles == sum(r.n_triangles for r in ref) and sw.cells_intersected == sum(
+        r.cells_intersected for r in ref)
+    assert sw.seed_cells_tested > 0 and sw.query_s > 0
+    assert same_surface(ref[0], sw.surfaces[0]) and not same_surface(ref[0], ref[1])
+    assert not methods.sweep(m, values, reference=ref[::-1]).same_as_reference
+    assert methods.sweep(m, values).same_as_reference is None
+    moved = dataclasses.replace(ref[0], vertices=ref[0].vertices + 1e-9)
+    assert same_surface(ref[0], moved, geometry=False) and not same_surface(ref[0], moved)

@@ -845,3 +845,21 @@ def test_adaptive_refine_conforming_and_local():
         mark_jumps(m, b, -1.0)
     # min_area stops the refinement
     assert not mark_jumps(m, b, thr, min_area=m.element_area.max()).any()
+
+
+def test_triangle_fan_and_small_shadows_depth():
+    from polygen.radiosity import Polygon, bubble_mesher, mesh_scene, progressive_refinement, scenes
+    from polygen.radiosity.scene import SceneError
+
+    sq = Polygon([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    v, t = sq.triangle_fan()
+    assert t.tolist() == [[0, 1, 2], [0, 2, 3]] and np.allclose(v, sq.vertices)
+    with pytest.raises(SceneError, match="convex"):
+        Polygon([[0, 0, 0], [2, 0, 0], [1, 0.2, 0], [2, 2, 0], [0, 2, 0]]).triangle_fan()
+    room = scenes.small_shadows_room()
+    m = mesh_scene(room, 1.0, element_levels=0, mesher=bubble_mesher)
+    r = progressive_refinement(m, form_factors="analytic", tol=0.05)
+    depth = scenes.small_shadows_depth(m, r)
+    assert depth.shape == (3,) and np.all(depth > 0) and depth[2] < 0.9   # the big square's shadow shows
+    with pytest.raises(ValueError, match="small_shadows_room"):
+        scenes.small_shadows_depth(mesh_scene(scenes.unit_cube(), 0.5, element_levels=0), r)

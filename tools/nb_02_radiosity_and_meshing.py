@@ -45,6 +45,8 @@ from polygen.radiosity import (Camera, Polygon, adaptive_refine, bubble_element_
                                progressive_refinement, render, scenes, to_pyvista)
 
 pv = plotting.setup_notebook()
+"""),
+    ("code", """
 CORNELL_PATCH = 80.0                  # mm: 662 bubble patches
 CORNELL_LEVELS = 2 if FULL else 1     # 16 (about 10.6k) or 4 (about 2.6k) elements per patch
 IMAGE = 256 if FULL else 160          # rendered image size in pixels
@@ -74,11 +76,8 @@ th = np.linspace(0.0, 2 * np.pi, k, endpoint=False)
 disk = np.c_[np.cos(th), np.sin(th), np.ones(k)]                        # inscribed 512-gon
 
 
-def tris_of(poly):  # a convex polygon as a triangle fan
-    v = poly.vertices
-    return v, np.c_[np.zeros(len(v) - 2, int), np.arange(1, len(v) - 1), np.arange(2, len(v))]
-
-
+"""),
+    ("code", """
 RES = 100
 analytic = [polygon_form_factor(floor, top, order=10), polygon_form_factor(floor, wall, order=32),
             point_polygon_form_factor([0, 0, 0], [0, 0, 1], [rect]),
@@ -108,7 +107,7 @@ Middle: the delta form factors of the five faces, unfolded; right: what a hemicu
 Cornell floor sees (white: nothing, i.e. the open front of the box; yellow: the light).
 """),
     ("code", """
-sq_nodes, sq_tris = tris_of(top)
+sq_nodes, sq_tris = top.triangle_fan()
 centre = np.array([0.5, 0.5, 0.0])
 exact_point = point_polygon_form_factor(centre, [0, 0, 1], [top.vertices])
 res_list = np.array([20, 40, 80, 160, 320])
@@ -132,6 +131,8 @@ _, items = hemicube_form_factors([400.0, 1e-3, 150.0], [0, 1, 0], coarse.nodes, 
 plot_radiosity.plot_hemicube(items, colors=colours, ax=axes[2],
                              title="item buffer on the Cornell floor")
 plt.show()
+"""),
+    ("code", """
 print(f"point factor at the centre: exact {exact_point:.4f}, hemicube {f_centre:.4f}; "
       f"area factor {HOWELL['facing unit squares at distance 1 (C-11)']:.4f}")
 assert -2.3 < slope < -1.7
@@ -227,6 +228,8 @@ img_t = render(tv_nodes, t_mesh, inten, tcam, cull_back_faces=False)[..., 0]
 img_f = render(tv_nodes, fixed, inten, tcam, cull_back_faces=False)[..., 0]
 print("T-vertices:", find_t_vertices(tv_nodes[:, :2], t_mesh)[0], "->",
       find_t_vertices(tv_nodes[:, :2], fixed)[0])
+"""),
+    ("code", """
 # intensity along a line across the diagonal, through b
 s = np.linspace(-0.5, 0.5, 201)
 line = np.c_[s, -s, np.zeros_like(s)]
@@ -403,6 +406,8 @@ mref = mesh_scene(room3, sizes_ref, element_levels=1, mesher=bubble_mesher)
 rref = progressive_refinement(mref, form_factors="analytic", tol=0.01)
 lum = lambda r: r.radiosity.mean(axis=1)   # noqa: E731
 vmax = lum(rref)[mref.element_polygon == FLOOR].max()
+"""),
+    ("code", """
 fig, axes = plt.subplots(1, len(sol) + 1, figsize=(4.3 * (len(sol) + 1), 4.3))
 for k, (ax, (m, r)) in enumerate(zip(axes, sol)):
     plot_radiosity.plot_polygon_mesh(m, FLOOR, values=lum(r), ax=ax, vmin=0, vmax=vmax)
@@ -417,18 +422,7 @@ assert all(b > a for a, b in zip(counts, counts[1:]))
 """),
     ("code", """
 # darkest floor element under each square's shadow, relative to the unshadowed floor around
-light = np.array([5.0, 10.0, 5.0])
-def shadow_depth(m, r):
-    x = m.element_centroid
-    on = m.element_polygon == FLOOR
-    b = lum(r)
-    open_floor = on & (np.hypot(x[:, 0] - 5.0, x[:, 2] - 8.0) < 1.0)
-    out = []
-    for xc, a in zip((2.5, 5.0, 7.5), (0.4, 0.8, 1.6)):
-        c = light + (np.array([xc, 2.0, 5.0]) - light) * 10.0 / 8.0   # shadow centre on the floor
-        near = on & (np.hypot(x[:, 0] - c[0], x[:, 2] - c[2]) < 0.75 * a + 0.3)
-        out.append(b[near].min() / b[open_floor].mean())
-    return np.array(out)
+shadow_depth = scenes.small_shadows_depth
 print(f"{'mesh':22s} {'0.4 square':>10s} {'0.8 square':>10s} {'1.6 square':>10s}   (1 = no shadow)")
 for k, (m, r) in enumerate(sol):
     print(f"{'first mesh' if k == 0 else f'subdivision {k}':22s}", *[f"{v:10.3f}" for v in shadow_depth(m, r)])

@@ -36,6 +36,8 @@ from polygen.volume.extrema_graph import build_extrema_graph, extrema_graph_2d, 
 from polygen.volume.isosurface import extract
 
 pv = plotting.setup_notebook()
+"""),
+    ("code", """
 TABLE_DATA = ["data1", "data2", "data3", "data4"]   # Tables 6.1-6.5: fits in the default run
 NOISE = [0.003, 0.004, 0.005, 0.006, 0.008, 0.01, 0.012] if FULL else [0.004, 0.006]
 THESIS = {  # Tables 6.1-6.5, data 1-4 (IBM RS/6000 model 560)
@@ -178,31 +180,17 @@ for name in TABLE_DATA:
     values = np.linspace(s.min(), s.max(), 22)[1:-1]
     row = {"data": name, "N_e": vol.n_cells, "N_b": len(vol.boundary_cells), "N_n": vol.n_points}
     ref = [extract(vol, v) for v in values]
-    ref = [np.unique(np.sort(r.vertex_keys[r.triangles], 1), axis=0) for r in ref]
     for mname, key in [("scan", "all"), ("sorted-lists", "sort"), ("span-filter", "filt"), ("extrema-graph", "egra")]:
         m = methods.get(mname)(vol)
-        row[f"T_{key}"] = m.preprocess_s
-        q = t1 = n_cg = n_arcs = n_ci = t_mg = t_mb = t_mt = t_mv = 0
-        for v, r in zip(values, ref):
-            t0 = time.perf_counter()
-            iso = m.extract(v)
-            q += time.perf_counter() - t0
-            t1 += iso.t1   # finding the intersected cells: search + testing the candidates
-            n_cg += m.seed_cells_tested
-            assert np.array_equal(np.unique(np.sort(iso.vertex_keys[iso.triangles], 1), axis=0), r), (name, mname, v)
-            if key == "egra":
-                n_arcs += m.stats["seeds"].tested_arcs
-                n_ci += m.stats["N_ci"]
-                t_mg, t_mb = t_mg + m.stats["T_mg"], t_mb + m.stats["T_mb"]
-                t_mt, t_mv = t_mt + m.stats["T_mt"], t_mv + m.stats["T_mv"]
-        row[f"Q_{key}"] = q
-        row[f"t1_{key}"] = t1
-        row[f"tested_{key}"] = n_cg
-    g = m.graph.stats
+        sw = methods.sweep(m, values, reference=ref)   # the 20 values, one at a time, summed
+        assert sw.same_as_reference, (name, mname)
+        row.update({f"T_{key}": m.preprocess_s, f"Q_{key}": sw.query_s, f"t1_{key}": sw.t1,
+                    f"tested_{key}": sw.seed_cells_tested})
+    g = m.graph.stats   # the extrema graph, last in the list
     row.update({"T_pe": g["T_pe"], "T_pc": g["T_pc"], "T_pb": g["T_pb"], "extrema": g["extrema"],
                 "N_g": g["graph_cells"], "N_pa": g["polyline_arcs"], "search arcs": g["search_arcs"],
-                "T_mg": t_mg, "T_mb": t_mb, "T_mt": t_mt, "T_mv": t_mv, "N_cg": n_cg, "N_cg arcs": n_arcs,
-                "N_ci": n_ci})
+                "N_cg": sw.seed_cells_tested, "N_cg arcs": sum(x["seeds"].tested_arcs for x in sw.stats),
+                **{k: sum(x[k] for x in sw.stats) for k in ("T_mg", "T_mb", "T_mt", "T_mv", "N_ci")}})
     rows.append(row)
     print(name, "done")
 """),

@@ -33,11 +33,13 @@ import numpy as np
 from polygen import plot_thinning, plotting
 from polygen.volume import datasets, methods
 from polygen.volume.extrema_graph import build_extrema_graph
-from polygen.volume.isosurface import extract
+from polygen.volume.isosurface import extract, same_surface
 from polygen.volume.propagate import Propagator
 from polygen.volume.thinning import pixel_removable, thin_image, thin_volume
 
 pv = plotting.setup_notebook()
+"""),
+    ("code", """
 TABLE_DATA = ["data1", "data2", "data3", "data4", "data5"]
 THESIS = {  # Tables 7.1-7.5, data 1-5 (IBM RS/6000 model 560)
     "N_e": [20736, 61680, 346644, 557868, 458664], "N_n": [4002, 11624, 62107, 97473, 80468],
@@ -55,11 +57,9 @@ THESIS = {  # Tables 7.1-7.5, data 1-5 (IBM RS/6000 model 560)
     "N_sort": [51348, 61766, 101951, 879735, 378712], "N_filt": [89548, 179088, 786220, 1927026, 1278742],
     "N_egra": [54420, 66618, 115639, 907319, 550605], "N_thin": [51762, 63089, 105762, 890134, 436658],
 }
+MNAMES = [("scan", "all"), ("sorted-lists", "sort"), ("span-filter", "filt"), ("extrema-graph", "egra"),
+          ("thinning", "thin")]
 
-
-def same_triangles(a, b):
-    return np.array_equal(np.unique(np.sort(a.vertex_keys[a.triangles], 1), axis=0),
-                          np.unique(np.sort(b.vertex_keys[b.triangles], 1), axis=0))
 """),
     ("md", """
 ## Fig. 7.1 made real — a through-hole hides part of an isosurface from the extrema graph
@@ -82,7 +82,7 @@ for v in np.linspace(d1.min(), d1.max(), 62)[1:-1]:
     seeds = graph_d.seeds(v)
     from_arcs = prop_d.extract(v, seeds.cells[:seeds.n_from_arcs])
     from_skeleton = prop_d.extract(v, skel_d.seeds(v).cells)
-    assert same_triangles(from_skeleton, full)      # the skeleton alone finds every part
+    assert same_surface(from_skeleton, full, geometry=False)      # the skeleton alone finds every part
     if from_arcs.triangles.shape[0] < full.triangles.shape[0]:
         missed.append((full.triangles.shape[0] - from_arcs.triangles.shape[0], v))
 print(f"extrema: {graph_d.extrema.n}, arcs: {graph_d.n_arcs}; skeleton: {skel_d.n_cells} cells, "
@@ -187,7 +187,7 @@ s1 = vol1.scalars()
 isos1 = [m1.extract(v) for v in np.linspace(s1.min(), s1.max(), 7)[1:-1]]
 plot_thinning.plot_skeleton_isosurfaces(vol1, m1.skeleton, isos1).show()
 for iso in isos1:  # the same triangles as testing every cell
-    assert same_triangles(iso, extract(vol1, iso.value))
+    assert same_surface(iso, extract(vol1, iso.value), geometry=False)
 """),
     ("code", """
 m2 = methods.get("thinning")(vol2)
@@ -195,7 +195,7 @@ s2 = vol2.scalars()
 isos2 = [m2.extract(v) for v in np.linspace(s2.min(), s2.max(), 7)[1:-1]]
 plot_thinning.plot_skeleton_isosurfaces(vol2, m2.skeleton, isos2).show()
 for iso in isos2:
-    assert same_triangles(iso, extract(vol2, iso.value))
+    assert same_surface(iso, extract(vol2, iso.value), geometry=False)
 """),
     ("md", """
 ## Figs 7.18–7.21 — thinning data 2
@@ -252,8 +252,6 @@ the cells the search tested plus, for the extrema graph and thinning, the cells 
 that propagation registered.
 """),
     ("code", """
-MNAMES = [("scan", "all"), ("sorted-lists", "sort"), ("span-filter", "filt"), ("extrema-graph", "egra"),
-          ("thinning", "thin")]
 rows = []
 for name in TABLE_DATA:
     vol = datasets.load(name)
@@ -265,21 +263,13 @@ for name in TABLE_DATA:
            "N_t": sum(r.triangles.shape[0] for r in ref), "N_v": sum(r.vertices.shape[0] for r in ref)}
     for mname, key in MNAMES:
         m = methods.get(mname)(vol)
-        row[f"T_{key}"] = m.preprocess_s
-        q = t1 = tested = n_ci = 0
-        for v, r in zip(values, ref):
-            t0 = time.perf_counter()
-            iso = m.extract(v)
-            q += time.perf_counter() - t0
-            t1 += iso.t1
-            tested += m.seed_cells_tested
-            n_ci += iso.cells_intersected
-            assert same_triangles(iso, r), (name, mname, v)
-        row[f"Q_{key}"], row[f"t1_{key}"] = q, t1
-        row[f"N_{key}"] = tested + (n_ci if key in ("egra", "thin") else 0)
+        sw = methods.sweep(m, values, reference=ref)   # the 20 values, one at a time, summed
+        assert sw.same_as_reference, (name, mname)
+        n_ci = sw.cells_intersected
+        row.update({f"T_{key}": m.preprocess_s, f"Q_{key}": sw.query_s, f"t1_{key}": sw.t1,
+                    f"N_{key}": sw.seed_cells_tested + (n_ci if key in ("egra", "thin") else 0)})
         if key == "egra":
-            row["N_ep"] = m.graph.stats["extrema"]
-            row["N_e1"] = m.graph.stats["graph_cells"] + m.graph.stats["boundary_cells"]
+            row.update(N_ep=m.graph.stats["extrema"], N_e1=m.graph.stats["graph_cells"] + m.graph.stats["boundary_cells"])
         if key == "thin":
             st = m.skeleton.stats
             row.update({"N_e2": st["skeleton_cells"], "C1": st["C1"], "C2": st["C2"], "C3": st["C3"],
@@ -287,19 +277,14 @@ for name in TABLE_DATA:
     row["N_ci"] = n_ci
     rows.append(row)
     print(name, "done")
-
-
-def show(title, cols, fmt="{}"):
-    print(title, "(thesis in parentheses)")
-    print(plotting.table([{"data": r["data"], **{k: (fmt.format(r[k]) if isinstance(r[k], float) else str(r[k]))
-                                                   + (f" ({THESIS[k][i]})" if k in THESIS else "") for k in cols}}
-                          for i, r in enumerate(rows)], ["data"] + cols))
-    print()
 """),
     ("code", """
-show("Table 7.1 - registered cells and preprocessing (s)",
-     ["N_e", "N_n", "N_ep", "N_e1", "N_e2", "T_sort", "T_filt", "T_egra", "T_thin"], "{:.4f}")
-show("Table 7.2 - skeleton cells by class", ["C1", "C2", "C3", "C4"])
+cols = ["N_e", "N_n", "N_ep", "N_e1", "N_e2", "T_sort", "T_filt", "T_egra", "T_thin"]
+print("Table 7.1 - registered cells and preprocessing (s), thesis in parentheses")
+print(plotting.table(plotting.with_thesis(rows, cols, THESIS, floatfmt="{:.4f}"), ["data", *cols]))
+cols = ["C1", "C2", "C3", "C4"]
+print("Table 7.2 - skeleton cells by class, thesis in parentheses")
+print(plotting.table(plotting.with_thesis(rows, cols, THESIS), ["data", *cols]))
 print("thinning preprocessing per cell (ns):", ", ".join(f"{r['ns/cell']:.0f}" for r in rows))
 for r in rows:
     # the skeleton is smaller than graph + boundary lists: several times on data 1-4, less so with data 5's
@@ -309,10 +294,13 @@ for r in rows:
     assert r["C2"] > r["C3"] + r["C4"], r     # mostly chains of C2 cells
 """),
     ("code", """
-show("Table 7.3 - twenty isosurfaces (s)", ["N_t", "N_v", "Q_all", "Q_sort", "Q_filt", "Q_egra", "Q_thin"],
-     "{:.4f}")
-show("Table 7.4 - finding the intersected cells, t1 (s)", ["t1_sort", "t1_filt", "t1_egra", "t1_thin"], "{:.4f}")
-show("Table 7.5 - cells tested", ["N_sort", "N_filt", "N_egra", "N_thin", "N_ci"])
+for title, cols, fmt in [("Table 7.3 - twenty isosurfaces (s)",
+                          ["N_t", "N_v", "Q_all", "Q_sort", "Q_filt", "Q_egra", "Q_thin"], "{:.4f}"),
+                         ("Table 7.4 - finding the intersected cells, t1 (s)",
+                          ["t1_sort", "t1_filt", "t1_egra", "t1_thin"], "{:.4f}"),
+                         ("Table 7.5 - cells tested", ["N_sort", "N_filt", "N_egra", "N_thin", "N_ci"], "{}")]:
+    print(title + ", thesis in parentheses")
+    print(plotting.table(plotting.with_thesis(rows, cols, THESIS, floatfmt=fmt), ["data", *cols]))
 for r in rows:
     assert r["N_thin"] < r["N_egra"], r          # Table 7.5: thinning tests fewer cells than the extrema graph
     assert r["N_thin"] < r["N_sort"], r          # ... and than sorted lists (ours scan more than the active cells)

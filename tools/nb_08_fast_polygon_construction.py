@@ -34,9 +34,11 @@ import numpy as np
 import polygen
 from polygen import plot_volume, plotting
 from polygen.volume import datasets, methods
-from polygen.volume.isosurface import extract
+from polygen.volume.isosurface import extract, same_surface
 
 pv = plotting.setup_notebook()
+"""),
+    ("code", """
 # the paper's volumes 1-4 are ours data2, data3, data5, data4 (61680, 346644, 458664, 557868 cells)
 TABLE1_DATA = ["data2", "data3"]
 TABLE2_DATA = ["data2", "data3"] + (["data5", "data4"] if FULL else [])
@@ -51,26 +53,6 @@ PAPER_T2 = {  # Table 2: n_c, n_t, n_v, t_p old, t_p new, total old, total new
     "data5": (458664, 494480, 251506, 21.35, 15.72, 26.65, 20.61),
     "data4": (557868, 1164616, 588796, 49.80, 36.20, 60.81, 46.80),
 }
-
-
-def sweep(method, values):
-    \"\"\"The twenty surfaces and the construction counters of each call.\"\"\"
-    isos, stats = [], []
-    for v in values:
-        isos.append(method.extract(v))
-        stats.append(dict(getattr(method, "stats", {})))
-    return isos, stats
-
-
-def triangle_keys(iso):
-    return {tuple(sorted(t)) for t in iso.vertex_keys[iso.triangles].tolist()}
-
-
-def same_surface(a, b):
-    oa, ob = np.argsort(a.vertex_keys), np.argsort(b.vertex_keys)
-    return (triangle_keys(a) == triangle_keys(b) and a.n_triangles == b.n_triangles
-            and np.array_equal(a.vertex_keys[oa], b.vertex_keys[ob]) and np.array_equal(a.vertices[oa], b.vertices[ob])
-            and np.allclose(a.normals[oa], b.normals[ob], atol=1e-12))
 """),
     ("md", """
 ## Figs 1 and 4 — a look-up per polygon against a registration per cell
@@ -137,7 +119,7 @@ for name in TABLE1_DATA:
     for label in ("scan", "thinning"):
         m = methods.get(label)(v, field="fem")
         m.extract(values[0])                              # first call: allocations
-        out[label] = sweep(m, values)[0]
+        out[label] = methods.sweep(m, values).surfaces
     p = PAPER_T1[name]
     for label, paper in (("scan", p[4]), ("thinning", p[5])):
         isos = out[label]
@@ -176,7 +158,8 @@ for name in TABLE2_DATA:
     for label, params in (("thinning", {}), ("edge-centred", {"order": "fifo"})):   # FIFO, as in the paper
         m = methods.get(label)(v, field="fem", **params)
         m.extract(values[0])
-        res[label] = sweep(m, values)
+        sw = methods.sweep(m, values)                    # one value at a time
+        res[label] = (sw.surfaces, sw.stats)
     (old, _), (new, st) = res["thinning"], res["edge-centred"]
     assert all(same_surface(a, b) for a, b in zip(old, new))
     p = PAPER_T2[name]
@@ -232,7 +215,11 @@ for name in HEX_DATA:
     v = datasets.load(name)
     sv = v.scalars("fem")
     values = np.linspace(sv.min(), sv.max(), 22)[1:-1]
-    res = {label: sweep(methods.get(label)(v, field="fem"), values) for label in ("scan", "thinning", "edge-centred")}
+    res = {}
+    for label in ("scan", "thinning", "edge-centred"):
+        m = methods.get(label)(v, field="fem")
+        sw = methods.sweep(m, values)
+        res[label] = (sw.surfaces, sw.stats)
     (sc, _), (old, _), (new, st) = res["scan"], res["thinning"], res["edge-centred"]
     assert all(same_surface(a, b) and same_surface(a, c) for a, b, c in zip(sc, old, new))
     rows_h.append({"data": name, "cells": v.n_cells, "triangles": sum(i.n_triangles for i in new),
@@ -275,6 +262,8 @@ for r in bench["rows"]:
                    "2 at a time / vtk+span": m["edge-centred-2x"]["query_s"] / m["vtk+spanspace"]["query_s"],
                    "skeleton s": m["edge-centred-lifo"]["seed_preprocess_s"]})
 print(plotting.table(rows_v, list(rows_v[0])))
+"""),
+    ("code", """
 cells = np.array([r["cells"] for r in bench["rows"]], float)
 fig, ax = plt.subplots(figsize=(6.5, 4.2))
 for label, key in [("vtk", "vtk"), ("vtk + span space", "vtk+spanspace"), ("scan", "scan"),

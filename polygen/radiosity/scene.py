@@ -192,6 +192,13 @@ class Polygon:
         cross = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
         return bool(np.all(cross >= -1e-12 * self.diameter ** 2))
 
+    def triangle_fan(self):
+        """``(vertices (n, 3), triangles (n-2, 3))``: a convex polygon without holes as a fan from vertex 0."""
+        if self.holes or not self.is_convex:
+            raise SceneError(f"{self.name}: a triangle fan needs a convex polygon without holes")
+        n = len(self.vertices)
+        return self.vertices, np.c_[np.zeros(n - 2, int), np.arange(1, n - 1), np.arange(2, n)]
+
     def flipped(self, name=None):
         """The same polygon seen from the other side (back-to-back twin)."""
         return type(self)(self.vertices[::-1], [h[::-1] for h in self.holes],

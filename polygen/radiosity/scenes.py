@@ -20,6 +20,7 @@ __all__ = [
     "sphere_scene",
     "chair_scene",
     "small_shadows_room",
+    "small_shadows_depth",
     "CORNELL_WHITE",
     "CORNELL_RED",
     "CORNELL_GREEN",
@@ -221,6 +222,36 @@ def small_shadows_room(*, sizes=(0.4, 0.8, 1.6), height=2.0, light_size=1.0, emi
         polys += _two_sided(_rectangle([x, height, 5.0], a, a, [1, 0, 0], [0, 0, 1]),
                             reflectance=reflectance, name=f"square{k}")
     return Scene(polys, name="small_shadows_room")
+
+
+def small_shadows_depth(mesh, result, *, sizes=(0.4, 0.8, 1.6), height=2.0, light_size=1.0):
+    """How dark each square's shadow comes out on the floor of :func:`small_shadows_room` (Fig. 2.8).
+
+    For each square: the darkest floor element within its shadow (the
+    square projected from the light's centre, plus a margin), over the mean
+    of the open floor around (5, 5); 1 means the mesh shows no shadow.
+    ``mesh`` must mesh a :func:`small_shadows_room` built with the same
+    ``sizes`` and ``height``; ``result`` is its radiosity solution.
+
+    Returns
+    -------
+    (len(sizes),) float64
+    """
+    names = [p.name for p in mesh.scene.polygons]
+    if "room_y0" not in names:
+        raise ValueError("small_shadows_depth needs a mesh of small_shadows_room (no polygon 'room_y0')")
+    light = np.array([5.0, 10.0, 5.0])  # the centre of the ceiling light
+    x = mesh.element_centroid
+    on = mesh.element_polygon == names.index("room_y0")
+    b = result.radiosity.mean(axis=1)
+    open_floor = on & (np.hypot(x[:, 0] - 5.0, x[:, 2] - 8.0) < 1.0)
+    xs = np.linspace(2.5, 7.5, len(sizes)) if len(sizes) > 1 else [5.0]
+    out = []
+    for xc, a in zip(xs, sizes):
+        c = light + (np.array([xc, height, 5.0]) - light) * light[1] / (light[1] - height)  # on the floor
+        near = on & (np.hypot(x[:, 0] - c[0], x[:, 2] - c[2]) < 0.75 * a + 0.3 * light_size)
+        out.append(b[near].min() / b[open_floor].mean())
+    return np.array(out)
 
 
 def three_rectangles_box(*, emission=10.0, reflectance=0.6):

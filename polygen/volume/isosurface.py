@@ -28,7 +28,7 @@ import numpy as np
 
 from polygen.volume import marching as _m
 
-__all__ = ["IsoSurface", "extract", "IsoSurfaceError"]
+__all__ = ["IsoSurface", "extract", "IsoSurfaceError", "same_surface"]
 
 _NORMALS = ("mean", "gradient", None)
 _CHUNK = 8192
@@ -345,6 +345,31 @@ def extract(vol, value, *, field=None, method="scan", normals="mean", seeds=None
 
         return Propagator(vol, field).extract(value, seeds, normals=normals)
     raise IsoSurfaceError(f"method must be 'scan' or 'propagate'; got {method!r}")
+
+
+def same_surface(a, b, *, geometry=True, normals_atol=1e-12):
+    """Whether two isosurfaces are the same surface, whatever order their triangles came in.
+
+    The same triangles as sets of vertex keys (cell edges, or nodes for
+    crossings exactly on a node), each vertex key once; with ``geometry``
+    also the same vertex positions (bit for bit) and normals (within
+    ``normals_atol``). Methods that differ only in the order they visit the
+    cells (scan, propagation, edge-centred construction) must agree.
+    """
+    if a.n_triangles != b.n_triangles or a.n_vertices != b.n_vertices:
+        return False
+    ta = np.unique(np.sort(a.vertex_keys[a.triangles], axis=1), axis=0)
+    tb = np.unique(np.sort(b.vertex_keys[b.triangles], axis=1), axis=0)
+    if not np.array_equal(ta, tb):
+        return False
+    if not geometry:
+        return True
+    oa, ob = np.argsort(a.vertex_keys), np.argsort(b.vertex_keys)
+    if not (np.array_equal(a.vertex_keys[oa], b.vertex_keys[ob]) and np.array_equal(a.vertices[oa], b.vertices[ob])):
+        return False
+    if (a.normals is None) != (b.normals is None):
+        return False
+    return a.normals is None or bool(np.allclose(a.normals[oa], b.normals[ob], atol=normals_atol, rtol=0))
 
 
 def num_threads() -> int:

@@ -27,7 +27,7 @@ from polygen.volume import seeds as _seeds
 from polygen.volume.isosurface import extract as _extract
 from polygen.volume.propagate import Propagator
 
-__all__ = ["IsosurfaceMethod", "METHODS", "DEFAULT", "register", "get", "names", "default"]
+__all__ = ["IsosurfaceMethod", "METHODS", "DEFAULT", "register", "get", "names", "default", "Sweep", "sweep"]
 
 #: name -> class, in the order they were registered
 METHODS: dict = {}
@@ -79,6 +79,69 @@ def _load_plugins():
     for mod in _PLUGINS:
         if importlib.util.find_spec(mod) is not None:
             importlib.import_module(mod)
+
+
+@dataclasses.dataclass
+class Sweep:
+    """Several values extracted by one method, one at a time, and the totals the thesis's tables use.
+
+    Attributes
+    ----------
+    surfaces : list of IsoSurface
+    stats : list of dict
+        The method's ``stats`` after each call (empty dicts for methods without).
+    query_s : float
+        Wall clock of the calls.
+    t1 : float
+        Sum of the surfaces' t1 (finding the intersected cells).
+    seed_cells_tested : int
+        Sum of the method's ``seed_cells_tested`` (N_cg for the extrema graph).
+    cells_tested, cells_intersected, triangles, vertices : int
+        Sums over the surfaces.
+    same_as_reference : bool or None
+        Every surface has the reference's triangles (None without a reference).
+    """
+
+    surfaces: list
+    stats: list
+    query_s: float
+    t1: float
+    seed_cells_tested: int
+    cells_tested: int
+    cells_intersected: int
+    triangles: int
+    vertices: int
+    same_as_reference: bool | None
+
+
+def sweep(method, values, *, reference=None, normals="mean"):
+    """Extract ``values`` one at a time with a prepared ``method`` and add up its counters.
+
+    ``reference``: surfaces of the same values (e.g. the full scan's) that
+    each result must equal, triangle for triangle (by vertex keys).
+    """
+    from polygen.volume.isosurface import same_surface
+
+    surfaces, stats = [], []
+    query = t1 = 0.0
+    seed_tested = 0
+    for v in values:
+        t0 = time.perf_counter()
+        iso = method.extract(v, normals=normals)
+        query += time.perf_counter() - t0
+        t1 += iso.t1
+        seed_tested += method.seed_cells_tested
+        surfaces.append(iso)
+        stats.append(dict(getattr(method, "stats", {})))
+    same = None
+    if reference is not None:
+        same = len(reference) == len(surfaces) and all(
+            same_surface(a, b, geometry=False) for a, b in zip(surfaces, reference))
+    return Sweep(surfaces=surfaces, stats=stats, query_s=query, t1=t1, seed_cells_tested=seed_tested,
+                 cells_tested=sum(i.cells_tested for i in surfaces),
+                 cells_intersected=sum(i.cells_intersected for i in surfaces),
+                 triangles=sum(i.n_triangles for i in surfaces), vertices=sum(i.n_vertices for i in surfaces),
+                 same_as_reference=same)
 
 
 class IsosurfaceMethod(abc.ABC):
