@@ -19,6 +19,45 @@ def grid_volume(dims, spacing=(1.0, 1.0, 1.0), *, tets=True, jitter=0.0, seed=0)
     return vol
 
 
+_KUHN = np.array([[0, 1, 2, 6], [0, 1, 5, 6], [0, 4, 5, 6], [0, 4, 7, 6], [0, 3, 7, 6], [0, 3, 2, 6]])
+_CORNERS = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]])
+
+
+def block_volume(keep, cell_type="tetra", jitter=0.0, seed=0):
+    """Unit cubes over the True entries of ``keep`` (hexahedra, or 6 Kuhn tetrahedra each).
+
+    Carries two fields: ``"bumps"`` (a few smooth extrema) and ``"linear"``.
+    """
+    keep = np.asarray(keep, bool)
+    nx, ny, nz = keep.shape
+    c = np.argwhere(keep)[:, None, :] + _CORNERS[None]
+    hexes = (c[..., 0] * (ny + 1) + c[..., 1]) * (nz + 1) + c[..., 2]
+    used, cells = np.unique(hexes, return_inverse=True)
+    cells = cells.reshape(hexes.shape)
+    g = np.stack(np.meshgrid(np.arange(nx + 1), np.arange(ny + 1), np.arange(nz + 1), indexing="ij"), -1)
+    pts = g.reshape(-1, 3)[used].astype(float)
+    if jitter:
+        pts = pts + np.random.default_rng(seed).uniform(-jitter, jitter, pts.shape)
+    if cell_type == "tetra":
+        cells = cells[:, _KUHN].reshape(-1, 4)
+        p = pts[cells]
+        vol6 = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 3] - p[:, 0])
+        neg = vol6 < 0
+        cells[neg, 1], cells[neg, 2] = cells[neg, 2], cells[neg, 1].copy()
+    p = pts
+    fields = {"bumps": np.sin(1.3 * p[:, 0] + 0.2) * np.cos(1.1 * p[:, 1] - 0.3) + 0.37 * np.sin(0.9 * p[:, 2] + 1),
+              "linear": p[:, 0] + 0.31 * p[:, 1] + 0.097 * p[:, 2]}
+    return UnstructuredVolume(pts, cells, fields)
+
+
+def iso_values(s, n=200, seed=0):
+    """Half evenly spread over the range (and just outside), half equal to node values (ties)."""
+    rng = np.random.default_rng(seed)
+    lo, hi = float(s.min()), float(s.max())
+    even = np.linspace(lo - 0.01 * (hi - lo), hi + 0.01 * (hi - lo), n // 2)
+    return np.concatenate([even, rng.choice(s, n - n // 2)])
+
+
 def oriented_triangles(iso):
     """Triangles as vertex-key triples, orientation kept (rotated to start at the smallest key)."""
     k = iso.vertex_keys[iso.triangles]

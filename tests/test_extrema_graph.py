@@ -10,7 +10,7 @@ import pytest
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from polygen.volume import UnstructuredVolume, datasets, methods
+from polygen.volume import datasets, methods
 from polygen.volume.extrema_graph import (
     ExtremaGraphError,
     ExtremaGraphMethod,
@@ -21,50 +21,19 @@ from polygen.volume.extrema_graph import (
 from polygen.volume.isosurface import extract
 
 from _surfaces import assert_complete as _assert_complete  # noqa: E402
-from _surfaces import sorted_triangles  # noqa: E402
+from _surfaces import block_volume as grid_volume  # noqa: E402
+from _surfaces import iso_values, sorted_triangles  # noqa: E402
+
+#: the thesis's boundary cell lists and our boundary homology loops
+VARIANTS = ("extrema-graph", "extrema-graph-loops")
 
 
 def assert_complete(vol, field, values, **params):
-    """The extrema-graph isosurface equals the full scan's for every value."""
-    return _assert_complete("extrema-graph", vol, field, values, **params)
+    """The extrema-graph isosurface equals the full scan's for every value, with lists and with loops."""
+    for name in VARIANTS:
+        _assert_complete(name, vol, field, values, **params)
 
 # ------------------------------------------------------------------ helpers
-_KUHN = np.array([[0, 1, 2, 6], [0, 1, 5, 6], [0, 4, 5, 6], [0, 4, 7, 6], [0, 3, 7, 6], [0, 3, 2, 6]])
-_CORNERS = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]])
-
-
-def grid_volume(keep, cell_type="tetra", jitter=0.0, seed=0):
-    """Unit cubes over the True entries of ``keep`` (hexahedra, or 6 Kuhn tetrahedra each)."""
-    keep = np.asarray(keep, bool)
-    nx, ny, nz = keep.shape
-    ijk = np.argwhere(keep)
-    c = ijk[:, None, :] + _CORNERS[None]
-    hexes = (c[..., 0] * (ny + 1) + c[..., 1]) * (nz + 1) + c[..., 2]
-    used, cells = np.unique(hexes, return_inverse=True)
-    cells = cells.reshape(hexes.shape)
-    g = np.stack(np.meshgrid(np.arange(nx + 1), np.arange(ny + 1), np.arange(nz + 1), indexing="ij"), -1)
-    pts = g.reshape(-1, 3)[used].astype(float)
-    if jitter:
-        pts = pts + np.random.default_rng(seed).uniform(-jitter, jitter, pts.shape)
-    if cell_type == "tetra":
-        cells = cells[:, _KUHN].reshape(-1, 4)
-        p = pts[cells]
-        vol6 = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 3] - p[:, 0])
-        neg = vol6 < 0
-        cells[neg, 1], cells[neg, 2] = cells[neg, 2], cells[neg, 1].copy()
-    return UnstructuredVolume(pts, cells)
-
-
-def iso_values(s, n=200, seed=0):
-    """Half evenly spread over the range (and just outside), half equal to node values (ties)."""
-    rng = np.random.default_rng(seed)
-    lo, hi = float(s.min()), float(s.max())
-    even = np.linspace(lo - 0.01 * (hi - lo), hi + 0.01 * (hi - lo), n // 2)
-    return np.concatenate([even, rng.choice(s, n - n // 2)])
-
-
-
-
 def brute_extrema(cells, s):
     """Defs 6.3/6.4 (ties allowed), one representative (lowest id candidate) per flat group."""
     n = s.shape[0]

@@ -17,7 +17,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from polygen.cli import main
-from polygen.volume import UnstructuredVolume, datasets, methods
+from polygen.volume import datasets, methods
 from polygen.volume.extrema_graph import build_extrema_graph
 from polygen.volume.isosurface import extract
 from polygen.volume.propagate import Propagator
@@ -33,6 +33,8 @@ from polygen.volume.thinning import (
 )
 
 from _surfaces import assert_complete as _assert_complete  # noqa: E402
+from _surfaces import block_volume as grid_volume  # noqa: E402
+from _surfaces import iso_values  # noqa: E402
 
 
 def assert_complete(vol, field, values, **params):
@@ -43,32 +45,6 @@ TINY = ["one_tet", "two_tets", "one_hex", "two_hexes", "torus", "torus_hex", "ho
         "genus3", "genus3_hex"]
 
 # ------------------------------------------------------------------ helpers
-_KUHN = np.array([[0, 1, 2, 6], [0, 1, 5, 6], [0, 4, 5, 6], [0, 4, 7, 6], [0, 3, 7, 6], [0, 3, 2, 6]])
-_CORNERS = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]])
-
-
-def grid_volume(keep, cell_type="tetra"):
-    """Unit cubes over the True entries of ``keep`` (hexahedra, or 6 Kuhn tetrahedra each)."""
-    keep = np.asarray(keep, bool)
-    nx, ny, nz = keep.shape
-    c = np.argwhere(keep)[:, None, :] + _CORNERS[None]
-    hexes = (c[..., 0] * (ny + 1) + c[..., 1]) * (nz + 1) + c[..., 2]
-    used, cells = np.unique(hexes, return_inverse=True)
-    cells = cells.reshape(hexes.shape)
-    g = np.stack(np.meshgrid(np.arange(nx + 1), np.arange(ny + 1), np.arange(nz + 1), indexing="ij"), -1)
-    pts = g.reshape(-1, 3)[used].astype(float)
-    if cell_type == "tetra":
-        cells = cells[:, _KUHN].reshape(-1, 4)
-        p = pts[cells]
-        vol6 = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 3] - p[:, 0])
-        neg = vol6 < 0
-        cells[neg, 1], cells[neg, 2] = cells[neg, 2], cells[neg, 1].copy()
-    p = pts
-    fields = {"bumps": np.sin(1.3 * p[:, 0] + 0.2) * np.cos(1.1 * p[:, 1] - 0.3) + 0.37 * np.sin(0.9 * p[:, 2] + 1),
-              "linear": p[:, 0] + 0.31 * p[:, 1] + 0.097 * p[:, 2]}
-    return UnstructuredVolume(pts, cells, fields)
-
-
 def nested_voids(cell_type):
     """A box with a void that holds a floating hollow cube: two parts, two voids."""
     keep = np.ones((7, 7, 7), bool)
@@ -90,14 +66,6 @@ ADVERSARIAL = {
     "nested_voids": nested_voids,
     "two_voids_and_a_hole": two_voids_and_a_hole,
 }
-
-
-def iso_values(s, n=200, seed=0):
-    """Half evenly spread over the range (and just outside), half equal to node values (ties)."""
-    rng = np.random.default_rng(seed)
-    lo, hi = float(s.min()), float(s.max())
-    even = np.linspace(lo - 0.01 * (hi - lo), hi + 0.01 * (hi - lo), n // 2)
-    return np.concatenate([even, rng.choice(s, n - n // 2)])
 
 
 def cell_graph_components(vol, alive):
