@@ -29,7 +29,7 @@ from _common import RESULTS, machine, fmt, thesis_table
 from polygen.volume import datasets, methods
 from polygen.volume.extrema_graph import build_extrema_graph
 
-METHODS = ["scan", "sorted-lists", "span-filter", "extrema-graph", "extrema-graph/separate"]
+METHODS = ["scan", "sorted-lists", "span-filter", "extrema-graph", "extrema-graph/separate", "extrema-graph-loops"]
 
 THESIS = {
     "T_sort": [1.228, 6.259, 38.027, 58.579],
@@ -53,7 +53,7 @@ THESIS = {
     "N_ci": [51357, 62377, 148836, 277457],
 }
 SHORT = {"scan": "all", "sorted-lists": "sort", "span-filter": "filt", "extrema-graph": "egra",
-         "extrema-graph/separate": "egra_sep"}
+         "extrema-graph/separate": "egra_sep", "extrema-graph-loops": "egra_loops"}
 
 
 def make(mname, vol):
@@ -107,6 +107,10 @@ def run_data(name):
             if mname == "extrema-graph/separate":
                 row_sep_b = row.get("N_cg_boundary_sep", 0) + m.stats["seeds"].tested_boundary
                 row["N_cg_boundary_sep"] = row_sep_b
+            if mname == "extrema-graph-loops":
+                for k in ("N_cg", "T_mg", "T_mb", "T_mt"):
+                    row[f"{k}_loops"] = row.get(f"{k}_loops", 0) + m.stats[k]
+                row["N_cg_loops_boundary"] = row.get("N_cg_loops_boundary", 0) + m.stats["seeds"].tested_boundary
             if mname == "extrema-graph":
                 for k in ("T_mg", "T_mb", "T_mt", "T_mv", "N_cg", "N_ci"):
                     stages[k] += m.stats[k]
@@ -123,9 +127,13 @@ def run_data(name):
                       "search_arcs", "straight_failures"):
                 row[k] = g[k]
             row["T_egra"] = g["T_pe"] + g["T_pc"] + g["T_pb"]
+        if mname == "extrema-graph-loops":
+            g = m.graph.stats
+            row["T_pb_loops"], row["loops"], row["loop_cells"] = g["T_pb"], g["loops"], g["boundary_cells"]
     row["T_sort"], row["T_filt"] = row["pre_sort"], row["pre_filt"]
     # Table 6.4 again with the 2001 paper's construction (no vertex search) after every seed search
-    for src, key in (("sorted-lists", "sort"), ("span-filter", "filt"), ("extrema-graph", "egra")):
+    for src, key in (("sorted-lists", "sort"), ("span-filter", "filt"), ("extrema-graph", "egra"),
+                     ("extrema-graph-loops", "egra_loops")):
         m = methods.get("edge-centred")(vol, seeds=src)
         m.extract(values[len(values) // 2])  # first call: buffers, not timed
         best = float("inf")
@@ -197,21 +205,26 @@ def main():
     md += table("Table 6.3 - extrema graph preprocessing", rows,
                 ["T_pe", "T_pc", "T_pb", "extrema", "graph_cells", "graph_cells_unique", "polyline_arcs",
                  "search_arcs", "straight_failures"], THESIS)
-    md += table("Table 6.4 - twenty isosurfaces (s)", rows, ["Q_all", "Q_sort", "Q_filt", "Q_egra", "Q_egra_sep"],
-                THESIS)
+    md += table("Table 6.4 - twenty isosurfaces (s)", rows,
+                ["Q_all", "Q_sort", "Q_filt", "Q_egra", "Q_egra_sep", "Q_egra_loops"], THESIS)
     md += table("Table 6.4 with the 2001 construction: the same seeds, polygons built without vertex search "
                 "(edge-centred, best of 3; Q_all repeated from above)", rows,
-                ["Q_all", "Q_ec_sort", "Q_ec_filt", "Q_ec_egra", "same_ec_sort", "same_ec_filt", "same_ec_egra"])
+                ["Q_all", "Q_ec_sort", "Q_ec_filt", "Q_ec_egra", "Q_ec_egra_loops", "same_ec_sort", "same_ec_filt",
+                 "same_ec_egra", "same_ec_egra_loops"])
     md += table("Seed search alone: t1 = finding the intersected cells (search + testing the candidates), s, "
                 "sums over the twenty (cf. Table 7.4; egra: in the thesis's order the boundary cells are tested "
                 "inside the propagation, so egra_sep is the comparable figure)", rows,
-                ["t1_all", "t1_sort", "t1_filt", "t1_egra", "t1_egra_sep"])
+                ["t1_all", "t1_sort", "t1_filt", "t1_egra", "t1_egra_sep", "t1_egra_loops"])
     md += table("Table 6.5 - extrema graph stages (sums over the twenty; the thesis's order)", rows,
                 ["T_mg", "T_mb", "T_mt", "T_mv", "N_cg", "N_cg_arcs", "N_cg_boundary", "N_cg_boundary_sep", "N_ci"],
                 THESIS)
+    md += table("Table 6.5 with boundary loops in place of the boundary lists (ours: `extrema-graph-loops`, the "
+                "2g edge loops that generate the boundary's homology; same arcs, same order)", rows,
+                ["boundary_cells", "loops", "loop_cells", "T_pb_loops", "T_mg_loops", "T_mb_loops", "T_mt_loops",
+                 "N_cg_loops", "N_cg_loops_boundary", "N_ci"])
     md += table("Cells tested to find seeds, per method (sums) and same triangles as the scan", rows,
-                ["tested_all", "tested_sort", "tested_filt", "tested_egra", "tested_egra_sep", "same_sort",
-                 "same_filt", "same_egra", "same_egra_sep"])
+                ["tested_all", "tested_sort", "tested_filt", "tested_egra", "tested_egra_sep", "tested_egra_loops",
+                 "same_sort", "same_filt", "same_egra", "same_egra_sep", "same_egra_loops"])
     last = rows[-1]
     md += ["## Observations", "",
            f"- Finding the intersected cells on {last['data']}: extrema graph {fmt(last['t1_egra'])} s, sorted lists "
@@ -228,10 +241,14 @@ def main():
            "after the propagation from the arc hits, skipping the cells it reached; "
            f"{last['N_cg_boundary_sep']} when every candidate is tested first). Our boundary values span the "
            "whole range and we have ~3x the thesis's boundary cells, so N_cg stays well above the thesis's.",
+           "- Boundary loops in place of the lists (ours): N_cg/N_ci " + ", ".join(
+               f"{r['data']} {r['N_cg_loops'] / r['N_ci']:.3f} (lists {r['N_cg'] / r['N_ci']:.3f})" for r in rows)
+           + f" (thesis: {', '.join(f'{c / i:.3f}' for c, i in zip(THESIS['N_cg'], THESIS['N_ci']))}).",
            "- With the 2001 paper's construction after every search (the second Table 6.4), the seed search "
            "decides again: on " + ", ".join(
                f"{r['data']} " + " < ".join(k for k, _ in sorted(
-                   [("egra", r["Q_ec_egra"]), ("filt", r["Q_ec_filt"]), ("sort", r["Q_ec_sort"]), ("all", r["Q_all"])],
+                   [("egra", r["Q_ec_egra"]), ("egra_loops", r["Q_ec_egra_loops"]), ("filt", r["Q_ec_filt"]),
+                    ("sort", r["Q_ec_sort"]), ("all", r["Q_all"])],
                    key=lambda kv: kv[1])) for r in rows) + " (thesis: egra < sort < filt < all on all four).",
            f"- Graph cells are far below boundary cells ({last['graph_cells']} vs {last['boundary_cells']}).", ""]
     md += [f"## 6.4 - T_pc against the number of extrema m (data 5's mesh, {n5} cells)", "",

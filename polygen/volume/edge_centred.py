@@ -60,6 +60,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import threading
 import time
 
@@ -324,7 +325,7 @@ class SeedSource:
     Attributes
     ----------
     name : str
-        ``"thinning"``, ``"extrema-graph"`` or an active-cell search of
+        ``"thinning"``, ``"extrema-graph"``, ``"extrema-graph-loops"`` or an active-cell search of
         :mod:`polygen.volume.seeds` (``"span-filter"``, ...).
     query : callable
         ``query(value) -> (cells (K,) int64, n_tested int, seconds float)``.
@@ -381,7 +382,8 @@ def _search_source(name):
 
 
 #: seed-source name -> builder ``(vol, field, **params) -> (structure, query)``
-SEED_SOURCES = {"thinning": _thinning_source, "extrema-graph": _graph_source}
+SEED_SOURCES = {"thinning": _thinning_source, "extrema-graph": _graph_source,
+                "extrema-graph-loops": functools.partial(_graph_source, boundary="loops")}
 for _name in _seeds.METHODS:
     if _name != "full-scan":
         SEED_SOURCES[_name] = _search_source(_name)

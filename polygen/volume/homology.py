@@ -122,6 +122,33 @@ def _climb(pred, x, steps):
 
 
 @njit
+def _spanning_trees(indptr, nbr, nbr_edge, dist, pred, pred_edge):
+    """A breadth-first tree in every component, rooted at the middle of a double-sweep diameter.
+
+    Fills dist/pred/pred_edge; returns the component number of each node.
+    """
+    nv = dist.shape[0]
+    scratch_d = np.full(nv, -1, np.int64)
+    scratch_p = np.empty(nv, np.int64)
+    scratch_e = np.empty(nv, np.int64)
+    queue = np.empty(nv, np.int64)
+    comp_of = np.full(nv, -1, np.int64)
+    n_comp = 0
+    for start in range(nv):
+        if dist[start] >= 0:
+            continue
+        far, n_reach = _bfs(indptr, nbr, nbr_edge, start, scratch_d, scratch_p, scratch_e, queue)
+        for i in range(n_reach):
+            comp_of[queue[i]] = n_comp
+            scratch_d[queue[i]] = -1
+        far2, _ = _bfs(indptr, nbr, nbr_edge, far, scratch_d, scratch_p, scratch_e, queue)
+        centre = _climb(scratch_p, far2, scratch_d[far2] // 2)
+        _bfs(indptr, nbr, nbr_edge, centre, dist, pred, pred_edge, queue)
+        n_comp += 1
+    return comp_of
+
+
+@njit
 def _cotree_leftover(edge_faces_off, edge_faces, in_tree, n_faces):
     """Edges outside the tree that the face forest (union-find across them) does not use."""
     parent = np.arange(n_faces)
@@ -245,27 +272,7 @@ def boundary_loops(vol) -> BoundaryLoops:
     dist = np.full(nv, -1, np.int64)
     pred = np.full(nv, -1, np.int64)
     pred_edge = np.full(nv, -1, np.int64)
-    scratch_d = np.full(nv, -1, np.int64)
-    scratch_p = np.empty(nv, np.int64)
-    scratch_e = np.empty(nv, np.int64)
-    queue = np.empty(nv, np.int64)
-    comp_of = np.full(nv, -1, np.int64)
-    n_comp = 0
-    while True:
-        rest = np.flatnonzero(dist < 0)
-        if rest.size == 0:
-            break
-        start = rest[0]
-        far, n_reach = _bfs(indptr, other, nbr_edge, start, scratch_d, scratch_p, scratch_e, queue)
-        reach = queue[:n_reach].copy()
-        scratch_d[reach] = -1
-        far2, _ = _bfs(indptr, other, nbr_edge, far, scratch_d, scratch_p, scratch_e, queue)
-        # walk half the diameter back from far2 towards far
-        centre = _climb(scratch_p, far2, int(scratch_d[far2]) // 2)
-        scratch_d[reach] = -1
-        _bfs(indptr, other, nbr_edge, centre, dist, pred, pred_edge, queue)
-        comp_of[reach] = n_comp
-        n_comp += 1
+    comp_of = _spanning_trees(indptr, other, nbr_edge, dist, pred, pred_edge)
     in_tree = np.zeros(n_e, np.bool_)
     in_tree[pred_edge[pred_edge >= 0]] = True
     left = np.flatnonzero(_cotree_leftover(ef_off, edge_faces, in_tree, nb))
