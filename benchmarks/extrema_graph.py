@@ -78,7 +78,7 @@ def warm():
 
 def run_data(name):
     vol = datasets.load(name)
-    for attr in ("face_neighbors", "node_cells", "boundary_cells", "cell_edges", "edge_cells"):
+    for attr in ("face_neighbors", "node_cells", "boundary_cells", "cell_edges", "edge_cells", "cell_records"):
         getattr(vol, attr)
     s = vol.scalars()
     values = np.linspace(s.min(), s.max(), 22)[1:-1]

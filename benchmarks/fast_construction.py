@@ -132,7 +132,7 @@ def run_one(name, with_vtk):
     vol = datasets.load(name, field=field)
     load_s = time.perf_counter() - t0
     t0 = time.perf_counter()
-    vol.face_neighbors, vol.edges, vol.cell_edges, vol.node_cells, vol.boundary_groups
+    vol.face_neighbors, vol.edges, vol.cell_edges, vol.node_cells, vol.boundary_groups, vol.cell_records
     topo_s = time.perf_counter() - t0
     values = sweep_values(vol.scalars(field))
     rep = repeats(vol.n_cells)

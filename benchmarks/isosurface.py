@@ -121,7 +121,7 @@ def main(names):
     for name in names:
         vol = datasets.load(name)
         t0 = time.perf_counter()
-        vol.face_neighbors, vol.edges, vol.cell_edges
+        vol.face_neighbors, vol.edges, vol.cell_edges, vol.cell_records
         topo = time.perf_counter() - t0
         values = sweep_values(vol.scalars("fem"))
         rep = repeats(vol.n_cells)

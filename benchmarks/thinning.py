@@ -83,7 +83,7 @@ def triangle_set(iso):
 def topology(vol):
     t0 = time.perf_counter()
     for attr in ("face_neighbors", "node_cells", "boundary_cells", "boundary_groups", "cell_components",
-                 "cell_edges", "edge_cells"):
+                 "cell_edges", "edge_cells", "cell_records"):
         getattr(vol, attr)
     return time.perf_counter() - t0
 

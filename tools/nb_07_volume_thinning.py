@@ -255,7 +255,7 @@ that propagation registered.
 rows = []
 for name in TABLE_DATA:
     vol = datasets.load(name)
-    vol.face_neighbors, vol.node_cells, vol.cell_edges, vol.boundary_groups, vol.cell_components  # outside the clocks
+    vol.face_neighbors, vol.node_cells, vol.cell_edges, vol.cell_records, vol.boundary_groups, vol.cell_components
     s = vol.scalars()
     values = np.linspace(s.min(), s.max(), 22)[1:-1]
     ref = [extract(vol, v) for v in values]

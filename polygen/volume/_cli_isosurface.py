@@ -94,7 +94,7 @@ def run(args):
     # the volume's topology is shared by the methods: built once here, so that no method's
     # preprocessing column carries it
     t0 = time.perf_counter()
-    vol.face_neighbors, vol.edges, vol.cell_edges, vol.node_cells, vol.boundary_groups
+    vol.face_neighbors, vol.edges, vol.cell_edges, vol.node_cells, vol.boundary_groups, vol.cell_records
     print(f"topology (face neighbours, edges, boundary groups; shared by every method): "
           f"{time.perf_counter() - t0:.3f} s")
 

@@ -521,3 +521,22 @@ def cell_centroids(points, cells):
         for a in range(3):
             out[c, a] /= k
     return out
+
+
+def cell_records(cells, face_nb, cell_edges):
+    """(M, W) one row per cell: its nodes, its face neighbours, its edge ids, padded to 16 or 32 entries.
+
+    The propagation reads everything it needs about a cell from one or two
+    cache lines instead of three arrays (data 4, twenty surfaces grown from
+    the extrema graph's seeds: 0.187 -> 0.146 s; from every intersected cell
+    in id order: 0.117 -> 0.112 s). int32 while the ids fit, else int64.
+    """
+    m, nn = cells.shape
+    width = nn + face_nb.shape[1] + cell_edges.shape[1]
+    width = 16 if width <= 16 else 32
+    big = max(int(cells.max(initial=0)), int(cell_edges.max(initial=0)), m) >= np.iinfo(np.int32).max
+    rec = np.full((m, width), -1, np.int64 if big else np.int32)
+    rec[:, :nn] = cells
+    rec[:, nn:nn + face_nb.shape[1]] = face_nb
+    rec[:, nn + face_nb.shape[1]:nn + face_nb.shape[1] + cell_edges.shape[1]] = cell_edges
+    return rec

@@ -368,7 +368,12 @@ def _cell_case(cells, c, s, value, faces):
     ``cells`` (M, 4|8) node ids, ``s`` (N,) node values, ``faces`` the
     local faces (empty for tetrahedra).
     """
-    nn = cells.shape[1]
+    return _cell_case_n(cells, c, cells.shape[1], s, value, faces)
+
+
+@njit
+def _cell_case_n(cells, c, nn, s, value, faces):
+    """:func:`_cell_case` for rows whose first ``nn`` entries are the nodes (cell records)."""
     case = 0
     for i in range(nn):
         if s[cells[c, i]] >= value:

@@ -77,8 +77,8 @@ def _hash_get_or_add(hkeys, hvals, key, new_val, shift):
 
 
 @njit
-def _test_seeds(cells, s, value, faces, seeds, visited, generation, queue):
-    """t1: test the seeds (once each), mark them, queue the crossed ones. Returns (tested, queued)."""
+def _test_seeds(rec, nn, s, value, faces, seeds, visited, generation, queue, qcase):
+    """t1: test the seeds (once each), mark them, queue the crossed ones with their case. Returns (tested, queued)."""
     tested = 0
     n = 0
     for i in range(seeds.shape[0]):
@@ -87,8 +87,10 @@ def _test_seeds(cells, s, value, faces, seeds, visited, generation, queue):
             continue
         visited[c] = generation
         tested += 1
-        if _m._cell_case(cells, c, s, value, faces) >= 0:
+        case = _m._cell_case_n(rec, c, nn, s, value, faces)
+        if case >= 0:
             queue[n] = c
+            qcase[n] = case
             n += 1
     return tested, n
 
@@ -119,11 +121,13 @@ def _enqueue(queue, qcase, tail, c, case):
 
 
 @njit
-def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, tri_count, local_edges,
+def _propagate(rec, nn, nf, s, value, faces, n_edges, tri_table, tri_count, local_edges,
                visited, generation, queue, qcase, n_queued, cand, hkeys, hvals, keys, tris, tri_cell):
     """t2: breadth-first propagation.
 
-    ``queue`` holds the ``n_queued`` crossed seeds. ``cand`` are more seeds
+    ``rec`` are the :func:`cell_records` (``nn`` nodes, then ``nf`` face
+    neighbours, then the edge ids). ``queue`` holds the ``n_queued`` crossed
+    seeds and ``qcase`` their cases. ``cand`` are more seeds
     tested lazily, in order: whenever the FIFO runs empty, the next
     candidate not marked yet is tested and, if crossed, propagated from (so
     a candidate that an earlier propagation reached is never tested); the
@@ -151,8 +155,7 @@ def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, 
     head = 0
     tail = n_queued
     nxt = 0  # next candidate
-    for i in range(n_queued):  # the case of each queued cell, kept from when it was tested
-        qcase[i] = _m._cell_case(cells, queue[i], s, value, faces)
+    ed0 = nn + nf  # where the edge ids start in a record
     while True:
         while head == tail and nxt < cand.shape[0]:  # FIFO empty: the next unmarked candidate
             c = cand[nxt]
@@ -161,7 +164,7 @@ def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, 
                 continue
             visited[c] = generation
             cand_tested += 1
-            case = _m._cell_case(cells, c, s, value, faces)
+            case = _m._cell_case_n(rec, c, nn, s, value, faces)
             if case >= 0:
                 cand[cand_crossed] = c  # cand_crossed < nxt: no candidate still to come is overwritten
                 cand_crossed += 1
@@ -171,7 +174,7 @@ def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, 
         c = queue[head]
         case = qcase[head]
         head += 1
-        k = _m._cell_codes(cells, c, s, value, case, tri_table, tri_count, local_edges, local)
+        k = _m._cell_codes(rec, c, s, value, case, tri_table, tri_count, local_edges, local)
         for i in range(24):
             vids[i] = -1
         if n_t + k > tris.shape[0]:
@@ -181,7 +184,7 @@ def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, 
             for j in range(3):
                 code = local[t, j]
                 if vids[code] < 0:
-                    key = _m._code_key(code, c, cells, cell_edges, n_edges)
+                    key = np.int64(rec[c, ed0 + code]) if code < 16 else n_edges + rec[c, code - 16]
                     lookups += 1
                     v = _hash_get_or_add(hkeys, hvals, key, n_v, shift)
                     if v < 0:  # a new vertex
@@ -202,13 +205,13 @@ def _propagate(cells, s, value, faces, face_nb, cell_edges, n_edges, tri_table, 
                 tris[n_t, j] = vids[code]
             tri_cell[n_t] = c
             n_t += 1
-        for f in range(face_nb.shape[1]):
-            nb = face_nb[c, f]
+        for f in range(nf):
+            nb = rec[c, nn + f]
             if nb < 0 or visited[nb] == generation:
                 continue
             visited[nb] = generation
             tested += 1
-            nb_case = _m._cell_case(cells, nb, s, value, faces)
+            nb_case = _m._cell_case_n(rec, nb, nn, s, value, faces)
             if nb_case >= 0:
                 queue, qcase, tail = _enqueue(queue, qcase, tail, nb, nb_case)
     return n_v, n_t, tail, tested, cand_tested, cand_crossed, lookups, queue, qcase, hkeys, hvals, keys, tris, tri_cell
@@ -238,6 +241,7 @@ class Propagator:
         self.table, self.count, self.local_edges, self.faces = _m.local_tables(self.cell_type)
         self.face_nb = np.ascontiguousarray(vol.face_neighbors, np.int64)
         self.cell_edges = np.ascontiguousarray(vol.cell_edges, np.int64)
+        self.rec = vol.cell_records  # nodes, face neighbours and edge ids of a cell side by side
         self.edges = np.ascontiguousarray(vol.edges, np.int64)
         self.visited = np.zeros(self.cells.shape[0], np.int32)
         self.generation = 0
@@ -316,17 +320,17 @@ class Propagator:
         if self._queue.shape[0] < seeds.shape[0]:
             self._queue = np.empty(2 * seeds.shape[0], np.int64)
             self._qcase = np.empty(2 * seeds.shape[0], np.int64)
-        tested_seeds, n_queued = _test_seeds(self.cells, self.s, value, self.faces, seeds, self.visited,
-                                             self.generation, self._queue)
+        nn, nf = self.cells.shape[1], self.face_nb.shape[1]
+        tested_seeds, n_queued = _test_seeds(self.rec, nn, self.s, value, self.faces, seeds, self.visited,
+                                             self.generation, self._queue, self._qcase)
         t1 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
         self._hkeys.fill(_EMPTY)
         (n_v, n_t, n_cells, tested, cand_tested, cand_crossed, lookups, self._queue, self._qcase, self._hkeys,
          self._hvals, self._keys, self._tris, self._tri_cell) = _propagate(
-            self.cells, self.s, value, self.faces, self.face_nb, self.cell_edges, self.edges.shape[0],
-            self.table, self.count, self.local_edges, self.visited, self.generation, self._queue, self._qcase,
-            n_queued, cand, self._hkeys, self._hvals, self._keys, self._tris, self._tri_cell)
+            self.rec, nn, nf, self.s, value, self.faces, self.edges.shape[0], self.table, self.count,
+            self.local_edges, self.visited, self.generation, self._queue, self._qcase, n_queued, cand, self._hkeys, self._hvals, self._keys, self._tris, self._tri_cell)
         self.last_seeds_tested = int(tested_seeds)
         self.last_seeds_crossed = int(n_queued)
         self.last_then_tested = int(cand_tested)
