@@ -150,3 +150,21 @@ def plot_seeds(vol, graph, iso, seeds, *, plotter=None, title=None):
     p.add_text(f"\n\nseeds: {on_arcs.size} on arcs (red), {on_boundary.size} on the boundary (blue)",
                font_size=9)
     return p
+
+
+def plot_loops(vol, loops, *, plotter=None, title=None):
+    """The boundary loops that can stand for the boundary cell lists (ours, notebook 06): 2g per surface of genus g."""
+    import matplotlib
+    import pyvista as pv
+
+    p = plotter or _plotter()
+    p.add_mesh(_boundary(vol), color="lightgray", opacity=0.2)
+    cmap = matplotlib.colormaps["tab10"]
+    for i in range(loops.n_loops):
+        nodes = loops.loop(i)
+        line = pv.PolyData(vol.points[nodes], lines=np.concatenate([[nodes.size + 1], np.arange(nodes.size), [0]]))
+        p.add_mesh(line, color=cmap(i % 10)[:3], line_width=5)
+    p.add_text(title or f"{loops.n_loops} boundary loops, {loops.unique_cells().size} cells "
+               f"(of {vol.boundary_cells.size} boundary cells)", font_size=10)
+    p.view_isometric()
+    return p

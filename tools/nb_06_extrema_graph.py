@@ -288,7 +288,16 @@ nodes, a spanning forest of its faces across the other edges, one loop per edge 
 meet every such surface, at an edge whose nodes lie on either side of C: the cells along the
 loops can replace the whole boundary list. `extrema-graph-loops` does that (same arcs, same
 order of the query); its surfaces were checked against the full scan's above. Chapter 7
-reaches the same goal another way, with a skeleton that keeps the genus.
+reaches the same goal another way, with a skeleton that keeps the genus. Data 1 (genus 2:
+four loops) and the seeds of the surface of Fig. 6.11 found on its arcs (red) and loops (blue):
+"""),
+    ("code", """
+m1_loops = methods.get("extrema-graph-loops")(vol1)
+plot_extrema.plot_loops(vol1, m1_loops.graph.loops).show()
+iso1_loops = m1_loops.extract(v1)
+plot_extrema.plot_seeds(vol1, m1_loops.graph, iso1_loops, m1_loops.stats["seeds"]).show()
+assert m1_loops.graph.loops.n_loops == 2 * vol1.n_through_holes
+assert np.array_equal(np.sort(iso1_loops.triangle_cells), np.sort(iso1.triangle_cells))
 """),
     ("code", """
 print("Seed tests (Table 6.5's N_cg) with boundary lists (the thesis) and with boundary loops (ours)")

@@ -92,7 +92,10 @@ class BoundaryLoops:
 
 @njit
 def _bfs(indptr, nbr, nbr_edge, root, dist, pred, pred_edge, queue):
-    """Breadth-first search from ``root``; fills dist/pred/pred_edge of the nodes reached. Returns the last node."""
+    """Breadth-first search from ``root``; fills dist/pred/pred_edge of the nodes reached.
+
+    Returns (the last node reached, one of the farthest; how many nodes were reached, listed in ``queue``).
+    """
     dist[root] = 0
     pred[root] = -1
     pred_edge[root] = -1
@@ -116,6 +119,7 @@ def _bfs(indptr, nbr, nbr_edge, root, dist, pred, pred_edge, queue):
 
 @njit
 def _climb(pred, x, steps):
+    """The node ``steps`` tree edges above ``x``."""
     for _ in range(steps):
         x = pred[x]
     return x
