@@ -224,6 +224,24 @@ HEX_FACE_NODES = np.array([[0, 4, 7, 3], [1, 2, 6, 5], [0, 1, 5, 4],
 
 
 @njit
+def union(parent, a, b):
+    """Join the sets of ``a`` and ``b`` (find with path halving; the smaller root wins). False if already one."""
+    while parent[a] != a:
+        parent[a] = parent[parent[a]]
+        a = parent[a]
+    while parent[b] != b:
+        parent[b] = parent[parent[b]]
+        b = parent[b]
+    if a == b:
+        return False
+    if a < b:
+        parent[b] = a
+    else:
+        parent[a] = b
+    return True
+
+
+@njit
 def union_find_rows(row_ids, n_items, row_owner):
     """Connected components of items linked through shared row ids.
 
@@ -242,19 +260,7 @@ def union_find_rows(row_ids, n_items, row_owner):
         if first_owner[u] < 0:
             first_owner[u] = a
             continue
-        b = first_owner[u]
-        # find with path halving
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        while parent[b] != b:
-            parent[b] = parent[parent[b]]
-            b = parent[b]
-        if a != b:
-            if a < b:
-                parent[b] = a
-            else:
-                parent[a] = b
+        union(parent, a, first_owner[u])
     labels = np.full(n_items, -1, np.int64)
     n_comp = 0
     for i in range(n_items):

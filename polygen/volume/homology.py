@@ -164,20 +164,8 @@ def _cotree_leftover(edge_faces_off, edge_faces, in_tree, n_faces):
         if edge_faces_off[e + 1] - edge_faces_off[e] != 2:  # a non-manifold edge: keep its loop
             left[e] = True
             continue
-        a = edge_faces[edge_faces_off[e]]
-        b = edge_faces[edge_faces_off[e] + 1]
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        while parent[b] != b:
-            parent[b] = parent[parent[b]]
-            b = parent[b]
-        if a == b:
-            left[e] = True
-        elif a < b:
-            parent[b] = a
-        else:
-            parent[a] = b
+        if not _k.union(parent, edge_faces[edge_faces_off[e]], edge_faces[edge_faces_off[e] + 1]):
+            left[e] = True  # the two faces are joined already: this edge closes a loop
     return left
 
 
