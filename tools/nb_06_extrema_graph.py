@@ -247,7 +247,8 @@ still, for a value in the middle of the range the near side of a sorted list hol
 boundary cells whose range lies wholly below (or above) C, and those are tested too. Our
 parts have about three times the thesis's boundary cells (Table 6.1) and their boundary
 values span the whole range (heat sources next to the surface), so the boundary tests
-dominate N_cg and bring it to about a third to a half of N_ci (the thesis: a twentieth).
+dominate N_cg and bring it to between a third (data 4) and nine tenths (data 2) of N_ci (the
+thesis: a twentieth to a tenth).
 It is still far below what sorted lists over all cells test, and the section after Table 6.5
 shows that almost all of those boundary tests can go.
 
