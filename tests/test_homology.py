@@ -213,3 +213,27 @@ def test_edge_pinch_falls_back_to_the_lists():
         scan = methods.get("scan")(vol, "bumps")
         for v in iso_values(vol.scalars("bumps"), 40):
             assert np.array_equal(sorted_triangles(m.extract(v)), sorted_triangles(scan.extract(v)))
+
+
+def test_node_pinch_falls_back_to_the_lists():
+    # two cubes that share one node: the field rises through the node from one cube into the
+    # other, so the node is a maximum of the first cube but not an extremum of the volume; no arc
+    # and no loop (genus 0) would find the cap around it
+    keep = np.zeros((2, 2, 2), bool)
+    keep[0, 0, 0] = keep[1, 1, 1] = True
+    for cell_type in ("tetra", "hexa"):
+        vol = block_volume(keep, cell_type)
+        loops = boundary_loops(vol)
+        assert loops.nonmanifold_edges == 0 and loops.nonmanifold_nodes == 1 and not loops.manifold
+        s = vol.points.sum(axis=1) + 0.01 * vol.points[:, 0]
+        m = methods.get("extrema-graph-loops")(vol, s)
+        assert m.graph.boundary == "lists" and "1 nodes" in m.graph.stats["loops_fallback"]
+        scan = methods.get("scan")(vol, s)
+        for v in iso_values(s, 40):
+            assert np.array_equal(sorted_triangles(m.extract(v)), sorted_triangles(scan.extract(v)))
+
+
+def test_manifold_boundaries_have_no_pinched_nodes():
+    for name in ("data1", "hexa1", "torus", "genus3_hex", "hollow_cube"):
+        loops = boundary_loops(datasets.load(name))
+        assert loops.manifold, name

@@ -242,6 +242,19 @@ def union(parent, a, b):
 
 
 @njit
+def find_all(parent):
+    """The root of every item of a union-find forest (compressing the paths)."""
+    out = np.empty(parent.shape[0], np.int64)
+    for i in range(parent.shape[0]):
+        a = i
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        out[i] = a
+    return out
+
+
+@njit
 def union_find_rows(row_ids, n_items, row_owner):
     """Connected components of items linked through shared row ids.
 
@@ -261,12 +274,11 @@ def union_find_rows(row_ids, n_items, row_owner):
             first_owner[u] = a
             continue
         union(parent, a, first_owner[u])
+    roots = find_all(parent)
     labels = np.full(n_items, -1, np.int64)
     n_comp = 0
     for i in range(n_items):
-        a = i
-        while parent[a] != a:
-            a = parent[a]
+        a = roots[i]
         if labels[a] < 0:
             labels[a] = n_comp
             n_comp += 1

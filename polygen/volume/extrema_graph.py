@@ -412,9 +412,9 @@ def build_extrema_graph(vol, field=None, *, polyline=True, boundary="lists"):
         ``"loops"``: instead, the cells along boundary edge loops that
         generate the boundary's homology (:func:`~polygen.volume.homology.boundary_loops`),
         each loop skipped when the isovalue is outside its node range; T_pb
-        then times the loops and their ranges. A boundary with non-manifold
-        edges (cells that touch only along an edge) falls back to the lists
-        and says so in ``stats["loops_fallback"]``.
+        then times the loops and their ranges. A non-manifold boundary
+        (cells that touch only along an edge or at a node) falls back to the
+        lists and says so in ``stats["loops_fallback"]``.
 
     Returns
     -------
@@ -449,9 +449,11 @@ def build_extrema_graph(vol, field=None, *, polyline=True, boundary="lists"):
     fallback = None
     if boundary == "loops":
         loops = boundary_loops(vol)
-        if loops.nonmanifold_edges:
-            # cells touching along an edge: the loops do not stand for the face-connected volume's boundary
-            fallback = f"{loops.nonmanifold_edges} non-manifold boundary edges: boundary lists used"
+        if not loops.manifold:
+            # cells touching along an edge or at a node: the loops do not stand for the face-connected
+            # volume's boundary, and an extremum can hide behind a neighbour across the pinch
+            fallback = (f"non-manifold boundary ({loops.nonmanifold_edges} edges, {loops.nonmanifold_nodes} nodes): "
+                        "boundary lists used")
             boundary, loops = "lists", None
     if boundary == "loops":
         if loops.n_loops:

@@ -23,6 +23,10 @@ surface of genus g (fewer edges are left over on a sphere: none). The tree
 is rooted at an approximate centre of each boundary component (the middle
 of a double-sweep diameter), which keeps the loops short.
 
+All this needs a boundary that is a closed 2-manifold. Where cells touch
+only along an edge or at a node (:attr:`BoundaryLoops.manifold` is False)
+the extrema graph keeps the thesis's boundary lists.
+
 >>> from polygen.volume import datasets
 >>> loops = boundary_loops(datasets.load("torus"))
 >>> loops.n_loops                       # a solid torus: genus 1, two loops
@@ -61,9 +65,15 @@ class BoundaryLoops:
         The edge in neither tree that closes each loop.
     nonmanifold_edges : int
         Boundary edges with other than two boundary faces (cells that touch
-        only along an edge). The loops then generate H1 of the pinched
-        surface, not of the boundary of the face-connected volume that
-        propagation walks, and the extrema graph does not use them.
+        only along an edge).
+    nonmanifold_nodes : int
+        Boundary nodes whose boundary faces form more than one fan (cells
+        that touch only at a node, or along an edge). With either count
+        non-zero the loops generate H1 of the pinched surface, not of the
+        boundary of the face-connected volume that propagation walks, and
+        an extremum of one side of the pinch can hide behind a larger
+        neighbour on the other: the extrema graph does not use the loops
+        then (:attr:`manifold` is False).
     """
 
     offsets: np.ndarray
@@ -72,6 +82,12 @@ class BoundaryLoops:
     component: np.ndarray
     leftover_edges: np.ndarray
     nonmanifold_edges: int = 0
+    nonmanifold_nodes: int = 0
+
+    @property
+    def manifold(self) -> bool:
+        """The boundary is a closed 2-manifold: every edge has two faces, every node one fan of them."""
+        return self.nonmanifold_edges == 0 and self.nonmanifold_nodes == 0
 
     @property
     def n_loops(self) -> int:
@@ -167,6 +183,33 @@ def _cotree_leftover(edge_faces_off, edge_faces, in_tree, n_faces):
         if not _k.union(parent, edge_faces[edge_faces_off[e]], edge_faces[edge_faces_off[e] + 1]):
             left[e] = True  # the two faces are joined already: this edge closes a loop
     return left
+
+
+@njit
+def _join_fans(bfn, ef_off, ef_rows, parent):
+    """Union-find over face corners (face * k + corner): the corners of a node joined across its two-face edges."""
+    k = bfn.shape[1]
+    for e in range(ef_off.shape[0] - 1):
+        if ef_off[e + 1] - ef_off[e] != 2:
+            continue
+        r1 = ef_rows[ef_off[e]]
+        r2 = ef_rows[ef_off[e] + 1]
+        f1, i1 = r1 // k, r1 % k
+        f2, i2 = r2 // k, r2 % k
+        for end in range(2):
+            node = bfn[f1, (i1 + end) % k]
+            j = i2 if bfn[f2, i2] == node else (i2 + 1) % k
+            _k.union(parent, f1 * k + (i1 + end) % k, f2 * k + j)
+
+
+def _count_pinched_nodes(bfn, ef_off, ef_rows):
+    """Boundary nodes with more than one fan of boundary faces."""
+    parent = np.arange(bfn.size)
+    _join_fans(bfn, ef_off, ef_rows, parent)
+    roots = _k.find_all(parent)
+    node = bfn.ravel()
+    fans = np.unique(node * bfn.size + roots).shape[0]
+    return int(fans - np.unique(node).shape[0])
 
 
 @njit
@@ -276,4 +319,5 @@ def boundary_loops(vol) -> BoundaryLoops:
     n = _close_loops(edges, left.astype(np.int64), dist, pred, pred_edge, edge_cell, offsets, nodes, cells)
     return BoundaryLoops(offsets=offsets, nodes=verts[nodes[:n]], cells=cells[:n].copy(),
                          component=comp_of[edges[left, 0]], leftover_edges=edges_g[left],
-                         nonmanifold_edges=int(np.count_nonzero(np.diff(ef_off) != 2)))
+                         nonmanifold_edges=int(np.count_nonzero(np.diff(ef_off) != 2)),
+                         nonmanifold_nodes=_count_pinched_nodes(bfn, ef_off, ef_rows))
