@@ -125,7 +125,7 @@ def _propagate(rec, nn, nf, s, value, faces, n_edges, tri_table, tri_count, loca
                visited, generation, queue, qcase, n_queued, cand, hkeys, hvals, keys, tris, tri_cell):
     """t2: breadth-first propagation.
 
-    ``rec`` are the :func:`cell_records` (``nn`` nodes, then ``nf`` face
+    ``rec`` are the cell records (:attr:`UnstructuredVolume.cell_records`: ``nn`` nodes, ``nf`` face
     neighbours, then the edge ids). ``queue`` holds the ``n_queued`` crossed
     seeds and ``qcase`` their cases. ``cand`` are more seeds
     tested lazily, in order: whenever the FIFO runs empty, the next
@@ -330,7 +330,8 @@ class Propagator:
         (n_v, n_t, n_cells, tested, cand_tested, cand_crossed, lookups, self._queue, self._qcase, self._hkeys,
          self._hvals, self._keys, self._tris, self._tri_cell) = _propagate(
             self.rec, nn, nf, self.s, value, self.faces, self.edges.shape[0], self.table, self.count,
-            self.local_edges, self.visited, self.generation, self._queue, self._qcase, n_queued, cand, self._hkeys, self._hvals, self._keys, self._tris, self._tri_cell)
+            self.local_edges, self.visited, self.generation, self._queue, self._qcase, n_queued, cand,
+            self._hkeys, self._hvals, self._keys, self._tris, self._tri_cell)
         self.last_seeds_tested = int(tested_seeds)
         self.last_seeds_crossed = int(n_queued)
         self.last_then_tested = int(cand_tested)
