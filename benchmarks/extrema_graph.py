@@ -6,7 +6,10 @@ method (Table 6.2), the extrema graph's preprocessing broken down (Table
 polyline arcs), twenty isosurfaces ``linspace(min, max, 22)[1:-1]`` with
 every method (Table 6.4) and the extrema graph's stages (Table 6.5: T_mg,
 T_mb, T_mt, T_mv, N_cg, N_ci). Every isosurface is checked against the full
-scan's (same triangles). Then the O(m^2 log m) growth of T_pc in the
+scan's (same triangles). Beside the thesis's boundary lists, the extrema
+graph with boundary loops in place of them (``extrema-graph-loops``, ours),
+and Table 6.4 again with the 2001 paper's construction after each search.
+Then the O(m^2 log m) growth of T_pc in the
 number of extrema m (6.4, Table 7.1's data 5): data 5's mesh with its FEM
 field (thousands of extrema) and with a smooth field plus seeded noise of
 growing amplitude.
