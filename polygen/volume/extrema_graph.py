@@ -322,14 +322,14 @@ class ExtremaGraph:
             self._stamp = 0
         self._stamp += 1
         cells = np.ascontiguousarray(self.vol.cells, np.int64)
-        hits = np.empty(self.arc_cells.shape[0] + self.blist_min.shape[0], np.int64)
+        n_boundary = self.loops.cells.shape[0] if self.boundary == "loops" else self.blist_min.shape[0]
+        hits = np.empty(self.arc_cells.shape[0] + n_boundary, np.int64)
         t0 = time.perf_counter()
         n_arc_hits, tested_arcs, arcs_tested = _k._query_arcs(cells, self.s, self.arc_offsets, self.arc_cells,
                                                              self.arc_smin, self.arc_smax, value, self._mark,
                                                              self._stamp, hits, 0)
         t1 = time.perf_counter()
         if self.boundary == "loops":
-            hits = np.concatenate([hits, np.empty(self.loops.cells.shape[0], np.int64)])
             n_hits, tested_b, _ = _k._query_arcs(cells, self.s, self.loops.offsets, self.loops.cells, self.loop_smin,
                                                  self.loop_smax, value, self._mark, self._stamp, hits, n_arc_hits)
             used_max = False

@@ -239,9 +239,8 @@ class Propagator:
         self.vol = vol
         self.points, self.cells, self.s, self.cell_type = _volume_arrays(vol, field)
         self.table, self.count, self.local_edges, self.faces = _m.local_tables(self.cell_type)
-        self.face_nb = np.ascontiguousarray(vol.face_neighbors, np.int64)
-        self.cell_edges = np.ascontiguousarray(vol.cell_edges, np.int64)
         self.rec = vol.cell_records  # nodes, face neighbours and edge ids of a cell side by side
+        self._nn, self._nf = self.cells.shape[1], vol.face_neighbors.shape[1]
         self.edges = np.ascontiguousarray(vol.edges, np.int64)
         self.visited = np.zeros(self.cells.shape[0], np.int32)
         self.generation = 0
@@ -320,7 +319,7 @@ class Propagator:
         if self._queue.shape[0] < seeds.shape[0]:
             self._queue = np.empty(2 * seeds.shape[0], np.int64)
             self._qcase = np.empty(2 * seeds.shape[0], np.int64)
-        nn, nf = self.cells.shape[1], self.face_nb.shape[1]
+        nn, nf = self._nn, self._nf
         tested_seeds, n_queued = _test_seeds(self.rec, nn, self.s, value, self.faces, seeds, self.visited,
                                              self.generation, self._queue, self._qcase)
         t1 = time.perf_counter() - t0
