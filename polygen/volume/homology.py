@@ -40,9 +40,10 @@ import dataclasses
 import numpy as np
 
 from polygen._jit import njit
+from polygen.volume import _thinning_kernels as _tk
 from polygen.volume import _topology as _k
 
-__all__ = ["BoundaryLoops", "boundary_loops"]
+__all__ = ["BoundaryLoops", "boundary_loops", "boundary_defects"]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -185,31 +186,44 @@ def _cotree_leftover(edge_faces_off, edge_faces, in_tree, n_faces):
     return left
 
 
-@njit
-def _join_fans(bfn, ef_off, ef_rows, parent):
-    """Union-find over face corners (face * k + corner): the corners of a node joined across its two-face edges."""
-    k = bfn.shape[1]
-    for e in range(ef_off.shape[0] - 1):
-        if ef_off[e + 1] - ef_off[e] != 2:
-            continue
-        r1 = ef_rows[ef_off[e]]
-        r2 = ef_rows[ef_off[e] + 1]
-        f1, i1 = r1 // k, r1 % k
-        f2, i2 = r2 // k, r2 % k
-        for end in range(2):
-            node = bfn[f1, (i1 + end) % k]
-            j = i2 if bfn[f2, i2] == node else (i2 + 1) % k
-            _k.union(parent, f1 * k + (i1 + end) % k, f2 * k + j)
+def boundary_defects(vol):
+    """Where the boundary of ``vol`` is not a 2-manifold.
 
+    Thms 7.4-7.6 count the genus of the boundary surface (Def. 5.8), and
+    the boundary loops stand for its homology; both need a surface: every
+    boundary edge on exactly two boundary faces, and the boundary faces
+    around every boundary node joined through edges in one fan. Cells that touch only at an edge or a node break this; the
+    skeleton, or the loops, may then miss parts of an isosurface.
 
-def _count_pinched_nodes(bfn, ef_off, ef_rows):
-    """Boundary nodes with more than one fan of boundary faces."""
-    parent = np.arange(bfn.size)
-    _join_fans(bfn, ef_off, ef_rows, parent)
-    roots = _k.find_all(parent)
-    node = bfn.ravel()
-    fans = np.unique(node * bfn.size + roots).shape[0]
-    return int(fans - np.unique(node).shape[0])
+    Returns
+    -------
+    edges : (E, 2) int64
+        Boundary edges on other than two boundary faces.
+    nodes : (V,) int64
+        Boundary nodes whose boundary faces form more than one fan.
+    """
+    fn = np.ascontiguousarray(vol.boundary_face_nodes, np.int64)
+    nbf, k = fn.shape
+    corner = np.arange(nbf * k, dtype=np.int64).reshape(nbf, k)
+    a = fn.ravel()
+    b = np.roll(fn, -1, axis=1).ravel()
+    ca = corner.ravel()
+    cb = np.roll(corner, -1, axis=1).ravel()
+    swap = a > b
+    lo, hi = np.where(swap, b, a), np.where(swap, a, b)
+    clo, chi = np.where(swap, cb, ca), np.where(swap, ca, cb)
+    order = np.lexsort((hi, lo))
+    lo, hi, clo, chi = lo[order], hi[order], clo[order], chi[order]
+    start = np.flatnonzero(np.r_[True, (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])])
+    count = np.diff(np.r_[start, lo.size])
+    bad_edges = np.stack([lo[start[count != 2]], hi[start[count != 2]]], axis=1)
+    two = start[count == 2]
+    pairs = np.ascontiguousarray(np.stack([clo[two], clo[two + 1], chi[two], chi[two + 1]], axis=1))
+    root = _tk.corner_fans(nbf * k, pairs)
+    key = np.unique(a * (nbf * k) + root)
+    node_of = key // (nbf * k)
+    fans = np.bincount(node_of, minlength=vol.n_points)
+    return bad_edges.astype(np.int64), np.flatnonzero(fans > 1).astype(np.int64)
 
 
 @njit
@@ -284,16 +298,12 @@ def boundary_loops(vol) -> BoundaryLoops:
     z = np.zeros(0, np.int64)
     if nb == 0:
         return BoundaryLoops(np.zeros(1, np.int64), z, z, z, np.zeros((0, 2), np.int64))
-    # boundary edges, numbered; the face of each face-edge row
-    loc = np.array([[i, (i + 1) % k] for i in range(k)], np.int64)
-    rows = _k.gather_local(bfn, loc)
-    _k.sort_rows(rows)
-    ids, first = _k.match_rows(rows, vol.n_points)
-    edges_g = rows[first]                      # (E, 2) global node ids, a < b
+    # boundary edges, numbered, and the face-edge rows (face * k + corner) of each
+    ids, edges_g = vol.boundary_edge_table
     n_e = edges_g.shape[0]
-    edge_cell = owner[first // k]              # a cell holding each edge
     ef_off, ef_rows = _k.csr_from_keys(ids, n_e)
     edge_faces = ef_rows // k
+    edge_cell = owner[edge_faces[ef_off[:-1]]]  # a cell holding each edge
     # compact node ids and the node graph (CSR, each neighbour with its edge)
     verts, edges = np.unique(edges_g, return_inverse=True)
     edges = edges.reshape(-1, 2).astype(np.int64)
@@ -312,6 +322,7 @@ def boundary_loops(vol) -> BoundaryLoops:
     in_tree[pred_edge[pred_edge >= 0]] = True
     left = np.flatnonzero(_cotree_leftover(ef_off, edge_faces, in_tree, nb))
 
+    bad_edges, bad_nodes = boundary_defects(vol)
     lengths = dist[edges[left, 0]] + dist[edges[left, 1]] + 1
     offsets = np.zeros(left.shape[0] + 1, np.int64)
     nodes = np.empty(int(lengths.sum()), np.int64)
@@ -319,5 +330,4 @@ def boundary_loops(vol) -> BoundaryLoops:
     n = _close_loops(edges, left.astype(np.int64), dist, pred, pred_edge, edge_cell, offsets, nodes, cells)
     return BoundaryLoops(offsets=offsets, nodes=verts[nodes[:n]], cells=cells[:n].copy(),
                          component=comp_of[edges[left, 0]], leftover_edges=edges_g[left],
-                         nonmanifold_edges=int(np.count_nonzero(np.diff(ef_off) != 2)),
-                         nonmanifold_nodes=_count_pinched_nodes(bfn, ef_off, ef_rows))
+                         nonmanifold_edges=int(bad_edges.shape[0]), nonmanifold_nodes=int(bad_nodes.size))

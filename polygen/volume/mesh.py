@@ -376,16 +376,25 @@ class UnstructuredVolume:
 
     # ------------------------------------------------------- boundary groups
     @functools.cached_property
+    def boundary_edge_table(self):
+        """``(ids, edges)``: ``ids[f*k + i]`` numbers the edge from corner i to i+1 of boundary face f
+        (rows of :attr:`boundary_face_nodes`); ``edges`` (E, 2) are those edges' nodes, ``a < b``."""
+        bfn = np.ascontiguousarray(self.boundary_face_nodes, np.int64)
+        k = bfn.shape[1]
+        loc = np.array([[i, (i + 1) % k] for i in range(k)], np.int64)
+        rows = _k.gather_local(bfn, loc)
+        _k.sort_rows(rows)
+        ids, first = _k.match_rows(rows, self.n_points)
+        return ids, rows[first]
+
+    @functools.cached_property
     def _groups(self):
         bfn = self.boundary_face_nodes
         nb, k = bfn.shape
         if nb == 0:  # cannot happen for a finite volume, but keep shapes sane
             z = np.zeros(0, np.int64)
             return z, z, z, np.zeros(0), np.zeros(0, bool)
-        loc = np.array([[i, (i + 1) % k] for i in range(k)], np.int64)
-        edges = _k.gather_local(bfn, loc)
-        _k.sort_rows(edges)
-        edge_ids, _ = _k.match_rows(edges, self.n_points)
+        edge_ids = self.boundary_edge_table[0]
         owner = np.repeat(np.arange(nb, dtype=np.int64), k)
         labels, n_groups = _k.union_find_rows(edge_ids, nb, owner)
         # Euler number V + F - E of each group (Def. 5.7)

@@ -66,6 +66,7 @@ import numpy as np
 
 from polygen.volume import _thinning_kernels as _k
 from polygen.volume.extrema_graph import Extrema, find_extrema
+from polygen.volume.homology import boundary_defects
 from polygen.volume.isosurface import IsoSurfaceError, _check_value, _volume_arrays
 from polygen.volume.methods import IsosurfaceMethod, register
 from polygen.volume.propagate import Propagator
@@ -92,46 +93,6 @@ class ThinningError(IsoSurfaceError):
 
 class ThinningWarning(UserWarning):
     """The volume is outside the theorems' assumptions (its boundary is no 2-manifold)."""
-
-
-def boundary_defects(vol):
-    """Where the boundary of ``vol`` is not a 2-manifold.
-
-    Thms 7.4-7.6 count the genus of the boundary surface (Def. 5.8), which
-    needs a surface: every boundary edge on exactly two boundary faces, and
-    the boundary faces around every boundary node joined through edges in
-    one fan. Cells that touch only at an edge or a node break this; the
-    skeleton may then miss parts of an isosurface.
-
-    Returns
-    -------
-    edges : (E, 2) int64
-        Boundary edges on other than two boundary faces.
-    nodes : (V,) int64
-        Boundary nodes whose boundary faces form more than one fan.
-    """
-    fn = np.ascontiguousarray(vol.boundary_face_nodes, np.int64)
-    nbf, k = fn.shape
-    corner = np.arange(nbf * k, dtype=np.int64).reshape(nbf, k)
-    a = fn.ravel()
-    b = np.roll(fn, -1, axis=1).ravel()
-    ca = corner.ravel()
-    cb = np.roll(corner, -1, axis=1).ravel()
-    swap = a > b
-    lo, hi = np.where(swap, b, a), np.where(swap, a, b)
-    clo, chi = np.where(swap, cb, ca), np.where(swap, ca, cb)
-    order = np.lexsort((hi, lo))
-    lo, hi, clo, chi = lo[order], hi[order], clo[order], chi[order]
-    start = np.flatnonzero(np.r_[True, (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])])
-    count = np.diff(np.r_[start, lo.size])
-    bad_edges = np.stack([lo[start[count != 2]], hi[start[count != 2]]], axis=1)
-    two = start[count == 2]
-    pairs = np.ascontiguousarray(np.stack([clo[two], clo[two + 1], chi[two], chi[two + 1]], axis=1))
-    root = _k.corner_fans(nbf * k, pairs)
-    key = np.unique(a * (nbf * k) + root)
-    node_of = key // (nbf * k)
-    fans = np.bincount(node_of, minlength=vol.n_points)
-    return bad_edges.astype(np.int64), np.flatnonzero(fans > 1).astype(np.int64)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
