@@ -192,8 +192,9 @@ def boundary_defects(vol):
     Thms 7.4-7.6 count the genus of the boundary surface (Def. 5.8), and
     the boundary loops stand for its homology; both need a surface: every
     boundary edge on exactly two boundary faces, and the boundary faces
-    around every boundary node joined through edges in one fan. Cells that touch only at an edge or a node break this; the
-    skeleton, or the loops, may then miss parts of an isosurface.
+    around every boundary node joined through edges in one fan. Cells that
+    touch only at an edge or a node break this; the skeleton, or the loops,
+    may then miss parts of an isosurface.
 
     Returns
     -------
