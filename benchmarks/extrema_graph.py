@@ -30,7 +30,7 @@ import numba
 import numpy as np
 
 from _common import RESULTS, machine, fmt, thesis_table
-from polygen.volume import datasets, methods
+from polygen.volume import datasets, isovalues, methods
 from polygen.volume.extrema_graph import build_extrema_graph
 
 METHODS = ["scan", "sorted-lists", "span-filter", "extrema-graph", "extrema-graph/separate", "extrema-graph-loops"]
@@ -100,7 +100,7 @@ def run_data(name):
     for attr in ("face_neighbors", "node_cells", "boundary_cells", "cell_edges", "edge_cells", "cell_records"):
         getattr(vol, attr)
     s = vol.scalars()
-    values = np.linspace(s.min(), s.max(), 22)[1:-1]
+    values = isovalues(s, 20)
     row = {"data": name, "cells": vol.n_cells, "nodes": vol.n_points, "boundary_cells": int(vol.boundary_cells.size)}
     ref = {}
     for mname in METHODS:

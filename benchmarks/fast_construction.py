@@ -45,7 +45,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 from _common import RESULTS, machine  # noqa: E402
-from polygen.volume import datasets, methods  # noqa: E402
+from polygen.volume import datasets, isovalues, methods  # noqa: E402
 
 DATA = ["data1", "data2", "data3", "data4", "data5", "2M", "10M"]
 FIELD = {"10M": "gaussians"}
@@ -65,7 +65,7 @@ PAPER_T2 = {  # volume: (n_c, t_p old, t_p new, total old, total new)
 
 
 def sweep_values(s):
-    return np.linspace(s.min(), s.max(), 22)[1:-1]
+    return isovalues(s, 20)
 
 
 def repeats(n_cells):

@@ -36,7 +36,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 from _common import best_of, write_results  # noqa: E402
-from polygen.volume import datasets, methods  # noqa: E402
+from polygen.volume import datasets, isovalues, methods  # noqa: E402
 
 DATA = ["data1", "data2", "data3", "data4", "data5", "2M"]
 COLUMNS = ["data", "cells", "method", "preprocess_s", "query_s", "cells_tested", "triangles", "vertices",
@@ -44,7 +44,7 @@ COLUMNS = ["data", "cells", "method", "preprocess_s", "query_s", "cells_tested",
 
 
 def sweep_values(s):
-    return np.linspace(s.min(), s.max(), 22)[1:-1]
+    return isovalues(s, 20)
 
 
 def repeats(n_cells):

@@ -23,7 +23,7 @@ import time
 import numpy as np
 
 from _common import RESULTS, machine
-from polygen.volume import seeds
+from polygen.volume import isovalues, seeds
 
 EXPECTED = {
     "full-scan": ("-", "O(n)"),
@@ -98,7 +98,7 @@ def main(argv=None):
     rows = []
     for n in sizes:
         lo, hi = fem_like(n, args.seed)
-        values = np.linspace(lo.min(), hi.max(), 22)[1:-1]
+        values = isovalues([lo.min(), hi.max()], 20)
         for label, name, params in VARIANTS:
             row = measure(label, name, params, n, lo, hi, values)
             rows.append(row)

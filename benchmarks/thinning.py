@@ -38,7 +38,7 @@ import time
 import numpy as np
 
 from _common import RESULTS, machine, fmt, thesis_table
-from polygen.volume import UnstructuredVolume, datasets, methods
+from polygen.volume import UnstructuredVolume, datasets, isovalues, methods
 from polygen.volume.thinning import thin_volume
 
 METHODS = ["scan", "sorted-lists", "span-filter", "extrema-graph", "thinning"]
@@ -103,7 +103,7 @@ def run_data(name):
     row = {"data": name, "N_e": vol.n_cells, "N_n": vol.n_points, "boundary_cells": int(vol.boundary_cells.size),
            "T_topology": topology(vol)}
     s = vol.scalars()
-    values = np.linspace(s.min(), s.max(), 22)[1:-1]
+    values = isovalues(s, 20)
     ref = {}
     for mname in METHODS:
         m = methods.get(mname)(vol)
@@ -182,7 +182,7 @@ def block_with_holes(s):
     vol6 = np.einsum("ij,ij->i", np.cross(p0[:, 1] - p0[:, 0], p0[:, 2] - p0[:, 0]), p0[:, 3] - p0[:, 0])
     neg = np.tile(vol6 < 0, cells.shape[0] // 6)
     cells[neg, 1], cells[neg, 2] = cells[neg, 2], cells[neg, 1].copy()
-    # numbered along a Morton curve, as every cached data set is (datasets._spatial_order)
+    # numbered along a Morton curve, as every cached data set is (datasets.registry._spatial_order)
     return UnstructuredVolume(points, cells, {"gaussians": field}, validate=False).reordered()
 
 
@@ -222,7 +222,7 @@ def scaling(sizes, data_names):
 
 
 def plot_scaling(rows, path):
-    from polygen.plot_thinning import plot_time_per_cell
+    from polygen.plotting.thinning import plot_time_per_cell
 
     fig = plot_time_per_cell(rows)
     fig.savefig(path, dpi=110, bbox_inches="tight")

@@ -7,8 +7,9 @@ Two halves:
 * ``polygen.radiosity`` and ``polygen.mesh2d`` -- radiosity meshing
   (thesis chapters 2-4).
 
-Plotting lives in ``polygen.plotting`` and is never imported by the
-algorithms.
+Figures live in ``polygen.plotting`` and the command line in
+``polygen.cli``; no algorithm imports either (``tests/test_layout.py``).
+CONTRIBUTING.md describes the layers.
 """
 
 __version__ = "0.1.0"

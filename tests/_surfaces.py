@@ -3,14 +3,20 @@
 import numpy as np
 
 from polygen.volume import UnstructuredVolume, methods
+from polygen.volume._cells import HEX_UNIT_CORNERS, KUHN_TETS
 from polygen.volume.isosurface import extract
 
 
-def grid_volume(dims, spacing=(1.0, 1.0, 1.0), *, tets=True, jitter=0.0, seed=0):
+#: the tiny volumes of :mod:`polygen.volume.datasets` (built on the fly), for the ``tiny_volume`` fixture
+TINY_VOLUMES = ("one_tet", "two_tets", "one_hex", "two_hexes", "torus", "torus_hex", "hollow_cube",
+                "hollow_cube_hex", "genus3", "genus3_hex")
+
+
+def grid_volume(dims, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *, tets=True, jitter=0.0, seed=0):
     """A box of ``dims`` grid points as tetrahedra (VTK's triangulation) or hexahedra, nodes jittered."""
     import pyvista as pv
 
-    img = pv.ImageData(dimensions=dims, spacing=spacing)
+    img = pv.ImageData(dimensions=dims, spacing=spacing, origin=origin)
     grid = img.triangulate() if tets else img.cast_to_unstructured_grid()
     vol = UnstructuredVolume.from_pyvista(grid)
     if jitter:
@@ -19,8 +25,6 @@ def grid_volume(dims, spacing=(1.0, 1.0, 1.0), *, tets=True, jitter=0.0, seed=0)
     return vol
 
 
-_KUHN = np.array([[0, 1, 2, 6], [0, 1, 5, 6], [0, 4, 5, 6], [0, 4, 7, 6], [0, 3, 7, 6], [0, 3, 2, 6]])
-_CORNERS = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]])
 
 
 def block_volume(keep, cell_type="tetra", jitter=0.0, seed=0):
@@ -30,7 +34,7 @@ def block_volume(keep, cell_type="tetra", jitter=0.0, seed=0):
     """
     keep = np.asarray(keep, bool)
     nx, ny, nz = keep.shape
-    c = np.argwhere(keep)[:, None, :] + _CORNERS[None]
+    c = np.argwhere(keep)[:, None, :] + HEX_UNIT_CORNERS[None]
     hexes = (c[..., 0] * (ny + 1) + c[..., 1]) * (nz + 1) + c[..., 2]
     used, cells = np.unique(hexes, return_inverse=True)
     cells = cells.reshape(hexes.shape)
@@ -39,7 +43,7 @@ def block_volume(keep, cell_type="tetra", jitter=0.0, seed=0):
     if jitter:
         pts = pts + np.random.default_rng(seed).uniform(-jitter, jitter, pts.shape)
     if cell_type == "tetra":
-        cells = cells[:, _KUHN].reshape(-1, 4)
+        cells = cells[:, KUHN_TETS].reshape(-1, 4)
         p = pts[cells]
         vol6 = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 3] - p[:, 0])
         neg = vol6 < 0

@@ -10,6 +10,7 @@ of rows and needs neither a global sort nor a Python loop.
 import numpy as np
 
 from polygen._jit import njit, prange
+from polygen.volume._cells import HEX_FACES as HEX_FACE_NODES
 
 
 @njit
@@ -164,11 +165,6 @@ def tet_volumes6(points, cells):
     return vol, longest
 
 
-# corner, then its neighbours along r, s, t in a right-handed order (VTK hexahedron)
-HEX_CORNERS = np.array([[0, 1, 3, 4], [1, 2, 0, 5], [2, 3, 1, 6], [3, 0, 2, 7],
-                        [4, 7, 5, 0], [5, 4, 6, 1], [6, 5, 7, 2], [7, 6, 4, 3]], np.int64)
-
-
 @njit(parallel=True)
 def hex_jacobians(points, cells, corners):
     """Corner Jacobian determinants ``(M, 8)``, volume and longest edge of each hexahedron."""
@@ -217,10 +213,6 @@ def hex_jacobians(points, cells, corners):
                     e = s
         longest[c] = np.sqrt(e)
     return jac, vol, longest
-
-
-HEX_FACE_NODES = np.array([[0, 4, 7, 3], [1, 2, 6, 5], [0, 1, 5, 4],
-                           [3, 7, 6, 2], [0, 3, 2, 1], [4, 5, 6, 7]], np.int64)
 
 
 @njit

@@ -63,6 +63,7 @@ from typing import Callable
 import numpy as np
 
 from polygen._jit import njit, prange
+from polygen.volume._cells import HEX_UNIT_CORNERS, KUHN_TETS
 
 __all__ = [
     "FORMAT_VERSION",
@@ -404,29 +405,18 @@ def _seed(seed):
 
 
 # ----------------------------------------------------------- tiny volumes
-# VTK hexahedron corners of the unit cube
-_HEX_CORNERS = np.array(
-    [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], np.int64
-)
-# Freudenthal (Kuhn) split of a cube into 6 tetrahedra along its 000-111 diagonal, as
-# hexahedron corner ids; the same split in every cube of a grid is conforming
-_KUHN_TETS = np.array(
-    [[0, 1, 2, 6], [0, 2, 3, 6], [0, 3, 7, 6], [0, 7, 4, 6], [0, 4, 5, 6], [0, 5, 1, 6]], np.int64
-)
-
-
 def _grid_volume(keep, cell_type):
     """Unit-cube grid over the ``True`` cells of ``keep`` (nx, ny, nz), compacted."""
     keep = np.asarray(keep, bool)
     nx, ny, nz = keep.shape
     ix, iy, iz = np.nonzero(keep)
-    corner = ix[:, None] + _HEX_CORNERS[:, 0]
-    cy = iy[:, None] + _HEX_CORNERS[:, 1]
-    cz = iz[:, None] + _HEX_CORNERS[:, 2]
+    corner = ix[:, None] + HEX_UNIT_CORNERS[:, 0]
+    cy = iy[:, None] + HEX_UNIT_CORNERS[:, 1]
+    cz = iz[:, None] + HEX_UNIT_CORNERS[:, 2]
     hexes = (corner * (ny + 1) + cy) * (nz + 1) + cz
     gx, gy, gz = np.meshgrid(np.arange(nx + 1), np.arange(ny + 1), np.arange(nz + 1), indexing="ij")
     points = np.stack([gx.ravel(), gy.ravel(), gz.ravel()], axis=1).astype(np.float64)
-    cells = hexes if cell_type == "hexa" else hexes[:, _KUHN_TETS].reshape(-1, 4)
+    cells = hexes if cell_type == "hexa" else hexes[:, KUHN_TETS].reshape(-1, 4)
     used, inverse = np.unique(cells, return_inverse=True)
     return points[used], inverse.reshape(cells.shape).astype(np.int64)
 

@@ -60,7 +60,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import functools
 import threading
 import time
 
@@ -68,18 +67,18 @@ import numpy as np
 
 from polygen.volume import _edge_centred_kernels as _k
 from polygen.volume import marching as _m
-from polygen.volume import seeds as _seeds
+from polygen.volume import registry as _registry
 from polygen.volume._topology import csr_from_keys
-from polygen.volume.isosurface import (
+from polygen.volume.methods import IsosurfaceMethod, register
+from polygen.volume.surface import (
     IsoSurface,
     IsoSurfaceError,
-    _check_normals,
-    _check_value,
-    _drop_double_faces,
-    _volume_arrays,
+    check_normals,
+    check_value,
+    drop_double_faces,
     node_gradients,
+    volume_arrays,
 )
-from polygen.volume.methods import IsosurfaceMethod, register
 
 __all__ = ["EdgeCentred", "edge_centred", "SeedSource", "seed_source", "SEED_SOURCES", "EdgeCentredMethod"]
 
@@ -131,7 +130,7 @@ class EdgeCentred:
             raise IsoSurfaceError(f"order must be 'fifo' or 'lifo'; got {order!r}")
         self.order = order
         self.vol = vol
-        points, cells, s, cell_type = _volume_arrays(vol, field)
+        points, cells, s, cell_type = volume_arrays(vol, field)
         m, nn = cells.shape
         if m >= 1 << (31 - _k.CELL_SHIFT):
             raise IsoSurfaceError(f"edge-centred construction supports fewer than {1 << (31 - _k.CELL_SHIFT)} "
@@ -240,8 +239,8 @@ class EdgeCentred:
             ``t2`` the construction (for-loops (1)-(3) with the triangle
             list), ``t3`` positions and normals.
         """
-        value = _check_value(value)
-        _check_normals(normals)
+        value = check_value(value)
+        check_normals(normals)
         seeds = self._check_seeds(seeds)
         node_grad = self.node_gradients if normals == "gradient" else None
         restarts = 0
@@ -276,7 +275,7 @@ class EdgeCentred:
         tri_cell = self._tri_cell[:n_t].copy()
         keys = self._vkey[:n_v].copy()
         if any_node:  # a face exactly at C between two cells: keep it once (as every method does)
-            tri, tri_cell = _drop_double_faces(keys, tri, tri_cell, self.n_edges)
+            tri, tri_cell = drop_double_faces(keys, tri, tri_cell, self.n_edges)
         t2 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
@@ -341,59 +340,10 @@ class SeedSource:
     structure: object
 
 
-def _thinning_source(vol, field, **params):
-    from polygen.volume.thinning import thin_volume
-
-    sk = thin_volume(vol, field, **params)
-
-    def query(value):
-        found = sk.seeds(value)
-        return found.cells, found.n_tested, found.t_search
-
-    return sk, query
-
-
-def _graph_source(vol, field, **params):
-    from polygen.volume.extrema_graph import build_extrema_graph
-
-    graph = build_extrema_graph(vol, field, **params)
-
-    def query(value):
-        found = graph.seeds(value)
-        return found.cells, found.n_tested, found.t_graph + found.t_boundary
-
-    return graph, query
-
-
-def _search_source(name):
-    def build(vol, field, **params):
-        _, cells, s, _ = _volume_arrays(vol, field)
-        cmin, cmax = _seeds.cell_ranges(cells, s)
-        structure = _seeds.get(name).build(cmin, cmax, **params)
-
-        def query(value):
-            t0 = time.perf_counter()
-            found = structure.query(value)
-            return found.cells, found.n_tested, time.perf_counter() - t0
-
-        return structure, query
-
-    return build
-
-
-#: seed-source name -> builder ``(vol, field, **params) -> (structure, query)``
-SEED_SOURCES = {"thinning": _thinning_source, "extrema-graph": _graph_source,
-                "extrema-graph-loops": functools.partial(_graph_source, boundary="loops")}
-for _name in _seeds.METHODS:
-    if _name != "full-scan":
-        SEED_SOURCES[_name] = _search_source(_name)
-del _name
-
-
-def _default_source():
-    import importlib.util
-
-    return "thinning" if importlib.util.find_spec("polygen.volume.thinning") is not None else "extrema-graph"
+#: seed-source name -> builder ``(vol, field, **params) -> (structure, query)``: the one registry,
+#: filled by the modules that define the sources (:mod:`polygen.volume.seeds`, ``extrema_graph``,
+#: ``thinning``)
+SEED_SOURCES = _registry.SEED_SOURCES
 
 
 def seed_source(vol, field=None, name="auto", **params):
@@ -404,8 +354,8 @@ def seed_source(vol, field=None, name="auto", **params):
     vol : UnstructuredVolume
     field : str or (N,) float64, optional
     name : str
-        A key of :data:`SEED_SOURCES`, or ``"auto"``: volume thinning when
-        :mod:`polygen.volume.thinning` is there, else the extrema graph.
+        A key of :data:`SEED_SOURCES`, or ``"auto"``: volume thinning
+        (:data:`polygen.volume.registry.DEFAULT_SEED_SOURCE`).
     **params
         Tuning of the source (e.g. ``n_buckets`` for thinning).
 
@@ -414,7 +364,7 @@ def seed_source(vol, field=None, name="auto", **params):
     SeedSource
     """
     if name == "auto":
-        name = _default_source()
+        name = _registry.DEFAULT_SEED_SOURCE
     try:
         builder = SEED_SOURCES[name]
     except (KeyError, TypeError):
@@ -457,7 +407,7 @@ class EdgeCentredMethod(IsosurfaceMethod):
         self.stats = {}
 
     def extract(self, value, *, normals="mean"):
-        value = _check_value(value)
+        value = check_value(value)
         cells, n_tested, t_search = self.source.query(value)
         iso = self.builder.extract(value, cells, normals=normals)
         self.seed_cells_tested = int(n_tested)
@@ -489,7 +439,7 @@ class EdgeCentredMethod(IsosurfaceMethod):
         """
         import numba
 
-        values = [_check_value(v) for v in values]
+        values = [check_value(v) for v in values]
         threads = min(int(threads or numba.get_num_threads()), len(values))
         if threads < 1:
             return []

@@ -55,15 +55,17 @@ The method is registered as ``extrema-graph`` in
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 
 import numpy as np
 
 from polygen.volume import _extrema_kernels as _k
 from polygen.volume.homology import BoundaryLoops, boundary_loops
-from polygen.volume.isosurface import IsoSurfaceError, _check_value, _volume_arrays
 from polygen.volume.methods import IsosurfaceMethod, register
 from polygen.volume.propagate import Propagator
+from polygen.volume.registry import register_seed_source
+from polygen.volume.surface import IsoSurfaceError, check_value, volume_arrays
 
 __all__ = [
     "ExtremaGraphError",
@@ -182,7 +184,7 @@ def find_extrema(vol, field=None):
         allowed); each flat group of tied extreme nodes joined through
         cells gives one extremum, its first node.
     """
-    _, cells, s, _ = _volume_arrays(vol, field)
+    _, cells, s, _ = volume_arrays(vol, field)
     off, nc = vol.node_cells
     return _extrema_from_arrays(np.ascontiguousarray(cells, np.int64), s, np.ascontiguousarray(off, np.int64),
                                 np.ascontiguousarray(nc, np.int64))
@@ -316,7 +318,7 @@ class ExtremaGraph:
         -------
         GraphSeeds
         """
-        value = _check_value(value)
+        value = check_value(value)
         if self._stamp == np.iinfo(np.int64).max:  # pragma: no cover - 2**63 queries
             self._mark[:] = 0
             self._stamp = 0
@@ -352,7 +354,7 @@ class ExtremaGraph:
         arcs : int
             Arcs admitted.
         """
-        value = _check_value(value)
+        value = check_value(value)
         return _admitted(self.arc_offsets, self.arc_cells, self.arc_smin, self.arc_smax, value)
 
     def boundary_candidates(self, value):
@@ -369,7 +371,7 @@ class ExtremaGraph:
         cells : (K,) int64
         used_max_list : bool
         """
-        value = _check_value(value)
+        value = check_value(value)
         if self.boundary == "loops":
             return _admitted(self.loops.offsets, self.loops.cells, self.loop_smin, self.loop_smax, value)[0], False
         nb = self.blist_min.shape[0]
@@ -425,7 +427,7 @@ def build_extrema_graph(vol, field=None, *, polyline=True, boundary="lists"):
     """
     if boundary not in BOUNDARY:
         raise ExtremaGraphError(f"boundary must be one of {BOUNDARY}; got {boundary!r}")
-    _, cells, s, cell_type = _volume_arrays(vol, field)
+    _, cells, s, cell_type = volume_arrays(vol, field)
     cells = np.ascontiguousarray(cells, np.int64)
     # topology is the volume model's, not part of Table 6.3
     face_nb = np.ascontiguousarray(vol.face_neighbors, np.int64)
@@ -586,7 +588,7 @@ class ExtremaGraphMethod(IsosurfaceMethod):
     def extract(self, value, *, normals="mean"):
         if self.order == "separate":
             return self._extract_separate(value, normals)
-        value = _check_value(value)
+        value = check_value(value)
         t0 = time.perf_counter()
         arc_cells, arcs = self.graph.arc_candidates(value)
         t1 = time.perf_counter()
@@ -645,3 +647,18 @@ class ExtremaGraphLoopsMethod(ExtremaGraphMethod):
     name = "extrema-graph-loops"
     description = "extrema graph with boundary loops generating H1 in place of the boundary lists (ours)"
     boundary = "loops"
+
+
+def _graph_seed_source(vol, field=None, **params):
+    """The seed interface of the extrema graph: build, then ``query(value) -> (cells, n_tested, seconds)``."""
+    graph = build_extrema_graph(vol, field, **params)
+
+    def query(value):
+        found = graph.seeds(value)
+        return found.cells, found.n_tested, found.t_graph + found.t_boundary
+
+    return graph, query
+
+
+register_seed_source("extrema-graph", _graph_seed_source)
+register_seed_source("extrema-graph-loops", functools.partial(_graph_seed_source, boundary="loops"))

@@ -1,11 +1,12 @@
-"""Isosurfaces of unstructured volumes: the result object and :func:`extract`.
+"""Isosurfaces of unstructured volumes: the full scan and :func:`extract` (the result is in :mod:`polygen.volume.surface`).
 
 An isosurface (Def. 5.11) is the set of triangles that marching
 tetrahedra / hexahedra (:mod:`polygen.volume.marching`) produce for a value
 ``C``. Every vertex lies on a cell edge and is shared by all the triangles
 around it, so the surface is watertight except on the volume boundary.
 
-Two ways of finding the intersected cells are offered here:
+Two constructions are offered here (and every registered method of
+:mod:`polygen.volume.methods` by name):
 
 * ``method="scan"``: test every cell (the "all cells" column of the
   thesis's tables), in two parallel passes -- count, then fill -- with the
@@ -20,244 +21,31 @@ vertex identification), ``t3`` the vertex positions and normals.
 
 from __future__ import annotations
 
-import dataclasses
 import time
 
-import numba
 import numpy as np
 
 from polygen.volume import marching as _m
+from polygen.volume import registry as _registry
+from polygen.volume.propagate import Propagator
+from polygen.volume.surface import (
+    IsoSurface,
+    IsoSurfaceError,
+    check_normals,
+    check_value,
+    finish,
+    node_gradients,
+    same_surface,
+    volume_arrays,
+)
 
 __all__ = ["IsoSurface", "extract", "IsoSurfaceError", "same_surface"]
 
-_NORMALS = ("mean", "gradient", None)
 _CHUNK = 8192
 
 
-class IsoSurfaceError(ValueError):
-    """Bad arguments to an isosurface extraction (the message says which)."""
-
-
-@dataclasses.dataclass(frozen=True, eq=False)
-class IsoSurface:
-    """One isosurface: triangles, their shared vertices, counters and timings.
-
-    Attributes
-    ----------
-    value : float
-        The isovalue ``C``.
-    vertices : (V, 3) float64
-        Crossing points (5.2) on the cell edges.
-    triangles : (T, 3) int64
-        Vertex ids; the right-hand normal points towards increasing scalar.
-    normals : (V, 3) float64 or None
-        Unit vertex normals (area-weighted mean of the adjacent triangle
-        normals, or the interpolated gradient), ``None`` when not asked for.
-    vertex_keys : (V,) int64
-        What each vertex is: an edge id of the volume (``key < n_edges``),
-        or ``n_edges + node`` when the value hits a node exactly.
-    triangle_cells : (T,) int64
-        The cell each triangle was made in.
-    cells_tested, cells_intersected : int
-        Cells whose intersection was tested / that the surface crosses.
-    vertex_lookups : int
-        Times a vertex was looked up by its key (one per intersected cell and
-        crossed edge used by its triangles).
-    t1, t2, t3 : float
-        Seconds: find intersected cells / build the triangle topology /
-        vertex positions and normals (2001 paper, Table 1).
-    method : str
-        ``"scan"`` or ``"propagate"``.
-    """
-
-    value: float
-    vertices: np.ndarray
-    triangles: np.ndarray
-    normals: np.ndarray | None
-    vertex_keys: np.ndarray
-    triangle_cells: np.ndarray
-    cells_tested: int
-    cells_intersected: int
-    vertex_lookups: int
-    t1: float
-    t2: float
-    t3: float
-    method: str = "scan"
-
-    @property
-    def n_triangles(self) -> int:
-        return int(self.triangles.shape[0])
-
-    @property
-    def n_vertices(self) -> int:
-        return int(self.vertices.shape[0])
-
-    @property
-    def is_empty(self) -> bool:
-        return self.n_triangles == 0
-
-    @property
-    def time(self) -> float:
-        """``t1 + t2 + t3``."""
-        return self.t1 + self.t2 + self.t3
-
-    def counters(self) -> dict:
-        """The counters as a plain dict (for tables and JSON)."""
-        return {
-            "cells_tested": self.cells_tested,
-            "cells_intersected": self.cells_intersected,
-            "n_triangles": self.n_triangles,
-            "n_vertices": self.n_vertices,
-            "vertex_lookups": self.vertex_lookups,
-            "t1": self.t1,
-            "t2": self.t2,
-            "t3": self.t3,
-        }
-
-    def triangle_areas(self) -> np.ndarray:
-        """(T,) float64 area of each triangle."""
-        v = self.vertices
-        t = self.triangles
-        cross = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
-        return 0.5 * np.linalg.norm(cross, axis=1)
-
-    def area(self) -> float:
-        """Total surface area."""
-        return float(self.triangle_areas().sum())
-
-    def connected_components(self):
-        """``(labels (T,) int64, n)``: parts of the surface joined through shared vertices.
-
-        Labels are numbered in order of each part's first triangle.
-        """
-        from scipy.sparse import bmat, coo_matrix
-        from scipy.sparse.csgraph import connected_components
-
-        t = self.triangles
-        nt, nv = t.shape[0], self.vertices.shape[0]
-        if nt == 0:
-            return np.zeros(0, np.int64), 0
-        tri_of_corner = np.repeat(np.arange(nt), 3)
-        incidence = coo_matrix((np.ones(3 * nt, np.int8), (tri_of_corner, t.ravel())), shape=(nt, nv))
-        # triangles and vertices as one bipartite graph
-        _, labels = connected_components(bmat([[None, incidence], [incidence.T, None]]), directed=False)
-        _, first, tri_labels = np.unique(labels[:nt], return_index=True, return_inverse=True)
-        order = np.argsort(np.argsort(first))
-        return order[tri_labels].astype(np.int64), int(first.shape[0])
-
-    def to_pyvista(self):
-        """A ``pyvista.PolyData`` with the normals as point data ``"Normals"``."""
-        import pyvista as pv
-
-        if self.is_empty:
-            return pv.PolyData()
-        poly = pv.PolyData.from_regular_faces(self.vertices, self.triangles)
-        if self.normals is not None:
-            poly.point_data["Normals"] = self.normals
-            poly.point_data.active_normals_name = "Normals"
-        return poly
-
-    def __repr__(self):
-        return (
-            f"IsoSurface(value={self.value:g}, {self.n_triangles} triangles, {self.n_vertices} vertices, "
-            f"{self.cells_intersected}/{self.cells_tested} cells intersected/tested, method={self.method!r})"
-        )
-
-
-# ------------------------------------------------------------------ helpers
-def _volume_arrays(vol, field):
-    """(points, cells, s, cell_type) of ``vol``, the scalars from ``field``."""
-    try:
-        cell_type = vol.cell_type
-        points, cells = vol.points, vol.cells
-    except AttributeError:
-        raise IsoSurfaceError(f"expected an UnstructuredVolume; got {type(vol).__name__}") from None
-    if isinstance(field, str) or field is None:
-        s = vol.scalars(field)
-    else:
-        s = np.asarray(field, dtype=np.float64)
-        if s.shape != (vol.n_points,):
-            raise IsoSurfaceError(f"field values must have shape ({vol.n_points},); got {s.shape}")
-        if not np.all(np.isfinite(s)):
-            raise IsoSurfaceError("field values must be finite")
-    return points, cells, np.ascontiguousarray(s, np.float64), cell_type
-
-
-def _check_value(value):
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise IsoSurfaceError(f"value must be a number; got {value!r}") from None
-    if not np.isfinite(value):
-        raise IsoSurfaceError(f"value must be finite; got {value}")
-    return value
-
-
-def _check_normals(normals):
-    if normals not in _NORMALS:
-        raise IsoSurfaceError(f"normals must be one of {_NORMALS}; got {normals!r}")
-
-
-def node_gradients(vol, field=None):
-    """(N, 3) float64 node gradients: volume-weighted mean of the cell gradients."""
-    points, cells, s, _ = _volume_arrays(vol, field)
-    out = np.empty((points.shape[0], 3))
-    _m._node_gradients(points, cells, s, _m._HEX_DN, out)
-    return out
-
-
-def finish(value, keys, tri, tri_cell, *, points, edges, s, normals, node_grad, method,
-           cells_tested, cells_intersected, vertex_lookups, t1, t2, t0_t3=None):
-    """Stage 3 (positions and normals) and the result object. Shared by the extractors."""
-    t0 = time.perf_counter()
-    tri, tri_cell = _drop_double_faces(keys, tri, tri_cell, edges.shape[0])
-    t2 += time.perf_counter() - t0
-    t0 = time.perf_counter()
-    vertices = np.empty((keys.shape[0], 3))
-    if keys.shape[0]:
-        _m._vertex_positions(keys, edges, points, s, value, vertices)
-    nrm = None
-    if normals == "mean":
-        nrm = np.empty_like(vertices)
-        if keys.shape[0]:
-            _m._mean_normals(vertices, tri, nrm)
-    elif normals == "gradient":
-        nrm = np.empty_like(vertices)
-        if keys.shape[0]:
-            _m._gradient_normals(keys, edges, s, value, node_grad, nrm)
-    t3 = time.perf_counter() - t0
-    return IsoSurface(
-        value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys,
-        triangle_cells=tri_cell, cells_tested=int(cells_tested), cells_intersected=int(cells_intersected),
-        vertex_lookups=int(vertex_lookups), t1=t1, t2=t2, t3=t3, method=method,
-    )
-
-
-def _drop_double_faces(keys, tri, tri_cell, n_edges):
-    """Keep one copy of a triangle made by both cells around a face lying exactly at ``C``.
-
-    Only a triangle whose three vertices are nodes (``S == C``) can be made
-    twice: two cells share a face at ``C`` and have their other nodes below.
-    The set ``S == C`` holds that face once, so we keep the copy from the
-    lower cell id (VTK keeps both).
-    """
-    if not keys.size or keys.max() < n_edges:
-        return tri, tri_cell
-    all_nodes = np.flatnonzero(np.all(keys[tri] >= n_edges, axis=1))
-    if all_nodes.size < 2:
-        return tri, tri_cell
-    all_nodes = all_nodes[np.argsort(tri_cell[all_nodes], kind="stable")]
-    _, first = np.unique(np.sort(keys[tri[all_nodes]], axis=1), axis=0, return_index=True)
-    if first.size == all_nodes.size:
-        return tri, tri_cell
-    keep = np.ones(tri.shape[0], bool)
-    keep[all_nodes] = False
-    keep[all_nodes[first]] = True
-    return tri[keep], tri_cell[keep]
-
-
 def _scan(vol, value, field, normals, node_grad=None):
-    points, cells, s, cell_type = _volume_arrays(vol, field)
+    points, cells, s, cell_type = volume_arrays(vol, field)
     table, count, local_edges, faces = _m.local_tables(cell_type)
     cell_edges = vol.cell_edges
     edges = vol.edges
@@ -316,8 +104,13 @@ def extract(vol, value, *, field=None, method="scan", normals="mean", seeds=None
         outside the field's range gives an empty surface (with its counters).
     field : str or (N,) float64, optional, keyword-only
         Field name in ``vol.fields`` or node values; the first field by default.
-    method : {"scan", "propagate"}, keyword-only
-        Test every cell, or propagate from ``seeds`` (thesis 5.4.2).
+    method : str, keyword-only
+        One vocabulary with :meth:`UnstructuredVolume.isosurface` and the
+        CLI: a registered method name (:func:`polygen.volume.registry.method_names`;
+        ``"scan"``, the default, tests every cell), prepared for this one
+        call; or ``"propagate"``, the bare construction of
+        :mod:`polygen.volume.propagate` from the ``seeds`` given here
+        (thesis 5.4.2).
     normals : {"mean", "gradient", None}, keyword-only
         Mean of the adjacent triangle normals, area-weighted (the thesis's
         choice, 5.3.1); or the node gradients (volume-weighted mean of the
@@ -332,8 +125,8 @@ def extract(vol, value, *, field=None, method="scan", normals="mean", seeds=None
     -------
     IsoSurface
     """
-    value = _check_value(value)
-    _check_normals(normals)
+    value = check_value(value)
+    check_normals(normals)
     if method == "scan":
         if seeds is not None:
             raise IsoSurfaceError("seeds are only used with method='propagate'")
@@ -341,37 +134,10 @@ def extract(vol, value, *, field=None, method="scan", normals="mean", seeds=None
     if method == "propagate":
         if seeds is None:
             raise IsoSurfaceError("method='propagate' needs seeds (cells to start from)")
-        from polygen.volume.propagate import Propagator
-
         return Propagator(vol, field).extract(value, seeds, normals=normals)
-    raise IsoSurfaceError(f"method must be 'scan' or 'propagate'; got {method!r}")
-
-
-def same_surface(a, b, *, geometry=True, normals_atol=1e-12):
-    """Whether two isosurfaces are the same surface, whatever order their triangles came in.
-
-    The same triangles as sets of vertex keys (cell edges, or nodes for
-    crossings exactly on a node), each vertex key once; with ``geometry``
-    also the same vertex positions (bit for bit) and normals (within
-    ``normals_atol``). Methods that differ only in the order they visit the
-    cells (scan, propagation, edge-centred construction) must agree.
-    """
-    if a.n_triangles != b.n_triangles or a.n_vertices != b.n_vertices:
-        return False
-    ta = np.unique(np.sort(a.vertex_keys[a.triangles], axis=1), axis=0)
-    tb = np.unique(np.sort(b.vertex_keys[b.triangles], axis=1), axis=0)
-    if not np.array_equal(ta, tb):
-        return False
-    if not geometry:
-        return True
-    oa, ob = np.argsort(a.vertex_keys), np.argsort(b.vertex_keys)
-    if not (np.array_equal(a.vertex_keys[oa], b.vertex_keys[ob]) and np.array_equal(a.vertices[oa], b.vertices[ob])):
-        return False
-    if (a.normals is None) != (b.normals is None):
-        return False
-    return a.normals is None or bool(np.allclose(a.normals[oa], b.normals[ob], atol=normals_atol, rtol=0))
-
-
-def num_threads() -> int:
-    """Threads numba's parallel kernels use (for reports)."""
-    return numba.get_num_threads()
+    if isinstance(method, str) and method in _registry.METHODS:
+        if seeds is not None:
+            raise IsoSurfaceError(f"seeds are only used with method='propagate'; {method!r} finds its own")
+        return _registry.get_method(method)(vol, field).extract(value, normals=normals)
+    raise IsoSurfaceError(f"method must be 'propagate' or a registered method {list(_registry.METHODS)}; "
+                          f"got {method!r}")

@@ -55,7 +55,7 @@ import functools
 import numpy as np
 
 from polygen._jit import njit, prange
-from polygen.volume.mesh import HEX_EDGES, HEX_FACES, TET_EDGES
+from polygen.volume._cells import HEX_EDGES, HEX_FACES, HEX_UNIT_CORNERS, KUHN_TETS, TET_EDGES, TET_UNIT_CORNERS
 
 __all__ = [
     "TET_EDGES",
@@ -88,9 +88,8 @@ _VTK_QUAD_DIAGONAL = {
 }
 
 # Reference cells (positive orientation) used to orient the generated polygons.
-_TET_REF = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
-_HEX_REF = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
-                     [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
+_TET_REF = TET_UNIT_CORNERS.astype(float)
+_HEX_REF = HEX_UNIT_CORNERS.astype(float)
 
 
 def _edge_index(local_edges):
@@ -301,26 +300,9 @@ def local_tables(cell_type):
 
 
 # ---------------------------------------------------------------- hex -> tets
-def _kuhn_tets():
-    # The 6 tetrahedra around the diagonal 0-6 of the VTK hexahedron, one per
-    # axis order x/y/z; on a structured grid neighbours split shared faces alike.
-    corner = {tuple(map(int, p)): i for i, p in enumerate(_HEX_REF)}
-    tets = []
-    for order in ((0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)):
-        p = [0, 0, 0]
-        path = [corner[tuple(p)]]
-        for ax in order:
-            p[ax] = 1
-            path.append(corner[tuple(p)])
-        x = _HEX_REF[path]
-        if np.linalg.det(x[1:] - x[0]) < 0:
-            path[1], path[2] = path[2], path[1]
-        tets.append(path)
-    return np.array(tets, np.int64)
-
-
-#: (6, 4) local hexahedron nodes of the Kuhn split along the diagonal 0-6, positive tets.
-HEX_TO_6_TETS = _kuhn_tets()
+#: (6, 4) local hexahedron nodes of the Kuhn split along the diagonal 0-6, positive tets
+#: (:data:`polygen.volume._cells.KUHN_TETS`).
+HEX_TO_6_TETS = KUHN_TETS
 
 
 def hex_to_tets(cells):

@@ -16,16 +16,10 @@ import warnings
 import numpy as np
 
 from polygen.volume import _topology as _k
+from polygen.volume import registry as _registry
+from polygen.volume._cells import HEX_CORNER_FRAMES, HEX_EDGES, HEX_FACES, TET_EDGES, TET_FACES
 
-#: Local faces of a VTK tetrahedron, outward for a positive cell (Def. 5.3 face numbers).
-TET_FACES = np.array([[0, 1, 3], [1, 2, 3], [2, 0, 3], [0, 2, 1]], np.int64)
-#: Local faces of a VTK hexahedron, outward for a positive cell.
-HEX_FACES = _k.HEX_FACE_NODES.copy()
-#: Local edges of a VTK tetrahedron.
-TET_EDGES = np.array([[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]], np.int64)
-#: Local edges of a VTK hexahedron.
-HEX_EDGES = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4],
-                      [0, 4], [1, 5], [2, 6], [3, 7]], np.int64)
+__all__ = ["UnstructuredVolume", "VolumeError", "VolumeWarning", "TET_FACES", "HEX_FACES", "TET_EDGES", "HEX_EDGES"]
 
 _CELL_TYPES = {4: "tetra", 8: "hexa"}
 _VTK_TETRA, _VTK_VOXEL, _VTK_HEXAHEDRON = 10, 11, 12
@@ -185,7 +179,7 @@ class UnstructuredVolume:
             degenerate = np.flatnonzero(np.abs(vol6) <= _DEGENERATE_RTOL * scale)
             inverted = np.flatnonzero(vol6 < -_DEGENERATE_RTOL * scale)
         else:
-            jac, vol, longest = _k.hex_jacobians(self.points, self.cells, _k.HEX_CORNERS)
+            jac, vol, longest = _k.hex_jacobians(self.points, self.cells, HEX_CORNER_FRAMES)
             scale = longest**3
             degenerate = np.flatnonzero(np.abs(vol) <= _DEGENERATE_RTOL * scale)
             inverted = np.flatnonzero(vol < -_DEGENERATE_RTOL * scale)
@@ -205,7 +199,7 @@ class UnstructuredVolume:
                 f"e.g. cells {_examples(inverted)}; pass orient=True to reorder their nodes"
             )
         if self.cell_type == "hexa":
-            jac, _, longest = _k.hex_jacobians(self.points, self.cells, _k.HEX_CORNERS)
+            jac, _, longest = _k.hex_jacobians(self.points, self.cells, HEX_CORNER_FRAMES)
             folded = np.flatnonzero(np.any(jac <= _DEGENERATE_RTOL * (longest**3)[:, None], axis=1))
             if folded.size:
                 raise VolumeError(
@@ -269,23 +263,22 @@ class UnstructuredVolume:
         field : str, optional, keyword-only
             Field name (the first field by default).
         method : str, optional, keyword-only
-            A name of :func:`polygen.volume.methods.names` (default:
-            :func:`polygen.volume.methods.default`, ``"edge-centred"``).
+            A registered method (:func:`polygen.volume.registry.method_names`;
+            default :data:`~polygen.volume.registry.DEFAULT_METHOD`, ``"edge-centred"``).
         normals : {"mean", "gradient", None}, keyword-only
 
         Returns
         -------
         IsoSurface
         """
-        from polygen.volume import methods
-
         self.scalars(field)  # a clear error when the field is missing
         name = field if field is not None else next(iter(self.fields))
-        method = methods.default() if method is None else method
+        method = _registry.DEFAULT_METHOD if method is None else method
         key = (name, method)
         prepared = self._iso_methods.get(key)
         if prepared is None:
-            prepared = self._iso_methods[key] = methods.get(method)(self, field=name)
+            # the registry, not the methods: they sit above the mesh and register themselves there
+            prepared = self._iso_methods[key] = _registry.get_method(method)(self, field=name)
         return prepared.extract(value, normals=normals)
 
     # ------------------------------------------------------------- adjacency

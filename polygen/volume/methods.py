@@ -11,8 +11,11 @@ the surface was examined, by the search structure and by the propagation
 together; ``seed_cells_tested`` of the method (after a call) counts the
 search alone, the N_cg of Table 6.5.
 
-Later chapters register their own methods (``extrema-graph``, ``thinning``,
-``edge-centred``) with :func:`register`.
+A method = a seed source x a construction. Each registers itself where it
+is defined (``@register`` at the bottom of its module: the active-cell
+searches x propagation here, ``extrema-graph`` and ``thinning`` in their
+chapters' modules, ``edge-centred`` in :mod:`polygen.volume.edge_centred`);
+importing :mod:`polygen.volume` imports them all.
 """
 
 from __future__ import annotations
@@ -23,62 +26,26 @@ import time
 
 import numpy as np
 
+from polygen.volume import registry as _registry
 from polygen.volume import seeds as _seeds
 from polygen.volume.isosurface import extract as _extract
 from polygen.volume.propagate import Propagator
+from polygen.volume.surface import same_surface
 
 __all__ = ["IsosurfaceMethod", "METHODS", "DEFAULT", "register", "get", "names", "default", "Sweep", "sweep"]
 
-#: name -> class, in the order they were registered
-METHODS: dict = {}
-
-
-def register(cls):
-    """Class decorator: make an :class:`IsosurfaceMethod` available by its ``name``."""
-    if not cls.name or cls.name in METHODS:
-        raise ValueError(f"a method needs a unique name; got {cls.name!r}")
-    METHODS[cls.name] = cls
-    return cls
-
-
-#: the method ``UnstructuredVolume.isosurface`` and the CLI use first: the fastest one measured
-#: (benchmarks/results/fast_construction.md: cell-edge-centred construction from the thinning
-#: skeleton beats the scan, the hash-based propagation and VTK on every data set)
-DEFAULT = "edge-centred"
-
-
-def names():
-    """Registered method names, the default first."""
-    _load_plugins()
-    return sorted(METHODS, key=lambda n: n != default())
+#: name -> class, in the order they were registered (the one registry, :mod:`polygen.volume.registry`)
+METHODS = _registry.METHODS
+#: the method ``UnstructuredVolume.isosurface`` and the CLI use first
+DEFAULT = _registry.DEFAULT_METHOD
+register = _registry.register_method
+get = _registry.get_method
+names = _registry.method_names
 
 
 def default():
-    """The name of the default method (:data:`DEFAULT`, or ``"scan"`` when its module is missing)."""
-    _load_plugins()
-    return DEFAULT if DEFAULT in METHODS else "scan"
-
-
-def get(name):
-    """The method class registered as ``name``."""
-    _load_plugins()
-    try:
-        return METHODS[name]
-    except KeyError:
-        raise ValueError(f"unknown isosurface method {name!r}; the methods are {list(METHODS)}") from None
-
-
-# modules of later chapters that register methods when they exist
-_PLUGINS = ("polygen.volume.extrema_graph", "polygen.volume.thinning", "polygen.volume.edge_centred")
-
-
-def _load_plugins():
-    import importlib
-    import importlib.util
-
-    for mod in _PLUGINS:
-        if importlib.util.find_spec(mod) is not None:
-            importlib.import_module(mod)
+    """The name of the default method (:data:`DEFAULT`)."""
+    return DEFAULT
 
 
 @dataclasses.dataclass
@@ -120,8 +87,6 @@ def sweep(method, values, *, reference=None, normals="mean"):
     ``reference``: surfaces of the same values (e.g. the full scan's) that
     each result must equal, triangle for triangle (by vertex keys).
     """
-    from polygen.volume.isosurface import same_surface
-
     surfaces, stats = [], []
     query = t1 = 0.0
     seed_tested = 0

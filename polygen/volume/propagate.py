@@ -30,13 +30,13 @@ import numpy as np
 
 from polygen._jit import njit
 from polygen.volume import marching as _m
-from polygen.volume.isosurface import (
+from polygen.volume.surface import (
     IsoSurfaceError,
-    _check_normals,
-    _check_value,
-    _volume_arrays,
+    check_normals,
+    check_value,
     finish,
     node_gradients,
+    volume_arrays,
 )
 
 __all__ = ["Propagator", "propagate"]
@@ -237,7 +237,7 @@ class Propagator:
 
     def __init__(self, vol, field=None):
         self.vol = vol
-        self.points, self.cells, self.s, self.cell_type = _volume_arrays(vol, field)
+        self.points, self.cells, self.s, self.cell_type = volume_arrays(vol, field)
         self.table, self.count, self.local_edges, self.faces = _m.local_tables(self.cell_type)
         self.rec = vol.cell_records  # nodes, face neighbours and edge ids of a cell side by side
         self._nn, self._nf = self.cells.shape[1], vol.face_neighbors.shape[1]
@@ -304,8 +304,8 @@ class Propagator:
             ``method == "propagate"``; ``cells_tested`` counts the seeds and
             the neighbours tested, each once.
         """
-        value = _check_value(value)
-        _check_normals(normals)
+        value = check_value(value)
+        check_normals(normals)
         seeds = self._seeds(seeds)
         node_grad = self.node_gradients if normals == "gradient" else None
         if self.generation == np.iinfo(np.int32).max:  # once in 2**31 queries: really clear the marks

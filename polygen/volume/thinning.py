@@ -67,10 +67,11 @@ import numpy as np
 from polygen.volume import _thinning_kernels as _k
 from polygen.volume.extrema_graph import Extrema, find_extrema
 from polygen.volume.homology import boundary_defects
-from polygen.volume.isosurface import IsoSurfaceError, _check_value, _volume_arrays
 from polygen.volume.methods import IsosurfaceMethod, register
 from polygen.volume.propagate import Propagator
+from polygen.volume.registry import register_seed_source
 from polygen.volume.seeds.span_filter import SpanFilter
+from polygen.volume.surface import IsoSurfaceError, check_value, volume_arrays
 
 __all__ = [
     "ThinningError",
@@ -226,7 +227,7 @@ class Skeleton:
         -------
         SkeletonSeeds
         """
-        value = _check_value(value)
+        value = check_value(value)
         b = self._buckets
         t0 = time.perf_counter()
         k, tested = _k.query(self.cells, self._cmin, self._cmax, b.offsets, b.ids, b.lo, b.hi, b.width,
@@ -302,7 +303,7 @@ def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=No
     -------
     Skeleton
     """
-    _, cells, s, cell_type = _volume_arrays(vol, field)
+    _, cells, s, cell_type = volume_arrays(vol, field)
     if n_buckets is not None and (isinstance(n_buckets, bool) or not isinstance(n_buckets, (int, np.integer))
                                   or n_buckets < 1):
         raise ThinningError(f"n_buckets must be a positive integer; got {n_buckets!r}")
@@ -474,3 +475,17 @@ class ThinningMethod(IsosurfaceMethod):
         self.stats = {"T_mg": found.t_search, "T_mt": iso.t1 + iso.t2, "T_mv": iso.t3, "N_cg": found.n_tested,
                       "N_ci": iso.cells_intersected, "seeds": found}
         return dataclasses.replace(iso, cells_tested=iso.cells_tested + found.n_tested, t1=iso.t1 + found.t_search)
+
+
+def _thinning_seed_source(vol, field=None, **params):
+    """The seed interface of volume thinning: build the skeleton, then ``query(value) -> (cells, n_tested, seconds)``."""
+    sk = thin_volume(vol, field, **params)
+
+    def query(value):
+        found = sk.seeds(value)
+        return found.cells, found.n_tested, found.t_search
+
+    return sk, query
+
+
+register_seed_source("thinning", _thinning_seed_source)

@@ -23,19 +23,24 @@ Example
 """
 
 from polygen.volume.seeds.base import (
+    METHODS,
     ActiveCellSearch,
     IntervalError,
     QueryResult,
     cell_ranges,
     check_intervals,
     check_value,
+    get,
+    register,
 )
-from polygen.volume.seeds.full_scan import FullScan
-from polygen.volume.seeds.interval_tree import IntervalTree
-from polygen.volume.seeds.issue_lattice import IssueLattice
-from polygen.volume.seeds.sorted_lists import SortedLists
-from polygen.volume.seeds.span_filter import SpanFilter
-from polygen.volume.seeds.span_space import SpanSpace
+
+# each structure registers itself at the bottom of its module; imported in the order of Table 5.2
+from polygen.volume.seeds.full_scan import FullScan  # isort: skip
+from polygen.volume.seeds.sorted_lists import SortedLists  # isort: skip
+from polygen.volume.seeds.span_filter import SpanFilter  # isort: skip
+from polygen.volume.seeds.span_space import SpanSpace  # isort: skip
+from polygen.volume.seeds.issue_lattice import IssueLattice  # isort: skip
+from polygen.volume.seeds.interval_tree import IntervalTree  # isort: skip
 
 __all__ = [
     "ActiveCellSearch",
@@ -54,34 +59,3 @@ __all__ = [
     "get",
     "register",
 ]
-
-#: registry name -> class, in the order of Table 5.2
-METHODS = {}
-
-
-def register(cls):
-    """Add an :class:`ActiveCellSearch` subclass to :data:`METHODS` under ``cls.name``."""
-    if not (isinstance(cls, type) and issubclass(cls, ActiveCellSearch)) or not cls.name:
-        raise ValueError(f"{cls!r} is not a named ActiveCellSearch subclass")
-    if METHODS.get(cls.name, cls) is not cls:
-        raise ValueError(f"the method name {cls.name!r} is already registered by {METHODS[cls.name].__name__}")
-    METHODS[cls.name] = cls
-    return cls
-
-
-for _cls in (FullScan, SortedLists, SpanFilter, SpanSpace, IssueLattice, IntervalTree):
-    register(_cls)
-
-
-def get(name):
-    """The search class registered as ``name`` (e.g. ``"sorted-lists"``).
-
-    Raises
-    ------
-    IntervalError
-        For an unknown name; the message lists the known ones.
-    """
-    try:
-        return METHODS[name]
-    except (KeyError, TypeError):
-        raise IntervalError(f"unknown active-cell search {name!r}; known: {', '.join(METHODS)}") from None

@@ -38,6 +38,8 @@ from typing import ClassVar
 import numpy as np
 
 from polygen._jit import njit, prange
+from polygen.volume import registry as _registry
+from polygen.volume.surface import volume_arrays
 
 __all__ = [
     "IntervalError",
@@ -46,6 +48,9 @@ __all__ = [
     "cell_ranges",
     "check_intervals",
     "check_value",
+    "METHODS",
+    "register",
+    "get",
 ]
 
 
@@ -222,6 +227,34 @@ class ActiveCellSearch(abc.ABC):
         cells, n_tested, n_hits = self._query(v)
         return QueryResult(value=v, cells=cells, n_tested=int(n_tested), n_hits=int(n_hits))
 
+    @classmethod
+    def seed_source(cls, vol, field=None, **params):
+        """The seed interface on a volume: build over its cells' ranges, then query seeds by value.
+
+        Parameters
+        ----------
+        vol : UnstructuredVolume
+        field : str or (N,) float64, optional
+        **params
+            Keyword-only tuning of the structure.
+
+        Returns
+        -------
+        structure : ActiveCellSearch
+        query : callable
+            ``query(value) -> (cells (K,) int64, n_tested int, seconds float)``.
+        """
+        _, cells, s, _ = volume_arrays(vol, field)
+        cmin, cmax = cell_ranges(cells, s)
+        structure = cls.build(cmin, cmax, **params)
+
+        def query(value):
+            t0 = time.perf_counter()
+            found = structure.query(value)
+            return found.cells, found.n_tested, time.perf_counter() - t0
+
+        return structure, query
+
     def active(self, value) -> np.ndarray:
         """Exactly the cells with ``cmin <= value <= cmax``, sorted.
 
@@ -301,3 +334,38 @@ def cell_ranges(cells, scalars):
     if m:
         _cell_ranges(cells, s, cmin, cmax)
     return cmin, cmax
+
+
+#: registry name -> class, in the order of Table 5.2
+METHODS = {}
+
+
+def register(cls):
+    """Add an :class:`ActiveCellSearch` subclass to :data:`METHODS` under ``cls.name``.
+
+    It is registered as a seed source of :mod:`polygen.volume.registry` too
+    (:meth:`ActiveCellSearch.seed_source`). Each structure's module calls
+    this at its bottom.
+    """
+    if not (isinstance(cls, type) and issubclass(cls, ActiveCellSearch)) or not cls.name:
+        raise ValueError(f"{cls!r} is not a named ActiveCellSearch subclass")
+    if METHODS.get(cls.name, cls) is not cls:
+        raise ValueError(f"the method name {cls.name!r} is already registered by {METHODS[cls.name].__name__}")
+    if cls.name not in METHODS:
+        _registry.register_seed_source(cls.name, cls.seed_source)
+    METHODS[cls.name] = cls
+    return cls
+
+
+def get(name):
+    """The search class registered as ``name`` (e.g. ``"sorted-lists"``).
+
+    Raises
+    ------
+    IntervalError
+        For an unknown name; the message lists the known ones.
+    """
+    try:
+        return METHODS[name]
+    except (KeyError, TypeError):
+        raise IntervalError(f"unknown active-cell search {name!r}; known: {', '.join(METHODS)}") from None

@@ -3,7 +3,7 @@
 import numpy as np
 
 from polygen._jit import njit
-from polygen.volume.seeds.base import ActiveCellSearch
+from polygen.volume.seeds.base import ActiveCellSearch, register
 
 __all__ = ["FullScan"]
 
@@ -34,3 +34,6 @@ class FullScan(ActiveCellSearch):
     def _query(self, value):
         k = _scan(self.cmin, self.cmax, value, self._out)
         return self._out[:k].copy(), self.n_cells, k
+
+
+register(FullScan)

@@ -23,7 +23,7 @@ the one that stops a scan included (at most one per level above ``k``);
 import numpy as np
 
 from polygen._jit import njit
-from polygen.volume.seeds.base import ActiveCellSearch
+from polygen.volume.seeds.base import ActiveCellSearch, register
 
 __all__ = ["IntervalTree"]
 
@@ -135,3 +135,6 @@ class IntervalTree(ActiveCellSearch):
             self.split, self.offsets, self.p_min, self.p_max, self.kmin, self.kmax, value, self._out
         )
         return self._out[:k].copy(), tested, k
+
+
+register(IntervalTree)

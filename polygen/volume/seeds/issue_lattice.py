@@ -27,7 +27,7 @@ strip costs O(L log(n/L)) for the binary searches).
 import numpy as np
 
 from polygen._jit import njit
-from polygen.volume.seeds.base import ActiveCellSearch, IntervalError
+from polygen.volume.seeds.base import ActiveCellSearch, IntervalError, register
 from polygen.volume.seeds.span_space import _kd_build, _kd_query
 
 __all__ = ["IssueLattice"]
@@ -190,3 +190,6 @@ class IssueLattice(ActiveCellSearch):
             self.p_max, self.snegmax, self.p_kd, self.pts, self.inner == "kdtree", value, self._out,
         )
         return self._out[:k].copy(), tested, k
+
+
+register(IssueLattice)

@@ -12,7 +12,7 @@ the range either prefix holds a fixed fraction of the cells.
 import numpy as np
 
 from polygen._jit import njit
-from polygen.volume.seeds.base import ActiveCellSearch
+from polygen.volume.seeds.base import ActiveCellSearch, register
 
 __all__ = ["SortedLists"]
 
@@ -61,3 +61,6 @@ class SortedLists(ActiveCellSearch):
             self.by_min, self.smin, self.max_by_min, self.by_max, self.negmax, self.min_by_max, value, self._out
         )
         return self._out[:k].copy(), tested, k
+
+
+register(SortedLists)

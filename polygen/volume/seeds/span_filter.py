@@ -25,7 +25,7 @@ and query, so a cell with ``S_min <= C <= S_max`` is always found, also when
 import numpy as np
 
 from polygen._jit import njit
-from polygen.volume.seeds.base import ActiveCellSearch, IntervalError
+from polygen.volume.seeds.base import ActiveCellSearch, IntervalError, register
 
 __all__ = ["SpanFilter"]
 
@@ -177,3 +177,6 @@ class SpanFilter(ActiveCellSearch):
             self.n_buckets, value, self._out,
         )
         return self._out[:k].copy(), tested, k
+
+
+register(SpanFilter)

@@ -21,7 +21,7 @@ subtrees handed over wholesale; ``cells`` are exactly the active cells.
 import numpy as np
 
 from polygen._jit import njit
-from polygen.volume.seeds.base import ActiveCellSearch
+from polygen.volume.seeds.base import ActiveCellSearch, register
 
 __all__ = ["SpanSpace"]
 
@@ -233,3 +233,6 @@ class SpanSpace(ActiveCellSearch):
     def _query(self, value):
         k, tested = _kd_query(self.perm, self.pts, 0, self.perm.shape[0], value, self._out, 0)
         return self._out[:k].copy(), tested, k
+
+
+register(SpanSpace)

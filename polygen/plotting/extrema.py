@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from polygen.plotting._common import _plotter, boundary_mesh
+
 __all__ = ["plot_2d_graph", "plot_graph", "plot_graph_isosurface", "plot_seeds"]
 
 _EXTREMUM_COLOR = "purple"  # the thesis draws extrema as purple crosses
@@ -83,17 +85,6 @@ def _arc_lines(vol, graph):
     return poly
 
 
-def _boundary(vol):
-    import pyvista as pv
-
-    f = vol.boundary_face_nodes
-    return pv.PolyData(vol.points, np.hstack([np.full((len(f), 1), f.shape[1]), f]).ravel())
-
-
-def _plotter(shape=(1, 1), window_size=None):
-    import pyvista as pv
-
-    return pv.Plotter(shape=shape, off_screen=pv.OFF_SCREEN, window_size=window_size)
 
 
 def plot_graph(vol, graph, *, plotter=None, title=None, show_cells=False):
@@ -104,7 +95,7 @@ def plot_graph(vol, graph, *, plotter=None, title=None, show_cells=False):
     import pyvista as pv
 
     p = plotter or _plotter()
-    p.add_mesh(_boundary(vol), color="lightgray", opacity=0.15)
+    p.add_mesh(boundary_mesh(vol), color="lightgray", opacity=0.15)
     lines = _arc_lines(vol, graph)
     smin, smax = float(graph.s.min()), float(graph.s.max())
     if lines.n_points:
@@ -158,7 +149,7 @@ def plot_loops(vol, loops, *, plotter=None, title=None):
     import pyvista as pv
 
     p = plotter or _plotter()
-    p.add_mesh(_boundary(vol), color="lightgray", opacity=0.2)
+    p.add_mesh(boundary_mesh(vol), color="lightgray", opacity=0.2)
     cmap = matplotlib.colormaps["tab10"]
     for i in range(loops.n_loops):
         nodes = loops.loop(i)

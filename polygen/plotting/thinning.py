@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from polygen.plotting._common import _plotter, boundary_mesh
+
 __all__ = [
     "plot_pixel_rule",
     "plot_image_thinning",
@@ -23,17 +25,6 @@ __all__ = [
 _EXTREMUM_COLOR = "purple"
 
 
-def _plotter(shape=(1, 1), window_size=None):
-    import pyvista as pv
-
-    return pv.Plotter(shape=shape, off_screen=pv.OFF_SCREEN, window_size=window_size)
-
-
-def _boundary(vol):
-    import pyvista as pv
-
-    f = vol.boundary_face_nodes
-    return pv.PolyData(vol.points, np.hstack([np.full((len(f), 1), f.shape[1]), f]).ravel())
 
 
 # ------------------------------------------------------------------ 2D (Fig. 7.2)
@@ -95,7 +86,7 @@ def plot_skeleton(vol, skeleton, *, color="class", plotter=None, title=None, bou
     if color not in ("class", "value"):
         raise ValueError(f"color must be 'class' or 'value'; got {color!r}")
     p = plotter or _plotter()
-    p.add_mesh(_boundary(vol), color="lightgray", opacity=boundary_opacity)
+    p.add_mesh(boundary_mesh(vol), color="lightgray", opacity=boundary_opacity)
     cells = vol.to_pyvista().extract_cells(skeleton.cells)
     if color == "class":
         cells.cell_data["neighbours"] = skeleton.neighbour_counts
@@ -126,7 +117,7 @@ def plot_thinning_steps(vol, record, steps, *, skeleton=None, window_size=(1400,
     for i, k in enumerate(steps):
         p.subplot(0, i)
         keep = np.flatnonzero(record.remaining(k))
-        p.add_mesh(_boundary(vol), color="lightgray", opacity=0.08)
+        p.add_mesh(boundary_mesh(vol), color="lightgray", opacity=0.08)
         if keep.size:
             cells = grid.extract_cells(keep)
             cells.cell_data["value"] = s[vol.cells[keep]].mean(axis=1)
@@ -157,12 +148,12 @@ def plot_fig_7_1(vol, graph, skeleton, iso_full, iso_from_arcs, *, window_size=(
     right, the skeleton and the whole surface."""
     import pyvista as pv
 
-    from polygen.plot_extrema import _arc_lines
+    from polygen.plotting.extrema import _arc_lines
 
     p = _plotter(shape=(1, 2), window_size=window_size)
     smin, smax = float(skeleton.s.min()), float(skeleton.s.max())
     p.subplot(0, 0)
-    p.add_mesh(_boundary(vol), color="lightgray", opacity=0.15)
+    p.add_mesh(boundary_mesh(vol), color="lightgray", opacity=0.15)
     lines = _arc_lines(vol, graph)
     if lines.n_points:
         p.add_mesh(lines, scalars="value", cmap="jet", clim=(smin, smax), line_width=5, show_scalar_bar=False)

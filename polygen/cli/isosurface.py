@@ -75,7 +75,7 @@ def run(args):
     os.environ.setdefault("VTK_SMP_BACKEND_IN_USE", "STDThread")
     from tqdm.auto import tqdm
 
-    from polygen.volume import methods
+    from polygen.volume import isovalues, methods
 
     progress = sys.stderr.isatty()
     label, vol = _load(args.mesh, progress)
@@ -85,7 +85,7 @@ def run(args):
     else:
         if args.values < 1:
             raise SystemExit("polygen isosurface: --values needs at least 1")
-        values = np.linspace(s.min(), s.max(), args.values + 2)[1:-1]
+        values = isovalues(s, args.values)
     chosen = args.method or methods.names()
     for m in chosen:
         methods.get(m)  # unknown names fail here, before any work
@@ -186,9 +186,9 @@ def _write_files(out, label, vol, surfaces, values, method):
         if not iso.is_empty:
             iso.to_pyvista().save(out / f"{label}-iso{i:02d}.vtp")
             written += 1
-    from polygen import plotting
+    from polygen.plotting import plot_isosurfaces, setup_notebook
 
     png = out / f"{label}-isosurfaces.png"
-    plotting.setup_notebook()
-    plotting.plot_isosurfaces(vol, surfaces, values).screenshot(str(png))
+    setup_notebook()
+    plot_isosurfaces(vol, surfaces, values).screenshot(str(png))
     print(f"wrote {written} surfaces (by {method}) and {png.name} to {out}/")

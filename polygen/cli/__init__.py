@@ -1,9 +1,9 @@
 """The ``polygen`` command line.
 
-Each sub-command lives in the module of the wing it belongs to and
-provides two functions: ``configure(parser)`` adds its arguments, and
-``run(args) -> int`` does the work. They are imported lazily, so that
-``polygen --help`` is quick and one broken wing does not break the others.
+Each sub-command is a module of this package (as meshio keeps its ``_cli/``
+beside the formats) with two functions: ``configure(parser)`` adds its
+arguments, and ``run(args) -> int`` does the work. Nothing in the algorithm
+packages imports the CLI.
 """
 
 import argparse
@@ -12,23 +12,15 @@ import sys
 
 # name -> (module, one-line help)
 SUBCOMMANDS = {
-    "datasets": ("polygen.volume._cli_datasets", "list and build the reproducible volume data sets"),
-    "isosurface": ("polygen.volume._cli_isosurface", "extract isosurfaces from a volume, compared with VTK"),
+    "datasets": ("polygen.cli.datasets", "list and build the reproducible volume data sets"),
+    "isosurface": ("polygen.cli.isosurface", "extract isosurfaces from a volume, compared with VTK"),
 }
-
-
-def _available():
-    out = {}
-    for name, (module, help_) in SUBCOMMANDS.items():
-        if importlib.util.find_spec(module) is not None:
-            out[name] = (module, help_)
-    return out
 
 
 def build_parser():
     parser = argparse.ArgumentParser(prog="polygen", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name, (module, help_) in _available().items():
+    for name, (module, help_) in SUBCOMMANDS.items():
         p = sub.add_parser(name, help=help_, description=help_)
         importlib.import_module(module).configure(p)
         p.set_defaults(_module=module)

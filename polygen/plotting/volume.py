@@ -1,18 +1,23 @@
-"""Figures of chapter 5's isosurfaces (notebook ``05_isosurfaces``).
+"""Figures of chapter 5: volumes, their boundary groups, marching cases and isosurfaces.
 
-Like :mod:`polygen.plotting` (whose ``_plotter`` and ``boundary_surface``
-these use), nothing in polygen's algorithms imports this module; pyvista and
-matplotlib are imported inside the functions. 3D functions return a
-``pyvista.Plotter``, 2D ones a ``matplotlib`` figure.
+Notebooks ``05_volume_data`` and ``05_isosurfaces``. Nothing in polygen's
+algorithms imports this module; pyvista and matplotlib are imported inside
+the functions. 3D functions return a ``pyvista.Plotter``, 2D ones a
+``matplotlib`` figure.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from polygen import plotting
+from polygen.plotting._common import _plotter, boundary_surface
+from polygen.volume._cells import HEX_UNIT_CORNERS, TET_UNIT_CORNERS
 
 __all__ = [
+    "plot_boundary_groups",
+    "plot_cell_and_neighbours",
+    "plot_volume_kinds",
+    "plot_isosurfaces",
     "plot_marching_cases",
     "plot_isosurface_strip",
     "show_isosurface",
@@ -22,9 +27,85 @@ __all__ = [
     "plot_loglog",
 ]
 
-_TET_REF = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
-_HEX_REF = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
-                     [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
+_TET_REF = TET_UNIT_CORNERS.astype(float)
+_HEX_REF = HEX_UNIT_CORNERS.astype(float)
+
+
+def plot_boundary_groups(vol, *, cut_normal=(0, 1, 0), plotter=None, title=None):
+    """Boundary-face groups coloured (1 = outer, 2.. = voids), with a cut-away half.
+
+    The left view shows the outer group translucent with the voids inside;
+    the right one the volume clipped by a plane through its centre, cells
+    coloured by the first field.
+    """
+    import pyvista as pv
+
+    surf = boundary_surface(vol)
+    p = plotter or _plotter(shape=(1, 2), window_size=(1200, 500))
+    p.subplot(0, 0)
+    outer = surf.extract_cells(np.flatnonzero(surf.cell_data["group"] == 1))
+    p.add_mesh(outer, color="lightgray", opacity=0.25, show_edges=False)
+    if vol.n_boundary_groups > 1:
+        inner = surf.extract_cells(np.flatnonzero(surf.cell_data["group"] > 1))
+        p.add_mesh(inner, scalars="group", cmap="tab10", show_edges=True, show_scalar_bar=False)
+    p.add_text(title or f"{vol.n_boundary_groups} boundary groups, genus {vol.n_through_holes}", font_size=10)
+    p.subplot(0, 1)
+    grid = vol.to_pyvista()
+    centre = vol.points.mean(axis=0)
+    clipped = grid.clip(normal=cut_normal, origin=centre, crinkle=True)
+    kw = {"scalars": next(iter(vol.fields))} if vol.fields else {"color": "tan"}
+    p.add_mesh(clipped, show_edges=vol.n_cells < 50_000, cmap="coolwarm", **kw)
+    p.add_text("cut-away", font_size=10)
+    p.link_views()
+    p.view_isometric()
+    return p
+
+
+def plot_cell_and_neighbours(vol, cell, *, plotter=None):
+    """One cell, its face neighbours and its nodes: the data structure of Fig. 5.1."""
+    import pyvista as pv
+
+    grid = vol.to_pyvista()
+    nb = vol.face_neighbors[cell]
+    p = plotter or _plotter()
+    p.add_mesh(grid.extract_cells([cell]), color="tomato", show_edges=True, line_width=3)
+    if np.any(nb >= 0):
+        p.add_mesh(grid.extract_cells(nb[nb >= 0]), color="lightblue", opacity=0.5, show_edges=True)
+    nodes = pv.PolyData(vol.points[vol.cells[cell]])
+    p.add_point_labels(nodes, [f"N{i + 1}" for i in range(vol.cells.shape[1])], point_size=12, font_size=12)
+    p.add_text(f"element {cell}: {np.sum(nb >= 0)} face neighbours, {np.sum(nb < 0)} boundary faces", font_size=10)
+    return p
+
+
+def plot_volume_kinds(rectangular, structured, unstructured, *, plotter=None):
+    """Side by side: rectangular, structured and unstructured volumes (Fig. 5.2)."""
+    p = plotter or _plotter(shape=(1, 3), window_size=(1200, 400))
+    for i, (grid, name) in enumerate([(rectangular, "rectangular"), (structured, "structured"),
+                                      (unstructured, "unstructured")]):
+        p.subplot(0, i)
+        p.add_mesh(grid, show_edges=True, color="wheat")
+        p.add_text(name, font_size=10)
+        p.view_isometric()
+    return p
+
+
+def plot_isosurfaces(vol, surfaces, values=None, *, plotter=None, cmap="viridis", opacity=0.6):
+    """Several isosurfaces coloured by value inside the volume's outline."""
+    p = plotter or _plotter()
+    p.add_mesh(boundary_surface(vol), color="lightgray", opacity=0.12)
+    values = [s.value for s in surfaces] if values is None else list(values)
+    lo, hi = (min(values), max(values)) if values else (0.0, 1.0)
+    bar = True
+    for iso, v in zip(surfaces, values):
+        if iso.is_empty:
+            continue
+        poly = iso.to_pyvista()
+        poly.point_data["isovalue"] = np.full(poly.n_points, v)
+        p.add_mesh(poly, scalars="isovalue", clim=(lo, hi), cmap=cmap, opacity=opacity, smooth_shading=True,
+                   show_scalar_bar=bar)
+        bar = False
+    p.view_isometric()
+    return p
 
 
 def plot_marching_cases(cell_type, cases, *, ncols=4, size=2.6):
@@ -76,8 +157,8 @@ def plot_marching_cases(cell_type, cases, *, ncols=4, size=2.6):
 def plot_isosurface_strip(vol, surfaces, *, window_size=None):
     """Fig. 5.5: one isosurface per panel, left to right, inside the volume's outline."""
     k = max(len(surfaces), 1)
-    p = plotting._plotter(shape=(1, k), window_size=window_size or (300 * k, 320))
-    outline = plotting.boundary_surface(vol)
+    p = _plotter(shape=(1, k), window_size=window_size or (300 * k, 320))
+    outline = boundary_surface(vol)
     lo = min(s.value for s in surfaces)
     hi = max(s.value for s in surfaces)
     for i, iso in enumerate(surfaces):
@@ -102,7 +183,7 @@ def show_isosurface(vol, value, *, field=None, method="scan"):
     from polygen.volume.isosurface import extract
 
     iso = extract(vol, value, field=field, method=method)
-    p = plotting.plot_isosurfaces(vol, [iso], [value])
+    p = plot_isosurfaces(vol, [iso], [value])
     p.add_text(f"C = {value:.4g}: {iso.n_triangles} triangles, {iso.cells_intersected} cells", font_size=9)
     p.show()
     return iso
@@ -129,8 +210,8 @@ def plot_propagation_order(vol, iso, order, *, seeds=(), cmap="plasma"):
     """
     import pyvista as pv
 
-    p = plotting._plotter()
-    p.add_mesh(plotting.boundary_surface(vol), color="lightgray", opacity=0.1)
+    p = _plotter()
+    p.add_mesh(boundary_surface(vol), color="lightgray", opacity=0.1)
     poly = iso.to_pyvista()
     poly.cell_data["FIFO step"] = fifo_steps(order, iso.triangle_cells, vol.n_cells)
     p.add_mesh(poly, scalars="FIFO step", cmap=cmap, show_edges=False)
