@@ -8,8 +8,6 @@ from polygen.volume.edge_centred import EdgeCentred, EdgeCentredMethod, edge_cen
 from polygen.volume.isosurface import IsoSurfaceError, extract
 from polygen.volume.propagate import Propagator
 
-pv = pytest.importorskip("pyvista")
-
 from _surfaces import grid_volume  # noqa: E402
 from _surfaces import oriented_triangles as triangle_set  # noqa: E402
 
@@ -280,3 +278,82 @@ def test_extract_many_two_at_a_time_gives_the_same_surfaces(tets):
     assert m.extract_many([], threads=2) == []
     with pytest.raises(IsoSurfaceError):
         m.extract_many([0.5, np.nan])
+
+
+# ------------------------------------------------------------------ the plain kernels behind the intrinsics
+def test_intrinsics_in_use_here():
+    # on the numba/llvmlite this suite runs with, the probe must succeed: a fallback taken silently
+    # everywhere would leave the intrinsic path untested
+    from polygen.volume import _edge_centred_kernels as k
+
+    assert k.PREFETCH
+
+
+def test_ctz_fallback_equals_the_intrinsic():
+    import numba
+
+    from polygen.volume import _edge_centred_kernels as k
+
+    @numba.njit(cache=False)
+    def both(xs, out):
+        for i in range(xs.shape[0]):
+            out[i, 0] = k._ctz(xs[i])
+            out[i, 1] = k._ctz_plain(xs[i])
+
+    for dtype in (np.int32, np.int64):
+        bits = 31 if dtype == np.int32 else 63
+        xs = np.array([1 << b for b in range(bits)] + [3, 6, 12, 24, 40, 96, (1 << (bits - 1)) + 8], dtype)
+        xs = np.concatenate([xs, np.random.default_rng(0).integers(1, np.iinfo(dtype).max, 500, dtype=dtype)])
+        out = np.empty((xs.size, 2), np.int64)
+        both(xs, out)
+        expect = [(int(x) & -int(x)).bit_length() - 1 for x in xs]  # the lowest set bit, in Python
+        assert out[:, 0].tolist() == expect and out[:, 1].tolist() == expect
+
+
+_FALLBACK_SCRIPT = """
+import sys
+import numpy as np
+from polygen.volume import _edge_centred_kernels as k, datasets, methods
+
+assert not k.PREFETCH, "POLYGEN_PREFETCH=0 did not select the plain kernels"
+out = {}
+for name in sys.argv[2:]:
+    vol = datasets.load(name)
+    m = methods.get("edge-centred")(vol)
+    s = vol.scalars()
+    for i, v in enumerate(np.linspace(s.min(), s.max(), 7)[1:-1]):
+        iso = m.extract(v)
+        for a in ("triangles", "vertex_keys", "vertices", "normals", "triangle_cells"):
+            out[f"{name}-{i}-{a}"] = getattr(iso, a)
+        out[f"{name}-{i}-visits"] = np.array([m.stats["visits"], m.stats["constructed"]])
+np.savez(sys.argv[1], **out)
+"""
+
+
+def test_fallback_kernels_give_the_same_surfaces(tmp_path):
+    """``POLYGEN_PREFETCH=0`` (a fresh process: the kernels are chosen at import) builds the very same
+    surfaces, array for array and in the same order, as the intrinsic kernels here."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    names = ["torus", "torus_hex", "genus3"]
+    env = dict(os.environ, POLYGEN_PREFETCH="0")
+    root = Path(__file__).resolve().parents[1]
+    env["PYTHONPATH"] = os.pathsep.join([str(root), env.get("PYTHONPATH", "")])
+    path = tmp_path / "fallback.npz"
+    subprocess.run([sys.executable, "-c", _FALLBACK_SCRIPT, str(path), *names], env=env, cwd=root, check=True)
+    theirs = np.load(path)
+    n = 0
+    for name in names:
+        vol = datasets.load(name)
+        m = methods.get("edge-centred")(vol)
+        s = vol.scalars()
+        for i, v in enumerate(np.linspace(s.min(), s.max(), 7)[1:-1]):
+            iso = m.extract(v)
+            for a in ("triangles", "vertex_keys", "vertices", "normals", "triangle_cells"):
+                np.testing.assert_array_equal(getattr(iso, a), theirs[f"{name}-{i}-{a}"], err_msg=f"{name} {v} {a}")
+            np.testing.assert_array_equal([m.stats["visits"], m.stats["constructed"]], theirs[f"{name}-{i}-visits"])
+            n += iso.n_triangles
+    assert n > 0

@@ -43,12 +43,12 @@ the processor to fetch the lines they are about to need a little early
 instead of waiting one after the other.
 """
 
-import numpy as np
-from llvmlite import ir
-from numba import types
-from numba.core import cgutils
-from numba.extending import intrinsic
+import os
 
+import numba
+import numpy as np
+
+from polygen import _jit
 from polygen._jit import njit
 from polygen.volume import marching as _m
 
@@ -85,52 +85,114 @@ def case_masks(tri_table, tri_count):
 
 
 # ------------------------------------------------------------------ intrinsics
-def _prefetch_codegen(rw):
-    def codegen(context, builder, signature, args):
-        aryty = signature.args[0]
-        ary = context.make_array(aryty)(context, builder, args[0])
-        idx = [context.cast(builder, a, t, types.intp) for a, t in zip(args[1:], signature.args[1:])]
-        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, idx, wraparound=False)
-        i8p = builder.bitcast(ptr, ir.IntType(8).as_pointer())
-        i32 = ir.IntType(32)
-        fnty = ir.FunctionType(ir.VoidType(), [i8p.type, i32, i32, i32])
-        fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.prefetch.p0")
-        builder.call(fn, [i8p, i32(rw), i32(3), i32(1)])  # rw, keep in every cache level, data
-        return context.get_dummy_value()
-
-    return codegen
+# The prefetch hint and the count of trailing zeros are written against numba's internals
+# (``numba.core.cgutils``) and LLVM intrinsic names (``llvm.prefetch.p0`` is the name under
+# opaque pointers, LLVM >= 15). Either can change with a numba/llvmlite release, so they are
+# compiled once in a probe at import; when the probe fails, or ``POLYGEN_PREFETCH=0`` asks for it,
+# plain kernels take their place: no prefetch (slower by the misses it overlapped, same results)
+# and a loop for the trailing zeros. ``PREFETCH`` says which ones the kernels below were built with.
 
 
-@intrinsic
-def _prefetch_row(typingctx, arr, i):
-    """Fetch the line of ``arr[i, 0]`` for writing (a hint; no effect on results)."""
-    if not isinstance(arr, types.Array) or arr.ndim != 2 or not isinstance(i, types.Integer):
+@njit(inline="always")
+def _prefetch_row_plain(arr, i):
+    """Fallback of :func:`_prefetch_row`: no hint."""
+    return None
+
+
+@njit(inline="always")
+def _prefetch_item_plain(arr, i):
+    """Fallback of :func:`_prefetch_item`: no hint."""
+    return None
+
+
+@njit(inline="always")
+def _ctz_plain(x):
+    """Index of the lowest set bit of ``x`` by shifting; ``x`` must not be 0."""
+    x = np.int64(x)
+    n = 0
+    while (x & 1) == 0:
+        x >>= 1
+        n += 1
+    return n
+
+
+def _llvm_intrinsics():
+    """``(prefetch_row, prefetch_item, ctz)`` built on numba internals, or ``None`` when they fail."""
+    try:
+        from llvmlite import ir
+        from numba import types
+        from numba.core import cgutils
+        from numba.extending import intrinsic
+    except ImportError:
         return None
-    return types.void(arr, i), _prefetch_codegen(1)
 
+    def _prefetch_codegen(rw):
+        def codegen(context, builder, signature, args):
+            aryty = signature.args[0]
+            ary = context.make_array(aryty)(context, builder, args[0])
+            idx = [context.cast(builder, a, t, types.intp) for a, t in zip(args[1:], signature.args[1:])]
+            ptr = cgutils.get_item_pointer(context, builder, aryty, ary, idx, wraparound=False)
+            i8p = builder.bitcast(ptr, ir.IntType(8).as_pointer())
+            i32 = ir.IntType(32)
+            fnty = ir.FunctionType(ir.VoidType(), [i8p.type, i32, i32, i32])
+            fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.prefetch.p0")
+            builder.call(fn, [i8p, i32(rw), i32(3), i32(1)])  # rw, keep in every cache level, data
+            return context.get_dummy_value()
 
-@intrinsic
-def _prefetch_item(typingctx, arr, i):
-    """Fetch the line of ``arr[i]`` of a 1-D array for reading (a hint; no effect on results)."""
-    if not isinstance(arr, types.Array) or arr.ndim != 1 or not isinstance(i, types.Integer):
+        return codegen
+
+    @intrinsic
+    def _prefetch_row(typingctx, arr, i):
+        """Fetch the line of ``arr[i, 0]`` for writing (a hint; no effect on results)."""
+        if not isinstance(arr, types.Array) or arr.ndim != 2 or not isinstance(i, types.Integer):
+            return None
+        return types.void(arr, i), _prefetch_codegen(1)
+
+    @intrinsic
+    def _prefetch_item(typingctx, arr, i):
+        """Fetch the line of ``arr[i]`` of a 1-D array for reading (a hint; no effect on results)."""
+        if not isinstance(arr, types.Array) or arr.ndim != 1 or not isinstance(i, types.Integer):
+            return None
+        return types.void(arr, i), _prefetch_codegen(0)
+
+    @intrinsic
+    def _ctz(typingctx, x):
+        """Index of the lowest set bit of ``x`` (``llvm.cttz``); ``x`` must not be 0."""
+        if not isinstance(x, types.Integer):
+            return None
+
+        def codegen(context, builder, signature, args):
+            ty = context.get_value_type(signature.args[0])
+            fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ty, [ty, ir.IntType(1)]),
+                                                f"llvm.cttz.i{ty.width}")
+            r = builder.call(fn, [args[0], ir.IntType(1)(1)])
+            return context.cast(builder, r, signature.args[0], types.int64)
+
+        return types.int64(x), codegen
+
+    @numba.njit(cache=False)
+    def probe(arr, v, x):
+        _prefetch_row(arr, 0)
+        _prefetch_item(v, 0)
+        return _ctz(x)
+
+    try:
+        ok = probe(np.zeros((1, 16), np.int32), np.zeros(1, np.int32), np.int32(8)) == 3
+    except Exception:  # an internal API moved or LLVM rejected the intrinsic: use the plain kernels
         return None
-    return types.void(arr, i), _prefetch_codegen(0)
+    return (_prefetch_row, _prefetch_item, _ctz) if ok else None
 
 
-@intrinsic
-def _ctz(typingctx, x):
-    """Index of the lowest set bit of ``x`` (``llvm.cttz``); ``x`` must not be 0."""
-    if not isinstance(x, types.Integer):
-        return None
-
-    def codegen(context, builder, signature, args):
-        ty = context.get_value_type(signature.args[0])
-        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ty, [ty, ir.IntType(1)]),
-                                            f"llvm.cttz.i{ty.width}")
-        r = builder.call(fn, [args[0], ir.IntType(1)(1)])
-        return context.cast(builder, r, signature.args[0], types.int64)
-
-    return types.int64(x), codegen
+_INTRINSICS = _llvm_intrinsics() if os.environ.get("POLYGEN_PREFETCH", "1") != "0" else None
+#: whether the kernels use the prefetch and ctz intrinsics (else the plain fallbacks)
+PREFETCH = _INTRINSICS is not None
+if PREFETCH:
+    _prefetch_row, _prefetch_item, _ctz = _INTRINSICS
+else:
+    _prefetch_row, _prefetch_item, _ctz = _prefetch_row_plain, _prefetch_item_plain, _ctz_plain
+# a kernel's on-disk cache does not know which of the two it was compiled with: only the
+# intrinsic build is cached, a fallback build is compiled in its process
+_KCACHE = _jit.CACHE and PREFETCH
 
 
 # ------------------------------------------------------------------ preprocessing
@@ -296,7 +358,7 @@ def _node_vertex(rec, nn, n_slots, s, value, faces, ne, nc_off, nc, node, v, gen
 
 
 # ------------------------------------------------------------------ the construction
-@njit
+@njit(cache=_KCACHE)
 def construct(rec, nn, s, value, faces, tri_table, tri_count, case_mask, local_edges, n_edges,
               ec, nc_off, nc, gen, queue, n_queued, lifo, tris, tri_cell, vkey, vend, counters):
     """t2: the cell-edge-centred construction (Fig. 5, for-loops (1)-(3)).
