@@ -23,6 +23,7 @@ from polygen.volume.isosurface import extract
 from _surfaces import assert_complete as _assert_complete  # noqa: E402
 from _surfaces import block_volume as grid_volume  # noqa: E402
 from _surfaces import iso_values, sorted_triangles  # noqa: E402
+from naive import brute_extrema, intersected_components  # noqa: E402
 
 #: the thesis's boundary cell lists and our boundary homology loops
 VARIANTS = ("extrema-graph", "extrema-graph-loops")
@@ -34,28 +35,6 @@ def assert_complete(vol, field, values, **params):
         _assert_complete(name, vol, field, values, **params)
 
 # ------------------------------------------------------------------ helpers
-def brute_extrema(cells, s):
-    """Defs 6.3/6.4 (ties allowed), one representative (lowest id candidate) per flat group."""
-    n = s.shape[0]
-    k = cells.shape[1]
-    rows = np.repeat(cells, k, axis=1).ravel()
-    cols = np.tile(cells, (1, k)).ravel()
-    star_max = np.full(n, -np.inf)
-    star_min = np.full(n, np.inf)
-    np.maximum.at(star_max, rows, s[cols])
-    np.minimum.at(star_min, rows, s[cols])
-    eq = s[rows] == s[cols]
-    g = coo_matrix((np.ones(eq.sum()), (rows[eq], cols[eq])), shape=(n, n))
-    _, group = connected_components(g, directed=False)
-    out = {}
-    for kind, cand in (("max", s >= star_max), ("min", s <= star_min)):
-        reps = {}
-        for v in np.flatnonzero(cand):
-            reps.setdefault(group[v], v)
-        out[kind] = np.array(sorted(reps.values()), np.int64)
-    return out
-
-
 # ------------------------------------------------------------------ 6.3.1 extrema
 def test_marks_on_two_tetrahedra():
     vol = datasets.load("two_tets")
@@ -220,19 +199,6 @@ def test_graph_cells_far_below_boundary_cells():
 
 
 # ------------------------------------------------------------------ 6.3.4 query and completeness
-def intersected_components(vol, s, value):
-    cmin = s[vol.cells].min(axis=1)
-    cmax = s[vol.cells].max(axis=1)
-    hit = (cmin < value) & (value <= cmax)
-    nb = vol.face_neighbors
-    c, f = np.nonzero(nb >= 0)
-    keep = hit[c] & hit[nb[c, f]]
-    m = vol.n_cells
-    _, lab = connected_components(coo_matrix((np.ones(keep.sum()), (c[keep], nb[c, f][keep])), shape=(m, m)),
-                                  directed=False)
-    return hit, lab
-
-
 @pytest.mark.parametrize("name", ["data1", "torus", "genus3_hex"])
 def test_seeds_are_intersected_and_cover_every_component(name):
     vol = datasets.load(name)
@@ -280,13 +246,9 @@ def test_thesis_order_tests_fewer_boundary_cells_for_the_same_surface(name):
         methods.get("extrema-graph")(vol, s, order="fast")
 
 
-def test_tiny_volumes_complete():
-    for name in ["one_tet", "two_tets", "one_hex", "two_hexes", "torus", "torus_hex", "hollow_cube",
-                 "hollow_cube_hex", "genus3", "genus3_hex"]:
-        vol = datasets.load(name)
-        for field in vol.fields:
-            s = vol.scalars(field)
-            assert_complete(vol, field, iso_values(s, 200))
+def test_tiny_volumes_complete(tiny_volume):
+    for field in tiny_volume.fields:
+        assert_complete(tiny_volume, field, iso_values(tiny_volume.scalars(field), 200))
 
 
 @pytest.mark.parametrize("cell_type", ["tetra", "hexa"])

@@ -21,16 +21,15 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from polygen.volume import UnstructuredVolume, datasets, marching, methods
+from polygen.volume import UnstructuredVolume, datasets, isovalues, marching, methods
 from polygen.volume.isosurface import extract
 
-pv = pytest.importorskip("pyvista")
 
 N_VALUES = 20
 
 
 def sweep(s):
-    return np.linspace(s.min(), s.max(), N_VALUES + 2)[1:-1]
+    return isovalues(s, N_VALUES)
 
 
 def tri_keys(iso):

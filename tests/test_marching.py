@@ -9,27 +9,17 @@ import itertools
 
 import numpy as np
 import pytest
+import pyvista as pv
 from scipy.spatial import cKDTree
 
 from polygen.volume import UnstructuredVolume
 from polygen.volume import marching as m
 from polygen.volume.isosurface import IsoSurfaceError, extract
 
-pv = pytest.importorskip("pyvista")
+from _surfaces import grid_volume  # noqa: E402
 
 
 # ------------------------------------------------------------------ helpers
-def grid_volume(dims, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *, tets=True, jitter=0.0, seed=0):
-    img = pv.ImageData(dimensions=dims, spacing=spacing, origin=origin)
-    grid = img.triangulate() if tets else img.cast_to_unstructured_grid()
-    vol = UnstructuredVolume.from_pyvista(grid)
-    if jitter:
-        rng = np.random.default_rng(seed)
-        pts = vol.points + jitter * min(spacing) * rng.uniform(-1, 1, vol.points.shape)
-        vol = UnstructuredVolume(pts, vol.cells)
-    return vol
-
-
 def vtk_contour(vol, s, value):
     grid = pv.UnstructuredGrid({pv.CellType.TETRA: vol.cells}, vol.points.astype(np.float64))
     grid.point_data["s"] = s

@@ -9,10 +9,9 @@ from polygen.volume import UnstructuredVolume
 from polygen.volume.isosurface import IsoSurfaceError, extract
 from polygen.volume.propagate import Propagator, propagate
 
-pv = pytest.importorskip("pyvista")
-
 from _surfaces import grid_volume  # noqa: E402
 from _surfaces import oriented_triangles as triangle_set  # noqa: E402
+from naive import one_seed_per_component  # noqa: E402
 
 
 def assert_same_surface(a, b):
@@ -24,23 +23,6 @@ def assert_same_surface(a, b):
     np.testing.assert_allclose(a.normals[order_a], b.normals[order_b], atol=1e-12)
     assert a.vertex_lookups == b.vertex_lookups
     assert a.cells_intersected == b.cells_intersected
-
-
-def one_seed_per_component(vol, iso):
-    """One intersected cell in each face-connected group of intersected cells (brute force)."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    cells = np.unique(iso.triangle_cells)
-    inside = np.zeros(vol.n_cells, bool)
-    inside[cells] = True
-    nb = vol.face_neighbors
-    c, f = np.nonzero((nb >= 0) & inside[:, None])
-    keep = inside[nb[c, f]]
-    g = coo_matrix((np.ones(keep.sum()), (c[keep], nb[c, f][keep])), shape=(vol.n_cells,) * 2)
-    _, labels = connected_components(g, directed=False)
-    _, first = np.unique(labels[cells], return_index=True)
-    return cells[first]
 
 
 @pytest.mark.parametrize("tets", [True, False])
@@ -192,3 +174,38 @@ def test_same_surface_and_sweep():
     assert methods.sweep(m, values).same_as_reference is None
     moved = dataclasses.replace(ref[0], vertices=ref[0].vertices + 1e-9)
     assert same_surface(ref[0], moved, geometry=False) and not same_surface(ref[0], moved)
+
+
+def test_one_method_vocabulary():
+    # extract, UnstructuredVolume.isosurface and the CLI name methods alike: a registered name
+    from polygen.volume import isovalues, registry
+    from polygen.volume.surface import same_surface
+
+    vol = grid_volume((7, 6, 5), jitter=0.2, seed=4)
+    s = vol.points @ np.array([1.0, 0.4, -0.3])
+    vol.add_field("s", s)
+    for v in isovalues(s, 3):
+        ref = extract(vol, v, field="s")
+        assert ref.n_triangles > 0
+        for name in registry.method_names():
+            assert same_surface(extract(vol, v, field="s", method=name), ref, geometry=False), name
+            assert same_surface(vol.isosurface(v, field="s", method=name), ref, geometry=False), name
+        seeds = one_seed_per_component(vol, ref)
+        assert same_surface(extract(vol, v, field="s", method="propagate", seeds=seeds), ref)
+    with pytest.raises(IsoSurfaceError, match="span-space"):  # the message lists the registered names
+        extract(vol, 0.5, field="s", method="octree")
+    with pytest.raises(IsoSurfaceError, match="seeds"):
+        extract(vol, 0.5, field="s", method="span-space", seeds=[0])
+
+
+def test_isovalues():
+    from polygen.volume import isovalues
+
+    s = np.array([3.0, -1.0, 7.0, 2.0])
+    np.testing.assert_array_equal(isovalues(s, 3), [1.0, 3.0, 5.0])  # (7 - -1) / 4 apart, ends excluded
+    assert isovalues(s, 20).size == 20 and isovalues(s, 20).min() > -1 and isovalues(s, 20).max() < 7
+    for bad in (0, -2, 2.5, True):
+        with pytest.raises(IsoSurfaceError, match="count"):
+            isovalues(s, bad)
+    with pytest.raises(IsoSurfaceError, match="finite"):
+        isovalues([1.0, np.nan], 3)

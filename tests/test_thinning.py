@@ -34,15 +34,15 @@ from polygen.volume.thinning import (
 
 from _surfaces import assert_complete as _assert_complete  # noqa: E402
 from _surfaces import block_volume as grid_volume  # noqa: E402
-from _surfaces import iso_values  # noqa: E402
+from _surfaces import TINY_VOLUMES, iso_values  # noqa: E402
+from naive import cell_graph_components, intersected_components  # noqa: E402
 
 
 def assert_complete(vol, field, values, **params):
     """The thinning isosurface equals the full scan's for every value."""
     return _assert_complete("thinning", vol, field, values, **params)
 
-TINY = ["one_tet", "two_tets", "one_hex", "two_hexes", "torus", "torus_hex", "hollow_cube", "hollow_cube_hex",
-        "genus3", "genus3_hex"]
+TINY = TINY_VOLUMES
 
 # ------------------------------------------------------------------ helpers
 def nested_voids(cell_type):
@@ -66,17 +66,6 @@ ADVERSARIAL = {
     "nested_voids": nested_voids,
     "two_voids_and_a_hole": two_voids_and_a_hole,
 }
-
-
-def cell_graph_components(vol, alive):
-    """Face-connected components of the cells where ``alive``; -1 elsewhere."""
-    nb = vol.face_neighbors
-    c, f = np.nonzero(nb >= 0)
-    keep = alive[c] & alive[nb[c, f]]
-    m = vol.n_cells
-    _, lab = connected_components(coo_matrix((np.ones(keep.sum()), (c[keep], nb[c, f][keep])), shape=(m, m)),
-                                  directed=False)
-    return np.where(alive, lab, -1)
 
 
 def open_boundary(vol, alive):
@@ -338,11 +327,9 @@ def test_rules_replayed_on_data(name):
 
 
 # ------------------------------------------------------------------ completeness without boundary lists
-def test_tiny_volumes_complete():
-    for name in TINY:
-        vol = datasets.load(name)
-        for field in vol.fields:
-            assert_complete(vol, field, iso_values(vol.scalars(field), 200))
+def test_tiny_volumes_complete(tiny_volume):
+    for field in tiny_volume.fields:
+        assert_complete(tiny_volume, field, iso_values(tiny_volume.scalars(field), 200))
 
 
 @pytest.mark.parametrize("cell_type", ["tetra", "hexa"])
@@ -409,13 +396,6 @@ def test_complete_on_all_data_and_fields(name):
     vol = datasets.load(name)
     for field in vol.fields:
         assert_complete(vol, field, iso_values(vol.scalars(field), 200))
-
-
-def intersected_components(vol, s, value):
-    cmin = s[vol.cells].min(axis=1)
-    cmax = s[vol.cells].max(axis=1)
-    hit = (cmin < value) & (value <= cmax)
-    return hit, cell_graph_components(vol, hit)
 
 
 @pytest.mark.parametrize("name", ["torus", "genus3_hex"])
