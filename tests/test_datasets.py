@@ -1,14 +1,14 @@
 """Tests of polygen.volume.datasets: topology implied by construction, exact fields, determinism, cache."""
 
-import os
-
 import numpy as np
 import pytest
 
 from polygen.volume import datasets as ds
+from polygen.volume.datasets import fem, parts, tiny
 
-TINY = ["one_tet", "two_tets", "one_hex", "two_hexes", "torus", "torus_hex",
-        "hollow_cube", "hollow_cube_hex", "genus3", "genus3_hex"]
+from _surfaces import TINY_VOLUMES  # noqa: E402
+
+TINY = list(TINY_VOLUMES)
 PARTS_FAST = ["data1", "data2", "hexa1"]
 PARTS_SLOW = ["data3", "data4", "data5", "hexa2", "hexa3"]
 
@@ -17,13 +17,9 @@ PARTS_SLOW = ["data3", "data4", "data5", "hexa2", "hexa3"]
 def cache(tmp_path_factory):
     """A private cache directory for the whole module (the user's cache is never touched)."""
     path = tmp_path_factory.mktemp("polygen-cache")
-    old = os.environ.get(ds.CACHE_ENV)
-    os.environ[ds.CACHE_ENV] = str(path)
-    yield path
-    if old is None:
-        del os.environ[ds.CACHE_ENV]
-    else:
-        os.environ[ds.CACHE_ENV] = old
+    with pytest.MonkeyPatch.context() as mp:  # module scope: the function-scoped fixture cannot serve
+        mp.setenv(ds.CACHE_ENV, str(path))
+        yield path
 
 
 @pytest.fixture(scope="module")
@@ -177,11 +173,11 @@ def test_heat_solve_reproduces_linear_solution(cell_type):
     # a 4x2x2 bar, no sources, u = 0 on x = 0 and u = 1 on x = 4, insulated elsewhere: u = x / 4,
     # which linear tetrahedra and trilinear hexahedra represent exactly
     rng = np.random.default_rng(0)
-    points, cells = ds._grid_volume(np.ones((4, 2, 2), bool), cell_type)
+    points, cells = tiny._grid_volume(np.ones((4, 2, 2), bool), cell_type)
     inner = (points[:, 0] > 0) & (points[:, 0] < 4)
     points[inner] += rng.uniform(-0.15, 0.15, (inner.sum(), 3)) * [1, 0, 0]  # not a regular grid
-    part = ds._Part("bar", "", 0, 0, None, ((ds._on_plane(0, 0.0), 0.0), (ds._on_plane(0, 4.0), 1.0)))
-    u = ds._heat_field(points, cells, part, spacing=1.0, n_sources=0, seed=0)
+    part = parts._Part("bar", "", 0, 0, None, ((parts._on_plane(0, 0.0), 0.0), (parts._on_plane(0, 4.0), 1.0)))
+    u = fem._heat_field(points, cells, part, spacing=1.0, n_sources=0, seed=0)
     np.testing.assert_allclose(u, points[:, 0] / 4.0, atol=1e-8)
 
 
