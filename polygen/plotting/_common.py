@@ -8,6 +8,8 @@ import numpy as np
 
 # Thesis's original values are printed beside ours in this column name.
 ORIGINAL = "thesis"
+#: the thesis draws extrema as purple crosses
+EXTREMUM_COLOR = "purple"
 
 
 def setup_notebook(*, window_size=(900, 600)):

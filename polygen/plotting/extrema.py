@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from polygen.plotting._common import EXTREMUM_COLOR as _EXTREMUM_COLOR
 from polygen.plotting._common import _plotter, boundary_mesh
 
 __all__ = ["plot_2d_graph", "plot_graph", "plot_graph_isosurface", "plot_seeds"]
-
-_EXTREMUM_COLOR = "purple"  # the thesis draws extrema as purple crosses
 
 
 def plot_2d_graph(points, triangles, values, extrema, arcs, *, highlight=(), n_levels=14, ax=None, title=None):
@@ -83,8 +82,6 @@ def _arc_lines(vol, graph):
     poly = pv.PolyData(np.vstack(pts), lines=np.concatenate(lines))
     poly.point_data["value"] = np.concatenate(vals)
     return poly
-
-
 
 
 def plot_graph(vol, graph, *, plotter=None, title=None, show_cells=False):

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from polygen.plotting._common import EXTREMUM_COLOR as _EXTREMUM_COLOR
 from polygen.plotting._common import _plotter, boundary_mesh
 
 __all__ = [
@@ -21,10 +22,6 @@ __all__ = [
     "plot_fig_7_1",
     "plot_time_per_cell",
 ]
-
-_EXTREMUM_COLOR = "purple"
-
-
 
 
 # ------------------------------------------------------------------ 2D (Fig. 7.2)
