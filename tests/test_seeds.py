@@ -266,3 +266,36 @@ def test_cell_ranges_against_numpy(k):
 def test_cell_ranges_bad_input(cells, scalars, match):
     with pytest.raises(IntervalError, match=match):
         cell_ranges(cells, scalars)
+
+
+# ------------------------------------------------------------------ the one seed interface on volumes
+def test_every_seed_source_serves_the_same_interface(tiny_volume):
+    """Each registered source (searches, extrema graph, thinning) builds on a volume and answers ``Seeds``
+    from which the propagation reaches the whole surface of the full scan."""
+    from polygen.volume import registry
+    from polygen.volume.isosurface import extract
+    from polygen.volume.propagate import Propagator
+    from polygen.volume.seeds import Seeds, SeedSource, seed_source
+    from polygen.volume.surface import IsoSurfaceError, same_surface
+
+    from _surfaces import iso_values
+
+    names = registry.seed_source_names()
+    assert set(names) >= {"full-scan", "sorted-lists", "span-filter", "span-space", "issue-lattice",
+                          "interval-tree", "extrema-graph", "extrema-graph-loops", "thinning"}
+    field = next(iter(tiny_volume.fields))
+    s = tiny_volume.scalars(field)
+    prop = Propagator(tiny_volume, field)
+    for name in names:
+        src = seed_source(tiny_volume, field, name)
+        assert isinstance(src, SeedSource) and src.name == name and src.preprocess_s >= 0
+        for v in iso_values(s, 12, seed=1):
+            found = src.query(v)
+            assert isinstance(found, Seeds) and found.value == v and found.seconds >= 0
+            assert found.cells.dtype == np.int64 and found.cells.ndim == 1
+            assert np.all((found.cells >= 0) & (found.cells < tiny_volume.n_cells))
+            assert found.n_tested >= 0 and found.found is not None
+            ref = extract(tiny_volume, v, field=field)
+            assert same_surface(prop.extract(v, found.cells), ref, geometry=False), (name, v)
+    with pytest.raises(IsoSurfaceError, match="unknown seed source"):
+        seed_source(tiny_volume, field, "octree")

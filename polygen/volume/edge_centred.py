@@ -70,6 +70,7 @@ from polygen.volume import marching as _m
 from polygen.volume import registry as _registry
 from polygen.volume._topology import csr_from_keys
 from polygen.volume.methods import IsosurfaceMethod, register
+from polygen.volume.seeds.source import SeedSource, seed_source
 from polygen.volume.surface import (
     IsoSurface,
     IsoSurfaceError,
@@ -77,6 +78,7 @@ from polygen.volume.surface import (
     check_value,
     drop_double_faces,
     node_gradients,
+    vertex_normals,
     volume_arrays,
 )
 
@@ -282,15 +284,8 @@ class EdgeCentred:
         vertices = np.empty((n_v, 3))
         if n_v:
             _k.positions(self._vend, n_v, self.points, self.s, value, vertices)
-        nrm = None
-        if normals == "mean":
-            nrm = np.empty_like(vertices)
-            if n_v:
-                _m._mean_normals(vertices, tri, nrm)
-        elif normals == "gradient":
-            nrm = np.empty_like(vertices)
-            if n_v:
-                _m._gradient_normals(keys, np.ascontiguousarray(self.vol.edges), self.s, value, node_grad, nrm)
+        nrm = vertex_normals(normals, vertices, tri, keys, edges=np.ascontiguousarray(self.vol.edges), s=self.s,
+                             value=value, node_grad=node_grad)
         t3 = time.perf_counter() - t0
 
         self.stats = {
@@ -317,61 +312,10 @@ def edge_centred(vol, value, seeds, *, field=None, normals="mean"):
 
 
 # ------------------------------------------------------------------ seed sources
-@dataclasses.dataclass(eq=False)
-class SeedSource:
-    """Where the construction starts: a named source of seed cells for any isovalue.
-
-    Attributes
-    ----------
-    name : str
-        ``"thinning"``, ``"extrema-graph"``, ``"extrema-graph-loops"`` or an active-cell search of
-        :mod:`polygen.volume.seeds` (``"span-filter"``, ...).
-    query : callable
-        ``query(value) -> (cells (K,) int64, n_tested int, seconds float)``.
-    preprocess_s : float
-        Seconds to build the source (the skeleton, the graph, the structure).
-    structure : object
-        What was built (a ``Skeleton``, an ``ExtremaGraph``, an ``ActiveCellSearch``).
-    """
-
-    name: str
-    query: object
-    preprocess_s: float
-    structure: object
-
-
-#: seed-source name -> builder ``(vol, field, **params) -> (structure, query)``: the one registry,
-#: filled by the modules that define the sources (:mod:`polygen.volume.seeds`, ``extrema_graph``,
-#: ``thinning``)
+#: seed-source name -> builder ``(vol, field, **params) -> (structure, query)``: the one registry
+#: (:mod:`polygen.volume.registry`), filled by the modules that define the sources; the interface
+#: itself (:func:`seed_source`, :class:`SeedSource`) is :mod:`polygen.volume.seeds.source`'s
 SEED_SOURCES = _registry.SEED_SOURCES
-
-
-def seed_source(vol, field=None, name="auto", **params):
-    """Build the seed source ``name`` on ``vol`` (timed as its ``preprocess_s``).
-
-    Parameters
-    ----------
-    vol : UnstructuredVolume
-    field : str or (N,) float64, optional
-    name : str
-        A key of :data:`SEED_SOURCES`, or ``"auto"``: volume thinning
-        (:data:`polygen.volume.registry.DEFAULT_SEED_SOURCE`).
-    **params
-        Tuning of the source (e.g. ``n_buckets`` for thinning).
-
-    Returns
-    -------
-    SeedSource
-    """
-    if name == "auto":
-        name = _registry.DEFAULT_SEED_SOURCE
-    try:
-        builder = SEED_SOURCES[name]
-    except (KeyError, TypeError):
-        raise IsoSurfaceError(f"unknown seed source {name!r}; the sources are {['auto', *SEED_SOURCES]}") from None
-    t0 = time.perf_counter()
-    structure, query = builder(vol, field, **params)
-    return SeedSource(name=name, query=query, preprocess_s=time.perf_counter() - t0, structure=structure)
 
 
 # ------------------------------------------------------------------ the method
@@ -398,6 +342,8 @@ class EdgeCentredMethod(IsosurfaceMethod):
 
     name = "edge-centred"
     description = "cell-edge-centred construction without vertex search (Itoh et al. 2001) from thinning seeds"
+    seeds = "thinning"  # the default; ``seeds=`` names any registered source
+    construction = "edge-centred"
 
     def _prepare(self, seeds="auto", order="lifo", **params):
         self.source = seed_source(self.vol, self.field, seeds, **params)
@@ -408,7 +354,8 @@ class EdgeCentredMethod(IsosurfaceMethod):
 
     def extract(self, value, *, normals="mean"):
         value = check_value(value)
-        cells, n_tested, t_search = self.source.query(value)
+        found = self.source.query(value)
+        cells, n_tested, t_search = found.cells, found.n_tested, found.seconds
         iso = self.builder.extract(value, cells, normals=normals)
         self.seed_cells_tested = int(n_tested)
         self.stats = dict(self.builder.stats, T_search=t_search, N_cg=int(n_tested))
@@ -461,7 +408,7 @@ class EdgeCentredMethod(IsosurfaceMethod):
                     nxt[0] += 1
                 if i >= len(values):
                     return
-                cells, n_tested, t_search = found[i]
+                cells, n_tested, t_search = found[i].cells, found[i].n_tested, found[i].seconds
                 try:
                     iso = builder.extract(values[i], cells, normals=normals)
                 except BaseException as exc:  # re-raised in the caller's thread
@@ -481,5 +428,5 @@ class EdgeCentredMethod(IsosurfaceMethod):
             raise errors[0]
         self.stats_many = stats
         self.stats = stats[-1]
-        self.seed_cells_tested = int(found[-1][1])
+        self.seed_cells_tested = int(found[-1].n_tested)
         return out

@@ -62,9 +62,9 @@ import numpy as np
 
 from polygen.volume import _extrema_kernels as _k
 from polygen.volume.homology import BoundaryLoops, boundary_loops
-from polygen.volume.methods import IsosurfaceMethod, register
-from polygen.volume.propagate import Propagator
+from polygen.volume.methods import SeedsThenPropagate, register
 from polygen.volume.registry import register_seed_source
+from polygen.volume.seeds.source import Seeds
 from polygen.volume.surface import IsoSurfaceError, check_value, volume_arrays
 
 __all__ = [
@@ -541,8 +541,8 @@ def extrema_graph_2d(points, triangles, values):
 
 # ------------------------------------------------------------------ the method
 @register
-class ExtremaGraphMethod(IsosurfaceMethod):
-    """The extrema graph method (thesis chapter 6) for :mod:`polygen.volume.methods`.
+class ExtremaGraphMethod(SeedsThenPropagate):
+    """The extrema graph method (thesis chapter 6) for :mod:`polygen.volume.methods`: its seeds x propagation.
 
     Parameters (keyword-only, after ``vol`` and ``field``)
     ------------------------------------------------------
@@ -574,16 +574,19 @@ class ExtremaGraphMethod(IsosurfaceMethod):
     name = "extrema-graph"
     description = "Itoh's extrema graph: arcs between extrema plus sorted boundary cell lists (chapter 6)"
 
+    seeds = "extrema-graph"
     boundary = "lists"
 
     def _prepare(self, polyline=True, order="thesis", boundary=None):
         if order not in ("thesis", "separate"):
             raise ExtremaGraphError(f"order must be 'thesis' or 'separate'; got {order!r}")
         self.order = order
-        self.graph = build_extrema_graph(self.vol, self.field, polyline=polyline,
-                                         boundary=self.boundary if boundary is None else boundary)
-        self.propagator = Propagator(self.vol, self.field)
-        self.stats = {}
+        super()._prepare(polyline=polyline, boundary=self.boundary if boundary is None else boundary)
+
+    @property
+    def graph(self):
+        """The :class:`ExtremaGraph` the seeds come from."""
+        return self.source.structure
 
     def extract(self, value, *, normals="mean"):
         if self.order == "separate":
@@ -650,12 +653,12 @@ class ExtremaGraphLoopsMethod(ExtremaGraphMethod):
 
 
 def _graph_seed_source(vol, field=None, **params):
-    """The seed interface of the extrema graph: build, then ``query(value) -> (cells, n_tested, seconds)``."""
+    """The seed interface of the extrema graph: build, then ``query(value) -> Seeds``."""
     graph = build_extrema_graph(vol, field, **params)
 
     def query(value):
         found = graph.seeds(value)
-        return found.cells, found.n_tested, found.t_graph + found.t_boundary
+        return Seeds(found.value, found.cells, found.n_tested, found.t_graph + found.t_boundary, found)
 
     return graph, query
 

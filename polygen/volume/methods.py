@@ -11,11 +11,15 @@ the surface was examined, by the search structure and by the propagation
 together; ``seed_cells_tested`` of the method (after a call) counts the
 search alone, the N_cg of Table 6.5.
 
-A method = a seed source x a construction. Each registers itself where it
-is defined (``@register`` at the bottom of its module: the active-cell
-searches x propagation here, ``extrema-graph`` and ``thinning`` in their
-chapters' modules, ``edge-centred`` in :mod:`polygen.volume.edge_centred`);
-importing :mod:`polygen.volume` imports them all.
+A method = a seed source x a construction: :class:`SeedsThenPropagate`
+takes any seed source of :mod:`polygen.volume.seeds.source` (the one seed
+interface) to the propagation of thesis 5.4.2, and
+:class:`~polygen.volume.edge_centred.EdgeCentredMethod` to the edge-centred
+construction of the 2001 paper. Each registers itself where it is defined
+(``@register``: the active-cell searches x propagation here,
+``extrema-graph`` and ``thinning`` in their chapters' modules,
+``edge-centred`` in :mod:`polygen.volume.edge_centred`); importing
+:mod:`polygen.volume` imports them all.
 """
 
 from __future__ import annotations
@@ -27,12 +31,13 @@ import time
 import numpy as np
 
 from polygen.volume import registry as _registry
-from polygen.volume import seeds as _seeds
 from polygen.volume.isosurface import extract as _extract
 from polygen.volume.propagate import Propagator
+from polygen.volume.seeds.source import seed_source as _seed_source
 from polygen.volume.surface import same_surface
 
-__all__ = ["IsosurfaceMethod", "METHODS", "DEFAULT", "register", "get", "names", "default", "Sweep", "sweep"]
+__all__ = ["IsosurfaceMethod", "SeedsThenPropagate", "METHODS", "DEFAULT", "register", "get", "names", "default",
+           "Sweep", "sweep"]
 
 #: name -> class, in the order they were registered (the one registry, :mod:`polygen.volume.registry`)
 METHODS = _registry.METHODS
@@ -123,6 +128,10 @@ class IsosurfaceMethod(abc.ABC):
 
     name: str = ""
     description: str = ""
+    #: where the surface starts: a registered seed source (:mod:`polygen.volume.seeds.source`)
+    seeds: str = ""
+    #: how the surface is built from there: ``"scan"``, ``"propagate"`` or ``"edge-centred"``
+    construction: str = ""
 
     def __init__(self, vol, field=None, **params):
         self.vol = vol
@@ -152,6 +161,7 @@ class IsosurfaceMethod(abc.ABC):
 class FullScan(IsosurfaceMethod):
     name = "scan"
     description = "test every cell (the 'all cells' column of the thesis's tables)"
+    construction = "scan"
 
     def extract(self, value, *, normals="mean"):
         iso = _extract(self.vol, value, field=self.field, method="scan", normals=normals)
@@ -159,33 +169,54 @@ class FullScan(IsosurfaceMethod):
         return iso
 
 
-class SearchThenPropagate(IsosurfaceMethod):
-    """An active-cell search structure (Table 5.2) finds the cells; propagation builds the surface."""
+class SeedsThenPropagate(IsosurfaceMethod):
+    """A seed source x the propagation of thesis 5.4.2: the seeds are found, the surface grows from them.
 
-    search: str = ""
+    Subclasses name the registered seed source in ``seeds``; the keyword
+    parameters of the method go to the source. After each :meth:`extract`,
+    ``stats`` holds that call's quantities of Tables 6.5 and 7.5: ``T_mg``
+    (seed search, s), ``T_mt`` (triangles: propagation), ``T_mv`` (vertex
+    positions and normals), ``N_cg`` (cells the search tested), ``N_ci``
+    (cells intersected) and ``seeds`` (the source's own answer).
+
+    Attributes
+    ----------
+    source : SeedSource
+    propagator : Propagator
+    """
+
+    seeds: str = ""
+    construction = "propagate"
 
     def _prepare(self, **params):
-        cmin, cmax = _seeds.cell_ranges(self.vol.cells, self.vol.scalars(self.field))
-        self.structure = _seeds.get(self.search).build(cmin, cmax, **params)
+        self.source = _seed_source(self.vol, self.field, self.seeds, **params)
         self.propagator = Propagator(self.vol, self.field)
+        self.stats = {}
+
+    @property
+    def structure(self):
+        """What the seed source built (the search structure, the graph, the skeleton)."""
+        return self.source.structure
 
     def extract(self, value, *, normals="mean"):
+        found = self.source.query(value)
         t0 = time.perf_counter()
-        found = self.structure.query(value)
         # the propagation reads the volume in the order of its seeds: in cell-id order (cells are
         # numbered along a space-filling curve) that is nearly sequential, in a tree's order it is
         # random (measured on 2M, 20 values: span space 1.05 s as given, 0.45 s sorted)
-        cells = found.cells if self.structure.cells_in_order else np.sort(found.cells)
-        t_search = time.perf_counter() - t0
+        cells = np.sort(found.cells) if self.source.sort else found.cells
+        t_search = found.seconds + (time.perf_counter() - t0)
         iso = self.propagator.extract(value, cells, normals=normals)
         self.seed_cells_tested = found.n_tested
+        self.stats = {"T_mg": t_search, "T_mt": iso.t1 + iso.t2, "T_mv": iso.t3, "N_cg": found.n_tested,
+                      "N_ci": iso.cells_intersected, "seeds": found.found}
         # every candidate is tested again by the propagation; the search's own tests come on top
         return dataclasses.replace(iso, cells_tested=iso.cells_tested + found.n_tested, t1=iso.t1 + t_search)
 
 
 def _search_method(search_name, doc):
-    cls = type(search_name.title().replace("-", ""), (SearchThenPropagate,),
-               {"name": search_name, "search": search_name, "description": doc})
+    cls = type(search_name.title().replace("-", ""), (SeedsThenPropagate,),
+               {"name": search_name, "seeds": search_name, "description": doc})
     return register(cls)
 
 

@@ -27,6 +27,7 @@ __all__ = [
     "volume_arrays",
     "node_gradients",
     "finish",
+    "vertex_normals",
     "drop_double_faces",
     "same_surface",
     "isovalues",
@@ -218,21 +219,46 @@ def finish(value, keys, tri, tri_cell, *, points, edges, s, normals, node_grad, 
     vertices = np.empty((keys.shape[0], 3))
     if keys.shape[0]:
         _m._vertex_positions(keys, edges, points, s, value, vertices)
-    nrm = None
-    if normals == "mean":
-        nrm = np.empty_like(vertices)
-        if keys.shape[0]:
-            _m._mean_normals(vertices, tri, nrm)
-    elif normals == "gradient":
-        nrm = np.empty_like(vertices)
-        if keys.shape[0]:
-            _m._gradient_normals(keys, edges, s, value, node_grad, nrm)
+    nrm = vertex_normals(normals, vertices, tri, keys, edges=edges, s=s, value=value, node_grad=node_grad)
     t3 = time.perf_counter() - t0
     return IsoSurface(
         value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys,
         triangle_cells=tri_cell, cells_tested=int(cells_tested), cells_intersected=int(cells_intersected),
         vertex_lookups=int(vertex_lookups), t1=t1, t2=t2, t3=t3, method=method,
     )
+
+
+def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad):
+    """The normals half of stage 3, shared by every construction.
+
+    Parameters
+    ----------
+    normals : {"mean", "gradient", None}
+        Area-weighted mean of the adjacent triangle normals (5.3.1), the node
+        gradients interpolated along each vertex's edge, or none.
+    vertices : (V, 3) float64
+    tri : (T, 3) int64
+    keys : (V,) int64
+        Vertex keys (edge ids, or ``n_edges + node``).
+    edges : (E, 2) int64
+    s : (N,) float64
+    value : float
+    node_grad : (N, 3) float64 or None
+        Needed for ``"gradient"`` only.
+
+    Returns
+    -------
+    (V, 3) float64 or None
+    """
+    if normals is None:
+        return None
+    nrm = np.empty_like(vertices)
+    if vertices.shape[0]:
+        if normals == "mean":
+            _m._mean_normals(vertices, tri, nrm)
+        else:
+            _m._gradient_normals(keys, edges, s, value, node_grad, nrm)
+    return nrm
 
 
 def drop_double_faces(keys, tri, tri_cell, n_edges):

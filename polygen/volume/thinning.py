@@ -67,9 +67,9 @@ import numpy as np
 from polygen.volume import _thinning_kernels as _k
 from polygen.volume.extrema_graph import Extrema, find_extrema
 from polygen.volume.homology import boundary_defects
-from polygen.volume.methods import IsosurfaceMethod, register
-from polygen.volume.propagate import Propagator
+from polygen.volume.methods import SeedsThenPropagate, register
 from polygen.volume.registry import register_seed_source
+from polygen.volume.seeds.source import Seeds
 from polygen.volume.seeds.span_filter import SpanFilter
 from polygen.volume.surface import IsoSurfaceError, check_value, volume_arrays
 
@@ -450,40 +450,37 @@ def pixel_removable(patch):
 
 # ------------------------------------------------------------------ the method
 @register
-class ThinningMethod(IsosurfaceMethod):
-    """Volume thinning (thesis chapter 7) for :mod:`polygen.volume.methods`.
+class ThinningMethod(SeedsThenPropagate):
+    """Volume thinning (thesis chapter 7) for :mod:`polygen.volume.methods`: the skeleton's seeds x propagation.
 
-    After each :meth:`extract`, ``stats`` holds that call's ``T_mg`` (seed
-    search on the skeleton), ``T_mt`` (triangles: propagation), ``T_mv``
-    (vertex positions and normals), ``N_cg`` (skeleton cells tested), ``N_ci``
-    (cells intersected) and ``seeds`` (the :class:`SkeletonSeeds`).
+    Parameters (keyword-only, after ``vol`` and ``field``): those of
+    :func:`thin_volume`. After each :meth:`extract`, ``stats`` holds that
+    call's ``T_mg`` (seed search on the skeleton), ``T_mt`` (triangles:
+    propagation), ``T_mv`` (vertex positions and normals), ``N_cg`` (skeleton
+    cells tested), ``N_ci`` (cells intersected) and ``seeds`` (the
+    :class:`SkeletonSeeds`).
     """
 
     name = "thinning"
     description = "Itoh's volume thinning: a genus-keeping skeleton of cells, no boundary lists (chapter 7)"
+    seeds = "thinning"
 
     def _prepare(self, prick_voids=True, record=False, n_buckets=None):
-        self.skeleton = thin_volume(self.vol, self.field, prick_voids=prick_voids, record=record,
-                                    n_buckets=n_buckets)
-        self.propagator = Propagator(self.vol, self.field)
-        self.stats = {}
+        super()._prepare(prick_voids=prick_voids, record=record, n_buckets=n_buckets)
 
-    def extract(self, value, *, normals="mean"):
-        found = self.skeleton.seeds(value)
-        iso = self.propagator.extract(value, found.cells, normals=normals)
-        self.seed_cells_tested = found.n_tested
-        self.stats = {"T_mg": found.t_search, "T_mt": iso.t1 + iso.t2, "T_mv": iso.t3, "N_cg": found.n_tested,
-                      "N_ci": iso.cells_intersected, "seeds": found}
-        return dataclasses.replace(iso, cells_tested=iso.cells_tested + found.n_tested, t1=iso.t1 + found.t_search)
+    @property
+    def skeleton(self):
+        """The :class:`Skeleton` the seeds come from."""
+        return self.source.structure
 
 
 def _thinning_seed_source(vol, field=None, **params):
-    """The seed interface of volume thinning: build the skeleton, then ``query(value) -> (cells, n_tested, seconds)``."""
+    """The seed interface of volume thinning: build the skeleton, then ``query(value) -> Seeds``."""
     sk = thin_volume(vol, field, **params)
 
     def query(value):
         found = sk.seeds(value)
-        return found.cells, found.n_tested, found.t_search
+        return Seeds(found.value, found.cells, found.n_tested, found.t_search, found)
 
     return sk, query
 

@@ -20,6 +20,12 @@ Example
 >>> cmin, cmax = cell_ranges(cells, scalars)            # doctest: +SKIP
 >>> search = get("span-space").build(cmin, cmax)        # doctest: +SKIP
 >>> r = search.query(0.5); r.cells, r.n_tested, r.n_hits  # doctest: +SKIP
+
+The one seed interface over a volume (:mod:`polygen.volume.seeds.source`)
+serves these structures, the extrema graph and the thinning skeleton alike:
+
+>>> src = seed_source(vol, "fem", "span-space")          # doctest: +SKIP
+>>> found = src.query(0.5); found.cells, found.n_tested  # doctest: +SKIP
 """
 
 from polygen.volume.seeds.base import (
@@ -33,6 +39,8 @@ from polygen.volume.seeds.base import (
     get,
     register,
 )
+
+from polygen.volume.seeds.source import Seeds, SeedSource, seed_source
 
 # each structure registers itself at the bottom of its module; imported in the order of Table 5.2
 from polygen.volume.seeds.full_scan import FullScan  # isort: skip
@@ -58,4 +66,7 @@ __all__ = [
     "METHODS",
     "get",
     "register",
+    "Seeds",
+    "SeedSource",
+    "seed_source",
 ]

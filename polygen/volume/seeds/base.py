@@ -39,6 +39,7 @@ import numpy as np
 
 from polygen._jit import njit, prange
 from polygen.volume import registry as _registry
+from polygen.volume.seeds.source import Seeds
 from polygen.volume.surface import volume_arrays
 
 __all__ = [
@@ -242,7 +243,7 @@ class ActiveCellSearch(abc.ABC):
         -------
         structure : ActiveCellSearch
         query : callable
-            ``query(value) -> (cells (K,) int64, n_tested int, seconds float)``.
+            ``query(value) -> Seeds`` (:mod:`polygen.volume.seeds.source`).
         """
         _, cells, s, _ = volume_arrays(vol, field)
         cmin, cmax = cell_ranges(cells, s)
@@ -251,7 +252,7 @@ class ActiveCellSearch(abc.ABC):
         def query(value):
             t0 = time.perf_counter()
             found = structure.query(value)
-            return found.cells, found.n_tested, time.perf_counter() - t0
+            return Seeds(found.value, found.cells, found.n_tested, time.perf_counter() - t0, found)
 
         return structure, query
 
