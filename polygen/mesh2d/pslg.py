@@ -569,7 +569,11 @@ def mesh_planar_graph(graph, sizes, *, method="lattice", edge_nodes=None, seed=0
         nodes = mesh.nodes
     else:
         dom = validate_domain(outer, holes, allow_touching=True)
-        bm = _bubble_core(dom, fixed, cons, sizef, True, bare=True, seed=seed, **_bubble_opts(bubble_kwargs))
+        # interior segments need the segment-distance index and the centroid
+        # filter; rings alone are handled by the constraint parity, faster
+        internal = bool(np.any(graph.edge_kind != BOUNDARY))
+        bm = _bubble_core(dom, fixed, cons, sizef, internal, bare=True, seed=seed,
+                          **_bubble_opts(bubble_kwargs))
         nodes, tri = bm.nodes, bm.triangles
     # keep the triangles inside the polygon; drop hull slivers along collinear boundary nodes
     cen = nodes[tri].mean(axis=1)
