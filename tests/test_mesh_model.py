@@ -320,3 +320,28 @@ def test_seeded_and_partial_meshers_deterministic():
     b = mesh_scene(Scene([square()]), 0.7, mesher=mk, segments=[seg])
     np.testing.assert_array_equal(a.nodes, b.nodes)
     np.testing.assert_array_equal(a.elements, b.elements)
+
+
+@pytest.mark.parametrize("two_sided", [True, False])
+def test_two_sided_plate_in_the_furnace(two_sided):
+    """A plate inside the furnace box, emitting and reflecting like the walls.
+
+    With both faces meshed every element's hemisphere is covered by surfaces
+    of radiosity E / (1 - rho) = 2, so B = 2 everywhere (the furnace test of
+    issue 13, within its 1 %).  One-sided, the plate's bare back face is
+    dark, and the walls below it fall short of 2.
+    """
+    from polygen.radiosity import progressive_refinement, scenes
+
+    plate = Polygon([[0.25, 0.5, 0.25], [0.75, 0.5, 0.25], [0.75, 0.5, 0.75], [0.25, 0.5, 0.75]],
+                    emission=1.0, reflectance=0.5, two_sided=two_sided, name="plate")
+    s = Scene(scenes.furnace_box().polygons + [plate])
+    m = mesh_scene(s, 0.25, element_levels=1)
+    r = progressive_refinement(m, form_factors="analytic", tol=1e-6, visibility_level=1)
+    b = np.asarray(r.radiosity).reshape(m.n_elements, -1)[:, 0]
+    if two_sided:
+        np.testing.assert_allclose(b, 2.0, rtol=0.01)
+        on_plate = m.element_polygon == len(s.polygons) - 1
+        assert set(m.element_side[on_plate].tolist()) == {-1, 1}
+    else:
+        assert b.min() < 1.9
