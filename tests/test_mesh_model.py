@@ -345,3 +345,48 @@ def test_two_sided_plate_in_the_furnace(two_sided):
         assert set(m.element_side[on_plate].tolist()) == {-1, 1}
     else:
         assert b.min() < 1.9
+
+
+def _block_sides(hole, height=1.0):
+    out = []
+    for k in range(len(hole)):
+        p, q = hole[(k + 1) % len(hole)], hole[k]
+        out.append(Polygon([p, q, q + [0, 0, height], p + [0, 0, height]], name=f"side{k}"))
+    return out
+
+
+def test_contact_lines_are_d0_and_conform():
+    # a block standing on an uncut floor: its bottom edges become D0 segments of the floor
+    from polygen.radiosity import contact_segments
+
+    foot = np.array([[1, 1, 0], [1, 3, 0], [3, 3, 0], [3, 1, 0]], dtype=float)
+    floor = Polygon([[0, 0, 0], [5, 0, 0], [5, 5, 0], [0, 5, 0]], name="floor")
+    s = Scene([floor] + _block_sides(foot))
+    segs = contact_segments(s)
+    assert list(segs) == [0] and len(segs[0]) == 4
+    m = mesh_scene(s, [1.0] + [0.35] * 4, mesher=bubble_mesher, segments=segs)
+    for k in range(4):
+        a, b = foot[k], foot[(k + 1) % 4]
+        on_floor = _on_line(m, 0, a, b)
+        uniq = np.unique(on_floor.round(9), axis=0)
+        assert len(on_floor) == 2 * len(uniq)  # D0: one node per side
+        assert _same_points(uniq, _on_line(m, k + 1, a, b))
+    assert len(m.t_vertices()) == 0
+
+
+def test_region_numbers_survive_neighbour_vertices():
+    # a wall adds vertices to the floor's edge; RegionSize by region number still
+    # means the regions of polygon_layout(floor, segments)
+    floor = square(name="floor")
+    wall = Polygon([[1, 0, 0], [1, 0, 2], [3, 0, 2], [3, 0, 0]], name="wall")
+    seg = Segments([[[2.0, 0.0, 0.0], [2.0, 4.0, 0.0]]], "D1")
+    lay = polygon_layout(floor, seg)
+    left = int(lay.region_of(floor.to_2d(np.array([[1.0, 2.0, 0.0]])))[0])
+    sizes = [0.25 if r == left else 1.0 for r in range(lay.n_regions)]
+    m = mesh_scene(Scene([floor, wall]), [RegionSize(sizes), 0.5], element_levels=0,
+                   segments={"floor": seg})
+    el = np.flatnonzero(m.element_polygon == 0)
+    x = m.element_centroid[el, 0]
+    n_left, n_right = (x < 2).sum(), (x > 2).sum()
+    # equal areas, sizes 1 : 4 -> element counts about 16 : 1
+    assert n_left > 8 * n_right

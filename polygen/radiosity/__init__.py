@@ -37,7 +37,14 @@ from polygen.radiosity.hemicube import (
     hemicube_form_factors,
     hemicube_polygon_form_factor,
 )
-from polygen.radiosity.layout import D0, D1, RegionSize, Segments, polygon_layout
+from polygen.radiosity.layout import (
+    D0,
+    D1,
+    RegionSize,
+    Segments,
+    contact_segments,
+    polygon_layout,
+)
 from polygen.radiosity.mesh import (
     MeshError,
     RadiosityMesh,
@@ -70,6 +77,7 @@ __all__ = [
     "D1",
     "RegionSize",
     "Segments",
+    "contact_segments",
     "polygon_layout",
     "AdaptiveRefinement",
     "AreaLight",

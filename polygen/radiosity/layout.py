@@ -31,7 +31,7 @@ from polygen.mesh2d import InvalidDomainError, planar_graph
 from polygen.mesh2d.pslg import BOUNDARY, D0, D1, _union_find, edge_node_parameters
 from polygen.radiosity.scene import Polygon
 
-__all__ = ["D0", "D1", "Segments", "RegionSize", "polygon_layout"]
+__all__ = ["D0", "D1", "Segments", "RegionSize", "polygon_layout", "contact_segments"]
 
 # merge tolerance relative to a polygon's / the scene's extent (above the
 # plane-projection round-off of Polygon.to_3d, below any real feature)
@@ -181,6 +181,63 @@ def polygon_layout(polygon, segments=None, *, points=None, tol=LAYOUT_TOL):
 def _layout(polygon, seg, points, tol):
     ends, kinds = (None, None) if seg is None else seg.in_plane(polygon)
     return planar_graph(polygon.exterior_2d, polygon.holes_2d, ends, kinds, points=points, tol=tol)
+
+
+def contact_segments(scene, *, kind="D0", segments=None):
+    """Contact lines: edges of polygons lying inside other polygons, as segments of those.
+
+    Where an object stands on a receiver (a block on the floor) its edges lie
+    in the receiver's plane, inside it: the radiance jumps there (D0, 3.3.6),
+    and the receiver's mesh must follow the line.  Edges on a receiver's
+    boundary are left to the conforming edges of :func:`mesh_scene`.
+
+    Parameters
+    ----------
+    scene : Scene
+    kind : {"D0", "D1"}, keyword-only
+    segments : mapping {polygon index: Segments}, keyword-only, optional
+        Segments to add the contact lines to (3-D ends are kept 3-D, 2-D
+        ones are converted).
+
+    Returns
+    -------
+    dict {polygon index: Segments}
+        3-D end points; only polygons that have segments.
+    """
+    import shapely
+
+    tol = _scene_tol(scene)
+    out = {}
+    for k, seg in (segments or {}).items():
+        seg = _as_segments(seg)
+        e = seg.ends if seg.ends.shape[2] == 3 else scene.polygons[k].to_3d(seg.ends)
+        kinds = seg.kinds if not isinstance(seg.kinds, (str, int)) else [seg.kinds] * len(e)
+        out[k] = (list(e), list(kinds))
+    A, B, own = _edges3d(scene, [None] * len(scene.polygons))
+    for k, poly in enumerate(scene.polygons):
+        da = (A - poly.origin) @ poly.normal
+        db = (B - poly.origin) @ poly.normal
+        cand = np.flatnonzero((own != k) & (np.abs(da) <= tol) & (np.abs(db) <= tol))
+        if not len(cand):
+            continue
+        shp = poly._shape2d
+        found = []
+        for c in cand:
+            line = shapely.LineString(poly.to_2d(np.stack([A[c], B[c]])))
+            inter = shapely.intersection(shp, line)
+            for part in getattr(inter, "geoms", [inter]):
+                if part.geom_type != "LineString" or part.length <= tol:
+                    continue
+                p = np.asarray(part.coords)
+                # pieces along the receiver's own boundary are conforming edges, not contacts
+                if shapely.distance(shp.boundary, shapely.Point(p.mean(axis=0))) <= tol:
+                    continue
+                found.append(poly.to_3d(p[[0, -1]]))
+        if found:
+            e, kinds = out.setdefault(k, ([], []))
+            e.extend(found)
+            kinds.extend([kind] * len(found))
+    return {k: Segments(np.array(e), kinds) for k, (e, kinds) in out.items() if len(e)}
 
 
 # ----------------------------------------------------------------------------

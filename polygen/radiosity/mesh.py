@@ -509,7 +509,9 @@ def assemble_mesh(scene, pieces):
     polygon in its own (u, v) plane frame (``Polygon.exterior_2d`` /
     ``Polygon.holes_2d``), then hand the pieces here.  A two-sided polygon
     gets its back face here: the same patches and elements, reversed, on
-    copies of the nodes.
+    copies of the nodes -- or, when its piece is a pair ``(front, back)``
+    of pieces (both in the (u, v) frame, e.g. refined differently), each
+    face its own.
 
     Parameters
     ----------
@@ -533,38 +535,54 @@ def assemble_mesh(scene, pieces):
     n_off = 0
     p_off = 0
     for k, (poly, piece) in enumerate(zip(scene.polygons, pieces)):
-        if len(piece) not in (4, 5):
-            raise MeshError(f"polygon {k} ({poly.name}): a piece is (points, patches, elements, "
-                            f"element_patch[, node_site]), got {len(piece)} items")
-        pts2, ptris, etris, epatch = piece[:4]
-        pts2 = np.asarray(pts2, dtype=np.float64)
-        if pts2.ndim != 2 or pts2.shape[1] != 2:
-            raise MeshError(f"polygon {k} ({poly.name}): points must be (N, 2), got {pts2.shape}")
-        site = (np.arange(len(pts2)) if len(piece) == 4 or piece[4] is None
-                else np.asarray(piece[4], dtype=np.int64))
-        if site.shape != (len(pts2),):
-            raise MeshError(f"polygon {k} ({poly.name}): node_site must be ({len(pts2)},)")
-        ptris = _ccw(pts2, np.asarray(ptris, dtype=np.int64).reshape(-1, 3))
-        etris = _ccw(pts2, np.asarray(etris, dtype=np.int64).reshape(-1, 3))
-        epatch = np.asarray(epatch, dtype=np.int64)
-        if len(ptris) == 0 or len(etris) == 0:
-            raise MeshError(f"polygon {k} ({poly.name}): no patches or no elements")
-        faces = [(1, ptris, etris)]
-        if poly.two_sided:
-            faces.append((-1, ptris[:, ::-1], etris[:, ::-1]))
-        for side, pt, et in faces:
-            nodes.append(poly.to_3d(pts2))
-            elements.append(et + n_off)
-            patches.append(pt + n_off)
-            element_patch.append(epatch + p_off)
-            patch_polygon.append(np.full(len(pt), k, dtype=np.int64))
-            sides.append(np.full(len(pt), side, dtype=np.int8))
-            sites.append(site + n_off)
-            n_off += len(pts2)
-            p_off += len(pt)
+        pair = len(piece) == 2 and all(isinstance(q, (tuple, list)) for q in piece)
+        if pair and not poly.two_sided:
+            raise MeshError(f"polygon {k} ({poly.name}): a (front, back) pair of pieces needs a "
+                            "two-sided polygon")
+        for face, pc in enumerate(piece if pair else (piece,)):
+            side = -1 if face else 1
+            mirror = poly.two_sided and not pair
+            n_off, p_off = _add_piece(k, poly, pc, side, mirror, n_off, p_off, nodes, elements,
+                                      element_patch, patches, patch_polygon, sides, sites)
     return RadiosityMesh(scene, np.vstack(nodes), np.vstack(elements), np.concatenate(element_patch),
                          np.vstack(patches), np.concatenate(patch_polygon),
                          patch_side=np.concatenate(sides), node_site=np.concatenate(sites))
+
+
+def _add_piece(k, poly, piece, side, mirror, n_off, p_off, nodes, elements, element_patch,
+               patches, patch_polygon, sides, sites):
+    """Append one face of one polygon (two when ``mirror``) to the assembly lists."""
+    if len(piece) not in (4, 5):
+        raise MeshError(f"polygon {k} ({poly.name}): a piece is (points, patches, elements, "
+                        f"element_patch[, node_site]), got {len(piece)} items")
+    pts2, ptris, etris, epatch = piece[:4]
+    pts2 = np.asarray(pts2, dtype=np.float64)
+    if pts2.ndim != 2 or pts2.shape[1] != 2:
+        raise MeshError(f"polygon {k} ({poly.name}): points must be (N, 2), got {pts2.shape}")
+    site = (np.arange(len(pts2)) if len(piece) == 4 or piece[4] is None
+            else np.asarray(piece[4], dtype=np.int64))
+    if site.shape != (len(pts2),):
+        raise MeshError(f"polygon {k} ({poly.name}): node_site must be ({len(pts2)},)")
+    ptris = _ccw(pts2, np.asarray(ptris, dtype=np.int64).reshape(-1, 3))
+    etris = _ccw(pts2, np.asarray(etris, dtype=np.int64).reshape(-1, 3))
+    epatch = np.asarray(epatch, dtype=np.int64)
+    if len(ptris) == 0 or len(etris) == 0:
+        raise MeshError(f"polygon {k} ({poly.name}): no patches or no elements")
+    if side == 1:
+        faces = [(1, ptris, etris)] + ([(-1, ptris[:, ::-1], etris[:, ::-1])] if mirror else [])
+    else:
+        faces = [(-1, ptris[:, ::-1], etris[:, ::-1])]
+    for side, pt, et in faces:
+        nodes.append(poly.to_3d(pts2))
+        elements.append(et + n_off)
+        patches.append(pt + n_off)
+        element_patch.append(epatch + p_off)
+        patch_polygon.append(np.full(len(pt), k, dtype=np.int64))
+        sides.append(np.full(len(pt), side, dtype=np.int8))
+        sites.append(site + n_off)
+        n_off += len(pts2)
+        p_off += len(pt)
+    return n_off, p_off
 
 
 def _ccw(pts2, tris):
@@ -742,7 +760,17 @@ def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_m
     fns = []
     for k, (poly, g, spec) in enumerate(zip(scene.polygons, layouts, specs)):
         try:
-            per_region = spec.resolve(poly, g) if isinstance(spec, lay.RegionSize) else [spec] * g.n_regions
+            if not isinstance(spec, lay.RegionSize):
+                per_region = [spec] * g.n_regions
+            elif extra[k] is None:
+                per_region = spec.resolve(poly, g)
+            else:
+                # regions are numbered as polygon_layout(polygon, segments) numbers
+                # them, without the vertices added for the neighbouring polygons
+                ref = lay._layout(poly, None if segs2d[k] is None else lay.Segments(*segs2d[k]),
+                                  None, lay.LAYOUT_TOL)
+                sizes_ref = spec.resolve(poly, ref)
+                per_region = [sizes_ref[r] for r in ref.region_of(g.region_point)]
             from polygen.mesh2d import as_size_function
 
             fns.append([as_size_function(_check_size(r, k, poly)) for r in per_region])
