@@ -589,7 +589,7 @@ def _edge_bubbles(pts, seg, sizef, samples=33, bare=None):
 
 
 @njit
-def _removal_kernel(xy, size, tri, first_face, remove_below, removed):
+def _removal_kernel(xy, size, tri, first_face, remove_below, removed, group):
     for t in range(tri.shape[0]):
         for e in range(3):
             i = tri[t, e]
@@ -598,6 +598,8 @@ def _removal_kernel(xy, size, tri, first_face, remove_below, removed):
                 continue
             if i < first_face and j < first_face:
                 continue
+            if group[i] >= 0 and group[j] >= 0 and group[i] != group[j]:
+                continue  # face bubbles of different regions do not crowd each other
             r = math.hypot(xy[i, 0] - xy[j, 0], xy[i, 1] - xy[j, 1])
             if r < remove_below * 0.5 * (size[i] + size[j]):
                 # remove a face bubble, the later one when both are
@@ -767,10 +769,13 @@ def bubble_mesh(outer, holes=(), size=None, *, init="lattice", n_cycles=4, steps
 
 def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cycle, final_steps,
                  dt, mass, damping, tol, remove_below, insert_above, resize_every, seed, progress,
-                 near_segment=0.35, bare=False):
+                 near_segment=0.35, bare=False, fixed_size=None, regions=None):
     # pts: fixed vertex bubbles; seg: segments carrying edge bubbles (the domain
     # boundary, plus internal segments when `internal`); `bare` (bool or (S,)
-    # mask): segments whose nodes are already all in `pts` (no edge bubbles)
+    # mask): segments whose nodes are already all in `pts` (no edge bubbles);
+    # `fixed_size`: sizes of the `pts` bubbles (else read from the field);
+    # `regions`: xy -> (K,) region labels: face bubbles of different regions
+    # ignore each other (each region is packed against its own boundary)
     if size is None:
         raise ValueError("size: required (a number, a GridSize or a callable)")
     if init not in ("lattice", "random"):
@@ -778,7 +783,24 @@ def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cyc
     for name, v in (("dt", dt), ("mass", mass), ("tol", tol)):
         if not (np.isfinite(v) and v > 0):
             raise ValueError(f"{name}: must be positive, got {v}")
-    sizef = as_size_function(size)
+    field = as_size_function(size)
+    n_pts = len(pts)
+
+    sizef = field
+
+    def sizes_of(q):
+        # the bubbles array: the fixed vertex bubbles come first
+        out = field(q)
+        if fixed_size is not None:
+            out[:n_pts] = fixed_size
+        return out
+
+    def groups_of(q, first):
+        g = np.full(len(q), -1, np.int64)
+        if regions is not None and len(q) > first:
+            g[first:] = regions(q[first:])
+        return g
+
     rng = np.random.default_rng(seed)
     lo = pts.min(axis=0)
     hi = pts.max(axis=0)
@@ -804,7 +826,7 @@ def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cyc
     n_vertex = len(pts)
     n_edge = len(exy)
     bxy = np.concatenate([pts, exy])
-    bsz = sizef(bxy)
+    bsz = sizes_of(bxy)
     # the segment of each edge bubble, by its end points
     eab = np.zeros((len(bxy), 4))
     eab[n_vertex:, :2] = pts[seg[eseg, 0]]
@@ -855,9 +877,9 @@ def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cyc
         budget = final_steps if cyc == n_cycles else steps_per_cycle
         done = 0
         while done < budget:
-            sz = sizef(xy)
+            sz = sizes_of(xy)
             chunk = min(resize_every, budget - done)
-            steps, mx = _relax_kernel(xy, vel, sz, np.full(len(xy), -1, np.int64), n_fixed, 0, eab,
+            steps, mx = _relax_kernel(xy, vel, sz, groups_of(xy, n_fixed), n_fixed, 0, eab,
                                       *largs, *gargs, chunk, dt, mass, damping, tol, 0.25)
             done += steps
             total_steps += steps
@@ -867,7 +889,7 @@ def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cyc
         # a face bubble squeezed against a constraint segment between two edge
         # bubbles would make a sliver; in a hexagonal packing the first row
         # sits 0.87 size away
-        sz = sizef(xy)
+        sz = sizes_of(xy)
         _, dseg = loc.locate(xy)
         if internal:
             dseg = np.minimum(dseg, seg_index.distance(xy))
@@ -881,7 +903,7 @@ def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cyc
         tri = constrained_delaunay(xy, _boundary_edges(n_vertex, seg, eseg),
                                    erase_outside=not internal).triangles
         removed = near.copy()
-        _removal_kernel(xy, sz, tri, n_fixed, remove_below, removed)
+        _removal_kernel(xy, sz, tri, n_fixed, remove_below, removed, groups_of(xy, n_fixed))
         gaps = np.empty((len(tri), 3))
         m = _gap_kernel(xy, sz, tri, insert_above, gaps)
         gaps = gaps[:m]
@@ -919,7 +941,7 @@ def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cyc
     kind = np.full(len(xy), 2, np.int8)
     kind[:n_vertex] = 0
     kind[n_vertex:n_fixed] = 1
-    return BubbleMesh(mesh.nodes, mesh.triangles, kind, sizef(xy), cons, initial,
+    return BubbleMesh(mesh.nodes, mesh.triangles, kind, sizes_of(xy), cons, initial,
                       total_steps, n_ins, n_rem, history)
 
 

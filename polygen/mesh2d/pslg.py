@@ -516,22 +516,33 @@ def mesh_planar_graph(graph, sizes, *, method="lattice", edge_nodes=None, seed=0
     edge_nodes = {} if edge_nodes is None else edge_nodes
     # nodes inside the edges: the smaller size of the two sides (3.3.6)
     t = np.linspace(0.0, 1.0, samples)
-    chains, new = [], []
+    chains, new, new_h = [], [], []
     n_next = len(v)
     rounding = "ceil" if method == "lattice" else "round"
+    vert_h = np.full(len(v), np.inf)
+
+    def smaller_side(e, q):
+        regs = sorted({int(r) for r in graph.edge_regions[e] if r >= 0})
+        return np.min([fns[r](q) for r in regs], axis=0) if regs else sizef(q)
+
     for e, (a, b) in enumerate(graph.edges):
         if e in edge_nodes:
             te = np.asarray(edge_nodes[e], dtype=np.float64).reshape(-1)
         else:
             sp = v[a] + t[:, None] * (v[b] - v[a])
-            regs = {r for r in graph.edge_regions[e] if r >= 0}
-            h = np.min([fns[r](sp) for r in regs], axis=0) if regs else sizef(sp)
-            te = edge_node_parameters(float(np.hypot(*(v[b] - v[a]))), h, rounding=rounding)
+            te = edge_node_parameters(float(np.hypot(*(v[b] - v[a]))), smaller_side(e, sp),
+                                      rounding=rounding)
         p = v[a] + te[:, None] * (v[b] - v[a])
         new.append(p)
+        # the node sizes on an edge (its vertices included): the smaller side's
+        hp = smaller_side(e, np.concatenate([v[[a, b]], p]))
+        vert_h[a] = min(vert_h[a], hp[0])
+        vert_h[b] = min(vert_h[b], hp[1])
+        new_h.append(hp[2:])
         chains.append(np.concatenate([[a], n_next + np.arange(len(p)), [b]]).astype(np.int64))
         n_next += len(p)
     fixed = np.concatenate([v] + new)
+    fixed_h = np.concatenate([np.where(np.isfinite(vert_h), vert_h, sizef(v))] + new_h)
     cons = np.concatenate([np.stack([c[:-1], c[1:]], axis=1) for c in chains]).astype(np.int64)
     outer = np.asarray(graph.domain.exterior.coords)[:-1]
     holes = [np.asarray(r.coords)[:-1] for r in graph.domain.interiors]
@@ -573,6 +584,8 @@ def mesh_planar_graph(graph, sizes, *, method="lattice", edge_nodes=None, seed=0
         # filter; rings alone are handled by the constraint parity, faster
         internal = bool(np.any(graph.edge_kind != BOUNDARY))
         bm = _bubble_core(dom, fixed, cons, sizef, internal, bare=True, seed=seed,
+                          fixed_size=fixed_h,
+                          regions=graph.region_of if graph.n_regions > 1 else None,
                           **_bubble_opts(bubble_kwargs))
         nodes, tri = bm.nodes, bm.triangles
     # keep the triangles inside the polygon; drop hull slivers along collinear boundary nodes

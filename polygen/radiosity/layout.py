@@ -85,10 +85,10 @@ class Segments:
 
 
 def _as_segments(spec):
+    """A Segments from a Segments, an ``(ends (S, 2, d), kinds)`` pair or bare ends."""
     if spec is None or isinstance(spec, Segments):
         return spec
-    if isinstance(spec, tuple) and len(spec) == 2 and not np.isscalar(spec[1]) or (
-            isinstance(spec, tuple) and len(spec) == 2 and isinstance(spec[1], str)):
+    if isinstance(spec, tuple) and len(spec) == 2 and np.ndim(spec[0]) == 3:
         return Segments(*spec)
     return Segments(spec)
 

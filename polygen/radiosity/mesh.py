@@ -3,8 +3,10 @@
 A :class:`RadiosityMesh` is what the solvers take: any triangulation of the
 scene's polygons into *patches* (which shoot light), each patch subdivided
 into *elements* (which gather light), with *nodes* shared between the
-elements of one polygon (no T-vertices, Def. 2.5).  Nodes are not shared
-between different polygons, so node intensities (2.8) never mix walls.
+elements of one polygon (no T-vertices, Def. 2.5), except across a D0
+line, where each side has its own copy (:attr:`RadiosityMesh.node_site`).
+Nodes are not shared between different polygons, so node intensities
+(2.8) never mix walls.
 
 How patches are made is pluggable: :func:`mesh_scene` calls a *mesher*
 ``mesher(exterior, holes, size) -> (points, triangles)`` on each polygon in
@@ -13,6 +15,13 @@ thing that meets requirement 2.1 (concave polygons with holes): boundary
 edges split to the target size, a triangular lattice of interior nodes, and
 a constrained Delaunay triangulation (pythoncdt).  :func:`bubble_mesher`
 plugs the bubble mesh of ``polygen.mesh2d`` (2.3.3) in at the same place.
+
+With these two meshers a polygon may also carry constrained segments --
+discontinuity lines of kind D0 or D1 (3.3.6) -- that cut it into regions,
+each with its own size; edges shared by two polygons get the same nodes on
+both; see :mod:`polygen.radiosity.layout` and :func:`mesh_scene`.  A
+two-sided polygon (``Polygon(..., two_sided=True)``) is meshed on both
+faces (:attr:`RadiosityMesh.patch_side`).
 
 Elements come from patches either by regular 1 -> 4 splitting (the default,
 the "simple method" the thesis itself allows for this step, 3.3.6 step 6),
