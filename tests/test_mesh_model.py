@@ -43,11 +43,12 @@ def _edge_set(mesh, el):
 # ----------------------------------------------------------------------------
 # D0 and D1 segments
 # ----------------------------------------------------------------------------
-@pytest.mark.parametrize("mesher", sorted(MESHERS))
+@pytest.mark.parametrize("mesher", ["lattice", "bubble", "bubble+bubble"])
 @pytest.mark.parametrize("kind", ["D0", "D1"])
 def test_segment_across_square(kind, mesher):
     s = Scene([square()])
-    m = mesh_scene(s, 1.0, mesher=MESHERS[mesher],
+    em = bubble_element_mesher if mesher == "bubble+bubble" else None
+    m = mesh_scene(s, 1.0, mesher=MESHERS[mesher.split("+")[0]], element_mesher=em,
                    segments={0: Segments([[[2.0, 0.0, 0.0], [2.0, 4.0, 0.0]]], kind)})
     x = m.element_centroid[:, 0]
     # no element crosses the segment
@@ -55,6 +56,11 @@ def test_segment_across_square(kind, mesher):
     assert np.all((ex.max(axis=1) <= 2.0 + 1e-12) | (ex.min(axis=1) >= 2.0 - 1e-12))
     right = x > 2.0
     assert 0 < right.sum() < m.n_elements
+    # the mesh knows each element's region
+    assert m.layouts[0].n_regions == 2
+    reg = m.element_region
+    assert set(reg[right].tolist()) != set(reg[~right].tolist())
+    assert len(set(reg[right].tolist())) == len(set(reg[~right].tolist())) == 1
     nodes_i = node_intensities(m, right.astype(float))
     on = np.abs(m.nodes[:, 0] - 2.0) < 1e-9
     sites, count = np.unique(m.node_site[on], return_counts=True)

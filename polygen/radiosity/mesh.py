@@ -79,6 +79,14 @@ class RadiosityMesh:
         Nodes with the same site are copies of one point on a D0 line
         (separate nodes on its two sides, 3.3.6); default ``arange(N)``.
 
+    Attributes
+    ----------
+    layouts : list of PlanarGraph or None
+        Set by :func:`mesh_scene` (our meshers): each polygon's planar graph
+        -- its segments and regions (:func:`polygen.radiosity.polygon_layout`).
+    patch_region : (P,) int64 or None
+        Set with ``layouts``: the region (within its polygon) of each patch.
+
     Notes
     -----
     Derived arrays (areas, centroids, normals, per-element materials, the
@@ -170,6 +178,16 @@ class RadiosityMesh:
     def element_polygon(self):
         """(M,) int64 scene polygon of each element."""
         return self._cached("epoly", lambda: self.patch_polygon[self.element_patch])
+
+    layouts = None
+    patch_region = None
+
+    @property
+    def element_region(self):
+        """(M,) int64 region (within its polygon) of each element; None without layouts."""
+        if self.patch_region is None:
+            return None
+        return self._cached("ereg", lambda: self.patch_region[self.element_patch])
 
     @property
     def element_side(self):
@@ -826,7 +844,15 @@ def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_m
             epts, etris, site = lay.duplicate_across(epts, etris, cut)
             tris = _patch_corners(tris, etris, epatch, site)
         pieces.append((epts, tris, etris, epatch, site))
-    return assemble_mesh(scene, pieces)
+    mesh = assemble_mesh(scene, pieces)
+    mesh.layouts = layouts
+    # a patch lies in one region (the segments are patch edges): locate its centroid
+    reg = np.empty(mesh.n_patches, np.int64)
+    for k, (poly, g) in enumerate(zip(scene.polygons, layouts)):
+        sel = np.flatnonzero(mesh.patch_polygon == k)
+        reg[sel] = g.region_of(poly.to_2d(mesh.nodes[mesh.patches[sel]].mean(axis=1)))
+    mesh.patch_region = reg
+    return mesh
 
 
 def _as_fn(spec):
