@@ -87,8 +87,10 @@ def test_segment_across_square(kind, mesher):
         if mesher == "lattice":  # the lattice mesh is mirror-symmetric about the line
             np.testing.assert_allclose(nodes_i[on], 0.5)
     assert len(m.t_vertices()) == 0
-    # elements tile the square
+    # elements tile the square, and each patch's corners are nodes of its own elements
     assert m.element_area.sum() == pytest.approx(16.0)
+    used = {(p, n) for p, row in zip(m.element_patch.tolist(), m.elements.tolist()) for n in row}
+    assert all((p, n) in used for p, row in enumerate(m.patches.tolist()) for n in row)
 
 
 def test_d0_loop_and_dangling_end():

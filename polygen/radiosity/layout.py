@@ -475,21 +475,16 @@ def duplicate_across(points, elements, cut_edge):
     uc, first = np.unique(comp, return_index=True)
     comp_node = corner_node[first]
     order_c = np.lexsort((first, comp_node))
+    sorted_node = comp_node[order_c]
+    keeps = np.ones(len(order_c), bool)
+    keeps[1:] = sorted_node[1:] != sorted_node[:-1]
     new_id = np.empty(len(uc), np.int64)
-    prev = -1
-    extra = []
-    for c in order_c:
-        node = comp_node[c]
-        if node != prev:
-            new_id[c] = node
-            prev = node
-        else:
-            new_id[c] = n + len(extra)
-            extra.append(node)
+    new_id[order_c[keeps]] = sorted_node[keeps]
+    extra = sorted_node[~keeps].astype(np.int64)
+    new_id[order_c[~keeps]] = n + np.arange(len(extra))
     lut = np.empty(comp.max() + 1, np.int64)
     lut[uc] = new_id
     new_el = lut[comp].reshape(m, 3)
-    extra = np.asarray(extra, dtype=np.int64)
     pts = np.concatenate([points, np.asarray(points)[extra]]) if len(extra) else np.asarray(points)
     site = np.concatenate([np.arange(n), extra]).astype(np.int64)
     return pts, new_el, site

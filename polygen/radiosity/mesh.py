@@ -863,16 +863,15 @@ def _as_fn(spec):
 
 def _patch_corners(patches, elements, element_patch, site):
     """Patch corners renamed to the node copy their own elements use (after D0 duplication)."""
-    key = {}
-    for t in range(len(elements)):
-        p = int(element_patch[t])
-        for v in elements[t]:
-            key.setdefault((p, int(site[v])), int(v))
-    out = np.empty_like(patches)
-    for p in range(len(patches)):
-        for c in range(3):
-            out[p, c] = key.get((p, int(patches[p, c])), patches[p, c])
-    return out
+    ns = int(site.max()) + 1
+    key = (np.repeat(element_patch, 3) * ns + site[elements.ravel()]).astype(np.int64)
+    uk, first = np.unique(key, return_index=True)
+    want = (np.arange(len(patches))[:, None] * ns + patches).ravel()
+    pos = np.minimum(np.searchsorted(uk, want), len(uk) - 1)
+    hit = uk[pos] == want
+    out = patches.ravel().copy()
+    out[hit] = elements.ravel()[first[pos[hit]]]
+    return out.reshape(patches.shape)
 
 
 def _run_element_mesher(element_mesher, pts2, tris, esize, k, poly, kw):
