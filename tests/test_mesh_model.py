@@ -277,6 +277,10 @@ def test_two_sided_polygon_has_two_faces():
     assert np.all(np.einsum("ij,ij->i", cr, m.element_normal) > 0)
     for sd in (1, -1):
         assert m.element_area[side == sd].sum() == pytest.approx(1.0)
+    # patch frames: right-handed, the third axis the face's normal
+    fr = m.patch_frame
+    np.testing.assert_allclose(np.linalg.det(fr), 1.0)
+    np.testing.assert_allclose(fr[:, 2], m.patch_normal)
     # nodes are not shared between the faces
     assert not set(m.elements[side == 1].ravel()) & set(m.elements[side == -1].ravel())
     assert len(m.t_vertices()) == 0

@@ -236,6 +236,20 @@ class RadiosityMesh:
             self._polygon_array("normal")[self.patch_polygon] * self.patch_side[:, None]))
 
     @property
+    def patch_frame(self):
+        """(P, 3, 3) float64 right-handed frames ``(u, v, normal)`` of the patches' faces.
+
+        The polygon's frame on the front; ``(u, -v, -normal)`` on the back
+        face of a two-sided polygon (a hemicube on a patch must use this,
+        not the polygon's own frame).
+        """
+        def f():
+            u = self._polygon_array("u")[self.patch_polygon]
+            v = self._polygon_array("v")[self.patch_polygon] * self.patch_side[:, None]
+            return np.ascontiguousarray(np.stack([u, v, self.patch_normal], axis=1))
+        return self._cached("pframe", f)
+
+    @property
     def patch_elements(self):
         """(offsets (P+1,) int64, elements (M,) int64): CSR list of each patch's elements."""
         def f():
