@@ -560,7 +560,7 @@ def mesh_planar_graph(graph, sizes, *, method="lattice", edge_nodes=None, seed=0
                 h_min = f.constant
                 cand = _hex(lo, hi, h_min)
             else:
-                probe = _hex(lo, hi, max(float(np.ptp(hi - lo)) / 100.0, float((hi - lo).max()) / 100.0))
+                probe = _hex(lo, hi, float((hi - lo).max()) / 100.0)
                 h_min = float(f(probe).min())
                 cand = _hex(lo, hi, h_min)
             if not len(cand):
