@@ -113,6 +113,24 @@ def test_d0_loop_and_dangling_end():
     assert len(m.t_vertices()) == 0
 
 
+def test_t_vertices_across_a_d0_line_are_not_reported():
+    # [0, 2] x [0, 1] cut by a D0 line at x = 1; the right side has a node (1, 0.5)
+    # on the line that the left side lacks (e.g. after refining the right side only)
+    from polygen.radiosity import RadiosityMesh
+
+    s = Scene([Polygon([[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0]])])
+    nodes = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],            # left
+                      [1, 0, 0], [2, 0, 0], [2, 1, 0], [1, 1, 0], [1, 0.5, 0]], float)
+    left = [[0, 1, 2], [0, 2, 3]]
+    right = [[4, 5, 8], [8, 5, 6], [8, 6, 7]]
+    m = RadiosityMesh(s, nodes, left + right, [0, 0, 1, 1, 1], [[0, 1, 2], [4, 5, 6]], [0, 0])
+    assert len(m.t_vertices()) == 0
+    # the same right side sharing the left side's nodes: (1, 0.5) is a T-vertex
+    joined = [[1, 5, 8], [8, 5, 6], [8, 6, 2]]
+    m2 = RadiosityMesh(s, nodes, left + joined, [0, 0, 1, 1, 1], [[0, 1, 2], [1, 5, 6]], [0, 0])
+    assert m2.t_vertices().tolist() == [8]
+
+
 # ----------------------------------------------------------------------------
 # regions: shared edges, sizes, holes that touch
 # ----------------------------------------------------------------------------

@@ -318,15 +318,21 @@ class RadiosityMesh:
     def t_vertices(self):
         """Nodes that lie inside an edge of their polygon's element mesh (Def. 2.5).
 
-        Each face of each polygon is checked on its own; the copies of a
-        node on a D0 line (one per side, :attr:`node_site`) count as one
-        node, so the duplication is not reported.
+        Each face of each polygon is checked on its own, and within it each
+        part bounded by D0 lines (the elements joined through shared nodes):
+        across a D0 line each side has its own nodes and values, so one
+        side's nodes on the line are no T-vertices of the other.  (Near the
+        interior end of a dangling D0 line the two sides share the end node
+        and are checked together.)
 
         Returns
         -------
         (K,) int64
             Mesh node indices; empty for a conforming mesh.
         """
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
         from polygen.mesh2d import find_t_vertices
 
         out = []
@@ -335,12 +341,17 @@ class RadiosityMesh:
                 xy, tris, _, nodes = self.polygon_elements(k, side)
                 if not len(tris):
                     continue
-                sites, inv = np.unique(self.node_site[nodes], return_inverse=True)
-                first = np.zeros(len(sites), np.int64)
-                first[inv[::-1]] = np.arange(len(nodes))[::-1]
-                hit = find_t_vertices(xy[first], inv[tris])[0]
-                out.append(nodes[first[hit]])
-        return np.concatenate(out).astype(np.int64) if out else np.zeros(0, dtype=np.int64)
+                # elements joined through shared nodes (the two sides of a D0 line share none)
+                m_, n_ = len(tris), len(nodes)
+                g = coo_matrix((np.ones(3 * m_), (np.repeat(np.arange(m_), 3), m_ + tris.ravel())),
+                               shape=(m_ + n_, m_ + n_))
+                n_comp, comp = connected_components(g, directed=False)
+                comp = comp[:m_]
+                n_comp = len(np.unique(comp))
+                for c in np.unique(comp):
+                    hit = find_t_vertices(xy, tris if n_comp == 1 else tris[comp == c])[0]
+                    out.append(nodes[hit])
+        return np.unique(np.concatenate(out)).astype(np.int64) if out else np.zeros(0, np.int64)
 
     def __repr__(self):
         return (f"RadiosityMesh(scene={self.scene.name!r}, n_nodes={self.n_nodes}, "
