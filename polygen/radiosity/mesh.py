@@ -757,7 +757,11 @@ def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_m
         Segments}`` or one entry (or None) per polygon; an entry may also be
         ``(ends, kinds)``.  See :class:`~polygen.radiosity.layout.Segments`.
     conforming : bool, keyword-only
-        Share vertices and boundary nodes along edges common to two polygons.
+        Share vertices and boundary nodes along edges common to two polygons
+        (element nodes too with 1 -> 4 splitting or :func:`bubble_element_mesher`;
+        another element mesher is not told of them).  An edge lying inside
+        another polygon (a block on an uncut floor) is not an edge of that
+        polygon: hand it as a segment (:func:`~polygen.radiosity.contact_segments`).
 
     Returns
     -------
@@ -792,7 +796,7 @@ def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_m
     kind, mkw = method
     seed = mkw.pop("seed", 0)
 
-    from polygen.mesh2d import InvalidDomainError, mesh_planar_graph
+    from polygen.mesh2d import InvalidDomainError, as_size_function, mesh_planar_graph
 
     # segments in each polygon's frame
     segs2d = []
@@ -823,8 +827,6 @@ def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_m
                                   None, lay.LAYOUT_TOL)
                 sizes_ref = spec.resolve(poly, ref)
                 per_region = [sizes_ref[r] for r in ref.region_of(g.region_point)]
-            from polygen.mesh2d import as_size_function
-
             fns.append([as_size_function(_check_size(r, k, poly)) for r in per_region])
         except (lay._Error, ValueError) as exc:
             if isinstance(exc, MeshError):
@@ -850,7 +852,7 @@ def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_m
     eshared = [dict() for _ in layouts]
     if element_mesher is not None and conforming and _is_bubble_element_mesher(element_mesher):
         eshared = lay.shared_element_nodes(groups, canon, layouts, [m.chains for m in meshes],
-                                           [[_as_fn(f) for f in fk] for fk in efns])
+                                           [[as_size_function(f) for f in fk] for fk in efns])
     pieces = []
     for k, (poly, g, gm) in enumerate(zip(scene.polygons, layouts, meshes)):
         pts2 = gm.nodes
@@ -878,12 +880,6 @@ def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_m
         reg[sel] = g.region_of(poly.to_2d(mesh.nodes[mesh.patches[sel]].mean(axis=1)))
     mesh.patch_region = reg
     return mesh
-
-
-def _as_fn(spec):
-    from polygen.mesh2d import as_size_function
-
-    return as_size_function(spec)
 
 
 def _patch_corners(patches, elements, element_patch, site):
