@@ -322,3 +322,43 @@ def test_adaptive_refine_five_levels_keep_angles_and_patches():
     assert np.all(ang >= 0.5 * ang0[root] - 1e-9)
     assert ang.min() >= 20.0
     assert m.n_elements > 4 * m0.n_elements
+
+
+# ----------------------------------------------------------------------------
+# the mesh model of chapters 3 and 4: two faces, D0 copies, regions
+# ----------------------------------------------------------------------------
+def test_adaptive_refine_keeps_faces_d0_copies_and_regions():
+    from polygen.radiosity import Polygon, Scene, Segments, mesh_scene
+
+    floor = Polygon([[0, 0, 0], [4, 0, 0], [4, 4, 0], [0, 4, 0]], name="floor")
+    plate = Polygon([[1, 1, 2], [3, 1, 2], [3, 3, 2], [1, 3, 2]], name="plate", two_sided=True)
+    seg = Segments([[[2.0, 0.0, 0.0], [2.0, 4.0, 0.0]]], "D0")
+    mesh = mesh_scene(Scene([floor, plate]), 0.8, segments={"floor": seg})
+    x = mesh.element_centroid
+    # a jump along x = 2 on the floor (across the D0 line) and on the plate's back face only
+    values = np.where(x[:, 0] > 2.0, 1.0, 0.0) * ((mesh.element_polygon == 0)
+                                                  | (mesh.element_side == -1))
+    out = adaptive_refine(mesh, values, 0.5)
+    new = out.mesh
+    assert out.n_marked > 0 and new.n_elements > mesh.n_elements
+    # every face keeps its area: the plate's two faces are refined apart, not mirrored again
+    for k, side in ((0, 1), (1, 1), (1, -1)):
+        sel_old = (mesh.element_polygon == k) & (mesh.element_side == side)
+        sel_new = (new.element_polygon == k) & (new.element_side == side)
+        assert new.element_area[sel_new].sum() == pytest.approx(mesh.element_area[sel_old].sum())
+    back = (new.element_polygon == 1) & (new.element_side == -1)
+    front = (new.element_polygon == 1) & (new.element_side == 1)
+    assert back.sum() > front.sum() == ((mesh.element_polygon == 1)
+                                        & (mesh.element_side == 1)).sum()
+    # D0 copies survive: nodes on x = 2 of the floor still come in pairs on one site
+    on = np.flatnonzero(np.isclose(new.nodes[:, 0], 2.0) & (new.nodes[:, 2] == 0.0))
+    copies = np.bincount(new.node_site[on])
+    assert copies.max() == 2 and (new.node_site[on] != on).any()
+    # no element of the floor crosses the D0 line, regions are carried over
+    ex = new.nodes[new.elements][:, :, 0]
+    fl = new.element_polygon == 0
+    assert np.all((ex[fl].max(axis=1) <= 2.0 + 1e-12) | (ex[fl].min(axis=1) >= 2.0 - 1e-12))
+    reg = new.element_region[fl]
+    right = new.element_centroid[fl, 0] > 2.0
+    assert len(set(reg[right])) == 1 and len(set(reg[~right])) == 1 and reg[right][0] != reg[~right][0]
+    assert len(new.t_vertices()) == 0

@@ -56,14 +56,25 @@ class AdaptiveRefinement:
         return int(self.marked.sum())
 
 
-def _polygon_pieces(mesh, k):
-    """Local node numbering of polygon k: (global nodes, elements, patches, element ids, patch ids)."""
-    el = np.flatnonzero(mesh.element_polygon == k)
-    pa = np.flatnonzero(mesh.patch_polygon == k)
+def _face_piece(mesh, k, side):
+    """One face of polygon k in local node numbering.
+
+    Returns (global nodes, elements, patches, local node sites, element ids, patch ids); the
+    triangles are counter-clockwise in the polygon's (u, v) frame (a back face's are stored
+    reversed).
+    """
+    el = np.flatnonzero((mesh.element_polygon == k) & (mesh.element_side == side))
+    pa = np.flatnonzero((mesh.patch_polygon == k) & (mesh.patch_side == side))
     used = np.unique(np.concatenate([mesh.elements[el].ravel(), mesh.patches[pa].ravel()]))
     local = np.full(mesh.n_nodes, -1, dtype=np.int64)
     local[used] = np.arange(len(used))
-    return used, local[mesh.elements[el]], local[mesh.patches[pa]], el, pa
+    site = local[mesh.node_site[used]]
+    # a D0 copy whose site lies on another face keeps itself as its site
+    site = np.where(site >= 0, site, np.arange(len(used)))
+    tris, ptris = local[mesh.elements[el]], local[mesh.patches[pa]]
+    if side < 0:
+        tris, ptris = tris[:, ::-1], ptris[:, ::-1]
+    return used, tris, ptris, site, el, pa
 
 
 def element_jumps(mesh, element_values):
@@ -163,16 +174,26 @@ def adaptive_refine(mesh, element_values, threshold, *, min_area=0.0, marked=Non
         raise MeshError(f"marked must have {mesh.n_elements} flags, got {marked.shape}")
     pieces = []
     parents = []
+    patch_order = []
     for k, poly in enumerate(mesh.scene.polygons):
-        used, el_local, pa_local, el, pa = _polygon_pieces(mesh, k)
-        pts2 = poly.to_2d(mesh.nodes[used])
-        patch_local = np.full(mesh.n_patches, -1, dtype=np.int64)
-        patch_local[pa] = np.arange(len(pa))
-        try:
-            n2, t2, par, _ = refine_marked(pts2, el_local, marked[el], method=method)
-        except ValueError as err:
-            raise MeshError(f"polygon {k} ({poly.name!r}): {err}") from None
-        pieces.append((n2, pa_local, t2, patch_local[mesh.element_patch[el[par]]]))
-        parents.append(el[par])
+        faces = []
+        for side in ((1, -1) if poly.two_sided else (1,)):
+            used, el_local, pa_local, site, el, pa = _face_piece(mesh, k, side)
+            pts2 = poly.to_2d(mesh.nodes[used])
+            patch_local = np.full(mesh.n_patches, -1, dtype=np.int64)
+            patch_local[pa] = np.arange(len(pa))
+            try:
+                n2, t2, par, _ = refine_marked(pts2, el_local, marked[el], method=method)
+            except ValueError as err:
+                raise MeshError(f"polygon {k} ({poly.name!r}): {err}") from None
+            # new nodes are their own sites: a bisection never crosses a D0 line
+            site2 = np.concatenate([site, np.arange(len(site), len(n2))])
+            faces.append((n2, pa_local, t2, patch_local[mesh.element_patch[el[par]]], site2))
+            parents.append(el[par])
+            patch_order.append(pa)
+        pieces.append(tuple(faces) if poly.two_sided else faces[0])
     new = assemble_mesh(mesh.scene, pieces)
+    if mesh.patch_region is not None:
+        new.layouts = mesh.layouts
+        new.patch_region = mesh.patch_region[np.concatenate(patch_order)]
     return AdaptiveRefinement(new, np.concatenate(parents).astype(np.int64), marked)
