@@ -28,7 +28,7 @@ from pathlib import Path
 import jupytext
 import nbformat
 from nbclient import NotebookClient
-from nbclient.exceptions import CellExecutionError
+from nbclient.exceptions import CellControlSignal, CellExecutionError, DeadKernelError
 
 ROOT = Path(__file__).resolve().parent.parent
 NOTEBOOKS = ROOT / "notebooks"
@@ -55,7 +55,7 @@ def keep_png_only(nb):
                 data.pop("image/jpeg", None)
 
 
-def execute(py_path, *, timeout=3600, kernel_name="python3"):
+def execute(py_path, *, timeout=900, kernel_name="python3"):
     """Run the notebook whose source is `py_path`; write its ``.ipynb``.
 
     Returns ``(error, seconds, megabytes)``, `error` being ``None`` when every cell ran.
@@ -77,6 +77,8 @@ def execute(py_path, *, timeout=3600, kernel_name="python3"):
         client.execute()
     except CellExecutionError as exc:
         error = str(exc).strip().splitlines()[-1] if str(exc).strip() else repr(exc)
+    except (CellControlSignal, DeadKernelError) as exc:  # a cell ran out of time, the kernel died
+        error = f"{type(exc).__name__}: {exc}"
     finally:
         os.environ.clear()
         os.environ.update(saved)
@@ -84,14 +86,14 @@ def execute(py_path, *, timeout=3600, kernel_name="python3"):
     keep_png_only(nb)
     out = py_path.with_suffix(".ipynb")
     jupytext.write(nb, out, fmt="ipynb")
-    return error, seconds, out.stat().st_size / 2**20
+    return error, seconds, out.stat().st_size / 1e6
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("names", nargs="*", help="notebook names (default: all of notebooks/*.py)")
     parser.add_argument("--max-mb", type=float, default=3.0, help="largest allowed .ipynb, in MB (default 3)")
-    parser.add_argument("--timeout", type=int, default=3600, help="seconds allowed per cell (default 3600)")
+    parser.add_argument("--timeout", type=int, default=900, help="seconds allowed per cell (default 900)")
     args = parser.parse_args(argv)
 
     if args.names:

@@ -1,6 +1,7 @@
 """Every notebook is a pair: ``notebooks/NN_title.py`` (jupytext percent format, the
 source) and ``notebooks/NN_title.ipynb`` (the same cells, with outputs). The pair must
-hold the same cells in the same order: same type, same source.
+hold the same cells in the same order: same type, same source. The ``.ipynb`` is
+committed with its outputs (``python docs/execute_notebooks.py``), at most 3 MB.
 
 After editing a ``.py``: ``jupytext --sync notebooks/*.py`` (or
 ``python docs/execute_notebooks.py``, which also runs them and stores the outputs).
@@ -109,3 +110,20 @@ def test_cell_type_change_detected(pair):
 def test_missing_pair_detected(pair):
     pair.with_suffix(".ipynb").unlink()
     assert unpaired(pair.parent) == [pair.stem]
+
+
+# -- committed with their outputs -------------------------------------------------------
+
+@pytest.mark.parametrize("ipynb", sorted(NOTEBOOKS.glob("*.ipynb")), ids=lambda p: p.stem)
+def test_notebook_at_most_3_mb(ipynb):
+    assert ipynb.stat().st_size <= 3_000_000, f"{ipynb.name}: {ipynb.stat().st_size / 1e6:.2f} MB > 3 MB"
+
+
+@pytest.mark.parametrize("ipynb", sorted(NOTEBOOKS.glob("*.ipynb")), ids=lambda p: p.stem)
+def test_notebook_stored_with_outputs(ipynb):
+    nb = nbformat.read(ipynb, as_version=4)
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert any(c.outputs for c in code), (
+        f"{ipynb.name} has no stored outputs: run python docs/execute_notebooks.py {ipynb.stem}")
+    errors = [c.id for c in code for o in c.outputs if o.output_type == "error"]
+    assert errors == [], f"{ipynb.name}: cells {errors} stored an error"
