@@ -437,7 +437,7 @@ def test_red_split_without_closure_is_caught_and_with_closure_is_not(coarse):
     interior = np.flatnonzero((bm.kind[bm.triangles] == 2).all(axis=1))[0]
     marked = np.zeros(len(bm.triangles), bool)
     marked[interior] = True
-    n2, t2, parent, _ = refine_marked(bm.nodes, bm.triangles, marked)
+    n2, t2, parent, _ = refine_marked(bm.nodes, bm.triangles, marked, method="red-green")
     check_conforming_mesh(n2, t2, dom)
     assert np.bincount(parent, minlength=len(bm.triangles))[interior] == 4
     # naive: four children, neighbours untouched -> three T-vertices

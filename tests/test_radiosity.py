@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from polygen.radiosity import scenes
-from polygen.radiosity.adaptive import adaptive_refine, element_jumps, mark_jumps
 from polygen.radiosity.formfactor import (
     _gauss_triangle,
     analytic_column,
@@ -785,66 +784,6 @@ def test_mesher_input_checks():
         mesh_scene(Scene([square()]), 0.5, element_mesher=shuffled)
     with pytest.raises(MeshError, match="element_levels"):
         mesh_scene(Scene([square()]), 0.5, element_levels=-1)
-
-
-# ----------------------------------------------------------------------------
-# adaptive subdivision (Def. 2.6)
-# ----------------------------------------------------------------------------
-def _shadow_scene():
-    floor = Polygon([[-2, 0, -2], [-2, 0, 2], [2, 0, 2], [2, 0, -2]], reflectance=0.5, name="floor")
-    light = AreaLight(np.array([[-0.1, 3, -0.1], [-0.1, 3, 0.1], [0.1, 3, 0.1],
-                                [0.1, 3, -0.1]])[::-1], emission=100.0)
-    blocker = Polygon([[-0.5, 1.5, -0.5], [0.5, 1.5, -0.5], [0.5, 1.5, 0.5], [-0.5, 1.5, 0.5]],
-                      reflectance=0.0, name="blocker")
-    return Scene([floor, light, blocker])
-
-
-def test_adaptive_refine_conforming_and_local():
-    s = _shadow_scene()
-    m = mesh_scene(s, 0.5, element_levels=1)
-    # 64 visibility samples on the light: a soft penumbra rather than a binary shadow
-    r = progressive_refinement(m, form_factors="analytic", visibility_level=3, tol=1e-6)
-    b = r.radiosity
-    thr = 0.1 * b[m.element_polygon == 0].max()
-    marked = mark_jumps(m, b, thr)
-    # brute force: pairs of elements sharing two nodes whose values differ by more than thr
-    ref = np.zeros(m.n_elements, dtype=bool)
-    for i in range(m.n_elements):
-        share = (np.isin(m.elements, m.elements[i]).sum(axis=1) == 2)
-        nb = np.flatnonzero(share)
-        if np.any(np.abs(b[nb] - b[i]).max(axis=1) > thr):
-            ref[i] = True
-    np.testing.assert_array_equal(marked, ref)
-    assert marked.any() and not marked.all()
-    ad = adaptive_refine(m, b, thr)
-    new = ad.mesh
-    assert ad.n_marked == marked.sum()
-    # the same patches; children tile their parents and stay in their patches
-    assert new.n_patches == m.n_patches
-    np.testing.assert_allclose(new.patch_area, m.patch_area, rtol=1e-12)
-    np.testing.assert_allclose(np.bincount(ad.parent, weights=new.element_area,
-                                           minlength=m.n_elements), m.element_area, rtol=1e-12)
-    np.testing.assert_array_equal(new.element_patch, m.element_patch[ad.parent])
-    children = np.bincount(ad.parent, minlength=m.n_elements)
-    assert np.all(children[marked] == 4) and set(np.unique(children)) <= {1, 2, 4}
-    assert new.n_elements > m.n_elements
-    # no T-vertices within any polygon
-    assert len(new.t_vertices()) == 0
-    # marking everything is the regular 1 -> 4 split
-    everything = adaptive_refine(m, b, 0.0, marked=np.ones(m.n_elements, dtype=bool)).mesh
-    assert everything.n_elements == 4 * m.n_elements
-    # the penumbra is continuous: solved again on the refined mesh, the largest jump between
-    # neighbouring floor elements shrinks
-    r2 = progressive_refinement(new, form_factors="analytic", visibility_level=3, tol=1e-6)
-    j1 = element_jumps(m, b)[m.element_polygon == 0].max()
-    j2 = element_jumps(new, r2.radiosity)[new.element_polygon == 0].max()
-    assert j2 < 0.8 * j1
-    with pytest.raises(MeshError, match="element_values"):
-        mark_jumps(m, b[:-1], thr)
-    with pytest.raises(MeshError, match="threshold"):
-        mark_jumps(m, b, -1.0)
-    # min_area stops the refinement
-    assert not mark_jumps(m, b, thr, min_area=m.element_area.max()).any()
 
 
 def test_triangle_fan_and_small_shadows_depth():

@@ -8,6 +8,9 @@ it with shapely.
   Delaunay (2.3.2) with ``pythoncdt``.
 * :func:`bubble_mesh` -- the bubble mesh (2.3.3), uniform or graded by a
   size field (:mod:`polygen.mesh2d.sizing`).
+* :func:`planar_graph`, :func:`mesh_planar_graph` -- a polygon cut by
+  constrained segments (D0/D1) into regions, meshed with conforming nodes
+  on every edge; :func:`convex_partition` (Hertel-Mehlhorn).
 * :func:`triangle_quality`, :func:`quality_histogram` -- min angle and
   radius ratio.
 * :func:`subdivide_patches` (regular 1 -> 4), :func:`bubble_subdivide_patches`
@@ -32,6 +35,16 @@ from polygen.mesh2d.domain import (
     signed_area,
     validate_domain,
 )
+from polygen.mesh2d.pslg import (
+    D0,
+    D1,
+    GraphMesh,
+    PlanarGraph,
+    convex_partition,
+    edge_node_parameters,
+    mesh_planar_graph,
+    planar_graph,
+)
 from polygen.mesh2d.quality import (
     mesh_edges,
     quality_histogram,
@@ -52,6 +65,14 @@ from polygen.mesh2d.subdivision import (
 )
 
 __all__ = [
+    "D0",
+    "D1",
+    "GraphMesh",
+    "PlanarGraph",
+    "convex_partition",
+    "edge_node_parameters",
+    "mesh_planar_graph",
+    "planar_graph",
     "AdaptiveSubdivision",
     "BubbleMesh",
     "Domain",

@@ -566,7 +566,7 @@ def edge_bubbles(domain, size, *, samples=33):
     return _edge_bubbles(pts, seg, as_size_function(size), samples)
 
 
-def _edge_bubbles(pts, seg, sizef, samples=33):
+def _edge_bubbles(pts, seg, sizef, samples=33, bare=None):
     t = np.linspace(0.0, 1.0, samples)
     a = pts[seg[:, 0]]
     b = pts[seg[:, 1]]
@@ -577,6 +577,8 @@ def _edge_bubbles(pts, seg, sizef, samples=33):
     cum = np.zeros_like(inv)
     cum[:, 1:] = np.cumsum(0.5 * (inv[:, 1:] + inv[:, :-1]), axis=1) * (ln / (samples - 1))[:, None]
     counts = np.maximum(1, np.rint(cum[:, -1])).astype(np.int64)
+    if bare is not None:
+        counts[bare] = 1
     offsets = np.zeros(len(seg), np.int64)
     offsets[1:] = np.cumsum(counts - 1)[:-1]
     total = int((counts - 1).sum())
@@ -587,7 +589,7 @@ def _edge_bubbles(pts, seg, sizef, samples=33):
 
 
 @njit
-def _removal_kernel(xy, size, tri, first_face, remove_below, removed):
+def _removal_kernel(xy, size, tri, first_face, remove_below, removed, group):
     for t in range(tri.shape[0]):
         for e in range(3):
             i = tri[t, e]
@@ -596,6 +598,8 @@ def _removal_kernel(xy, size, tri, first_face, remove_below, removed):
                 continue
             if i < first_face and j < first_face:
                 continue
+            if group[i] >= 0 and group[j] >= 0 and group[i] != group[j]:
+                continue  # face bubbles of different regions do not crowd each other
             r = math.hypot(xy[i, 0] - xy[j, 0], xy[i, 1] - xy[j, 1])
             if r < remove_below * 0.5 * (size[i] + size[j]):
                 # remove a face bubble, the later one when both are
@@ -765,9 +769,13 @@ def bubble_mesh(outer, holes=(), size=None, *, init="lattice", n_cycles=4, steps
 
 def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cycle, final_steps,
                  dt, mass, damping, tol, remove_below, insert_above, resize_every, seed, progress,
-                 near_segment=0.35):
+                 near_segment=0.35, bare=False, fixed_size=None, regions=None):
     # pts: fixed vertex bubbles; seg: segments carrying edge bubbles (the domain
-    # boundary, plus internal segments when `internal`)
+    # boundary, plus internal segments when `internal`); `bare` (bool or (S,)
+    # mask): segments whose nodes are already all in `pts` (no edge bubbles);
+    # `fixed_size`: sizes of the `pts` bubbles (else read from the field);
+    # `regions`: xy -> (K,) region labels: face bubbles of different regions
+    # ignore each other (each region is packed against its own boundary)
     if size is None:
         raise ValueError("size: required (a number, a GridSize or a callable)")
     if init not in ("lattice", "random"):
@@ -775,7 +783,24 @@ def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cyc
     for name, v in (("dt", dt), ("mass", mass), ("tol", tol)):
         if not (np.isfinite(v) and v > 0):
             raise ValueError(f"{name}: must be positive, got {v}")
-    sizef = as_size_function(size)
+    field = as_size_function(size)
+    n_pts = len(pts)
+
+    sizef = field
+
+    def sizes_of(q):
+        # the bubbles array: the fixed vertex bubbles come first
+        out = field(q)
+        if fixed_size is not None:
+            out[:n_pts] = fixed_size
+        return out
+
+    def groups_of(q, first):
+        g = np.full(len(q), -1, np.int64)
+        if regions is not None and len(q) > first:
+            g[first:] = regions(q[first:])
+        return g
+
     rng = np.random.default_rng(seed)
     lo = pts.min(axis=0)
     hi = pts.max(axis=0)
@@ -793,11 +818,15 @@ def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cyc
     gargs = (gx0, gy0, gcs, gnx, gny)
 
     # vertex and edge bubbles
-    exy, eseg = _edge_bubbles(pts, seg, sizef)
+    bare = np.broadcast_to(np.asarray(bare, dtype=np.bool_), (len(seg),))
+    if bare.all():
+        exy, eseg = np.zeros((0, 2)), np.zeros(0, np.int64)
+    else:
+        exy, eseg = _edge_bubbles(pts, seg, sizef, bare=bare)
     n_vertex = len(pts)
     n_edge = len(exy)
     bxy = np.concatenate([pts, exy])
-    bsz = sizef(bxy)
+    bsz = sizes_of(bxy)
     # the segment of each edge bubble, by its end points
     eab = np.zeros((len(bxy), 4))
     eab[n_vertex:, :2] = pts[seg[eseg, 0]]
@@ -848,9 +877,9 @@ def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cyc
         budget = final_steps if cyc == n_cycles else steps_per_cycle
         done = 0
         while done < budget:
-            sz = sizef(xy)
+            sz = sizes_of(xy)
             chunk = min(resize_every, budget - done)
-            steps, mx = _relax_kernel(xy, vel, sz, np.full(len(xy), -1, np.int64), n_fixed, 0, eab,
+            steps, mx = _relax_kernel(xy, vel, sz, groups_of(xy, n_fixed), n_fixed, 0, eab,
                                       *largs, *gargs, chunk, dt, mass, damping, tol, 0.25)
             done += steps
             total_steps += steps
@@ -860,7 +889,7 @@ def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cyc
         # a face bubble squeezed against a constraint segment between two edge
         # bubbles would make a sliver; in a hexagonal packing the first row
         # sits 0.87 size away
-        sz = sizef(xy)
+        sz = sizes_of(xy)
         _, dseg = loc.locate(xy)
         if internal:
             dseg = np.minimum(dseg, seg_index.distance(xy))
@@ -874,7 +903,7 @@ def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cyc
         tri = constrained_delaunay(xy, _boundary_edges(n_vertex, seg, eseg),
                                    erase_outside=not internal).triangles
         removed = near.copy()
-        _removal_kernel(xy, sz, tri, n_fixed, remove_below, removed)
+        _removal_kernel(xy, sz, tri, n_fixed, remove_below, removed, groups_of(xy, n_fixed))
         gaps = np.empty((len(tri), 3))
         m = _gap_kernel(xy, sz, tri, insert_above, gaps)
         gaps = gaps[:m]
@@ -906,11 +935,13 @@ def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cyc
         a, b, c = (mesh.nodes[tri[:, k]] for k in range(3))
         area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
         flat = np.abs(area2) <= 1e-8 * h_min * h_min
-        mesh = mesh._replace(triangles=tri[loc.locate(cen)[0] & ~flat])
+        # shapely's exact test, not the grid locator: robust where holes touch
+        inside = shapely.contains_xy(dom.polygon, cen[:, 0], cen[:, 1])
+        mesh = mesh._replace(triangles=tri[inside & ~flat])
     kind = np.full(len(xy), 2, np.int8)
     kind[:n_vertex] = 0
     kind[n_vertex:n_fixed] = 1
-    return BubbleMesh(mesh.nodes, mesh.triangles, kind, sizef(xy), cons, initial,
+    return BubbleMesh(mesh.nodes, mesh.triangles, kind, sizes_of(xy), cons, initial,
                       total_steps, n_ins, n_rem, history)
 
 
@@ -982,7 +1013,7 @@ def locate_in_triangles(xy, nodes, triangles):
     return out
 
 
-def bubble_subdivide_patches(nodes, patches, element_size, *, seed=0, **kwargs):
+def bubble_subdivide_patches(nodes, patches, element_size, *, seed=0, edge_nodes=None, **kwargs):
     """Patches split into elements by a finer bubble mesh constrained by the patch edges.
 
     Every patch node is a fixed vertex bubble, every patch edge carries edge
@@ -1000,13 +1031,18 @@ def bubble_subdivide_patches(nodes, patches, element_size, *, seed=0, **kwargs):
     element_size : float, callable or GridSize
         Target element edge length (smaller than the patch size).
     seed : int
+    edge_nodes : dict {(i, j): (k, 2) float64}, optional
+        Preset element nodes inside some patch edges ``i < j``, in order
+        from node ``i`` to node ``j`` (e.g. shared with the neighbouring
+        polygon along a common 3-D edge); those edges get no other bubbles.
     **kwargs
         Passed on to the relaxation (see :func:`bubble_mesh`).
 
     Returns
     -------
     PatchElements
-        ``nodes`` start with the patch nodes (same indices).
+        ``nodes`` start with the patch nodes (same indices), then the preset
+        edge nodes in the order of ``edge_nodes``.
     """
     n = np.ascontiguousarray(nodes, dtype=np.float64)
     p = np.ascontiguousarray(patches, dtype=np.int64)
@@ -1019,8 +1055,33 @@ def bubble_subdivide_patches(nodes, patches, element_size, *, seed=0, **kwargs):
     region = shapely.union_all(shapely.polygons(n[p]))
     if region.geom_type != "Polygon":
         raise ValueError(f"patches: must form one connected region, got a {region.geom_type}")
-    dom = validate_domain(np.asarray(region.exterior.coords), [np.asarray(r.coords) for r in region.interiors])
+    dom = validate_domain(np.asarray(region.exterior.coords), [np.asarray(r.coords) for r in region.interiors],
+                          allow_touching=True)
     edges, _ = triangle_edges(p)
+    bare = np.zeros(len(edges), np.bool_)
+    if edge_nodes:
+        # a preset edge becomes a chain of bare segments through its preset nodes
+        pos = {(int(a), int(b)): k for k, (a, b) in enumerate(np.sort(edges, axis=1))}
+        extra, chains, drop = [], [], []
+        m = len(n)
+        for (i, j), q in edge_nodes.items():
+            q = np.asarray(q, dtype=np.float64).reshape(-1, 2)
+            k = pos.get((min(i, j), max(i, j)))
+            if k is None:
+                raise ValueError(f"edge_nodes: ({i}, {j}) is not a patch edge")
+            if i > j:
+                q = q[::-1]
+                i, j = j, i
+            idx = np.concatenate([[i], m + np.arange(len(q)), [j]])
+            chains.append(np.stack([idx[:-1], idx[1:]], axis=1))
+            extra.append(q)
+            drop.append(k)
+            m += len(q)
+        keep = np.ones(len(edges), np.bool_)
+        keep[drop] = False
+        edges = np.concatenate([edges[keep]] + chains).astype(np.int64)
+        bare = np.concatenate([bare[keep], np.ones(sum(len(c) for c in chains), np.bool_)])
+        n = np.concatenate([n] + extra)
     opts = dict(init="lattice", n_cycles=4, steps_per_cycle=150, final_steps=200, dt=0.3, mass=1.0,
                 damping=1.5, tol=1e-3, remove_below=0.6, insert_above=0.85, resize_every=10,
                 progress=False)
@@ -1028,7 +1089,7 @@ def bubble_subdivide_patches(nodes, patches, element_size, *, seed=0, **kwargs):
     if unknown:
         raise TypeError(f"unexpected keyword arguments {sorted(unknown)}")
     opts.update(kwargs)
-    bm = _bubble_core(dom, n, edges, element_size, True, seed=seed, **opts)
+    bm = _bubble_core(dom, n, edges, element_size, True, seed=seed, bare=bare, **opts)
     cen = bm.nodes[bm.triangles].mean(axis=1)
-    owner = locate_in_triangles(cen, n, p)
+    owner = locate_in_triangles(cen, n[:len(nodes)], p)
     return PatchElements(bm.nodes, p.copy(), bm.triangles, owner)

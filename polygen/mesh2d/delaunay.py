@@ -45,7 +45,7 @@ def _orient_ccw_kernel(nodes, tri):
             tri[t, 2] = b
 
 
-def constrained_delaunay(points, edges=None, *, erase_outside=True):
+def constrained_delaunay(points, edges=None, *, erase_outside=True, order="auto"):
     """Constrained Delaunay triangulation of points with constraint edges.
 
     Parameters
@@ -60,6 +60,9 @@ def constrained_delaunay(points, edges=None, *, erase_outside=True):
     erase_outside : bool
         Erase triangles outside the loops (True) or only the convex-hull
         super-triangle (False).
+    order : {"auto", "as_provided"}
+        Vertex insertion order of the CDT library (it decides between
+        co-circular alternatives).
 
     Returns
     -------
@@ -87,8 +90,11 @@ def constrained_delaunay(points, edges=None, *, erase_outside=True):
             raise ValueError(f"edges: indices outside [0, {len(pts)})")
         if np.any(e[:, 0] == e[:, 1]):
             raise ValueError("edges: degenerate edge (same node twice)")
+    if order not in ("auto", "as_provided"):
+        raise ValueError(f"order: expected 'auto' or 'as_provided', got {order!r}")
     cdt = pythoncdt.Triangulation(
-        pythoncdt.VertexInsertionOrder.AUTO,
+        pythoncdt.VertexInsertionOrder.AUTO if order == "auto"
+        else pythoncdt.VertexInsertionOrder.AS_PROVIDED,
         pythoncdt.IntersectingConstraintEdges.NOT_ALLOWED,
         0.0,
     )

@@ -127,7 +127,7 @@ def _as_ring(ring, what):
     return np.ascontiguousarray(a)
 
 
-def validate_domain(outer, holes=()):
+def validate_domain(outer, holes=(), *, allow_touching=False):
     """Check and normalise a polygon with holes.
 
     Parameters
@@ -136,7 +136,10 @@ def validate_domain(outer, holes=()):
         Outer boundary; either orientation is accepted and made counter-clockwise.
     holes : sequence of (K_h, 2) array_like
         Holes; made clockwise. Each must lie inside ``outer`` and not touch
-        the other holes or the outer ring.
+        the other holes or the outer ring (unless ``allow_touching``).
+    allow_touching : bool, keyword-only
+        Accept holes that touch the outer ring or each other at isolated
+        points (valid for shapely: the interior stays connected).
 
     Returns
     -------
@@ -165,10 +168,14 @@ def validate_domain(outer, holes=()):
         if signed_area(a) > 0:
             a = a[::-1].copy()
         hp = shapely.Polygon(a)
-        if not outer_poly.contains(hp) or outer_poly.exterior.intersects(hp.exterior):
+        if allow_touching:
+            if not outer_poly.covers(hp):
+                raise InvalidDomainError(f"hole {i}: not inside the outer polygon")
+        elif not outer_poly.contains(hp) or outer_poly.exterior.intersects(hp.exterior):
             raise InvalidDomainError(f"hole {i}: not strictly inside the outer polygon")
         for j, other in enumerate(hs):
-            if shapely.Polygon(other).intersects(hp):
+            inter = shapely.Polygon(other).intersection(hp)
+            if inter.area > 0 or (not allow_touching and not inter.is_empty):
                 raise InvalidDomainError(f"hole {i}: overlaps or touches hole {j}")
         hs.append(a)
     poly = shapely.Polygon(o, hs)

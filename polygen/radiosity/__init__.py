@@ -7,6 +7,8 @@ Layers, each usable on its own (chapters 3 and 4 build on them):
   -- the Cornell box and the thesis's scenes;
 * :mod:`~polygen.radiosity.mesh` -- patches, elements, nodes (Defs 2.2-2.4)
   and pluggable per-polygon meshers (lattice Delaunay, bubble mesh);
+* :mod:`~polygen.radiosity.layout` -- the mesh model of chapters 3 and 4:
+  constrained D0/D1 segments, regions and their sizes, conforming edges;
 * :mod:`~polygen.radiosity.formfactor` (Lambert's contour formula, ray-cast
   visibility) and :mod:`~polygen.radiosity.hemicube` (2.2.1);
 * :mod:`~polygen.radiosity.solve` -- progressive refinement (2.2.2) and
@@ -34,6 +36,14 @@ from polygen.radiosity.hemicube import (
     delta_form_factors,
     hemicube_form_factors,
     hemicube_polygon_form_factor,
+)
+from polygen.radiosity.layout import (
+    D0,
+    D1,
+    RegionSize,
+    Segments,
+    contact_segments,
+    polygon_layout,
 )
 from polygen.radiosity.mesh import (
     MeshError,
@@ -63,6 +73,12 @@ from polygen.radiosity.solve import (
 )
 
 __all__ = [
+    "D0",
+    "D1",
+    "RegionSize",
+    "Segments",
+    "contact_segments",
+    "polygon_layout",
     "AdaptiveRefinement",
     "AreaLight",
     "Camera",

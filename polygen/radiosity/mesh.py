@@ -3,8 +3,10 @@
 A :class:`RadiosityMesh` is what the solvers take: any triangulation of the
 scene's polygons into *patches* (which shoot light), each patch subdivided
 into *elements* (which gather light), with *nodes* shared between the
-elements of one polygon (no T-vertices, Def. 2.5).  Nodes are not shared
-between different polygons, so node intensities (2.8) never mix walls.
+elements of one polygon (no T-vertices, Def. 2.5), except across a D0
+line, where each side has its own copy (:attr:`RadiosityMesh.node_site`).
+Nodes are not shared between different polygons, so node intensities
+(2.8) never mix walls.
 
 How patches are made is pluggable: :func:`mesh_scene` calls a *mesher*
 ``mesher(exterior, holes, size) -> (points, triangles)`` on each polygon in
@@ -13,6 +15,13 @@ thing that meets requirement 2.1 (concave polygons with holes): boundary
 edges split to the target size, a triangular lattice of interior nodes, and
 a constrained Delaunay triangulation (pythoncdt).  :func:`bubble_mesher`
 plugs the bubble mesh of ``polygen.mesh2d`` (2.3.3) in at the same place.
+
+With these two meshers a polygon may also carry constrained segments --
+discontinuity lines of kind D0 or D1 (3.3.6) -- that cut it into regions,
+each with its own size; edges shared by two polygons get the same nodes on
+both; see :mod:`polygen.radiosity.layout` and :func:`mesh_scene`.  A
+two-sided polygon (``Polygon(..., two_sided=True)``) is meshed on both
+faces (:attr:`RadiosityMesh.patch_side`).
 
 Elements come from patches either by regular 1 -> 4 splitting (the default,
 the "simple method" the thesis itself allows for this step, 3.3.6 step 6),
@@ -62,6 +71,21 @@ class RadiosityMesh:
         Node indices of each triangular patch (Def. 2.2).
     patch_polygon : (P,) int64
         Scene polygon that each patch lies on.
+    patch_side : (P,) int8, optional
+        +1 for patches on the front of their polygon (default), -1 on the
+        back of a two-sided polygon (normal ``-polygon.normal``; its
+        elements are counter-clockwise seen from the back).
+    node_site : (N,) int64, optional
+        Nodes with the same site are copies of one point on a D0 line
+        (separate nodes on its two sides, 3.3.6); default ``arange(N)``.
+
+    Attributes
+    ----------
+    layouts : list of PlanarGraph or None
+        Set by :func:`mesh_scene` (our meshers): each polygon's planar graph
+        -- its segments and regions (:func:`polygen.radiosity.polygon_layout`).
+    patch_region : (P,) int64 or None
+        Set with ``layouts``: the region (within its polygon) of each patch.
 
     Notes
     -----
@@ -71,7 +95,8 @@ class RadiosityMesh:
     with the elements even if a mesher's patch triangles were not.
     """
 
-    def __init__(self, scene, nodes, elements, element_patch, patches, patch_polygon):
+    def __init__(self, scene, nodes, elements, element_patch, patches, patch_polygon,
+                 patch_side=None, node_site=None):
         if not isinstance(scene, Scene):
             raise MeshError(f"scene must be a Scene, got {type(scene).__name__}")
         self.scene = scene
@@ -81,6 +106,15 @@ class RadiosityMesh:
         self.patches = np.ascontiguousarray(patches, dtype=np.int64)
         self.patch_polygon = np.ascontiguousarray(patch_polygon, dtype=np.int64)
         n, m, p = len(self.nodes), len(self.elements), len(self.patches)
+        self.patch_side = (np.ones(p, dtype=np.int8) if patch_side is None
+                           else np.ascontiguousarray(patch_side, dtype=np.int8))
+        self.node_site = (np.arange(n, dtype=np.int64) if node_site is None
+                          else np.ascontiguousarray(node_site, dtype=np.int64))
+        if self.patch_side.shape != (p,) or not np.all(np.abs(self.patch_side) == 1):
+            raise MeshError(f"patch_side must be ({p},) of +1/-1, got shape {self.patch_side.shape}")
+        if self.node_site.shape != (n,) or (n and (self.node_site.min() < 0
+                                                    or self.node_site.max() >= n)):
+            raise MeshError(f"node_site must be ({n},) node indices")
         if self.nodes.ndim != 2 or self.nodes.shape[1] != 3:
             raise MeshError(f"nodes must be (N, 3), got {self.nodes.shape}")
         if self.elements.ndim != 2 or self.elements.shape[1] != 3:
@@ -145,11 +179,26 @@ class RadiosityMesh:
         """(M,) int64 scene polygon of each element."""
         return self._cached("epoly", lambda: self.patch_polygon[self.element_patch])
 
+    layouts = None
+    patch_region = None
+
+    @property
+    def element_region(self):
+        """(M,) int64 region (within its polygon) of each element; None without layouts."""
+        if self.patch_region is None:
+            return None
+        return self._cached("ereg", lambda: self.patch_region[self.element_patch])
+
+    @property
+    def element_side(self):
+        """(M,) int8: +1 front, -1 back face of a two-sided polygon."""
+        return self._cached("eside", lambda: self.patch_side[self.element_patch])
+
     @property
     def element_normal(self):
-        """(M, 3) float64 unit normals: the normal of the element's polygon."""
+        """(M, 3) float64 unit normals: the normal of the element's polygon (negated on a back face)."""
         return self._cached("en", lambda: np.ascontiguousarray(
-            self._polygon_array("normal")[self.element_polygon]))
+            self._polygon_array("normal")[self.element_polygon] * self.element_side[:, None]))
 
     @property
     def element_reflectance(self):
@@ -182,9 +231,23 @@ class RadiosityMesh:
 
     @property
     def patch_normal(self):
-        """(P, 3) float64 unit normals of the patches."""
+        """(P, 3) float64 unit normals of the patches (negated on a back face)."""
         return self._cached("pn", lambda: np.ascontiguousarray(
-            self._polygon_array("normal")[self.patch_polygon]))
+            self._polygon_array("normal")[self.patch_polygon] * self.patch_side[:, None]))
+
+    @property
+    def patch_frame(self):
+        """(P, 3, 3) float64 right-handed frames ``(u, v, normal)`` of the patches' faces.
+
+        The polygon's frame on the front; ``(u, -v, -normal)`` on the back
+        face of a two-sided polygon (a hemicube on a patch must use this,
+        not the polygon's own frame).
+        """
+        def f():
+            u = self._polygon_array("u")[self.patch_polygon]
+            v = self._polygon_array("v")[self.patch_polygon] * self.patch_side[:, None]
+            return np.ascontiguousarray(np.stack([u, v, self.patch_normal], axis=1))
+        return self._cached("pframe", f)
 
     @property
     def patch_elements(self):
@@ -207,12 +270,14 @@ class RadiosityMesh:
         return self._cached("ne", f)
 
     # -- per-polygon views -----------------------------------------------------
-    def polygon_elements(self, polygon):
+    def polygon_elements(self, polygon, side=None):
         """The elements of one polygon as a planar mesh in the polygon's (u, v) frame.
 
         Parameters
         ----------
         polygon : int
+        side : {None, 1, -1}
+            Only the front (1) or back (-1) face's elements; None: all.
 
         Returns
         -------
@@ -226,7 +291,10 @@ class RadiosityMesh:
             The mesh indices of the local nodes.
         """
         poly = self.scene.polygons[polygon]
-        el = np.flatnonzero(self.element_polygon == polygon)
+        sel = self.element_polygon == polygon
+        if side is not None:
+            sel &= self.element_side == side
+        el = np.flatnonzero(sel)
         nodes = np.unique(self.elements[el])
         return poly.to_2d(self.nodes[nodes]), np.searchsorted(nodes, self.elements[el]), el, nodes
 
@@ -250,16 +318,40 @@ class RadiosityMesh:
     def t_vertices(self):
         """Nodes that lie inside an edge of their polygon's element mesh (Def. 2.5).
 
+        Each face of each polygon is checked on its own, and within it each
+        part bounded by D0 lines (the elements joined through shared nodes):
+        across a D0 line each side has its own nodes and values, so one
+        side's nodes on the line are no T-vertices of the other.  (Near the
+        interior end of a dangling D0 line the two sides share the end node
+        and are checked together.)
+
         Returns
         -------
         (K,) int64
             Mesh node indices; empty for a conforming mesh.
         """
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
         from polygen.mesh2d import find_t_vertices
 
-        out = [nodes[find_t_vertices(xy, tris)[0]]
-               for xy, tris, _, nodes in map(self.polygon_elements, range(len(self.scene.polygons)))]
-        return np.concatenate(out).astype(np.int64) if out else np.zeros(0, dtype=np.int64)
+        out = []
+        for k in range(len(self.scene.polygons)):
+            for side in (1, -1):
+                xy, tris, _, nodes = self.polygon_elements(k, side)
+                if not len(tris):
+                    continue
+                # elements joined through shared nodes (the two sides of a D0 line share none)
+                m_, n_ = len(tris), len(nodes)
+                g = coo_matrix((np.ones(3 * m_), (np.repeat(np.arange(m_), 3), m_ + tris.ravel())),
+                               shape=(m_ + n_, m_ + n_))
+                n_comp, comp = connected_components(g, directed=False)
+                comp = comp[:m_]
+                n_comp = len(np.unique(comp))
+                for c in np.unique(comp):
+                    hit = find_t_vertices(xy, tris if n_comp == 1 else tris[comp == c])[0]
+                    out.append(nodes[hit])
+        return np.unique(np.concatenate(out)).astype(np.int64) if out else np.zeros(0, np.int64)
 
     def __repr__(self):
         return (f"RadiosityMesh(scene={self.scene.name!r}, n_nodes={self.n_nodes}, "
@@ -267,28 +359,31 @@ class RadiosityMesh:
 
 
 # ----------------------------------------------------------------------------
-# the placeholder mesher
+# patch meshers: a polygon (with its segments) -> patches
 # ----------------------------------------------------------------------------
-def _split_ring(ring, size):
-    """Points along a closed 2D ring (k, 2), every edge split into ceil(len/size) pieces."""
-    nxt = np.roll(ring, -1, axis=0)
-    lengths = np.linalg.norm(nxt - ring, axis=1)
-    counts = np.maximum(1, np.ceil(lengths / size - 1e-9).astype(np.int64))
-    edge = np.repeat(np.arange(len(ring)), counts)
-    start = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    t = (np.arange(counts.sum()) - np.repeat(start, counts)) / np.repeat(counts, counts)
-    return ring[edge] + t[:, None] * (nxt[edge] - ring[edge])
+def _graph_mesher(method, exterior, holes, size, segments, kinds, seed, kwargs, what):
+    from polygen.mesh2d import InvalidDomainError, mesh_planar_graph, planar_graph
+
+    if np.isscalar(size) and not size > 0:
+        raise MeshError(f"size must be > 0, got {size}")
+    try:
+        g = planar_graph(exterior, holes, segments, kinds)
+        gm = mesh_planar_graph(g, size, method=method, seed=seed, **kwargs)
+    except InvalidDomainError as exc:
+        raise MeshError(f"{what}: {exc}") from None
+    return gm.nodes, gm.triangles
 
 
-def lattice_delaunay_mesher(exterior, holes, size):
+def lattice_delaunay_mesher(exterior, holes, size, *, segments=None, kinds=None):
     """Triangulate a 2D polygon with holes into patches of about ``size``.
 
     The simplest mesher that handles concave polygons with holes
-    (requirement 2.1): boundary edges are split into pieces no longer than
-    ``size``, interior nodes are put on a triangular lattice of spacing
-    ``size`` (kept at least ``size/2`` from the boundary), and the nodes are
-    joined by a constrained Delaunay triangulation (pythoncdt).  A stand-in
-    for the bubble mesh of ``polygen.mesh2d``, which has the same signature.
+    (requirement 2.1): boundary edges (and constrained segments) are split
+    into pieces no longer than ``size``, interior nodes are put on a
+    triangular lattice of spacing ``size`` (kept at least ``size/2`` from
+    every edge), and the nodes are joined by a constrained Delaunay
+    triangulation (pythoncdt); see :func:`polygen.mesh2d.mesh_planar_graph`.
+    Holes may touch the outer ring or each other at a vertex.
 
     Parameters
     ----------
@@ -296,8 +391,12 @@ def lattice_delaunay_mesher(exterior, holes, size):
         Outer ring, not closed.
     holes : list of (k, 2) float64
         Hole rings.
-    size : float
-        Target edge length.
+    size : float or callable
+        Target edge length (a size field: a thinned lattice).
+    segments : (S, 2, 2) float64, keyword-only, optional
+        Constrained segments (patch edges follow them).
+    kinds : keyword-only
+        Their kinds (only the radiosity layer uses them).
 
     Returns
     -------
@@ -305,62 +404,22 @@ def lattice_delaunay_mesher(exterior, holes, size):
     triangles : (T, 3) int64
         Counter-clockwise.
     """
-    import pythoncdt
-    import shapely
-
-    if not size > 0:
-        raise MeshError(f"size must be > 0, got {size}")
-    rings = [np.asarray(exterior, dtype=np.float64)] + [np.asarray(h, dtype=np.float64)
-                                                        for h in holes]
-    boundary = [_split_ring(r, size) for r in rings]
-    edges = []
-    offset = 0
-    for b in boundary:
-        k = len(b)
-        idx = np.arange(k) + offset
-        edges.append(np.stack([idx, np.roll(idx, -1)], axis=1))
-        offset += k
-    bpts = np.vstack(boundary)
-    poly = shapely.Polygon(rings[0], rings[1:])
-    lo, hi = rings[0].min(axis=0), rings[0].max(axis=0)
-    dy = size * np.sqrt(3.0) / 2.0
-    ny = int(np.floor((hi[1] - lo[1]) / dy)) + 1
-    nx = int(np.floor((hi[0] - lo[0]) / size)) + 2
-    jj, ii = np.meshgrid(np.arange(ny), np.arange(nx), indexing="ij")
-    # centre the lattice in the bounding box so that symmetric shapes stay symmetric
-    x0 = lo[0] + 0.5 * ((hi[0] - lo[0]) - (nx - 1) * size)
-    y0 = lo[1] + 0.5 * ((hi[1] - lo[1]) - (ny - 1) * dy)
-    lx = (x0 + ii * size + 0.5 * size * (jj % 2)).ravel()
-    ly = (y0 + jj * dy).ravel()
-    inside = shapely.contains_xy(poly, lx, ly)
-    lx, ly = lx[inside], ly[inside]
-    if len(lx):
-        far = shapely.distance(poly.boundary, shapely.points(lx, ly)) > 0.5 * size
-        lx, ly = lx[far], ly[far]
-    pts = np.vstack([bpts, np.stack([lx, ly], axis=1)])
-    tri = pythoncdt.Triangulation(pythoncdt.VertexInsertionOrder.AS_PROVIDED,
-                                  pythoncdt.IntersectingConstraintEdges.NOT_ALLOWED, 0.0)
-    tri.insert_vertices(np.ascontiguousarray(pts))
-    tri.insert_edges(np.ascontiguousarray(np.vstack(edges).astype(np.uint32)))
-    tri.erase_outer_triangles_and_holes()
-    verts = tri.vertices_array()
-    points = np.stack([verts["x"], verts["y"]], axis=1)
-    triangles = tri.triangles_array()["vertices"].astype(np.int64)
-    a, b, c = (points[triangles[:, k]] for k in range(3))
-    signed = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    triangles[signed < 0] = triangles[signed < 0][:, [0, 2, 1]]
-    return points, triangles
+    return _graph_mesher("lattice", exterior, holes, size, segments, kinds, 0, {},
+                         "lattice Delaunay mesh")
 
 
-def bubble_mesher(exterior, holes, size, *, seed=0, **kwargs):
+def bubble_mesher(exterior, holes, size, *, seed=0, segments=None, kinds=None, **kwargs):
     """Triangulate a 2D polygon with holes into patches by the bubble mesh (2.3.3).
 
     Bubbles of diameter ``size`` on the polygon's vertices, then on its
-    edges, then inside, relaxed by the damped dynamics (2.13) with the cubic
-    inter-bubble force (2.12), and joined by constrained Delaunay; see
-    :func:`polygen.mesh2d.bubble_mesh`.  Same signature as
-    :func:`lattice_delaunay_mesher`, so it plugs into :func:`mesh_scene`
-    (use ``functools.partial`` to change ``seed`` or the relaxation).
+    edges (and constrained segments), then inside, relaxed by the damped
+    dynamics (2.13) with the cubic inter-bubble force (2.12), and joined by
+    constrained Delaunay; see :func:`polygen.mesh2d.mesh_planar_graph`.
+    Edge bubbles sit at the quantiles of ``integral ds / size`` (the 1-D
+    equilibrium), fixed, so that neighbouring polygons can share them.
+    Same signature as :func:`lattice_delaunay_mesher`, so it plugs into
+    :func:`mesh_scene` (use ``functools.partial`` to change ``seed`` or the
+    relaxation).
 
     Parameters
     ----------
@@ -372,30 +431,49 @@ def bubble_mesher(exterior, holes, size, *, seed=0, **kwargs):
         Target patch edge length, or a size field ``size(xy) -> (K,)``.
     seed : int, keyword-only
         Seed of the initial bubble placement.
+    segments, kinds : keyword-only, optional
+        Constrained segments, as for :func:`lattice_delaunay_mesher`.
     **kwargs
-        Passed on to :func:`polygen.mesh2d.bubble_mesh`.
+        Passed on to the relaxation (see :func:`polygen.mesh2d.bubble_mesh`).
 
     Returns
     -------
     points : (N, 2) float64
-        Vertex bubbles (the polygon's vertices), then edge, then face bubbles.
+        The polygon's vertices, then edge, then face bubbles.
     triangles : (T, 3) int64
         Counter-clockwise.
     """
-    from polygen.mesh2d import InvalidDomainError, bubble_mesh
-
-    if np.isscalar(size) and not size > 0:
-        raise MeshError(f"size must be > 0, got {size}")
-    try:
-        bm = bubble_mesh(np.asarray(exterior, dtype=np.float64),
-                         [np.asarray(h, dtype=np.float64) for h in holes], size, seed=seed,
-                         **kwargs)
-    except InvalidDomainError as exc:
-        raise MeshError(f"bubble mesh: {exc}") from None
-    return bm.nodes, bm.triangles
+    return _graph_mesher("bubble", exterior, holes, size, segments, kinds, seed, kwargs,
+                         "bubble mesh")
 
 
-def bubble_element_mesher(points, patches, element_size, *, seed=0, **kwargs):
+def _graph_method(mesher):
+    """("lattice" | "bubble", keyword arguments) for our meshers (or partials), else None."""
+    import functools
+
+    kw = {}
+    f = mesher
+    while isinstance(f, functools.partial):
+        if f.args:
+            return None
+        kw = {**f.keywords, **kw}
+        f = f.func
+    if f is lattice_delaunay_mesher:
+        return "lattice", {}
+    if f is bubble_mesher:
+        return "bubble", kw
+    return None
+
+
+def _is_bubble_element_mesher(em):
+    import functools
+
+    while isinstance(em, functools.partial):
+        em = em.func
+    return em is bubble_element_mesher
+
+
+def bubble_element_mesher(points, patches, element_size, *, seed=0, edge_nodes=None, **kwargs):
     """Split the patches of one polygon into elements by a finer bubble mesh.
 
     Every patch node is a fixed bubble, every patch edge carries edge
@@ -414,6 +492,9 @@ def bubble_element_mesher(points, patches, element_size, *, seed=0, **kwargs):
     element_size : float or callable
         Target element edge length (or a size field).
     seed : int, keyword-only
+    edge_nodes : dict {(i, j): (k, 2) float64}, optional
+        Preset element nodes inside patch edges (``mesh_scene`` passes the
+        nodes shared with a neighbouring polygon along a common 3-D edge).
     **kwargs
         Passed on to the relaxation.
 
@@ -430,7 +511,8 @@ def bubble_element_mesher(points, patches, element_size, *, seed=0, **kwargs):
 
     if np.isscalar(element_size) and not element_size > 0:
         raise MeshError(f"element_size must be > 0, got {element_size}")
-    pe = bubble_subdivide_patches(points, patches, element_size, seed=seed, **kwargs)
+    pe = bubble_subdivide_patches(points, patches, element_size, seed=seed, edge_nodes=edge_nodes,
+                                  **kwargs)
     return pe.nodes, pe.elements, pe.element_patch
 
 
@@ -477,16 +559,22 @@ def assemble_mesh(scene, pieces):
     This is the interface for external meshers (the bubble mesh of
     ``polygen.mesh2d``, the discontinuity meshes of chapter 3): mesh each
     polygon in its own (u, v) plane frame (``Polygon.exterior_2d`` /
-    ``Polygon.holes_2d``), then hand the pieces here.
+    ``Polygon.holes_2d``), then hand the pieces here.  A two-sided polygon
+    gets its back face here: the same patches and elements, reversed, on
+    copies of the nodes -- or, when its piece is a pair ``(front, back)``
+    of pieces (both in the (u, v) frame, e.g. refined differently), each
+    face its own.
 
     Parameters
     ----------
     scene : Scene
-    pieces : sequence, one per polygon, of (points, patches, elements, element_patch)
+    pieces : sequence, one per polygon, of (points, patches, elements, element_patch[, node_site])
         points : (N, 2) float64 in the polygon's plane frame;
         patches : (P, 3) int64 node indices of the patch triangles;
         elements : (M, 3) int64 node indices of the element triangles;
-        element_patch : (M,) int64 local patch index of each element.
+        element_patch : (M,) int64 local patch index of each element;
+        node_site : (N,) int64, optional: local node each node copies
+        (separate nodes on the two sides of a D0 line).
         Triangles are re-oriented counter-clockwise (front side) here.
 
     Returns
@@ -495,28 +583,58 @@ def assemble_mesh(scene, pieces):
     """
     if len(pieces) != len(scene.polygons):
         raise MeshError(f"need one piece per polygon ({len(scene.polygons)}), got {len(pieces)}")
-    nodes, elements, element_patch, patches, patch_polygon = [], [], [], [], []
+    nodes, elements, element_patch, patches, patch_polygon, sides, sites = [], [], [], [], [], [], []
     n_off = 0
     p_off = 0
     for k, (poly, piece) in enumerate(zip(scene.polygons, pieces)):
-        pts2, ptris, etris, epatch = piece
-        pts2 = np.asarray(pts2, dtype=np.float64)
-        if pts2.ndim != 2 or pts2.shape[1] != 2:
-            raise MeshError(f"polygon {k} ({poly.name}): points must be (N, 2), got {pts2.shape}")
-        ptris = _ccw(pts2, np.asarray(ptris, dtype=np.int64).reshape(-1, 3))
-        etris = _ccw(pts2, np.asarray(etris, dtype=np.int64).reshape(-1, 3))
-        epatch = np.asarray(epatch, dtype=np.int64)
-        if len(ptris) == 0 or len(etris) == 0:
-            raise MeshError(f"polygon {k} ({poly.name}): no patches or no elements")
-        nodes.append(poly.to_3d(pts2))
-        elements.append(etris + n_off)
-        patches.append(ptris + n_off)
-        element_patch.append(epatch + p_off)
-        patch_polygon.append(np.full(len(ptris), k, dtype=np.int64))
-        n_off += len(pts2)
-        p_off += len(ptris)
+        pair = len(piece) == 2 and all(isinstance(q, (tuple, list)) for q in piece)
+        if pair and not poly.two_sided:
+            raise MeshError(f"polygon {k} ({poly.name}): a (front, back) pair of pieces needs a "
+                            "two-sided polygon")
+        for face, pc in enumerate(piece if pair else (piece,)):
+            side = -1 if face else 1
+            mirror = poly.two_sided and not pair
+            n_off, p_off = _add_piece(k, poly, pc, side, mirror, n_off, p_off, nodes, elements,
+                                      element_patch, patches, patch_polygon, sides, sites)
     return RadiosityMesh(scene, np.vstack(nodes), np.vstack(elements), np.concatenate(element_patch),
-                         np.vstack(patches), np.concatenate(patch_polygon))
+                         np.vstack(patches), np.concatenate(patch_polygon),
+                         patch_side=np.concatenate(sides), node_site=np.concatenate(sites))
+
+
+def _add_piece(k, poly, piece, side, mirror, n_off, p_off, nodes, elements, element_patch,
+               patches, patch_polygon, sides, sites):
+    """Append one face of one polygon (two when ``mirror``) to the assembly lists."""
+    if len(piece) not in (4, 5):
+        raise MeshError(f"polygon {k} ({poly.name}): a piece is (points, patches, elements, "
+                        f"element_patch[, node_site]), got {len(piece)} items")
+    pts2, ptris, etris, epatch = piece[:4]
+    pts2 = np.asarray(pts2, dtype=np.float64)
+    if pts2.ndim != 2 or pts2.shape[1] != 2:
+        raise MeshError(f"polygon {k} ({poly.name}): points must be (N, 2), got {pts2.shape}")
+    site = (np.arange(len(pts2)) if len(piece) == 4 or piece[4] is None
+            else np.asarray(piece[4], dtype=np.int64))
+    if site.shape != (len(pts2),):
+        raise MeshError(f"polygon {k} ({poly.name}): node_site must be ({len(pts2)},)")
+    ptris = _ccw(pts2, np.asarray(ptris, dtype=np.int64).reshape(-1, 3))
+    etris = _ccw(pts2, np.asarray(etris, dtype=np.int64).reshape(-1, 3))
+    epatch = np.asarray(epatch, dtype=np.int64)
+    if len(ptris) == 0 or len(etris) == 0:
+        raise MeshError(f"polygon {k} ({poly.name}): no patches or no elements")
+    if side == 1:
+        faces = [(1, ptris, etris)] + ([(-1, ptris[:, ::-1], etris[:, ::-1])] if mirror else [])
+    else:
+        faces = [(-1, ptris[:, ::-1], etris[:, ::-1])]
+    for side, pt, et in faces:
+        nodes.append(poly.to_3d(pts2))
+        elements.append(et + n_off)
+        patches.append(pt + n_off)
+        element_patch.append(epatch + p_off)
+        patch_polygon.append(np.full(len(pt), k, dtype=np.int64))
+        sides.append(np.full(len(pt), side, dtype=np.int8))
+        sites.append(site + n_off)
+        n_off += len(pts2)
+        p_off += len(pt)
+    return n_off, p_off
 
 
 def _ccw(pts2, tris):
@@ -527,15 +645,96 @@ def _ccw(pts2, tris):
     return np.where((signed < 0)[:, None], tris[:, [0, 2, 1]], tris)
 
 
+def _per_polygon(value, n, what):
+    """One entry per polygon: a sequence of length n, or one value for all."""
+    from polygen.radiosity.layout import RegionSize
+
+    if isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 1):
+        if len(value) != n:
+            raise MeshError(f"{what}: need one entry per polygon ({n}), got {len(value)}")
+        return list(value)
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = float(value)
+    if np.isscalar(value) or callable(value) or isinstance(value, RegionSize):
+        return [value] * n
+    raise MeshError(f"{what}: expected a number, a size field, a RegionSize or one per polygon, "
+                    f"got {type(value).__name__}")
+
+
+def _check_size(spec, k, poly):
+    from polygen.radiosity.layout import RegionSize
+
+    if isinstance(spec, RegionSize) or callable(spec):
+        return spec
+    try:
+        v = float(spec)
+    except (TypeError, ValueError):
+        raise MeshError(f"patch_size for polygon {k} ({poly.name}): expected a number, a size "
+                        f"field or a RegionSize, got {type(spec).__name__}") from None
+    if not (np.isfinite(v) and v > 0):
+        raise MeshError(f"patch_size must be > 0, got {spec} (polygon {k}, {poly.name})")
+    return v
+
+
+def _segments_per_polygon(segments, scene):
+    from polygen.radiosity.layout import _as_segments
+
+    n = len(scene.polygons)
+    out = [None] * n
+    if segments is None:
+        return out
+    if isinstance(segments, dict):
+        names = {p.name: k for k, p in enumerate(scene.polygons)}
+        for key, spec in segments.items():
+            k = names.get(key, key) if isinstance(key, str) else key
+            if not isinstance(k, (int, np.integer)) or not 0 <= k < n:
+                raise MeshError(f"segments: no polygon {key!r} in the scene")
+            out[int(k)] = _as_segments(spec)
+        return out
+    segments = list(segments)
+    if len(segments) != n:
+        raise MeshError(f"segments: need a mapping or one entry per polygon ({n}), got {len(segments)}")
+    return [_as_segments(s) for s in segments]
+
+
+def _scaled(spec, factor):
+    if np.isscalar(spec):
+        return float(spec) * factor
+    from polygen.mesh2d import as_size_function
+
+    f = as_size_function(spec)
+
+    def g(xy):
+        return f(xy) * factor
+
+    g.constant = None if f.constant is None else f.constant * factor
+    return g
+
+
 def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_mesher,
-               element_mesher=None):
+               element_mesher=None, segments=None, conforming=True):
     """Mesh every polygon of a scene into patches and elements.
+
+    With the two meshers of this module (or ``functools.partial`` of them)
+    every polygon is meshed as a planar graph (:mod:`polygen.mesh2d.pslg`):
+    nodes on its vertices, then along its edges and constrained segments
+    with the smaller size of the two sides, then inside its regions (3.3.6).
+    Segments become patch edges, so no element crosses them; nodes on a
+    **D0** segment are duplicated, one copy per side (no interpolation
+    across), nodes on a **D1** segment shared.  With ``conforming``, edges
+    of different polygons that overlap in 3-D (a wall on the floor) get the
+    same vertices and the same nodes, spaced by the smaller of the two
+    polygons' sizes; nodes stay separate per polygon.
 
     Parameters
     ----------
     scene : Scene
-    patch_size : float or sequence of float
-        Target patch edge length, one for all polygons or one per polygon.
+    patch_size : number, callable, GridSize, RegionSize, or a sequence of them
+        Target patch edge length, one for all polygons or one per polygon: a
+        number, a size field ``size(xy) -> (K,)`` or
+        :class:`polygen.mesh2d.GridSize` in the polygon's (u, v) frame, or
+        a :class:`~polygen.radiosity.layout.RegionSize` (one size or field
+        per region of the polygon's segments).
     element_levels : int, keyword-only
         Element size is ``patch_size / 2**element_levels``: without an
         ``element_mesher`` each patch is split 1 -> 4 this many times
@@ -543,48 +742,187 @@ def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_m
         element size it is asked for (about ``4**element_levels`` elements
         per patch on average).
     mesher : callable, keyword-only
-        ``mesher(exterior (n, 2), holes [(k, 2)], size) -> (points (N, 2),
-        triangles (T, 3))`` in the polygon's (u, v) plane frame: the
-        patches.  The default is :func:`lattice_delaunay_mesher`; the bubble
-        mesh is :func:`bubble_mesher`.
+        :func:`lattice_delaunay_mesher` (default) or :func:`bubble_mesher`;
+        or any ``mesher(exterior (n, 2), holes [(k, 2)], size) -> (points
+        (N, 2), triangles (T, 3))`` in the polygon's (u, v) frame (no
+        segments, no conforming edges then).
     element_mesher : callable or None, keyword-only
         ``element_mesher(points (N, 2), patches (P, 3), element_size) ->
         (points (N', 2), elements (M, 3), element_patch (M,))`` with the
-        patch nodes first, e.g. :func:`bubble_element_mesher`.  None: regular
-        1 -> 4 splitting (:func:`split_triangles`).
+        patch nodes first, e.g. :func:`bubble_element_mesher` (which is
+        handed the element nodes shared with neighbouring polygons).  None:
+        regular 1 -> 4 splitting (:func:`split_triangles`).
+    segments : mapping or sequence, keyword-only, optional
+        Constrained segments per polygon: ``{polygon index or name:
+        Segments}`` or one entry (or None) per polygon; an entry may also be
+        ``(ends, kinds)``.  See :class:`~polygen.radiosity.layout.Segments`.
+    conforming : bool, keyword-only
+        Share vertices and boundary nodes along edges common to two polygons
+        (element nodes too with 1 -> 4 splitting or :func:`bubble_element_mesher`;
+        another element mesher is not told of them).  An edge lying inside
+        another polygon (a block on an uncut floor) is not an edge of that
+        polygon: hand it as a segment (:func:`~polygen.radiosity.contact_segments`).
 
     Returns
     -------
     RadiosityMesh
+
+    Raises
+    ------
+    SceneError
+        ``scene`` is not a Scene.
+    MeshError
+        Bad sizes or levels; a segment that is degenerate, outside its
+        polygon, off its plane or crossing another one without a common
+        vertex (the message names the polygon and the segment).
     """
+    from polygen.radiosity import layout as lay
+
     if not isinstance(scene, Scene):
         raise SceneError(f"scene must be a Scene, got {type(scene).__name__}")
-    sizes = np.broadcast_to(np.asarray(patch_size, dtype=np.float64), (len(scene.polygons),))
-    if np.any(~(sizes > 0)):
-        raise MeshError(f"patch_size must be > 0, got {patch_size}")
+    n = len(scene.polygons)
+    specs = [_check_size(s, k, p) for k, (s, p) in
+             enumerate(zip(_per_polygon(patch_size, n, "patch_size"), scene.polygons))]
     if int(element_levels) != element_levels or element_levels < 0:
         raise MeshError(f"element_levels must be a non-negative integer, got {element_levels}")
-    per = 4 ** int(element_levels)
+    levels = int(element_levels)
+    per = 4 ** levels
+    segs = _segments_per_polygon(segments, scene)
+    method = _graph_method(mesher)
+    if method is None:
+        if any(s is not None for s in segs) or any(isinstance(s, lay.RegionSize) for s in specs):
+            raise MeshError("segments and RegionSize need lattice_delaunay_mesher or bubble_mesher")
+        return _mesh_scene_custom(scene, specs, levels, per, mesher, element_mesher)
+    kind, mkw = method
+    seed = mkw.pop("seed", 0)
+
+    from polygen.mesh2d import InvalidDomainError, as_size_function, mesh_planar_graph
+
+    # segments in each polygon's frame
+    segs2d = []
+    for k, (poly, sg) in enumerate(zip(scene.polygons, segs)):
+        try:
+            segs2d.append(None if sg is None else sg.in_plane(poly))
+        except lay._Error as exc:
+            raise MeshError(f"polygon {k} ({poly.name!r}): {exc}") from None
+    extra = lay.shared_split_points(scene, segs2d) if conforming else [None] * n
+    layouts = []
+    for k, poly in enumerate(scene.polygons):
+        sg = None if segs2d[k] is None else lay.Segments(*segs2d[k])
+        try:
+            layouts.append(lay._layout(poly, sg, extra[k], lay.LAYOUT_TOL))
+        except (InvalidDomainError, lay._Error) as exc:
+            raise MeshError(f"polygon {k} ({poly.name!r}): {exc}") from None
+    fns = []
+    for k, (poly, g, spec) in enumerate(zip(scene.polygons, layouts, specs)):
+        try:
+            if not isinstance(spec, lay.RegionSize):
+                per_region = [spec] * g.n_regions
+            elif extra[k] is None:
+                per_region = spec.resolve(poly, g)
+            else:
+                # regions are numbered as polygon_layout(polygon, segments) numbers
+                # them, without the vertices added for the neighbouring polygons
+                ref = lay._layout(poly, None if segs2d[k] is None else lay.Segments(*segs2d[k]),
+                                  None, lay.LAYOUT_TOL)
+                sizes_ref = spec.resolve(poly, ref)
+                per_region = [sizes_ref[r] for r in ref.region_of(g.region_point)]
+            fns.append([as_size_function(_check_size(r, k, poly)) for r in per_region])
+        except (lay._Error, ValueError) as exc:
+            if isinstance(exc, MeshError):
+                raise
+            raise MeshError(f"polygon {k} ({poly.name!r}): {exc}") from None
+    rounding = "ceil" if kind == "lattice" else "round"
+    if conforming:
+        groups = lay.shared_edge_groups(scene, layouts)
+        presets, canon = lay.shared_edge_nodes(groups, layouts, fns, rounding=rounding)
+    else:
+        groups, presets, canon = [], [dict() for _ in layouts], []
+
+    meshes = []
+    for k, (poly, g) in enumerate(zip(scene.polygons, layouts)):
+        try:
+            gm = mesh_planar_graph(g, fns[k], method=kind, edge_nodes=presets[k], seed=seed, **mkw)
+        except (InvalidDomainError, ValueError) as exc:
+            raise MeshError(f"polygon {k} ({poly.name!r}): {exc}") from None
+        if len(gm.triangles) == 0:
+            raise MeshError(f"mesher returned no triangles for polygon {k} ({poly.name})")
+        meshes.append(gm)
+    efns = [[_scaled(f, 0.5 ** levels) for f in fk] for fk in fns]
+    eshared = [dict() for _ in layouts]
+    if element_mesher is not None and conforming and _is_bubble_element_mesher(element_mesher):
+        eshared = lay.shared_element_nodes(groups, canon, layouts, [m.chains for m in meshes],
+                                           [[as_size_function(f) for f in fk] for fk in efns])
+    pieces = []
+    for k, (poly, g, gm) in enumerate(zip(scene.polygons, layouts, meshes)):
+        pts2 = gm.nodes
+        tris = _ccw(pts2, gm.triangles)
+        if element_mesher is None:
+            epts, etris = split_triangles(pts2, tris, levels)
+            epatch = np.repeat(np.arange(len(tris)), per)
+        else:
+            esize = g.region_size_function(efns[k])
+            esize = esize.constant if getattr(esize, "constant", None) is not None else esize
+            kw = {"edge_nodes": eshared[k]} if eshared[k] else {}
+            epts, etris, epatch = _run_element_mesher(element_mesher, pts2, tris, esize, k, poly, kw)
+        site = None
+        cut = lay.d0_cut(g, epts)
+        if cut is not None:
+            epts, etris, site = lay.duplicate_across(epts, etris, cut)
+            tris = _patch_corners(tris, etris, epatch, site)
+        pieces.append((epts, tris, etris, epatch, site))
+    mesh = assemble_mesh(scene, pieces)
+    mesh.layouts = layouts
+    # a patch lies in one region (the segments are patch edges): locate its centroid
+    reg = np.empty(mesh.n_patches, np.int64)
+    for k, (poly, g) in enumerate(zip(scene.polygons, layouts)):
+        sel = np.flatnonzero(mesh.patch_polygon == k)
+        reg[sel] = g.region_of(poly.to_2d(mesh.nodes[mesh.patches[sel]].mean(axis=1)))
+    mesh.patch_region = reg
+    return mesh
+
+
+def _patch_corners(patches, elements, element_patch, site):
+    """Patch corners renamed to the node copy their own elements use (after D0 duplication)."""
+    ns = int(site.max()) + 1
+    key = (np.repeat(element_patch, 3) * ns + site[elements.ravel()]).astype(np.int64)
+    uk, first = np.unique(key, return_index=True)
+    want = (np.arange(len(patches))[:, None] * ns + patches).ravel()
+    pos = np.minimum(np.searchsorted(uk, want), len(uk) - 1)
+    hit = uk[pos] == want
+    out = patches.ravel().copy()
+    out[hit] = elements.ravel()[first[pos[hit]]]
+    return out.reshape(patches.shape)
+
+
+def _run_element_mesher(element_mesher, pts2, tris, esize, k, poly, kw):
+    epts, etris, epatch = element_mesher(pts2, tris, esize, **kw)
+    epts = np.asarray(epts, dtype=np.float64)
+    if len(epts) < len(pts2) or not np.array_equal(epts[:len(pts2)], pts2):
+        raise MeshError(f"element mesher must keep the patch nodes first "
+                        f"(polygon {k}, {poly.name})")
+    epatch = np.asarray(epatch, dtype=np.int64)
+    if len(epatch) != len(etris) or (len(epatch) and (epatch.min() < 0
+                                                     or epatch.max() >= len(tris))):
+        raise MeshError(f"element mesher returned a bad element -> patch map "
+                        f"(polygon {k}, {poly.name})")
+    return epts, etris, epatch
+
+
+def _mesh_scene_custom(scene, specs, levels, per, mesher, element_mesher):
     pieces = []
     for k, poly in enumerate(scene.polygons):
-        pts2, tris = mesher(poly.exterior_2d, poly.holes_2d, float(sizes[k]))
+        size = specs[k]
+        pts2, tris = mesher(poly.exterior_2d, poly.holes_2d, size)
         pts2 = np.asarray(pts2, dtype=np.float64)
         tris = _ccw(pts2, np.asarray(tris, dtype=np.int64).reshape(-1, 3))
         if len(tris) == 0:
             raise MeshError(f"mesher returned no triangles for polygon {k} ({poly.name})")
         if element_mesher is None:
-            epts, etris = split_triangles(pts2, tris, element_levels)
+            epts, etris = split_triangles(pts2, tris, levels)
             epatch = np.repeat(np.arange(len(tris)), per)
         else:
-            epts, etris, epatch = element_mesher(pts2, tris, float(sizes[k]) / 2 ** int(element_levels))
-            epts = np.asarray(epts, dtype=np.float64)
-            if len(epts) < len(pts2) or not np.array_equal(epts[:len(pts2)], pts2):
-                raise MeshError(f"element mesher must keep the patch nodes first "
-                                f"(polygon {k}, {poly.name})")
-            epatch = np.asarray(epatch, dtype=np.int64)
-            if len(epatch) != len(etris) or (len(epatch) and (epatch.min() < 0
-                                                             or epatch.max() >= len(tris))):
-                raise MeshError(f"element mesher returned a bad element -> patch map "
-                                f"(polygon {k}, {poly.name})")
+            epts, etris, epatch = _run_element_mesher(element_mesher, pts2, tris,
+                                                      _scaled(size, 0.5 ** levels), k, poly, {})
         pieces.append((epts, tris, etris, epatch))
     return assemble_mesh(scene, pieces)

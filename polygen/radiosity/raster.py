@@ -22,7 +22,8 @@ import numpy as np
 
 from polygen._jit import njit
 
-__all__ = ["RasterError", "Camera", "node_intensities", "render", "tone_map", "to_pyvista"]
+__all__ = ["RasterError", "Camera", "node_intensities", "render", "auto_exposure", "tone_map",
+           "to_pyvista"]
 
 
 class RasterError(ValueError):
@@ -295,28 +296,57 @@ def render(nodes, triangles, colors, camera, *, shading="gouraud", background=0.
     return (image, ids) if return_ids else image
 
 
-def tone_map(image, *, exposure=None, gamma=2.2):
+def auto_exposure(image, *, percentile=99.0):
+    """The exposure that maps the ``percentile`` of an image's finite values to 1.
+
+    Parameters
+    ----------
+    image : array_like of float64
+        Linear radiosity (an image, or node colours); NaN (background) ignored.
+    percentile : float, keyword-only
+
+    Returns
+    -------
+    float
+        1 for an image that is black everywhere.
+    """
+    img = np.asarray(image, dtype=np.float64)
+    img = img[np.isfinite(img)]
+    p = float(np.percentile(img, percentile)) if img.size else 0.0
+    return 1.0 / p if p > 0 else 1.0
+
+
+def tone_map(image, *, exposure=None, gamma="srgb"):
     """Map linear radiosity to displayable [0, 1] values.
 
     Parameters
     ----------
     image : (H, W, C) float64
     exposure : float, keyword-only
-        Multiplier; default maps the 99th percentile to 1.
-    gamma : float, keyword-only
+        Multiplier; default :func:`auto_exposure` (the 99th percentile to 1).
+    gamma : "srgb" or float, keyword-only
+        ``"srgb"``: the sRGB transfer function (IEC 61966-2-1: linear below
+        0.0031308, then ``1.055 x**(1/2.4) - 0.055``); a number: ``x**(1/gamma)``.
 
     Returns
     -------
     (H, W, C) float64 in [0, 1]
+        NaN (background) stays NaN.
     """
     img = np.asarray(image, dtype=np.float64)
     if exposure is None:
-        p = np.percentile(img, 99.0)
-        exposure = 1.0 / p if p > 0 else 1.0
-    return np.clip(img * exposure, 0.0, 1.0) ** (1.0 / gamma)
+        exposure = auto_exposure(img)
+    x = np.clip(img * exposure, 0.0, 1.0)
+    if isinstance(gamma, str):
+        if gamma != "srgb":
+            raise RasterError(f"gamma must be 'srgb' or a number, got {gamma!r}")
+        return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+    if not gamma > 0:
+        raise RasterError(f"gamma must be > 0, got {gamma}")
+    return x ** (1.0 / gamma)
 
 
-def to_pyvista(mesh, node_colors, *, name="radiosity"):
+def to_pyvista(mesh, node_colors, *, name="radiosity", exposure=None):
     """A pyvista PolyData of the elements with per-vertex colours.
 
     Parameters
@@ -324,13 +354,20 @@ def to_pyvista(mesh, node_colors, *, name="radiosity"):
     mesh : RadiosityMesh
     node_colors : (N, 3) float64
         Node intensities, e.g. from :func:`node_intensities`.
+    exposure : float, keyword-only
+        Exposure of the tone-mapped colours (default :func:`auto_exposure`
+        of the node colours); pass the exposure of a rendered image to
+        make both look alike.
 
     Returns
     -------
     pyvista.PolyData
         ``point_data[name]`` holds the colours, ``point_data["rgb"]`` the
-        tone-mapped uint8 colours (use ``scalars="rgb", rgb=True``), and
-        ``cell_data["patch"]`` the owning patch.
+        tone-mapped uint8 sRGB colours, and
+        ``cell_data["patch"]`` the owning patch.  Radiosity is the light
+        leaving a surface already: show it unlit, ``add_mesh(pd,
+        scalars="rgb", rgb=True, lighting=False)``, or VTK's lights darken
+        it a second time.
     """
     import pyvista as pv
 
@@ -341,6 +378,6 @@ def to_pyvista(mesh, node_colors, *, name="radiosity"):
     pd = pv.PolyData(mesh.nodes.copy(), faces)
     pd.point_data[name] = c
     if c.ndim == 2 and c.shape[1] == 3:
-        pd.point_data["rgb"] = (tone_map(c[None])[0] * 255.0 + 0.5).astype(np.uint8)
+        pd.point_data["rgb"] = (tone_map(c[None], exposure=exposure)[0] * 255.0 + 0.5).astype(np.uint8)
     pd.cell_data["patch"] = mesh.element_patch
     return pd

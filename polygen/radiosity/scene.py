@@ -1,10 +1,12 @@
 """Radiosity input scenes: planar polygons and light sources (thesis Def. 2.1).
 
 Definition 2.1 of the thesis: the input of the radiosity method is a set of
-polygons whose vertices lie in one plane; a polygon may have holes.  Every
-polygon here is one-sided: its front is the side from which the outer ring
+polygons whose vertices lie in one plane; a polygon may have holes.  A polygon
+is one-sided by default: its front is the side from which the outer ring
 is counter-clockwise (right-hand rule), and only the front emits and
-receives light.  A thin two-sided object is two polygons back to back.
+receives light.  A thin double-sided object (an occluder in chapter 3) is
+one polygon with ``two_sided=True``: the mesh then carries patches and
+elements on both faces, with opposite normals.
 
 Light sources (chapter 3 distinguishes them by the discontinuities they
 cast): an *area light* is a convex emitting polygon (D1 discontinuities);
@@ -31,12 +33,33 @@ class SceneError(ValueError):
 
 
 def _rgb(value, what, name, *, upper=None):
-    arr = np.broadcast_to(np.asarray(value, dtype=np.float64), (3,)).copy()
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SceneError(f"{name}: {what} must be a number or 3 RGB numbers, got {value!r}") from None
+    if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] not in (1, 3)):
+        raise SceneError(f"{name}: {what} must be a number or 3 RGB numbers, got shape {arr.shape}")
+    arr = np.broadcast_to(arr, (3,)).copy()
     if not np.all(np.isfinite(arr)) or np.any(arr < 0.0):
         raise SceneError(f"{name}: {what} must be finite and >= 0, got {arr.tolist()}")
     if upper is not None and np.any(arr > upper):
         raise SceneError(f"{name}: {what} must be <= {upper}, got {arr.tolist()}")
     return arr
+
+
+def _drop_repeats(ring, eps):
+    """A ring without consecutive vertices closer than ``eps`` (the closing one included)."""
+    keep = np.ones(len(ring), dtype=bool)
+    last = 0
+    for i in range(1, len(ring)):
+        if np.linalg.norm(ring[i] - ring[last]) <= eps:
+            keep[i] = False
+        else:
+            last = i
+    out = ring[keep]
+    while len(out) > 1 and np.linalg.norm(out[-1] - out[0]) <= eps:
+        out = out[:-1]
+    return out
 
 
 def _newell(ring):
@@ -66,6 +89,17 @@ class Polygon:
     plane_tol : float, keyword-only
         Largest allowed distance of a vertex from the fitted plane, relative
         to the polygon's diameter.
+    two_sided : bool, keyword-only
+        A thin double-sided surface: both faces receive (and emit) light,
+        and :func:`~polygen.radiosity.mesh.mesh_scene` meshes both, the
+        back face with normal ``-normal``.
+
+    Notes
+    -----
+    Consecutive vertices closer than ``1e-9 * diameter`` are merged (a
+    repeated vertex is dropped).  Holes may touch the outer ring or each
+    other at isolated vertices (shapely's validity rule); the meshers of
+    :mod:`polygen.radiosity.mesh` handle that.
 
     Raises
     ------
@@ -76,8 +110,9 @@ class Polygon:
     """
 
     def __init__(self, vertices, holes=(), *, reflectance=0.5, emission=0.0, name="polygon",
-                 plane_tol=1e-6):
+                 plane_tol=1e-6, two_sided=False):
         self.name = str(name)
+        self.two_sided = bool(two_sided)
         ext = np.array(vertices, dtype=np.float64)
         if ext.ndim != 2 or ext.shape[1] != 3 or ext.shape[0] < 3:
             raise SceneError(f"{self.name}: vertices must have shape (n>=3, 3), got {ext.shape}")
@@ -95,6 +130,14 @@ class Polygon:
             if np.allclose(h[0], h[-1]) and h.shape[0] > 3:
                 h = h[:-1]
             hole_list.append(h)
+        scale = float(np.ptp(np.vstack([ext] + hole_list), axis=0).max())
+        ext = _drop_repeats(ext, 1e-9 * scale)
+        if len(ext) < 3:
+            raise SceneError(f"{self.name}: fewer than 3 distinct vertices")
+        for k, h in enumerate(hole_list):
+            hole_list[k] = _drop_repeats(h, 1e-9 * scale)
+            if len(hole_list[k]) < 3:
+                raise SceneError(f"{self.name}: hole {k} has fewer than 3 distinct vertices")
         self.reflectance = _rgb(reflectance, "reflectance", self.name, upper=1.0)
         self.emission = _rgb(emission, "emission", self.name)
 
@@ -203,11 +246,36 @@ class Polygon:
         """The same polygon seen from the other side (back-to-back twin)."""
         return type(self)(self.vertices[::-1], [h[::-1] for h in self.holes],
                           reflectance=self.reflectance, emission=self.emission,
-                          name=name or self.name + "_back")
+                          name=name or self.name + "_back", two_sided=self.two_sided)
+
+    def convex_pieces(self):
+        """Split into convex polygons without holes (Hertel-Mehlhorn).
+
+        A constrained Delaunay triangulation of the polygon (holes included),
+        then every diagonal whose removal leaves both end vertices convex is
+        removed, greedily, longest first.  Hertel and Mehlhorn's bound: at
+        most four times the minimum number of convex pieces.
+
+        Returns
+        -------
+        list of Polygon
+            Convex, counter-clockwise seen from the same front, with this
+            polygon's reflectance, emission and ``two_sided``; named
+            ``name + "_convex<k>"``.  ``[self]`` when already convex.
+        """
+        if self.is_convex:
+            return [self]
+        from polygen.mesh2d.pslg import convex_partition
+
+        pieces = convex_partition(self.exterior_2d, self.holes_2d)
+        return [Polygon(self.to_3d(p), reflectance=self.reflectance, emission=self.emission,
+                        name=f"{self.name}_convex{k}", two_sided=self.two_sided)
+                for k, p in enumerate(pieces)]
 
     def __repr__(self):
+        two = ", two_sided=True" if self.two_sided else ""
         return (f"{type(self).__name__}(name={self.name!r}, n_vertices={len(self.exterior_2d)}, "
-                f"n_holes={len(self.holes_2d)}, area={self.area:.6g})")
+                f"n_holes={len(self.holes_2d)}, area={self.area:.6g}{two})")
 
 
 class AreaLight(Polygon):

@@ -1,31 +1,40 @@
-"""Source of notebooks/02_radiosity_and_meshing.ipynb (thesis chapter 2: Figs 2.2-2.8)."""
+# ---
+# jupyter:
+#   jupytext:
+#     notebook_metadata_filter: -jupytext.text_representation.jupytext_version
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#       format_version: '1.3'
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
 
-from nbbuild import write
+# %% [markdown]
+# # Chapter 2 — radiosity and two-dimensional meshing
+#
+# Radiosity (2.2) computes the light energy balance of a scene of diffuse polygons. Each
+# polygon is cut into **patches**, which shoot light, and each patch into **elements**, which
+# gather it (Defs 2.2–2.4); the radiosity of element *e* obeys (2.7)
+#
+#   B_e = E_e + ρ_e Σ_p F(e → p) B_p,
+#
+# with form factors F from the **hemicube** (2.2.1) or, here also, from Lambert's contour
+# formula with ray-cast visibility. **Progressive refinement** (2.2.2) shoots the patch with
+# the most unshot energy, one at a time, so a usable picture appears after a few shots.
+# Elements are displayed by **Gouraud shading** of node intensities (2.8–2.10), which needs a
+# mesh without **T-vertices** (Def. 2.5). The meshes come from constrained **Delaunay**
+# triangulation (2.3.2) of nodes placed by the **bubble mesh** (2.3.3), and can be refined
+# after a first solution by **adaptive subdivision** (Def. 2.6, Fig. 2.8).
+#
+# Chapter 2 reviews earlier work and prints no tables, so the numbers we print beside ours
+# are closed forms (Howell's catalogue of form factors, the furnace identity, a direct
+# linear solve). Everything below calls `polygen.radiosity` and `polygen.mesh2d`; the figures
+# come from `polygen.plot_radiosity`.
 
-cells = [
-    ("md", """
-# Chapter 2 — radiosity and two-dimensional meshing
-
-Radiosity (2.2) computes the light energy balance of a scene of diffuse polygons. Each
-polygon is cut into **patches**, which shoot light, and each patch into **elements**, which
-gather it (Defs 2.2–2.4); the radiosity of element *e* obeys (2.7)
-
-  B_e = E_e + ρ_e Σ_p F(e → p) B_p,
-
-with form factors F from the **hemicube** (2.2.1) or, here also, from Lambert's contour
-formula with ray-cast visibility. **Progressive refinement** (2.2.2) shoots the patch with
-the most unshot energy, one at a time, so a usable picture appears after a few shots.
-Elements are displayed by **Gouraud shading** of node intensities (2.8–2.10), which needs a
-mesh without **T-vertices** (Def. 2.5). The meshes come from constrained **Delaunay**
-triangulation (2.3.2) of nodes placed by the **bubble mesh** (2.3.3), and can be refined
-after a first solution by **adaptive subdivision** (Def. 2.6, Fig. 2.8).
-
-Chapter 2 reviews earlier work and prints no tables, so the numbers we print beside ours
-are closed forms (Howell's catalogue of form factors, the furnace identity, a direct
-linear solve). Everything below calls `polygen.radiosity` and `polygen.mesh2d`; the figures
-come from `polygen.plot_radiosity`.
-"""),
-    ("code", """
+# %%
 import os
 import time
 
@@ -45,8 +54,8 @@ from polygen.radiosity import (Camera, Polygon, adaptive_refine, bubble_element_
                                progressive_refinement, render, scenes, to_pyvista)
 
 pv = plotting.setup_notebook()
-"""),
-    ("code", """
+
+# %%
 CORNELL_PATCH = 80.0                  # mm: 662 bubble patches
 CORNELL_LEVELS = 2 if FULL else 1     # 16 (about 10.6k) or 4 (about 2.6k) elements per patch
 IMAGE = 256 if FULL else 160          # rendered image size in pixels
@@ -56,17 +65,17 @@ HOWELL = {  # closed forms (Howell, "A catalog of radiation heat transfer config
     "dA under a corner of a 1 x 2 rectangle at height 1 (B-3)": 0.16737501,
     "dA under a coaxial disk, r = h": 0.5,
 }
-"""),
-    ("md", """
-## Form factors (2.2.1): closed forms, the hemicube, and its errors
 
-Four configurations with known form factors. The analytic path integrates Lambert's
-contour formula (point to polygon, exact) over the emitter with Gauss points; the hemicube
-projects the receiver onto five z-buffers around a point and sums the **delta form
-factors** of the pixels it covers (area factors: the mean over hemicubes at Gauss points of
-the emitter). Resolution 100.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Form factors (2.2.1): closed forms, the hemicube, and its errors
+#
+# Four configurations with known form factors. The analytic path integrates Lambert's
+# contour formula (point to polygon, exact) over the emitter with Gauss points; the hemicube
+# projects the receiver onto five z-buffers around a point and sums the **delta form
+# factors** of the pixels it covers (area factors: the mean over hemicubes at Gauss points of
+# the emitter). Resolution 100.
+
+# %%
 floor = Polygon([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
 top = Polygon([[0, 0, 1], [0, 1, 1], [1, 1, 1], [1, 0, 1]])             # facing down
 wall = Polygon([[0, 0, 0], [0, 1, 0], [0, 1, 1], [0, 0, 1]])            # x = 0, facing +x
@@ -75,9 +84,7 @@ k = 512
 th = np.linspace(0.0, 2 * np.pi, k, endpoint=False)
 disk = np.c_[np.cos(th), np.sin(th), np.ones(k)]                        # inscribed 512-gon
 
-
-"""),
-    ("code", """
+# %%
 RES = 100
 analytic = [polygon_form_factor(floor, top, order=10), polygon_form_factor(floor, wall, order=32),
             point_polygon_form_factor([0, 0, 0], [0, 0, 1], [rect]),
@@ -96,17 +103,17 @@ disk_polygon = analytic[3]   # the inscribed 512-gon is below the disk's 0.5 by 
 for (name, ref), a, h in zip(HOWELL.items(), analytic, hemi):
     assert abs(a - ref) < (1e-6 if ref != 0.5 else 3e-5), name
     assert abs(h / (ref if ref != 0.5 else disk_polygon) - 1) < 0.01, name
-"""),
-    ("md", """
-The hemicube's error is a sampling error: it falls roughly as 1/res² with the resolution of
-its faces when the receiver's outline is generic (here a square centred above the
-hemicube, against the exact point factor). And because a hemicube stands at **one point**,
-a patch's factor is the factor of its centre: for facing unit squares 0.2395 instead of the
-area factor 0.1998 (the proximity error that makes patches near each other too bright).
-Middle: the delta form factors of the five faces, unfolded; right: what a hemicube on the
-Cornell floor sees (white: nothing, i.e. the open front of the box; yellow: the light).
-"""),
-    ("code", """
+
+# %% [markdown]
+# The hemicube's error is a sampling error: it falls roughly as 1/res² with the resolution of
+# its faces when the receiver's outline is generic (here a square centred above the
+# hemicube, against the exact point factor). And because a hemicube stands at **one point**,
+# a patch's factor is the factor of its centre: for facing unit squares 0.2395 instead of the
+# area factor 0.1998 (the proximity error that makes patches near each other too bright).
+# Middle: the delta form factors of the five faces, unfolded; right: what a hemicube on the
+# Cornell floor sees (white: nothing, i.e. the open front of the box; yellow: the light).
+
+# %%
 sq_nodes, sq_tris = top.triangle_fan()
 centre = np.array([0.5, 0.5, 0.0])
 exact_point = point_polygon_form_factor(centre, [0, 0, 1], [top.vertices])
@@ -131,23 +138,23 @@ _, items = hemicube_form_factors([400.0, 1e-3, 150.0], [0, 1, 0], coarse.nodes, 
 plot_radiosity.plot_hemicube(items, colors=colours, ax=axes[2],
                              title="item buffer on the Cornell floor")
 plt.show()
-"""),
-    ("code", """
+
+# %%
 print(f"point factor at the centre: exact {exact_point:.4f}, hemicube {f_centre:.4f}; "
       f"area factor {HOWELL['facing unit squares at distance 1 (C-11)']:.4f}")
 assert -2.3 < slope < -1.7
 assert abs(f_centre - 0.2395) < 1e-3 and abs(exact_point - 0.2395) < 1e-4
-"""),
-    ("md", """
-## Progressive refinement (2.2.2; the loop of Fig. 2.2) on the Cornell box
 
-The Cornell box (published geometry in mm, RGB reflectances) is meshed by the bubble mesh
-into patches, each split 1 → 4 into elements. Progressive refinement with hemicube form
-factors shoots the patch with the largest unshot energy; the images below are drawn by our
-Gouraud z-buffer after 1, 10 and 100 shots and at convergence (unshot < 1 % of the emitted
-energy), all with the same exposure. The first shot is the light: direct illumination only.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Progressive refinement (2.2.2; the loop of Fig. 2.2) on the Cornell box
+#
+# The Cornell box (published geometry in mm, RGB reflectances) is meshed by the bubble mesh
+# into patches, each split 1 → 4 into elements. Progressive refinement with hemicube form
+# factors shoots the patch with the largest unshot energy; the images below are drawn by our
+# Gouraud z-buffer after 1, 10 and 100 shots and at convergence (unshot < 1 % of the emitted
+# energy), all with the same exposure. The first shot is the light: direct illumination only.
+
+# %%
 cornell = scenes.cornell_box()
 t0 = time.perf_counter()
 cmesh = mesh_scene(cornell, CORNELL_PATCH, element_levels=CORNELL_LEVELS, mesher=bubble_mesher)
@@ -170,19 +177,19 @@ h = final.history
 assert final.converged and h[-1] <= 0.01
 assert np.all(np.diff(h) <= 1e-12)                      # unshot energy never grows
 assert np.all(np.diff([r.radiosity.sum() for r in runs]) > 0)   # pictures only brighten
-"""),
-    ("md", """
-## Energy: closed forms, a direct solve, and both solvers
 
-* **furnace**: a closed box whose walls all emit E = 1 and reflect ρ = 0.5 has B = E/(1 − ρ) = 2
-  everywhere;
-* **6 patches of a cube** (only the ceiling emitting): progressive refinement against
-  `numpy.linalg.solve` of (2.3) on the same form factors;
-* **Gauss–Seidel** (2.3) against progressive refinement on a room with two floating
-  rectangles;
-* **energy balance**: in a closed scene everything emitted is eventually absorbed.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Energy: closed forms, a direct solve, and both solvers
+#
+# * **furnace**: a closed box whose walls all emit E = 1 and reflect ρ = 0.5 has B = E/(1 − ρ) = 2
+#   everywhere;
+# * **6 patches of a cube** (only the ceiling emitting): progressive refinement against
+#   `numpy.linalg.solve` of (2.3) on the same form factors;
+# * **Gauss–Seidel** (2.3) against progressive refinement on a room with two floating
+#   rectangles;
+# * **energy balance**: in a closed scene everything emitted is eventually absorbed.
+
+# %%
 furnace = mesh_scene(scenes.furnace_box(), 0.4, mesher=bubble_mesher)
 rf = progressive_refinement(furnace, form_factors="analytic", tol=1e-7)
 cube = mesh_scene(scenes.unit_cube(), 10.0, element_levels=0)      # 12 triangles = patches
@@ -207,16 +214,16 @@ for name, want, got in rows:
     print(f"{name:40s} {want:9.4f} {got:12.3e}")
 assert rows[0][2] < 1e-3 and rows[1][2] < 1e-8 and rows[2][2] < 1e-4
 assert abs(rows[3][2] - 1) < 2e-4
-"""),
-    ("md", """
-## T-vertices (Def. 2.5, Fig. 2.3 (c)(d))
 
-Elements A and B share the node *b*, which lies on the edge *ac* of element C but is not one
-of C's nodes: a T-vertex. Gouraud shading interpolates along *ac* in C but through *b* in A
-and B, so intensity jumps across the edge whenever I_b differs from the mean of I_a and I_c
-(Fig. 2.3 (d)). Splitting C at *b* removes the T-vertex and the jump.
-"""),
-    ("code", """
+# %% [markdown]
+# ## T-vertices (Def. 2.5, Fig. 2.3 (c)(d))
+#
+# Elements A and B share the node *b*, which lies on the edge *ac* of element C but is not one
+# of C's nodes: a T-vertex. Gouraud shading interpolates along *ac* in C but through *b* in A
+# and B, so intensity jumps across the edge whenever I_b differs from the mean of I_a and I_c
+# (Fig. 2.3 (d)). Splitting C at *b* removes the T-vertex and the jump.
+
+# %%
 tv_nodes = np.array([[-1.0, -1.0, 0], [1.0, -1.0, 0], [1.0, 1.0, 0], [-1.0, 1.0, 0], [0.0, 0.0, 0]])
 a, c_, b = 0, 2, 4                       # the diagonal a-c carries b at its middle
 t_mesh = np.array([[0, 1, 4], [4, 1, 2], [0, 2, 3]])              # A, B | C (C owns a-c)
@@ -228,8 +235,8 @@ img_t = render(tv_nodes, t_mesh, inten, tcam, cull_back_faces=False)[..., 0]
 img_f = render(tv_nodes, fixed, inten, tcam, cull_back_faces=False)[..., 0]
 print("T-vertices:", find_t_vertices(tv_nodes[:, :2], t_mesh)[0], "->",
       find_t_vertices(tv_nodes[:, :2], fixed)[0])
-"""),
-    ("code", """
+
+# %%
 # intensity along a line across the diagonal, through b
 s = np.linspace(-0.5, 0.5, 201)
 line = np.c_[s, -s, np.zeros_like(s)]
@@ -250,15 +257,15 @@ print(f"largest step between neighbouring pixels: {jump_t:.3f} with the T-vertex
 assert list(find_t_vertices(tv_nodes[:, :2], t_mesh)[0]) == [b]
 assert is_t_vertex_free(tv_nodes[:, :2], fixed)
 assert jump_t > 0.5 and jump_f < 0.05   # I_b - I_a = 0.8 against a smooth ramp
-"""),
-    ("md", """
-## Flat shading against Gouraud shading (2.8–2.10)
 
-Flat shading paints each element with its own radiosity; Gouraud shading first averages the
-elements around each node (2.8) and interpolates those node intensities along the edges and
-then along each scanline (2.9, 2.10). The element edges disappear.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Flat shading against Gouraud shading (2.8–2.10)
+#
+# Flat shading paints each element with its own radiosity; Gouraud shading first averages the
+# elements around each node (2.8) and interpolates those node intensities along the edges and
+# then along each scanline (2.9, 2.10). The element edges disappear.
+
+# %%
 flat, ids = render(cmesh.nodes, cmesh.elements, final.radiosity, cam, shading="flat",
                    return_ids=True)
 gour = images[-1]
@@ -272,31 +279,31 @@ step = lambda img: np.abs(img[:, 1:] - img[:, :-1]).max(axis=2)[inner]   # noqa:
 print(f"{inner.sum()} pixel pairs across element edges inside a polygon: mean step "
       f"flat {step(flat).mean():.4f}, Gouraud {step(gour).mean():.4f}")
 assert step(gour).mean() < 0.5 * step(flat).mean()
-"""),
-    ("md", """
-## The bubble mesh (2.3.3; Figs 2.6, 2.7)
 
-Bubbles of diameter *d* are stable at the distance r₀ = ½(d_i + d_j) (2.11). The force is a
-cubic that repels below r₀ and attracts between r₀ and r₁ and is zero beyond (2.12). As
-printed, (2.12) asks f(r₀) = f′(r₀) = f″(r₀) = 0 and f(r₁) = 0, which no cubic other than 0
-satisfies; we use Shimada & Gossard's cubic f(w) = k₀(1.25 w³ − 2.375 w² + 1.125), w = r/r₀,
-with f(1) = f(1.5) = 0. Bubbles move by the damped dynamics m x″ + c x′ = f (2.13),
-first on the vertices (fixed), then on the edges, then inside.
-"""),
-    ("code", """
+# %% [markdown]
+# ## The bubble mesh (2.3.3; Figs 2.6, 2.7)
+#
+# Bubbles of diameter *d* are stable at the distance r₀ = ½(d_i + d_j) (2.11). The force is a
+# cubic that repels below r₀ and attracts between r₀ and r₁ and is zero beyond (2.12). As
+# printed, (2.12) asks f(r₀) = f′(r₀) = f″(r₀) = 0 and f(r₁) = 0, which no cubic other than 0
+# satisfies; we use Shimada & Gossard's cubic f(w) = k₀(1.25 w³ − 2.375 w² + 1.125), w = r/r₀,
+# with f(1) = f(1.5) = 0. Bubbles move by the damped dynamics m x″ + c x′ = f (2.13),
+# first on the vertices (fixed), then on the edges, then inside.
+
+# %%
 plot_radiosity.plot_force()
 plt.show()
 w = np.linspace(0, 1.5, 301)
 f = bubble_force(w)
 assert abs(bubble_force(1.0)) < 1e-12 and abs(bubble_force(1.5)) < 1e-12
 assert np.all(f[w < 1] > 0) and np.all(f[(w > 1) & (w < 1.5)] < 0) and bubble_force(2.0) == 0
-"""),
-    ("md", """
-Fig. 2.7: a polygon with a hole, bubbles first dropped at random (upper left), then relaxed
-(lower left); the Delaunay triangulations of their centres on the right. The thesis: *the
-upper right mesh has many skinny triangles, the lower right almost none.*
-"""),
-    ("code", """
+
+# %% [markdown]
+# Fig. 2.7: a polygon with a hole, bubbles first dropped at random (upper left), then relaxed
+# (lower left); the Delaunay triangulations of their centres on the right. The thesis: *the
+# upper right mesh has many skinny triangles, the lower right almost none.*
+
+# %%
 th = np.linspace(0, 2 * np.pi, 16, endpoint=False)
 outer = np.array([[0, 0], [4, 0], [4, 1.5], [2.5, 1.5], [2.5, 3], [0, 3]], dtype=float)
 hole = np.c_[1.2 + 0.5 * np.cos(th), 1.4 + 0.5 * np.sin(th)][::-1]
@@ -321,12 +328,12 @@ for name, q, ang in (("initial (random)", q_raw, ang_raw), ("bubble mesh", q_bm,
           f"min angle {ang.min():5.1f} deg  angle < 20 deg: {np.mean(ang < 20):6.1%}")
 assert q_bm.mean() >= 0.95 and ang_bm.min() >= 25.0
 assert np.mean(q_raw < 0.5) > 0.1 and np.mean(q_bm < 0.5) == 0.0
-"""),
-    ("md", """
-A size function grades the mesh (requirement 2.2): the bubble diameter is the size at its
-centre, so edges follow the field. Below, the size grows linearly from left to right.
-"""),
-    ("code", """
+
+# %% [markdown]
+# A size function grades the mesh (requirement 2.2): the bubble diameter is the size at its
+# centre, so edges follow the field. Below, the size grows linearly from left to right.
+
+# %%
 size_fn = lambda xy: 0.08 + 0.25 * xy[:, 0] / 4   # noqa: E731
 bg = bubble_mesh(outer, [hole], size_fn, seed=2)
 e = mesh_edges(bg.triangles)
@@ -339,17 +346,17 @@ plt.show()
 inside = np.mean((ratio >= 0.7) & (ratio <= 1.4))
 print(f"edge length / target size in [0.7, 1.4]: {inside:.1%} of {len(e)} edges; mean q {q_g.mean():.3f}")
 assert inside >= 0.9
-"""),
-    ("md", """
-### The bubble mesh as the radiosity mesher
 
-`mesh_scene(..., mesher=bubble_mesher)` meshes every polygon of a scene into bubble patches;
-elements come by regular 1 → 4 splitting, or by a finer bubble mesh inside each patch
-(`element_mesher=bubble_element_mesher`) that keeps every patch edge. Below, the Cornell
-floor and the quality of all elements, against the lattice-plus-Delaunay placeholder mesher
-at the same patch size.
-"""),
-    ("code", """
+# %% [markdown]
+# ### The bubble mesh as the radiosity mesher
+#
+# `mesh_scene(..., mesher=bubble_mesher)` meshes every polygon of a scene into bubble patches;
+# elements come by regular 1 → 4 splitting, or by a finer bubble mesh inside each patch
+# (`element_mesher=bubble_element_mesher`) that keeps every patch edge. Below, the Cornell
+# floor and the quality of all elements, against the lattice-plus-Delaunay placeholder mesher
+# at the same patch size.
+
+# %%
 meshes = {
     "lattice + split": mesh_scene(cornell, CORNELL_PATCH, element_levels=1),
     "bubble + split": mesh_scene(cornell, CORNELL_PATCH, element_levels=1, mesher=bubble_mesher),
@@ -359,7 +366,7 @@ meshes = {
 fig, axes = plt.subplots(1, 3, figsize=(15, 5))
 for ax, (name, m) in zip(axes, meshes.items()):
     plot_radiosity.plot_polygon_mesh(m, 0, ax=ax)
-    ax.set_title(f"{name} (the floor)\\nscene: {m.n_patches} patches, {m.n_elements} elements", fontsize=9)
+    ax.set_title(f"{name} (the floor)\nscene: {m.n_patches} patches, {m.n_elements} elements", fontsize=9)
 plt.show()
 qual = {name: m.element_quality() for name, m in meshes.items()}
 plot_radiosity.plot_quality_histograms({k: v[1] for k, v in qual.items()})
@@ -372,23 +379,23 @@ for name, (ang, q) in qual.items():
 assert qual["bubble + split"][1].mean() > qual["lattice + split"][1].mean()
 assert qual["bubble + bubble"][1].mean() > qual["lattice + split"][1].mean()
 assert qual["bubble + split"][0].min() >= qual["lattice + split"][0].min()
-"""),
-    ("md", """
-## Adaptive subdivision (Def. 2.6, Fig. 2.8)
 
-After a first solution on a coarse mesh, elements whose radiosity differs from a
-neighbour's by more than a threshold are split 1 → 4, and their neighbours are split too
-(1 → 4 or 1 → 2) so that no T-vertex appears; patches stay as they are, and the radiosity is
-solved again. The scene: a room with a 1 × 1 ceiling light and three floating squares of
-sides 0.4, 0.8 and 1.6 whose shadows fall on the floor. The first mesh has elements about
-1.0 across; a floor meshed 4 times finer is the reference. The thesis's caveats: the
-number of elements after subdivision is hard to predict from the threshold (it depends on
-every gradient in the scene, walls included), and a shadow smaller than the first elements
-is seen only where an element's centre falls into it (visibility is sampled at element
-centres), so the first solution gets it wrong and subdivision can only refine what the
-first solution saw.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Adaptive subdivision (Def. 2.6, Fig. 2.8)
+#
+# After a first solution on a coarse mesh, elements whose radiosity differs from a
+# neighbour's by more than a threshold are split 1 → 4, and their neighbours are split too
+# (1 → 4 or 1 → 2) so that no T-vertex appears; patches stay as they are, and the radiosity is
+# solved again. The scene: a room with a 1 × 1 ceiling light and three floating squares of
+# sides 0.4, 0.8 and 1.6 whose shadows fall on the floor. The first mesh has elements about
+# 1.0 across; a floor meshed 4 times finer is the reference. The thesis's caveats: the
+# number of elements after subdivision is hard to predict from the threshold (it depends on
+# every gradient in the scene, walls included), and a shadow smaller than the first elements
+# is seen only where an element's centre falls into it (visibility is sampled at element
+# centres), so the first solution gets it wrong and subdivision can only refine what the
+# first solution saw.
+
+# %%
 room3 = scenes.small_shadows_room()
 FLOOR = [p.name for p in room3.polygons].index("room_y0")
 ROUNDS = 3 if FULL else 2
@@ -406,8 +413,8 @@ mref = mesh_scene(room3, sizes_ref, element_levels=1, mesher=bubble_mesher)
 rref = progressive_refinement(mref, form_factors="analytic", tol=0.01)
 lum = lambda r: r.radiosity.mean(axis=1)   # noqa: E731
 vmax = lum(rref)[mref.element_polygon == FLOOR].max()
-"""),
-    ("code", """
+
+# %%
 fig, axes = plt.subplots(1, len(sol) + 1, figsize=(4.3 * (len(sol) + 1), 4.3))
 for k, (ax, (m, r)) in enumerate(zip(axes, sol)):
     plot_radiosity.plot_polygon_mesh(m, FLOOR, values=lum(r), ax=ax, vmin=0, vmax=vmax)
@@ -419,8 +426,8 @@ plt.show()
 print("elements in the scene per round:", counts, " reference:", mref.n_elements)
 assert all(len(m.t_vertices()) == 0 for m, _ in sol)      # Def. 2.6: subdivision without T-vertices
 assert all(b > a for a, b in zip(counts, counts[1:]))
-"""),
-    ("code", """
+
+# %%
 # darkest floor element under each square's shadow, relative to the unshadowed floor around
 shadow_depth = scenes.small_shadows_depth
 print(f"{'mesh':22s} {'0.4 square':>10s} {'0.8 square':>10s} {'1.6 square':>10s}   (1 = no shadow)")
@@ -434,17 +441,17 @@ first_depth = shadow_depth(*sol[0])
 # the large shadow is resolved by the first mesh already; the one smaller than an element is not
 assert abs(first_depth[2] - ref_depth[2]) < 0.1
 assert first_depth[0] > ref_depth[0] + 0.1
-"""),
-    ("md", """
-## The Cornell box
 
-The converged Cornell box through its open front (the published camera), rendered by our
-Gouraud z-buffer with the ambient term of Cohen et al. for the 1 % still unshot, and the same
-mesh with per-vertex colours in pyvista. The published left wall is not planar, so it is two
-triangular polygons; nodes are not shared between polygons, which leaves a faint seam along
-its diagonal.
-"""),
-    ("code", """
+# %% [markdown]
+# ## The Cornell box
+#
+# The converged Cornell box through its open front (the published camera), rendered by our
+# Gouraud z-buffer with the ambient term of Cohen et al. for the 1 % still unshot, and the same
+# mesh with per-vertex colours in pyvista. The published left wall is not planar, so it is two
+# triangular polygons; nodes are not shared between polygons, which leaves a faint seam along
+# its diagonal.
+
+# %%
 final_amb = progressive_refinement(cmesh, form_factors="hemicube", tol=0.01, ambient=True)
 big = Camera.cornell(width=2 * IMAGE, height=2 * IMAGE)
 node_rgb = node_intensities(cmesh, final_amb.display_radiosity(cmesh))
@@ -460,8 +467,3 @@ p = pv.Plotter(window_size=(500, 500))
 p.add_mesh(pd, scalars="rgb", rgb=True)
 p.camera_position = [(278.0, 273.0, -800.0), (278.0, 273.0, 280.0), (0.0, 1.0, 0.0)]
 p.show()
-"""),
-]
-
-if __name__ == "__main__":
-    write("notebooks/02_radiosity_and_meshing.ipynb", cells)

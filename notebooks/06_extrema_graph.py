@@ -1,27 +1,36 @@
-"""Source of notebooks/06_extrema_graph.ipynb (thesis chapter 6, Tables 6.1-6.5, Figs 6.2-6.15)."""
+# ---
+# jupyter:
+#   jupytext:
+#     notebook_metadata_filter: -jupytext.text_representation.jupytext_version
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#       format_version: '1.3'
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
 
-from nbbuild import write
+# %% [markdown]
+# # Chapter 6 — the extrema graph
+#
+# Itoh's first fast isosurface method. A **closed** isosurface encloses a local maximum or
+# minimum on each side (Thm 6.1), so a graph whose arcs join all the extrema crosses it
+# (Thm 6.2); an isosurface **with boundary** touches the volume's boundary. Preprocessing
+# therefore (Fig. 6.4):
+#
+# 1. finds the extrema with per-cell "not-maximum / not-minimum" marks (6.3.1, Fig. 6.5),
+# 2. joins them, nearest first, by arcs walked cell by cell through face neighbours — straight
+#    segments, or polylines where the straight segment would leave the volume (6.3.2), each
+#    arc keeping its cells and its value range [S_min, S_max],
+# 3. sorts the boundary cells by S_min and by S_max (6.3.3).
+#
+# A query tests the cells of the arcs whose range holds C and the boundary cells on the near
+# side of C, and grows the surface from every hit by propagation (6.3.4). Everything here is
+# `polygen.volume.extrema_graph`; the figures come from `polygen.plot_extrema`.
 
-cells = [
-    ("md", """
-# Chapter 6 — the extrema graph
-
-Itoh's first fast isosurface method. A **closed** isosurface encloses a local maximum or
-minimum on each side (Thm 6.1), so a graph whose arcs join all the extrema crosses it
-(Thm 6.2); an isosurface **with boundary** touches the volume's boundary. Preprocessing
-therefore (Fig. 6.4):
-
-1. finds the extrema with per-cell "not-maximum / not-minimum" marks (6.3.1, Fig. 6.5),
-2. joins them, nearest first, by arcs walked cell by cell through face neighbours — straight
-   segments, or polylines where the straight segment would leave the volume (6.3.2), each
-   arc keeping its cells and its value range [S_min, S_max],
-3. sorts the boundary cells by S_min and by S_max (6.3.3).
-
-A query tests the cells of the arcs whose range holds C and the boundary cells on the near
-side of C, and grows the surface from every hit by propagation (6.3.4). Everything here is
-`polygen.volume.extrema_graph`; the figures come from `polygen.plot_extrema`.
-"""),
-    ("code", """
+# %%
 import os
 import time
 
@@ -36,8 +45,8 @@ from polygen.volume.extrema_graph import build_extrema_graph, extrema_graph_2d, 
 from polygen.volume.isosurface import extract
 
 pv = plotting.setup_notebook()
-"""),
-    ("code", """
+
+# %%
 TABLE_DATA = ["data1", "data2", "data3", "data4"]   # Tables 6.1-6.5: fits in the default run
 NOISE = [0.003, 0.004, 0.005, 0.006, 0.008, 0.01, 0.012] if FULL else [0.004, 0.006]
 THESIS = {  # Tables 6.1-6.5, data 1-4 (IBM RS/6000 model 560)
@@ -52,16 +61,16 @@ THESIS = {  # Tables 6.1-6.5, data 1-4 (IBM RS/6000 model 560)
     "T_mt": [1.471, 1.748, 4.495, 8.331], "T_mv": [0.567, 0.693, 1.690, 3.114],
     "N_cg": [3063, 4774, 15659, 14196], "N_ci": [51357, 62377, 148836, 277457],
 }
-"""),
-    ("md", """
-## Fig. 6.2 — the idea in two dimensions
 
-A field on a triangulated square: its contours, its maxima (▲) and minima (▼), found with the
-same marks as in 3D (Fig. 6.5 works for any cell), and the graph that joins every extremum
-to the nearest one of another component (Fig. 6.6). The thick contours are closed curves:
-each has an extremum inside and outside, so some arc crosses it.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Fig. 6.2 — the idea in two dimensions
+#
+# A field on a triangulated square: its contours, its maxima (▲) and minima (▼), found with the
+# same marks as in 3D (Fig. 6.5 works for any cell), and the graph that joins every extremum
+# to the nearest one of another component (Fig. 6.6). The thick contours are closed curves:
+# each has an extremum inside and outside, so some arc crosses it.
+
+# %%
 rng = np.random.default_rng(6)
 pts2 = np.vstack([rng.random((900, 2)), [[0, 0], [1, 0], [0, 1], [1, 1]]])
 tri2 = Delaunay(pts2).simplices.astype(np.int64)
@@ -70,26 +79,26 @@ f2 = (np.exp(-((pts2 - [0.3, 0.35]) ** 2).sum(1) / 0.02) - 0.8 * np.exp(-((pts2 
 ext2, arcs2 = extrema_graph_2d(pts2, tri2, f2)
 closed = [0.75, -0.35]
 plot_extrema.plot_2d_graph(pts2, tri2, f2, ext2, arcs2, highlight=closed);
-"""),
-    ("code", """
+
+# %%
 # the graph spans all extrema, and each thick closed contour separates the two ends of some arc
 print(f"{ext2.n} extrema ({len(ext2.maxima)} maxima, {len(ext2.minima)} minima), {len(arcs2)} arcs")
 assert len(arcs2) == ext2.n - 1
 for c in closed:
     ends = f2[arcs2]
     assert np.any((ends.min(axis=1) < c) & (ends.max(axis=1) >= c)), c
-"""),
-    ("md", """
-## Fig. 6.5 — extrema by marks
 
-Every cell marks all its nodes but the largest "not-maximum" and all but the smallest
-"not-minimum"; ties at a cell's extreme get a "plural" mark. Unmarked nodes are extrema;
-a node with a plural mark stands for its flat group of tied nodes, which is then cleared, so
-each flat group (e.g. a Dirichlet patch held at one temperature) gives one extremum.
-Def. 6.3 compares a node with all nodes of its cells, so in hexahedra the face and body
-diagonals count too; `datasets.node_extrema` (strict, over edges) is printed beside.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Fig. 6.5 — extrema by marks
+#
+# Every cell marks all its nodes but the largest "not-maximum" and all but the smallest
+# "not-minimum"; ties at a cell's extreme get a "plural" mark. Unmarked nodes are extrema;
+# a node with a plural mark stands for its flat group of tied nodes, which is then cleared, so
+# each flat group (e.g. a Dirichlet patch held at one temperature) gives one extremum.
+# Def. 6.3 compares a node with all nodes of its cells, so in hexahedra the face and body
+# diagonals count too; `datasets.node_extrema` (strict, over edges) is printed beside.
+
+# %%
 rows = []
 for name in ["data1", "hexa1"] + TABLE_DATA[1:]:
     vol = datasets.load(name)
@@ -102,28 +111,28 @@ for name in ["data1", "hexa1"] + TABLE_DATA[1:]:
     if vol.cell_type == "tetra":  # cell-mates are edge neighbours: every strict extremum is one of ours
         assert np.isin(strict_max, ext.maxima).all() and np.isin(strict_min, ext.minima).all()
 print(plotting.table(rows, list(rows[0])))
-"""),
-    ("md", """
-## Figs 6.12 and 6.13 — extrema graphs
 
-Purple: the extrema; lines: the arcs through the centroids of their cells, coloured by value.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Figs 6.12 and 6.13 — extrema graphs
+#
+# Purple: the extrema; lines: the arcs through the centroids of their cells, coloured by value.
+
+# %%
 vol1 = datasets.load("data1")
 g1 = build_extrema_graph(vol1)
 plot_extrema.plot_graph(vol1, g1, title=f"data 1: {g1.stats['extrema']} extrema, {g1.n_arcs} arcs").show()
-"""),
-    ("code", """
+
+# %%
 volh = datasets.load("hexa1")
 gh = build_extrema_graph(volh)
 plot_extrema.plot_graph(volh, gh, title=f"hexahedral data 1: {gh.stats['extrema']} extrema", show_cells=True).show()
-"""),
-    ("md", """
-## Figs 6.14 and 6.15 — isosurfaces generated from the graph
 
-Five isosurfaces each, coloured by value, over the graph that found them.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Figs 6.14 and 6.15 — isosurfaces generated from the graph
+#
+# Five isosurfaces each, coloured by value, over the graph that found them.
+
+# %%
 m1 = methods.get("extrema-graph")(vol1)
 s1 = vol1.scalars()
 isos = [m1.extract(v) for v in np.linspace(s1.min(), s1.max(), 7)[1:-1]]
@@ -132,22 +141,22 @@ for iso in isos:  # the same triangles as testing every cell
     ref = extract(vol1, iso.value)
     assert np.array_equal(np.unique(np.sort(iso.vertex_keys[iso.triangles], 1), axis=0),
                           np.unique(np.sort(ref.vertex_keys[ref.triangles], 1), axis=0))
-"""),
-    ("code", """
+
+# %%
 mh = methods.get("extrema-graph")(volh)
 sh = volh.scalars()
 isos_h = [mh.extract(v) for v in np.linspace(sh.min(), sh.max(), 7)[1:-1]]
 plot_extrema.plot_graph_isosurface(volh, mh.graph, isos_h).show()
-"""),
-    ("md", """
-## Fig. 6.11 — seeds on arcs and on the boundary
 
-A closed isosurface is found on an arc (red); a surface that ends on the boundary and
-misses every arc — here one cut by a through-hole of the ring-shaped volume — is found in the
-boundary lists (blue). (Chapter 7 starts from this: a graph that keeps the genus needs no
-boundary lists.)
-"""),
-    ("code", """
+# %% [markdown]
+# ## Fig. 6.11 — seeds on arcs and on the boundary
+#
+# A closed isosurface is found on an arc (red); a surface that ends on the boundary and
+# misses every arc — here one cut by a through-hole of the ring-shaped volume — is found in the
+# boundary lists (blue). (Chapter 7 starts from this: a graph that keeps the genus needs no
+# boundary lists.)
+
+# %%
 ring = datasets.load("torus")
 mr = methods.get("extrema-graph")(ring, "linear")
 iso_r = mr.extract(1.5)
@@ -156,22 +165,22 @@ plot_extrema.plot_seeds(ring, mr.graph, iso_r, seeds_r).show()
 print(f"{seeds_r.n_from_arcs} seeds on arcs, {len(seeds_r.cells) - seeds_r.n_from_arcs} from the boundary lists; "
       f"{iso_r.connected_components()[1]} surface parts")
 assert seeds_r.n_from_arcs >= 1 and len(seeds_r.cells) > seeds_r.n_from_arcs
-"""),
-    ("code", """
+
+# %%
 # the same on data 1: which seeds each of twenty surfaces came from
 v1 = float(np.quantile(s1, 0.8))
 iso1 = m1.extract(v1)
 plot_extrema.plot_seeds(vol1, m1.graph, iso1, m1.stats["seeds"]).show()
-"""),
-    ("md", """
-## Tables 6.1–6.5 — data 1–4
 
-Twenty isovalues `linspace(min, max, 22)[1:-1]` of the FEM field, one run, with the thesis's
-numbers beside ours. Timings come from this (shared) machine and only their ratios mean
-anything; the counts are machine-independent. Every method's isosurfaces are checked against
-the full scan's.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Tables 6.1–6.5 — data 1–4
+#
+# Twenty isovalues `linspace(min, max, 22)[1:-1]` of the FEM field, one run, with the thesis's
+# numbers beside ours. Timings come from this (shared) machine and only their ratios mean
+# anything; the counts are machine-independent. Every method's isosurfaces are checked against
+# the full scan's.
+
+# %%
 rows = []
 for name in TABLE_DATA:
     vol = datasets.load(name)
@@ -196,8 +205,8 @@ for name in TABLE_DATA:
                 **{k: sum(x[k] for x in sw.stats) for k in ("T_mg", "T_mb", "T_mt", "T_mv", "N_ci")}})
     rows.append(row)
     print(name, "done")
-"""),
-    ("code", """
+
+# %%
 print("Table 6.1 - the data (thesis in parentheses)")
 print(plotting.table([{"data": r["data"], **{k: f"{r[k]} ({THESIS[k][i]})" for k in ["N_e", "N_b", "N_n"]}}
                       for i, r in enumerate(rows)], ["data", "N_e", "N_b", "N_n"]))
@@ -205,8 +214,8 @@ print()
 print("Table 6.2 - preprocessing, s (thesis in parentheses)")
 print(plotting.table([{"data": r["data"], **{k: f"{r[k]:.4f} ({THESIS[k][i]})" for k in ["T_sort", "T_filt", "T_egra"]}}
                       for i, r in enumerate(rows)], ["data", "T_sort", "T_filt", "T_egra"]))
-"""),
-    ("code", """
+
+# %%
 print("Table 6.3 - extrema graph preprocessing (thesis in parentheses)")
 cols = ["T_pe", "T_pc", "T_pb", "extrema", "N_g", "N_pa"]
 print(plotting.table([{"data": r["data"], "N_b": r["N_b"], "search arcs": r["search arcs"],
@@ -214,8 +223,8 @@ print(plotting.table([{"data": r["data"], "N_b": r["N_b"], "search arcs": r["sea
                       for i, r in enumerate(rows)], ["data"] + cols + ["search arcs", "N_b"]))
 for r in rows:
     assert r["N_g"] * 5 < r["N_b"], r          # graph cells far below boundary cells (6.5)
-"""),
-    ("code", """
+
+# %%
 print("Table 6.4 - twenty isosurfaces, s (thesis in parentheses)")
 cols = ["Q_all", "Q_sort", "Q_filt", "Q_egra"]
 print(plotting.table([{"data": r["data"], **{k: f"{r[k]:.4f} ({THESIS[k][i]})" for k in cols}}
@@ -237,71 +246,71 @@ cols = ["T_mg", "T_mb", "T_mt", "T_mv", "N_cg", "N_ci"]
 print(plotting.table([{"data": r["data"], "N_cg arcs": r["N_cg arcs"], "sorted lists tested": r["tested_sort"],
                        **{k: (f"{r[k]:.4f}" if k[0] == "T" else str(r[k])) + f" ({THESIS[k][i]})" for k in cols}}
                       for i, r in enumerate(rows)], ["data"] + cols + ["N_cg arcs", "sorted lists tested"]))
-"""),
-    ("md", """
-**What holds and what does not.** The cells tested *on the arcs* are a small fraction of the
-cells intersected, as the thesis reports. The boundary lists are another matter on our
-volumes. As 6.3.4 prescribes (and as the method does by default), the boundary cells are
-tested only after the propagation from the arc hits, and only those it has not reached;
-still, for a value in the middle of the range the near side of a sorted list holds many
-boundary cells whose range lies wholly below (or above) C, and those are tested too. Our
-parts have about three times the thesis's boundary cells (Table 6.1) and their boundary
-values span the whole range (heat sources next to the surface), so the boundary tests
-dominate N_cg and bring it to between a third (data 4) and nine tenths (data 2) of N_ci (the
-thesis: a twentieth to a tenth).
-It is still far below what sorted lists over all cells test, and the section after Table 6.5
-shows that almost all of those boundary tests can go.
 
-**Table 6.4 on this machine.** Finding the intersected cells (t1) is several times faster
-with the extrema graph than with sorted lists or span filtering on data 3–4, as in the
-thesis. The totals are another matter: the cost of a cell test against that of building an
-intersected cell's triangles (the table above) has moved by a factor of about thirty since
-1995. On the RS/6000 a test cost at least a third of a cell's construction, so the search
-was most of the time and the method that tests the fewest cells won; here a test is about a
-hundredth of a construction, the propagation (T_mt), which the three search methods share,
-is nearly all of it, and it runs faster from every intersected cell in cell order (sorted
-lists, span filtering) than breadth-first from the graph's few seeds, which touches memory
-less orderly. The full scan, which classifies the cells in parallel and numbers vertices
-without a hash table, is fastest in total. So the ordering of Table 6.4 is not reproduced
-with the thesis's construction; that of the seed search is. `benchmarks/results/extrema_graph.md`
-also builds the triangles by the 2001 paper's construction, whose cost depends little on the
-order of the cells (notebook 08): then the extrema graph is ahead of sorted lists and span
-filtering by about a tenth on data 3–4, well ahead of the full scan on one core (as the
-thesis's machine ran it), and level with the full scan spread over two cores.
-"""),
-    ("code", """
+# %% [markdown]
+# **What holds and what does not.** The cells tested *on the arcs* are a small fraction of the
+# cells intersected, as the thesis reports. The boundary lists are another matter on our
+# volumes. As 6.3.4 prescribes (and as the method does by default), the boundary cells are
+# tested only after the propagation from the arc hits, and only those it has not reached;
+# still, for a value in the middle of the range the near side of a sorted list holds many
+# boundary cells whose range lies wholly below (or above) C, and those are tested too. Our
+# parts have about three times the thesis's boundary cells (Table 6.1) and their boundary
+# values span the whole range (heat sources next to the surface), so the boundary tests
+# dominate N_cg and bring it to between a third (data 4) and nine tenths (data 2) of N_ci (the
+# thesis: a twentieth to a tenth).
+# It is still far below what sorted lists over all cells test, and the section after Table 6.5
+# shows that almost all of those boundary tests can go.
+#
+# **Table 6.4 on this machine.** Finding the intersected cells (t1) is several times faster
+# with the extrema graph than with sorted lists or span filtering on data 3–4, as in the
+# thesis. The totals are another matter: the cost of a cell test against that of building an
+# intersected cell's triangles (the table above) has moved by a factor of about thirty since
+# 1995. On the RS/6000 a test cost at least a third of a cell's construction, so the search
+# was most of the time and the method that tests the fewest cells won; here a test is about a
+# hundredth of a construction, the propagation (T_mt), which the three search methods share,
+# is nearly all of it, and it runs faster from every intersected cell in cell order (sorted
+# lists, span filtering) than breadth-first from the graph's few seeds, which touches memory
+# less orderly. The full scan, which classifies the cells in parallel and numbers vertices
+# without a hash table, is fastest in total. So the ordering of Table 6.4 is not reproduced
+# with the thesis's construction; that of the seed search is. `benchmarks/results/extrema_graph.md`
+# also builds the triangles by the 2001 paper's construction, whose cost depends little on the
+# order of the cells (notebook 08): then the extrema graph is ahead of sorted lists and span
+# filtering by about a tenth on data 3–4, well ahead of the full scan on one core (as the
+# thesis's machine ran it), and level with the full scan spread over two cores.
+
+# %%
 for r in rows:
     assert r["N_cg arcs"] * 5 < r["N_ci"], r           # seed search on the arcs: far below the cells intersected
     assert r["N_cg"] * 3 < r["tested_sort"], r          # the whole seed search: far below sorted lists'
     assert r["N_cg"] * 10 < 20 * r["N_e"], r            # ... and below a tenth of the full scan's
-"""),
-    ("md", """
-## Beyond the thesis — boundary loops instead of boundary lists
 
-Which isosurfaces does the boundary list really catch? One that reaches the boundary and
-*separates* the volume has, like a closed one, an extremum on each side (the proof of
-Thm 6.1 only uses that the surface cuts the volume in two), so the arcs cross it already.
-Only a surface that does **not** separate the volume — a disk across a ring, possible only
-with through-holes (Fig. 7.1) — needs the boundary. Such a surface meets some closed curve
-of the volume exactly once, and since the volume sits in space, every closed curve is, up to
-homology, a sum of curves on its boundary (Mayer–Vietoris). So 2g edge loops on a boundary
-surface of genus g that generate its homology (tree-cotree: a spanning tree of the boundary's
-nodes, a spanning forest of its faces across the other edges, one loop per edge left over)
-meet every such surface, at an edge whose nodes lie on either side of C: the cells along the
-loops can replace the whole boundary list. `extrema-graph-loops` does that (same arcs, same
-order of the query); its surfaces were checked against the full scan's above. Chapter 7
-reaches the same goal another way, with a skeleton that keeps the genus. Data 1 (genus 2:
-four loops) and the seeds of the surface of Fig. 6.11 found on its arcs (red) and loops (blue):
-"""),
-    ("code", """
+# %% [markdown]
+# ## Beyond the thesis — boundary loops instead of boundary lists
+#
+# Which isosurfaces does the boundary list really catch? One that reaches the boundary and
+# *separates* the volume has, like a closed one, an extremum on each side (the proof of
+# Thm 6.1 only uses that the surface cuts the volume in two), so the arcs cross it already.
+# Only a surface that does **not** separate the volume — a disk across a ring, possible only
+# with through-holes (Fig. 7.1) — needs the boundary. Such a surface meets some closed curve
+# of the volume exactly once, and since the volume sits in space, every closed curve is, up to
+# homology, a sum of curves on its boundary (Mayer–Vietoris). So 2g edge loops on a boundary
+# surface of genus g that generate its homology (tree-cotree: a spanning tree of the boundary's
+# nodes, a spanning forest of its faces across the other edges, one loop per edge left over)
+# meet every such surface, at an edge whose nodes lie on either side of C: the cells along the
+# loops can replace the whole boundary list. `extrema-graph-loops` does that (same arcs, same
+# order of the query); its surfaces were checked against the full scan's above. Chapter 7
+# reaches the same goal another way, with a skeleton that keeps the genus. Data 1 (genus 2:
+# four loops) and the seeds of the surface of Fig. 6.11 found on its arcs (red) and loops (blue):
+
+# %%
 m1_loops = methods.get("extrema-graph-loops")(vol1)
 plot_extrema.plot_loops(vol1, m1_loops.graph.loops).show()
 iso1_loops = m1_loops.extract(v1)
 plot_extrema.plot_seeds(vol1, m1_loops.graph, iso1_loops, m1_loops.stats["seeds"]).show()
 assert m1_loops.graph.loops.n_loops == 2 * vol1.n_through_holes
 assert np.array_equal(np.sort(iso1_loops.triangle_cells), np.sort(iso1.triangle_cells))
-"""),
-    ("code", """
+
+# %%
 print("Seed tests (Table 6.5's N_cg) with boundary lists (the thesis) and with boundary loops (ours)")
 print(plotting.table([{"data": r["data"], "N_b": r["N_b"], "loops": r["loops"], "loop cells": r["loop cells"],
                        "N_cg lists": r["N_cg"], "N_cg loops": r["tested_loops"], "N_ci": r["N_ci"],
@@ -314,16 +323,16 @@ for r in rows:
     assert r["loop cells"] * 10 < r["N_b"], r            # a few loops stand for the whole boundary
     assert r["tested_loops"] * 5 < r["N_ci"], r          # Table 6.5: cells tested far below cells intersected
     assert r["tested_loops"] * 2 < r["N_cg"], r          # ... which the lists on our parts are not
-"""),
-    ("md", """
-## 6.4 — preprocessing grows like O(m² log m) in the number of extrema
 
-Each extremum sorts the others by distance, so the graph costs O(m² log m): negligible for
-tens of extrema, dominant for thousands (Table 7.1 names data 5, with 5986 extrema, as the
-extrema graph's weak point). Data 5's mesh with its FEM field and with a smooth field plus
-seeded noise of growing amplitude:
-"""),
-    ("code", """
+# %% [markdown]
+# ## 6.4 — preprocessing grows like O(m² log m) in the number of extrema
+#
+# Each extremum sorts the others by distance, so the graph costs O(m² log m): negligible for
+# tens of extrema, dominant for thousands (Table 7.1 names data 5, with 5986 extrema, as the
+# extrema graph's weak point). Data 5's mesh with its FEM field and with a smooth field plus
+# seeded noise of growing amplitude:
+
+# %%
 vol5 = datasets.load("data5")
 vol5.face_neighbors, vol5.node_cells
 base = vol5.scalars("distance")
@@ -336,8 +345,8 @@ for label, f in [("fem", vol5.scalars("fem"))] + [(f"distance + {a:g} noise", ba
                  "T_pc/(m^2 log2 m) ns": 1e9 * st["T_pc"] / (st["extrema"] ** 2 * np.log2(st["extrema"]))})
 grow.sort(key=lambda r: r["m"])
 print(plotting.table(grow, list(grow[0])))
-"""),
-    ("code", """
+
+# %%
 import matplotlib.pyplot as plt
 
 m_ = np.array([r["m"] for r in grow], float)
@@ -349,7 +358,3 @@ ax.loglog(m_, t_[-1] * (m_ ** 2 * np.log(m_)) / (m_[-1] ** 2 * np.log(m_[-1])), 
 ax.set_xlabel("extrema m"); ax.set_ylabel("s"); ax.legend();
 # machine-independent: one sort per joined extremum, m - 1 arcs in this connected volume
 assert grow[-1]["m"] > 1000 and all(r["arcs"] == r["m"] - 1 for r in grow)
-"""),
-]
-
-write("notebooks/06_extrema_graph.ipynb", cells)

@@ -1,27 +1,36 @@
-"""Source of notebooks/08_fast_polygon_construction.ipynb (Itoh, Yamaguchi, Koyamada 2001: Tables 1, 2, Figs 4, 5)."""
+# ---
+# jupyter:
+#   jupytext:
+#     notebook_metadata_filter: -jupytext.text_representation.jupytext_version
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#       format_version: '1.3'
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
 
-from nbbuild import write
+# %% [markdown]
+# # A fast polygon construction method for isosurface generation (Itoh, Yamaguchi, Koyamada 2001)
+#
+# An isosurface is made in three stages (the paper's Table 1): **t1** find the cells the
+# surface crosses, **t2** build the polygons inside them, **t3** compute the vertex positions
+# and normals. Volume thinning (chapter 7) made t1 almost free, so t2 dominates. Most
+# polygon vertices are shared by several polygons, so a propagation that builds one cell at
+# a time must find each vertex again when the next cell around the same cell edge is built:
+# the thesis's propagation keeps a **hash table keyed by the cell edge** (the paper's 2.1,
+# Fig. 1).
+#
+# The paper turns the loop inside out (3.1, Fig. 4): when a vertex is created on a cell edge,
+# **every cell sharing that edge is visited at once**, its polygon is constructed if it is
+# missing (and the cell queued), and the vertex is registered in all of them. No vertex is
+# ever needed again, so none is ever searched for. Fig. 5 is the pseudo-code, combined with
+# the thinning skeleton for the seeds; `polygen.volume.edge_centred` implements it, for
+# tetrahedra and — the paper's future work — hexahedra.
 
-cells = [
-    ("md", """
-# A fast polygon construction method for isosurface generation (Itoh, Yamaguchi, Koyamada 2001)
-
-An isosurface is made in three stages (the paper's Table 1): **t1** find the cells the
-surface crosses, **t2** build the polygons inside them, **t3** compute the vertex positions
-and normals. Volume thinning (chapter 7) made t1 almost free, so t2 dominates. Most
-polygon vertices are shared by several polygons, so a propagation that builds one cell at
-a time must find each vertex again when the next cell around the same cell edge is built:
-the thesis's propagation keeps a **hash table keyed by the cell edge** (the paper's 2.1,
-Fig. 1).
-
-The paper turns the loop inside out (3.1, Fig. 4): when a vertex is created on a cell edge,
-**every cell sharing that edge is visited at once**, its polygon is constructed if it is
-missing (and the cell queued), and the vertex is registered in all of them. No vertex is
-ever needed again, so none is ever searched for. Fig. 5 is the pseudo-code, combined with
-the thinning skeleton for the seeds; `polygen.volume.edge_centred` implements it, for
-tetrahedra and — the paper's future work — hexahedra.
-"""),
-    ("code", """
+# %%
 import json
 import os
 from pathlib import Path
@@ -37,8 +46,8 @@ from polygen.volume import datasets, methods
 from polygen.volume.isosurface import extract, same_surface
 
 pv = plotting.setup_notebook()
-"""),
-    ("code", """
+
+# %%
 # the paper's volumes 1-4 are ours data2, data3, data5, data4 (61680, 346644, 458664, 557868 cells)
 TABLE1_DATA = ["data2", "data3"]
 TABLE2_DATA = ["data2", "data3"] + (["data5", "data4"] if FULL else [])
@@ -53,19 +62,19 @@ PAPER_T2 = {  # Table 2: n_c, n_t, n_v, t_p old, t_p new, total old, total new
     "data5": (458664, 494480, 251506, 21.35, 15.72, 26.65, 20.61),
     "data4": (557868, 1164616, 588796, 49.80, 36.20, 60.81, 46.80),
 }
-"""),
-    ("md", """
-## Figs 1 and 4 — a look-up per polygon against a registration per cell
 
-On one isosurface of data 1 (seeds from the thinning skeleton), the hash-based propagation
-(`thinning`) looks a vertex up once for every cell that uses it; the cell-edge-centred
-construction (`edge-centred`) *visits* every cell around the vertex's edge once, when the
-vertex is created, and stores the vertex into it. Every cell around a crossed edge is crossed
-and uses the vertex, so the two make exactly the same number of (vertex, cell) pairings —
-one with a hash search each, the other with none. The paper also notes the price: a cell is
-visited several times by for-loop (3) before it is taken from the FIFO once.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Figs 1 and 4 — a look-up per polygon against a registration per cell
+#
+# On one isosurface of data 1 (seeds from the thinning skeleton), the hash-based propagation
+# (`thinning`) looks a vertex up once for every cell that uses it; the cell-edge-centred
+# construction (`edge-centred`) *visits* every cell around the vertex's edge once, when the
+# vertex is created, and stores the vertex into it. Every cell around a crossed edge is crossed
+# and uses the vertex, so the two make exactly the same number of (vertex, cell) pairings —
+# one with a hash search each, the other with none. The paper also notes the price: a cell is
+# visited several times by for-loop (3) before it is taken from the FIFO once.
+
+# %%
 vol = datasets.load("data1")
 s = vol.scalars("fem")
 value = float(np.linspace(s.min(), s.max(), 22)[10])
@@ -80,17 +89,17 @@ print(f"  for-loop (3) visited {st['visits']} cells; {st['constructed']} polygon
 assert same_surface(old, new) and old.cells_intersected == new.cells_intersected
 assert new.vertex_lookups == 0 and old.vertex_lookups > 2 * old.n_vertices
 assert st["visits"] == old.vertex_lookups and st["pops"] == st["constructed"] == new.cells_intersected
-"""),
-    ("md", """
-## Fig. 5 — the construction from the skeleton seeds
 
-The skeleton cells that the surface crosses are queued; each cell taken from the FIFO
-creates its missing vertices, and each new vertex constructs and queues the cells around its
-edge. Colour = the order in which the cells were taken from the FIFO (red dots: the seeds).
-Every part of the surface is reached from a seed of its own, and the result is the full
-scan's surface, triangle for triangle.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Fig. 5 — the construction from the skeleton seeds
+#
+# The skeleton cells that the surface crosses are queued; each cell taken from the FIFO
+# creates its missing vertices, and each new vertex constructs and queues the cells around its
+# edge. Colour = the order in which the cells were taken from the FIFO (red dots: the seeds).
+# Every part of the surface is reached from a seed of its own, and the result is the full
+# scan's surface, triangle for triangle.
+
+# %%
 _, first = np.unique(new.triangle_cells, return_index=True)
 pop_order = new.triangle_cells[np.sort(first)]          # triangles are written when their cell is popped
 found = edge.source.query(value)[0]
@@ -100,16 +109,16 @@ labels, n_parts = scan.connected_components()
 print(f"{found.size} skeleton seeds for {n_parts} connected parts; {new.n_triangles} triangles = scan's {scan.n_triangles}")
 assert same_surface(scan, new)
 assert len(set(labels[np.isin(scan.triangle_cells, found)])) == n_parts   # a seed in every part
-"""),
-    ("md", """
-## Table 1 — the all-cell scan against volume thinning, stage by stage
 
-Twenty isovalues `linspace(min, max, 22)[1:-1]` per volume, the thesis's propagation with its
-vertex hash (`thinning`) against testing every cell (`scan`). Times here are this machine's,
-measured now (the paper's: IBM RS/6000 model 560); the machine-independent part of the claim
-is the count of cells tested: thinning brings t1's work down to a few percent.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Table 1 — the all-cell scan against volume thinning, stage by stage
+#
+# Twenty isovalues `linspace(min, max, 22)[1:-1]` per volume, the thesis's propagation with its
+# vertex hash (`thinning`) against testing every cell (`scan`). Times here are this machine's,
+# measured now (the paper's: IBM RS/6000 model 560); the machine-independent part of the claim
+# is the count of cells tested: thinning brings t1's work down to a few percent.
+
+# %%
 rows1 = []
 for name in TABLE1_DATA:
     v = datasets.load(name)
@@ -132,23 +141,23 @@ for name in TABLE1_DATA:
                       "cells tested": sum(i.cells_tested for i in isos)})
     assert all(same_surface(a, b) for a, b in zip(out["scan"], out["thinning"]))
 print(plotting.table(rows1, list(rows1[0])))
-"""),
-    ("code", """
+
+# %%
 for name in TABLE1_DATA:
     sc, th = (r for r in rows1 if r["data"] == name)
     # t1's work: the scan tests all 20 x n_c cells, thinning the skeleton's value class and the propagation's cells
     assert th["cells tested"] < 0.1 * sc["cells tested"], (name, th["cells tested"], sc["cells tested"])
     assert sc["cells tested"] == 20 * sc["n_c"]
-"""),
-    ("md", """
-## Table 2 — hash-based against cell-edge-centred construction
 
-The same skeleton seeds for both; `t_p` is the polygon construction (t2), `total` the whole
-query. The paper measured about 25 % less construction time and 20 % less in total. The
-counters are the machine-independent claim: the new method makes no vertex look-up at all,
-where the old one makes one per (vertex, cell) pair, and it visits exactly as many cells.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Table 2 — hash-based against cell-edge-centred construction
+#
+# The same skeleton seeds for both; `t_p` is the polygon construction (t2), `total` the whole
+# query. The paper measured about 25 % less construction time and 20 % less in total. The
+# counters are the machine-independent claim: the new method makes no vertex look-up at all,
+# where the old one makes one per (vertex, cell) pair, and it visits exactly as many cells.
+
+# %%
 rows2 = []
 for name in TABLE2_DATA:
     v = datasets.load(name)
@@ -171,19 +180,19 @@ for name in TABLE2_DATA:
                   "look-ups edge": sum(i.vertex_lookups for i in new),
                   "cells visited": sum(x["visits"] for x in st), "constructed": sum(x["constructed"] for x in st)})
 print(plotting.table(rows2, list(rows2[0])))
-"""),
-    ("code", """
+
+# %%
 for r in rows2:
     assert r["look-ups edge"] == 0 and r["look-ups hash"] > r["n_t"]                # many against none
     assert r["cells visited"] == r["look-ups hash"]                                # the same pairings, no search
     assert r["cells visited"] > 2 * r["constructed"]                               # cells are visited repeatedly
-"""),
-    ("md", """
-The timings of the benchmark (`benchmarks/fast_construction.py`, all five volumes, the 2M
-volume and the 10M one, best of several sweeps; results committed in
-`benchmarks/results/fast_construction.json`):
-"""),
-    ("code", """
+
+# %% [markdown]
+# The timings of the benchmark (`benchmarks/fast_construction.py`, all five volumes, the 2M
+# volume and the 10M one, best of several sweeps; results committed in
+# `benchmarks/results/fast_construction.json`):
+
+# %%
 RESULTS = Path(polygen.__file__).resolve().parents[1] / "benchmarks" / "results" / "fast_construction.json"
 bench = json.loads(RESULTS.read_text())
 rows_b = []
@@ -201,15 +210,15 @@ print(plotting.table(rows_b, list(rows_b[0])))
 assert all(r["methods"]["edge-centred-fifo"]["t2"] <= 0.8 * r["methods"]["thinning"]["t2"] for r in bench["rows"])
 # every polygen method made the scan's triangles for every value (vtkSpanSpace drops a few on 2M and 10M)
 assert all(all(m["same_as_scan"] for k, m in r["methods"].items() if not k.startswith("vtk")) for r in bench["rows"])
-"""),
-    ("md", """
-## The hexahedral version (the paper's future work)
 
-The same loop on hexahedral volumes: twelve local edges, eight nodes, the marching-hexahedra
-polygons (face-centre rule on ambiguous faces), and the cells around an edge of a hexahedral
-mesh (four inside the volume). Seeds again from the thinning skeleton.
-"""),
-    ("code", """
+# %% [markdown]
+# ## The hexahedral version (the paper's future work)
+#
+# The same loop on hexahedral volumes: twelve local edges, eight nodes, the marching-hexahedra
+# polygons (face-centre rule on ambiguous faces), and the cells around an edge of a hexahedral
+# mesh (four inside the volume). Seeds again from the thinning skeleton.
+
+# %%
 rows_h = []
 for name in HEX_DATA:
     v = datasets.load(name)
@@ -231,25 +240,25 @@ for name in HEX_DATA:
 print(plotting.table(rows_h, list(rows_h[0])))
 for r in rows_h:
     assert r["look-ups edge"] == 0 and r["cells visited"] == r["look-ups hash"] > 0
-"""),
-    ("md", """
-## Against VTK, scaling, and the interactive case
 
-From the same benchmark: the twenty isovalues with `vtkContourFilter` (merged points,
-normals on, two threads), with and without `vtkSpanSpace`, against polygen's methods; the
-mean time per isovalue against the volume's size on log–log axes (slope in the legend).
-Preprocessing (the skeleton, the edge-centred records) is apart.
+# %% [markdown]
+# ## Against VTK, scaling, and the interactive case
+#
+# From the same benchmark: the twenty isovalues with `vtkContourFilter` (merged points,
+# normals on, two threads), with and without `vtkSpanSpace`, against polygen's methods; the
+# mean time per isovalue against the volume's size on log–log axes (slope in the legend).
+# Preprocessing (the skeleton, the edge-centred records) is apart.
+#
+# `edge-centred` takes the newest queued cell first by default (LIFO): the surface is the same
+# — Fig. 5 never depends on the order — but the cells around the last vertices are still in
+# the cache. The FIFO column is the paper's order.
+#
+# VTK spreads each contour over both cores; one edge-centred query runs on one core. When
+# several values are wanted at once (a sweep, an animation), `extract_many` builds two of them
+# side by side, each thread with its own copy of the cell records — the same surfaces, in
+# about half the wall clock ("2 at a time").
 
-`edge-centred` takes the newest queued cell first by default (LIFO): the surface is the same
-— Fig. 5 never depends on the order — but the cells around the last vertices are still in
-the cache. The FIFO column is the paper's order.
-
-VTK spreads each contour over both cores; one edge-centred query runs on one core. When
-several values are wanted at once (a sweep, an animation), `extract_many` builds two of them
-side by side, each thread with its own copy of the cell records — the same surfaces, in
-about half the wall clock ("2 at a time").
-"""),
-    ("code", """
+# %%
 rows_v = []
 for r in bench["rows"]:
     m = r["methods"]
@@ -262,8 +271,8 @@ for r in bench["rows"]:
                    "2 at a time / vtk+span": m["edge-centred-2x"]["query_s"] / m["vtk+spanspace"]["query_s"],
                    "skeleton s": m["edge-centred-lifo"]["seed_preprocess_s"]})
 print(plotting.table(rows_v, list(rows_v[0])))
-"""),
-    ("code", """
+
+# %%
 cells = np.array([r["cells"] for r in bench["rows"]], float)
 fig, ax = plt.subplots(figsize=(6.5, 4.2))
 for label, key in [("vtk", "vtk"), ("vtk + span space", "vtk+spanspace"), ("scan", "scan"),
@@ -279,14 +288,10 @@ two_m = next((r for r in bench["rows"] if r["data"] == "2M"), None)
 if two_m is not None:
     per = np.array(two_m["methods"]["edge-centred-lifo"]["per_value_s"]) * 1e3
     print(f"2M volume: one isosurface in {np.median(per):.2f} ms median, {per.max():.2f} ms at most")
-"""),
-    ("code", """
+
+# %%
 # the edge-centred sweep grows sublinearly with n (over the FEM-field volumes, whose triangle counts
 # grow like n^0.77; the 10M volume has an analytic field with many more triangles per cell)
 sl = bench["slope"]
 print(f"slope of time per isovalue against cells: {sl['lifo']:.3f} all volumes, {sl.get('lifo_fem', sl['lifo']):.3f} FEM fields")
 assert sl.get("lifo_fem", sl["lifo"]) < 1.0 and sl.get("fifo_fem", sl["fifo"]) < 1.0
-"""),
-]
-
-write("notebooks/08_fast_polygon_construction.ipynb", cells)

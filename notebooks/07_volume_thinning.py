@@ -1,27 +1,36 @@
-"""Source of notebooks/07_volume_thinning.ipynb (thesis chapter 7.1-7.7, Tables 7.1-7.5, Figs 7.1-7.3, 7.14-7.21)."""
+# ---
+# jupyter:
+#   jupytext:
+#     notebook_metadata_filter: -jupytext.text_representation.jupytext_version
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#       format_version: '1.3'
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
 
-from nbbuild import write
+# %% [markdown]
+# # Chapter 7 — volume thinning
+#
+# The extrema graph of chapter 6 needs sorted lists of the boundary cells, because a
+# **through-hole** can cut an isosurface into parts that no arc crosses (Fig. 7.1, Thm 7.3).
+# A graph that joins the extrema *and keeps the genus of the volume* — a loop around every
+# through-hole — crosses every part, and needs no boundary lists. Itoh builds it as image
+# thinning builds the skeleton of a picture (7.3): cells are removed from the outside, one at
+# a time, as long as the cells marked at the extrema stay connected (Thm 7.4), the genus of
+# the boundary stays (Thm 7.5) and voids stay apart from the outer boundary (Thm 7.6).
+# The layers left around voids are then pricked open (7.5.3). The cells that remain — the
+# skeleton — are put into value classes, and a query tests only the skeleton cells of the
+# class of C and grows the surface from every hit (7.5.4–7.5.5).
+#
+# Everything here is `polygen.volume.thinning` (the kernels in `_thinning_kernels`); the
+# figures come from `polygen.plot_thinning`. `benchmarks/thinning.py` measures the same tables
+# and the O(n) preprocessing from 20k to 10M cells.
 
-cells = [
-    ("md", """
-# Chapter 7 — volume thinning
-
-The extrema graph of chapter 6 needs sorted lists of the boundary cells, because a
-**through-hole** can cut an isosurface into parts that no arc crosses (Fig. 7.1, Thm 7.3).
-A graph that joins the extrema *and keeps the genus of the volume* — a loop around every
-through-hole — crosses every part, and needs no boundary lists. Itoh builds it as image
-thinning builds the skeleton of a picture (7.3): cells are removed from the outside, one at
-a time, as long as the cells marked at the extrema stay connected (Thm 7.4), the genus of
-the boundary stays (Thm 7.5) and voids stay apart from the outer boundary (Thm 7.6).
-The layers left around voids are then pricked open (7.5.3). The cells that remain — the
-skeleton — are put into value classes, and a query tests only the skeleton cells of the
-class of C and grows the surface from every hit (7.5.4–7.5.5).
-
-Everything here is `polygen.volume.thinning` (the kernels in `_thinning_kernels`); the
-figures come from `polygen.plot_thinning`. `benchmarks/thinning.py` measures the same tables
-and the O(n) preprocessing from 20k to 10M cells.
-"""),
-    ("code", """
+# %%
 import os
 import time
 
@@ -38,8 +47,8 @@ from polygen.volume.propagate import Propagator
 from polygen.volume.thinning import pixel_removable, thin_image, thin_volume
 
 pv = plotting.setup_notebook()
-"""),
-    ("code", """
+
+# %%
 TABLE_DATA = ["data1", "data2", "data3", "data4", "data5"]
 THESIS = {  # Tables 7.1-7.5, data 1-5 (IBM RS/6000 model 560)
     "N_e": [20736, 61680, 346644, 557868, 458664], "N_n": [4002, 11624, 62107, 97473, 80468],
@@ -60,17 +69,16 @@ THESIS = {  # Tables 7.1-7.5, data 1-5 (IBM RS/6000 model 560)
 MNAMES = [("scan", "all"), ("sorted-lists", "sort"), ("span-filter", "filt"), ("extrema-graph", "egra"),
           ("thinning", "thin")]
 
-"""),
-    ("md", """
-## Fig. 7.1 made real — a through-hole hides part of an isosurface from the extrema graph
+# %% [markdown]
+# ## Fig. 7.1 made real — a through-hole hides part of an isosurface from the extrema graph
+#
+# Data 1 is a block with two bolt holes. Its `distance` field (the distance from an eye
+# outside the volume: the equi-distance surfaces of 7.8) has one minimum and one maximum, and
+# the extrema graph is a single arc. Where a bolt hole cuts an equi-distance surface in two,
+# the arc crosses one part only; the other is found by the extrema graph only through its
+# boundary lists. The skeleton keeps a loop around each hole and crosses both parts.
 
-Data 1 is a block with two bolt holes. Its `distance` field (the distance from an eye
-outside the volume: the equi-distance surfaces of 7.8) has one minimum and one maximum, and
-the extrema graph is a single arc. Where a bolt hole cuts an equi-distance surface in two,
-the arc crosses one part only; the other is found by the extrema graph only through its
-boundary lists. The skeleton keeps a loop around each hole and crosses both parts.
-"""),
-    ("code", """
+# %%
 vol1 = datasets.load("data1")
 d1 = vol1.scalars("distance")
 graph_d = build_extrema_graph(vol1, d1)
@@ -96,23 +104,23 @@ from_arcs = prop_d.extract(v71, seeds.cells[:seeds.n_from_arcs])
 print(f"C = {v71:.3f}: {full.connected_components()[1]} parts, {full.triangles.shape[0]} triangles; "
       f"from the arc alone {from_arcs.connected_components()[1]} part, {from_arcs.triangles.shape[0]} triangles")
 plot_thinning.plot_fig_7_1(vol1, graph_d, skel_d, full, from_arcs).show()
-"""),
-    ("md", """
-## Fig. 7.2 — thinning a picture (7.3)
 
-A border pixel p goes when all its black edge neighbours can be visited in one sweep around
-it through black neighbours (b, c); otherwise removing p could disconnect them (d, e). The
-end of a line stays. Black regions (4-connected) and white ones (8-connected) keep their
-number: the skeleton keeps the picture's holes and branches (f, g).
-"""),
-    ("code", """
+# %% [markdown]
+# ## Fig. 7.2 — thinning a picture (7.3)
+#
+# A border pixel p goes when all its black edge neighbours can be visited in one sweep around
+# it through black neighbours (b, c); otherwise removing p could disconnect them (d, e). The
+# end of a line stays. Black regions (4-connected) and white ones (8-connected) keep their
+# number: the skeleton keeps the picture's holes and branches (f, g).
+
+# %%
 cases = [[[0, 0, 0], [1, 1, 0], [1, 1, 0]], [[1, 1, 0], [1, 1, 0], [1, 1, 0]],
          [[0, 1, 0], [0, 1, 0], [0, 1, 0]], [[0, 1, 0], [1, 1, 0], [0, 0, 1]], [[0, 0, 0], [0, 1, 1], [0, 0, 0]]]
 removable = [pixel_removable(c) for c in cases]
 plot_thinning.plot_pixel_rule(cases, removable, titles=["(b)", "(c)", "(d)", "(e)", "end of a line"]);
 assert removable == [True, True, False, False, False]
-"""),
-    ("code", """
+
+# %%
 from scipy import ndimage
 
 yy, xx = np.mgrid[:80, :120]
@@ -127,16 +135,16 @@ four, eight = [[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.ones((3, 3))
 topo = lambda im: (ndimage.label(im, four)[1], ndimage.label(np.pad(~im, 1, constant_values=True), eight)[1])
 print("black regions, white regions: picture", topo(img), "skeleton", topo(skel_img))
 assert topo(skel_img) == topo(img) and np.array_equal(thin_image(skel_img), skel_img)
-"""),
-    ("md", """
-## Fig. 7.3 — volume thinning, step by step
 
-A bar of 7 x 3 cubes with three holes (genus 3), 6 tetrahedra per cube, with a field of
-three Gaussian bumps, seen from above: one cell at each extremum is marked (C_-1) and never
-removed. Cells go, lowest class first, until every cell left is needed to keep the marked
-cells joined or a loop around a hole.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Fig. 7.3 — volume thinning, step by step
+#
+# A bar of 7 x 3 cubes with three holes (genus 3), 6 tetrahedra per cube, with a field of
+# three Gaussian bumps, seen from above: one cell at each extremum is marked (C_-1) and never
+# removed. Cells go, lowest class first, until every cell left is needed to keep the marked
+# cells joined or a loop around a hole.
+
+# %%
 bar = datasets.load("genus3")
 sk_bar = thin_volume(bar, "gaussians", record=True)
 rec = sk_bar.record
@@ -144,16 +152,16 @@ plot_thinning.plot_thinning_steps(bar, rec, rec.steps(4), skeleton=sk_bar, view=
 print(f"{rec.n_removed} removals; skeleton {sk_bar.n_cells} of {bar.n_cells} cells, marked cells "
       f"{sk_bar.marked.tolist()}; genus {sk_bar.as_volume().n_through_holes}")
 assert sk_bar.as_volume().n_through_holes == bar.n_through_holes == 3
-"""),
-    ("md", """
-## Figs 7.6 and 7.13 — the removal tests, counted
 
-Per class, how many cells were taken from the FIFOs and how many went: every C_1 goes; a C_2
-goes when the walk around its triple-shared edge reaches the other neighbour; a tetrahedral
-C_3 goes when its quadruple-shared node is inside (n_B = 0); hexahedra add C_4 and C_5
-(two and four quadruple-shared nodes) and keep C_2/C_4 cells whose open faces are opposite.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Figs 7.6 and 7.13 — the removal tests, counted
+#
+# Per class, how many cells were taken from the FIFOs and how many went: every C_1 goes; a C_2
+# goes when the walk around its triple-shared edge reaches the other neighbour; a tetrahedral
+# C_3 goes when its quadruple-shared node is inside (n_B = 0); hexahedra add C_4 and C_5
+# (two and four quadruple-shared nodes) and keep C_2/C_4 cells whose open faces are opposite.
+
+# %%
 rows_r = []
 for name in ["data1", "hexa1"]:
     st = thin_volume(datasets.load(name)).stats
@@ -162,65 +170,65 @@ for name in ["data1", "hexa1"]:
     rows_r.append({"data": name, "class": "walks", "taken": st["walks"], "removed": st["walks_reached"]})
 print(plotting.table(rows_r, ["data", "class", "taken", "removed"]))
 assert all(r["taken"] == r["removed"] for r in rows_r if r["class"] == "C1")
-"""),
-    ("md", """
-## Figs 7.14 and 7.15 — skeletons
 
-Data 1, coloured by each cell's number of non-removed neighbours (the class of Table 7.2;
-purple: the extrema), and data 2 coloured by value.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Figs 7.14 and 7.15 — skeletons
+#
+# Data 1, coloured by each cell's number of non-removed neighbours (the class of Table 7.2;
+# purple: the extrema), and data 2 coloured by value.
+
+# %%
 sk1 = thin_volume(vol1)
 plot_thinning.plot_skeleton(vol1, sk1, color="class").show()
-"""),
-    ("code", """
+
+# %%
 vol2 = datasets.load("data2")
 sk2 = thin_volume(vol2, record=True)
 plot_thinning.plot_skeleton(vol2, sk2, color="value").show()
-"""),
-    ("md", """
-## Figs 7.16 and 7.17 — isosurfaces made from the skeletons
-"""),
-    ("code", """
+
+# %% [markdown]
+# ## Figs 7.16 and 7.17 — isosurfaces made from the skeletons
+
+# %%
 m1 = methods.get("thinning")(vol1)
 s1 = vol1.scalars()
 isos1 = [m1.extract(v) for v in np.linspace(s1.min(), s1.max(), 7)[1:-1]]
 plot_thinning.plot_skeleton_isosurfaces(vol1, m1.skeleton, isos1).show()
 for iso in isos1:  # the same triangles as testing every cell
     assert same_surface(iso, extract(vol1, iso.value), geometry=False)
-"""),
-    ("code", """
+
+# %%
 m2 = methods.get("thinning")(vol2)
 s2 = vol2.scalars()
 isos2 = [m2.extract(v) for v in np.linspace(s2.min(), s2.max(), 7)[1:-1]]
 plot_thinning.plot_skeleton_isosurfaces(vol2, m2.skeleton, isos2).show()
 for iso in isos2:
     assert same_surface(iso, extract(vol2, iso.value), geometry=False)
-"""),
-    ("md", """
-## Figs 7.18–7.21 — thinning data 2
 
-The cells left at the start, half-way, when the FIFOs first run dry — every cell left is
-needed, and a layer of cells still wraps each of the flange's two voids (Fig. 7.7) — and at
-the end, after the layers were pricked open and thinning resumed (the skeleton of Fig. 7.15).
-"""),
-    ("code", """
+# %% [markdown]
+# ## Figs 7.18–7.21 — thinning data 2
+#
+# The cells left at the start, half-way, when the FIFOs first run dry — every cell left is
+# needed, and a layer of cells still wraps each of the flange's two voids (Fig. 7.7) — and at
+# the end, after the layers were pricked open and thinning resumed (the skeleton of Fig. 7.15).
+
+# %%
 rec2 = sk2.record
 steps2 = [0, rec2.n_removed // 2, int(rec2.pricks[0, 0]), rec2.n_removed]
 plot_thinning.plot_thinning_steps(vol2, rec2, steps2, skeleton=sk2).show()
 print(f"{rec2.n_removed} removals; voids pricked after removals {rec2.pricks[:, 0].tolist()} "
       f"(groups {rec2.pricks[:, 1].tolist()}, {rec2.pricks[:, 2].tolist()} cells each)")
-"""),
-    ("md", """
-## Theorems 7.4–7.6 on the data sets
 
-For each skeleton, computed from scratch: the marked cells lie in one face-connected piece
-(Thm 7.4); the genus of the skeleton's boundary — the sum over its boundary groups of
-1 − (V + F − E)/2 — equals the volume's (Thm 7.5); after pricking no void is left (each was
-kept apart until pricked, Thm 7.6; the tests check that after every removal on small
-volumes). `FULL` runs every field of every data set.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Theorems 7.4–7.6 on the data sets
+#
+# For each skeleton, computed from scratch: the marked cells lie in one face-connected piece
+# (Thm 7.4); the genus of the skeleton's boundary — the sum over its boundary groups of
+# 1 − (V + F − E)/2 — equals the volume's (Thm 7.5); after pricking no void is left (each was
+# kept apart until pricked, Thm 7.6; the tests check that after every removal on small
+# volumes). `FULL` runs every field of every data set.
+
+# %%
 names = TABLE_DATA + ["hexa1", "hexa2", "hexa3"]
 rows_t = []
 for name in names:
@@ -239,19 +247,19 @@ print(plotting.table(rows_t, list(rows_t[0])))
 for r in rows_t:
     assert r["genus (skeleton)"] == r["genus (volume)"] and r["voids (skeleton)"] == 0
     assert r["pricks"] == r["voids (volume)"] and r["marked in one part"]
-"""),
-    ("md", """
-## Tables 7.1–7.5 — data 1–5
 
-Twenty isovalues `linspace(min, max, 22)[1:-1]` of the FEM field, one run, thesis in
-parentheses. Timings are from this shared 2-core machine and only their ratios mean
-anything; the counts are machine-independent. Every method's surfaces are checked against
-the full scan's. N_e1 counts the cells on the extrema graph's arcs plus the boundary cells
-(as in the thesis: 468 + 2048 = 2516 for its data 1); Table 7.5 counts as the thesis did:
-the cells the search tested plus, for the extrema graph and thinning, the cells intersected
-that propagation registered.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Tables 7.1–7.5 — data 1–5
+#
+# Twenty isovalues `linspace(min, max, 22)[1:-1]` of the FEM field, one run, thesis in
+# parentheses. Timings are from this shared 2-core machine and only their ratios mean
+# anything; the counts are machine-independent. Every method's surfaces are checked against
+# the full scan's. N_e1 counts the cells on the extrema graph's arcs plus the boundary cells
+# (as in the thesis: 468 + 2048 = 2516 for its data 1); Table 7.5 counts as the thesis did:
+# the cells the search tested plus, for the extrema graph and thinning, the cells intersected
+# that propagation registered.
+
+# %%
 rows = []
 for name in TABLE_DATA:
     vol = datasets.load(name)
@@ -277,8 +285,8 @@ for name in TABLE_DATA:
     row["N_ci"] = n_ci
     rows.append(row)
     print(name, "done")
-"""),
-    ("code", """
+
+# %%
 cols = ["N_e", "N_n", "N_ep", "N_e1", "N_e2", "T_sort", "T_filt", "T_egra", "T_thin"]
 print("Table 7.1 - registered cells and preprocessing (s), thesis in parentheses")
 print(plotting.table(plotting.with_thesis(rows, cols, THESIS, floatfmt="{:.4f}"), ["data", *cols]))
@@ -292,8 +300,8 @@ for r in rows:
     assert r["N_e2"] * (3 if r["data"] != "data5" else 1.2) < r["N_e1"], r
     assert r["C1"] <= r["N_ep"] + 1, r        # the skeleton's ends are marked cells (C1 ~ extrema)
     assert r["C2"] > r["C3"] + r["C4"], r     # mostly chains of C2 cells
-"""),
-    ("code", """
+
+# %%
 for title, cols, fmt in [("Table 7.3 - twenty isosurfaces (s)",
                           ["N_t", "N_v", "Q_all", "Q_sort", "Q_filt", "Q_egra", "Q_thin"], "{:.4f}"),
                          ("Table 7.4 - finding the intersected cells, t1 (s)",
@@ -304,33 +312,29 @@ for title, cols, fmt in [("Table 7.3 - twenty isosurfaces (s)",
 for r in rows:
     assert r["N_thin"] < r["N_egra"], r          # Table 7.5: thinning tests fewer cells than the extrema graph
     assert r["N_thin"] < r["N_sort"], r          # ... and than sorted lists (ours scan more than the active cells)
-"""),
-    ("md", """
-**What holds and what does not.**
 
-* *Table 7.1.* The skeleton is much smaller than what the extrema graph registers (N_e2 ≪
-  N_e1) on data 1–4, as in the thesis; our ratio is larger there because our parts have about
-  three times the thesis's boundary cells. Data 5's thousands of extrema (5958 here, 5986
-  there) give the largest skeleton, and the smallest ratio (ours about 1.6, the thesis's
-  2.2). Thinning's preprocessing grows with the cells, not with the extrema: per cell it
-  costs at most about twice as much on data 5 as on data 1–4, while the extrema graph's
-  grows by well over an order of magnitude (the O(m² log m) of chapter 6) — the thesis's
-  argument for thinning. The
-  absolute times are ~100x below the thesis's 1990s machine, and our sorted lists (numba
-  `argsort`) are not the slowest preprocessing.
-* *Table 7.2.* As in the thesis, C1 cells are about as many as the extrema (every unmarked
-  C1 cell is removed, so the skeleton's ends are marked cells) and C2 cells form most of the
-  skeleton. Data 5's C3/C4 cells are fewer than the thesis's.
-* *Tables 7.3–7.5.* Thinning tests fewer cells than the extrema graph (N_thin < N_egra) and
-  finds the intersected cells fastest (t1). The thesis's N_sort ≈ N_ci came from sorted
-  lists that touch only the active cells; ours (`seeds/sorted_lists.py`) scan the near list
-  up to the value, so N_sort is larger here, and our span filter with 64 replicated classes
-  tests fewer cells than the thesis's. The totals (Table 7.3) are dominated by building the
-  triangles, which every method shares; on this machine the full scan's parallel passes are
-  competitive (see chapter 6's notebook), so the thesis's ordering of totals is not a
-  property of this implementation. See `benchmarks/results/thinning.md` for the O(n) plot
-  (time per cell from 20k to 10M cells).
-"""),
-]
-
-write("notebooks/07_volume_thinning.ipynb", cells)
+# %% [markdown]
+# **What holds and what does not.**
+#
+# * *Table 7.1.* The skeleton is much smaller than what the extrema graph registers (N_e2 ≪
+#   N_e1) on data 1–4, as in the thesis; our ratio is larger there because our parts have about
+#   three times the thesis's boundary cells. Data 5's thousands of extrema (5958 here, 5986
+#   there) give the largest skeleton, and the smallest ratio (ours about 1.6, the thesis's
+#   2.2). Thinning's preprocessing grows with the cells, not with the extrema: per cell it
+#   costs at most about twice as much on data 5 as on data 1–4, while the extrema graph's
+#   grows by well over an order of magnitude (the O(m² log m) of chapter 6) — the thesis's
+#   argument for thinning. The
+#   absolute times are ~100x below the thesis's 1990s machine, and our sorted lists (numba
+#   `argsort`) are not the slowest preprocessing.
+# * *Table 7.2.* As in the thesis, C1 cells are about as many as the extrema (every unmarked
+#   C1 cell is removed, so the skeleton's ends are marked cells) and C2 cells form most of the
+#   skeleton. Data 5's C3/C4 cells are fewer than the thesis's.
+# * *Tables 7.3–7.5.* Thinning tests fewer cells than the extrema graph (N_thin < N_egra) and
+#   finds the intersected cells fastest (t1). The thesis's N_sort ≈ N_ci came from sorted
+#   lists that touch only the active cells; ours (`seeds/sorted_lists.py`) scan the near list
+#   up to the value, so N_sort is larger here, and our span filter with 64 replicated classes
+#   tests fewer cells than the thesis's. The totals (Table 7.3) are dominated by building the
+#   triangles, which every method shares; on this machine the full scan's parallel passes are
+#   competitive (see chapter 6's notebook), so the thesis's ordering of totals is not a
+#   property of this implementation. See `benchmarks/results/thinning.md` for the O(n) plot
+#   (time per cell from 20k to 10M cells).

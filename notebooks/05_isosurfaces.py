@@ -1,24 +1,33 @@
-"""Source of notebooks/05_isosurfaces.ipynb (thesis 5.3-5.4: Figs 5.4, 5.5, 5.7, Tables 5.1, 5.2)."""
+# ---
+# jupyter:
+#   jupytext:
+#     notebook_metadata_filter: -jupytext.text_representation.jupytext_version
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#       format_version: '1.3'
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
 
-from nbbuild import write
+# %% [markdown]
+# # Chapter 5.3–5.4 — Isosurfaces
+#
+# An isosurface `S = C` of an unstructured volume is made cell by cell: **marching
+# tetrahedra / hexahedra** (5.3.1) put one vertex on every cell edge whose end values lie on
+# either side of `C`, at the crossing (5.2) `P = P_a + (C − S_a)/(S_b − S_a) (P_b − P_a)`,
+# and join the vertices of each cell into triangles read off a case table. Vertices are shared
+# between cells through their edge, so the surface is closed inside the volume.
+#
+# The cost is in *finding* the cells the surface crosses: testing every cell costs O(n) per
+# value although only O(n^{2/3}) cells are crossed (assumption 5.1). Table 5.1 shows how few
+# cells are intersected; Table 5.2 lists the search structures that find them faster; and
+# **propagation** (5.4.2, Fig. 5.7) walks from a few crossed seed cells to their face
+# neighbours so that only the crossed cells and their neighbours are ever tested.
 
-cells = [
-    ("md", """
-# Chapter 5.3–5.4 — Isosurfaces
-
-An isosurface `S = C` of an unstructured volume is made cell by cell: **marching
-tetrahedra / hexahedra** (5.3.1) put one vertex on every cell edge whose end values lie on
-either side of `C`, at the crossing (5.2) `P = P_a + (C − S_a)/(S_b − S_a) (P_b − P_a)`,
-and join the vertices of each cell into triangles read off a case table. Vertices are shared
-between cells through their edge, so the surface is closed inside the volume.
-
-The cost is in *finding* the cells the surface crosses: testing every cell costs O(n) per
-value although only O(n^{2/3}) cells are crossed (assumption 5.1). Table 5.1 shows how few
-cells are intersected; Table 5.2 lists the search structures that find them faster; and
-**propagation** (5.4.2, Fig. 5.7) walks from a few crossed seed cells to their face
-neighbours so that only the crossed cells and their neighbours are ever tested.
-"""),
-    ("code", """
+# %%
 import os
 import timeit
 
@@ -36,37 +45,37 @@ pv = plotting.setup_notebook()
 TABLE_DATA = ["data1", "data2", "data3", "data4"]          # Table 5.1: always the thesis's sizes
 FIG_DATA = "data2" if FULL else "data1"                    # the volume of Figs 5.5 and 5.7
 SEARCH_N = [10_000, 30_000, 100_000, 300_000] + ([1_000_000, 2_000_000] if FULL else [])  # Table 5.2
-"""),
-    ("md", """
-## Fig. 5.4 — the marching cases
 
-A tetrahedron has 2⁴ = 16 cases (bit *i* = node *i* above `C`): no crossing, one node cut
-off (one triangle) or two against two (a planar quadrilateral, split into two triangles).
-The tables are generated from the cell's local edges, not typed in.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Fig. 5.4 — the marching cases
+#
+# A tetrahedron has 2⁴ = 16 cases (bit *i* = node *i* above `C`): no crossing, one node cut
+# off (one triangle) or two against two (a planar quadrilateral, split into two triangles).
+# The tables are generated from the cell's local edges, not typed in.
+
+# %%
 tet_table, tet_count = marching.tet_case_table()
 plot_volume.plot_marching_cases("tetra", [0, 1, 3, 7]).show()
 # one node apart from the others -> 1 triangle, two against two -> 2, all on one side -> 0
 above = np.array([bin(c).count("1") for c in range(16)])
 expected = np.select([above % 4 == 0, above == 2], [0, 2], 1)
 assert np.array_equal(tet_count, expected), tet_count
-"""),
-    ("md", """
-A hexahedron has 2⁸ = 256 node cases. A face whose above corners are diagonal to each
-other is **ambiguous**; polygen resolves it by the value at the face centre (the mean of
-its four nodes, Wyvill et al. [71] in the thesis), so the table is indexed by 8 node bits
-and 6 face-centre bits. Below: simple cases, and case 5 (nodes 0 and 2 above, bottom face
-ambiguous) with the centre below (two corners cut off) and above (the corners joined).
-"""),
-    ("code", """
+
+# %% [markdown]
+# A hexahedron has 2⁸ = 256 node cases. A face whose above corners are diagonal to each
+# other is **ambiguous**; polygen resolves it by the value at the face centre (the mean of
+# its four nodes, Wyvill et al. [71] in the thesis), so the table is indexed by 8 node bits
+# and 6 face-centre bits. Below: simple cases, and case 5 (nodes 0 and 2 above, bottom face
+# ambiguous) with the centre below (two corners cut off) and above (the corners joined).
+
+# %%
 hex_table, hex_count = marching.hex_case_table()
 bottom = marching.hex_ambiguous_faces(5)[0]
 HEX_CASES = [1, 3, 15, 30, 5, 5 | 1 << (8 + bottom), 65, 165]
 plot_volume.plot_marching_cases("hexa", HEX_CASES).show()
 print({c: int(hex_count[c]) for c in HEX_CASES})
-"""),
-    ("code", """
+
+# %%
 # every case's triangles are fans of closed polygons: a polygon of k crossed edges gives k - 2 triangles
 for case in range(256):
     assert hex_count[case] == sum(len(p) - 2 for p in marching.hex_polygons(case)), case
@@ -76,15 +85,15 @@ swapped = (255 - (case & 255)) | ((63 - (case >> 8)) << 8)
 assert np.array_equal(hex_count[case], hex_count[swapped])
 # the face-centre rule matters: case 5 gives 2 separate triangles or one hexagon (4 triangles)
 assert (hex_count[5], hex_count[5 | 1 << (8 + bottom)]) == (2, 4)
-"""),
-    ("md", """
-## Fig. 5.5 — isosurfaces at several values
 
-Isosurfaces of the heat-conduction field on data 1 at five values. Small values make
-closed surfaces around the cold spots, middle values surfaces that end on the volume's
-boundary.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Fig. 5.5 — isosurfaces at several values
+#
+# Isosurfaces of the heat-conduction field on data 1 at five values. Small values make
+# closed surfaces around the cold spots, middle values surfaces that end on the volume's
+# boundary.
+
+# %%
 vol = datasets.load(FIG_DATA)
 s = vol.scalars()
 strip_values = np.linspace(s.min(), s.max(), 7)[1:-1]
@@ -92,8 +101,8 @@ strip = [extract(vol, c) for c in strip_values]
 plot_volume.plot_isosurface_strip(vol, strip).show()
 for iso in strip:
     print(iso)
-"""),
-    ("code", """
+
+# %%
 # vertices are shared: every surface edge is used by one triangle (on the volume boundary) or two
 for iso in strip:
     t = iso.triangles
@@ -101,27 +110,27 @@ for iso in strip:
     _, uses = np.unique(e, axis=0, return_counts=True)
     assert uses.max() == 2 and np.array_equal(np.unique(t), np.arange(iso.n_vertices)), iso
     assert iso.cells_intersected < iso.cells_tested == vol.n_cells
-"""),
-    ("md", """
-With a kernel attached, the slider below extracts and draws the isosurface for any value
-(in a static rendering of the notebook it shows the middle value).
-"""),
-    ("code", """
+
+# %% [markdown]
+# With a kernel attached, the slider below extracts and draws the isosurface for any value
+# (in a static rendering of the notebook it shows the middle value).
+
+# %%
 ipywidgets.interact(
     plot_volume.show_isosurface, vol=ipywidgets.fixed(vol), field=ipywidgets.fixed(None),
     method=ipywidgets.fixed("scan"),
     value=ipywidgets.FloatSlider(value=float(np.median(s)), min=float(s.min()), max=float(s.max()),
                                  step=float(np.ptp(s)) / 200, continuous_update=False),
 );
-"""),
-    ("md", """
-## Fig. 5.7 — propagation from a seed cell
 
-From one crossed seed cell, the FIFO queue registers the crossed face neighbours of each
-cell it takes out, marking every cell it tests. Colour = the FIFO step at which a
-triangle's cell was registered: the surface grows outwards from the seed in rings.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Fig. 5.7 — propagation from a seed cell
+#
+# From one crossed seed cell, the FIFO queue registers the crossed face neighbours of each
+# cell it takes out, marking every cell it tests. Colour = the FIFO step at which a
+# triangle's cell was registered: the surface grows outwards from the seed in rings.
+
+# %%
 value = float(np.median(s))
 scan = extract(vol, value)
 seed = int(scan.triangle_cells[0])
@@ -131,8 +140,8 @@ order = prop.last_order
 plot_volume.plot_propagation_order(vol, grown, order, seeds=[seed]).show()
 print(f"scan: {scan.n_triangles} triangles after testing {scan.cells_tested} cells; "
       f"propagation from 1 seed: {grown.n_triangles} triangles after testing {grown.cells_tested} cells")
-"""),
-    ("code", """
+
+# %%
 # breadth first: every registered cell after the seed has a face neighbour registered before it
 rank = np.full(vol.n_cells, len(order))
 rank[order] = np.arange(len(order))
@@ -142,26 +151,26 @@ assert order[0] == seed and np.all(earlier[1:] < np.arange(1, len(order)))
 # the propagated triangles are the scan's (those of the seed's connected part), and far fewer cells are tested
 key = lambda iso: {tuple(sorted(t)) for t in iso.vertex_keys[iso.triangles].tolist()}  # noqa: E731
 assert key(grown) <= key(scan) and grown.cells_tested < scan.cells_tested / 4
-"""),
-    ("md", """
-Propagation from one seed only reaches the part of the surface connected to it. Seeds in
-every part — here all the cells the scan found crossed — give the scan's surface exactly:
-"""),
-    ("code", """
+
+# %% [markdown]
+# Propagation from one seed only reaches the part of the surface connected to it. Seeds in
+# every part — here all the cells the scan found crossed — give the scan's surface exactly:
+
+# %%
 labels, n_parts = scan.connected_components()
 every = prop.extract(value, np.unique(scan.triangle_cells))
 print(f"{n_parts} connected parts; from all crossed seeds: {every.n_triangles} triangles")
 assert key(every) == key(scan) and every.n_triangles == scan.n_triangles
-"""),
-    ("md", """
-## Table 5.1 — intersected and not-intersected cells
 
-Twenty isovalues `linspace(min, max, 22)[1:-1]` per volume; N_i = cells intersected
-(summed over the 20 values), N_n = cells tested in vain by a full scan, 20 N_c = all tests.
-The thesis's point: a full scan wastes most of its work, and more so on larger volumes,
-since a surface meets O(n^{2/3}) of n cells.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Table 5.1 — intersected and not-intersected cells
+#
+# Twenty isovalues `linspace(min, max, 22)[1:-1]` per volume; N_i = cells intersected
+# (summed over the 20 values), N_n = cells tested in vain by a full scan, 20 N_c = all tests.
+# The thesis's point: a full scan wastes most of its work, and more so on larger volumes,
+# since a surface meets O(n^{2/3}) of n cells.
+
+# %%
 # Table 5.1 of the thesis: (N_i intersected, N_n not intersected) over 20 isovalues
 T51 = {"data1": (51357, 363363), "data2": (62377, 1171223), "data3": (148836, 6784044), "data4": (277457, 10879903)}
 rows = []
@@ -174,30 +183,30 @@ for name in TABLE_DATA:
                  "20 N_c thesis": 20 * t["cells"], "N_i/20N_c": ni / (20 * v.n_cells),
                  "N_i/20N_c thesis": T51[name][0] / (20 * t["cells"])})
 print(plotting.table(rows, list(rows[0])))
-"""),
-    ("md", """
-Our ratios fall from data 1 to data 3 and rise a little at data 4 — the same pattern as
-the thesis's (0.124, 0.051, 0.021, 0.025): data 4 has many more extrema (540 against 135),
-hence more, smaller closed surfaces. So the claim we check is the thesis's own: the ratio
-falls over data 1–3, data 4 stays below data 1 and 2, and at most a few percent of the
-scan's tests hit a crossed cell on the larger volumes.
-"""),
-    ("code", """
+
+# %% [markdown]
+# Our ratios fall from data 1 to data 3 and rise a little at data 4 — the same pattern as
+# the thesis's (0.124, 0.051, 0.021, 0.025): data 4 has many more extrema (540 against 135),
+# hence more, smaller closed surfaces. So the claim we check is the thesis's own: the ratio
+# falls over data 1–3, data 4 stays below data 1 and 2, and at most a few percent of the
+# scan's tests hit a crossed cell on the larger volumes.
+
+# %%
 for col in ["N_i/20N_c", "N_i/20N_c thesis"]:
     r = [row[col] for row in rows]
     assert r[0] > r[1] > r[2] and r[3] < min(r[0], r[1]), (col, r)
     assert max(r[2:]) < 0.05 and r[0] < 0.15, (col, r)
-"""),
-    ("md", """
-## Table 5.2 — active-cell searches, measured
 
-Each structure is built once over the cells' intervals `[S_min, S_max]` and answers "which
-cells contain `C`?". Synthetic intervals shaped like an FEM field on n cells (`S_min`
-uniform, span ~ n^{-1/3}, so k ~ n^{2/3} hits per value); 20 values per size. Besides the
-times we count the **cells tested** — the work that Table 5.2's query costs describe — and
-fit log–log slopes.
-"""),
-    ("code", """
+# %% [markdown]
+# ## Table 5.2 — active-cell searches, measured
+#
+# Each structure is built once over the cells' intervals `[S_min, S_max]` and answers "which
+# cells contain `C`?". Synthetic intervals shaped like an FEM field on n cells (`S_min`
+# uniform, span ~ n^{-1/3}, so k ~ n^{2/3} hits per value); 20 values per size. Besides the
+# times we count the **cells tested** — the work that Table 5.2's query costs describe — and
+# fit log–log slopes.
+
+# %%
 T52 = {"full-scan": ("-", "O(n)"), "sorted-lists": ("O(n log n)", "O(n)"), "span-filter": ("O(n)", "O(n)"),
        "span-space": ("O(n log n)", "O(√n + k)"), "issue-lattice": ("O(n log n)", "O(log(n/L) + √n/L + k)"),
        "interval-tree": ("O(n log n)", "O(log n + k)")}
@@ -217,24 +226,24 @@ for n in SEARCH_N:
         search_rows.append({"method": name, "n": n, "preprocess s": st.preprocess_s, "query s (20)": query_s,
                             "cells tested": sum(r.n_tested for r in res), "hits k": k,
                             "tested - k": sum(r.n_tested for r in res) - k})
-"""),
-    ("code", """
+
+# %%
 fig, slopes = plot_volume.plot_loglog(search_rows, ["preprocess s", "query s (20)", "cells tested", "tested - k"],
                                       titles={"tested - k": "tested - k (the search term)"})
 print(plotting.table([{"method": m, "Table 5.2 pre": T52[m][0], "Table 5.2 query": T52[m][1],
                        **{f"slope {y}": slopes[y][m] for y in slopes}} for m in T52],
                      ["method", "Table 5.2 pre", "Table 5.2 query", "slope preprocess s",
                       "slope query s (20)", "slope cells tested", "slope tested - k"], floatfmt="{:.2f}"))
-"""),
-    ("md", """
-Times on a small shared machine are noisy and are not asserted; the counts are exact. What
-Table 5.2 claims about the query, checked on the counts: the full scan, the sorted lists
-and span filtering test O(n) cells (slope ≈ 1); the span-space k-d tree's search term grows
-like √n (slope ≈ ½); the ISSUE lattice's and the interval tree's are far below that, the
-tree's nearly constant (log n). Every sublinear structure tests about as many cells as it
-finds (k ~ n^{2/3} here).
-"""),
-    ("code", """
+
+# %% [markdown]
+# Times on a small shared machine are noisy and are not asserted; the counts are exact. What
+# Table 5.2 claims about the query, checked on the counts: the full scan, the sorted lists
+# and span filtering test O(n) cells (slope ≈ 1); the span-space k-d tree's search term grows
+# like √n (slope ≈ ½); the ISSUE lattice's and the interval tree's are far below that, the
+# tree's nearly constant (log n). Every sublinear structure tests about as many cells as it
+# finds (k ~ n^{2/3} here).
+
+# %%
 st, ov = slopes["cells tested"], slopes["tested - k"]
 k_slope = plot_volume.loglog_slope([r["n"] for r in search_rows if r["method"] == "full-scan"],
                                    [r["hits k"] for r in search_rows if r["method"] == "full-scan"])
@@ -242,7 +251,3 @@ assert all(ov[m] > 0.9 for m in ["full-scan", "sorted-lists", "span-filter"]), o
 assert 0.35 < ov["span-space"] < 0.65, ov
 assert ov["interval-tree"] < 0.25 and ov["issue-lattice"] < ov["span-space"], ov
 assert all(abs(st[m] - k_slope) < 0.1 for m in ["span-space", "issue-lattice", "interval-tree"]), (st, k_slope)
-"""),
-]
-
-write("notebooks/05_isosurfaces.ipynb", cells)
