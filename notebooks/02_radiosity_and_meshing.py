@@ -32,7 +32,7 @@
 # Chapter 2 reviews earlier work and prints no tables, so the numbers we print beside ours
 # are closed forms (Howell's catalogue of form factors, the furnace identity, a direct
 # linear solve). Everything below calls `polygen.radiosity` and `polygen.mesh2d`; the figures
-# come from `polygen.plot_radiosity`.
+# come from `polygen.plotting.radiosity`.
 
 # %%
 import os
@@ -43,7 +43,8 @@ FULL = os.environ.get("POLYGEN_FULL") == "1"   # thesis-like sizes when set
 import matplotlib.pyplot as plt
 import numpy as np
 
-from polygen import plot_radiosity, plotting
+from polygen import plotting
+from polygen.plotting import radiosity as plot_radiosity
 from polygen.mesh2d import (bubble_force, bubble_mesh, constrained_delaunay, find_t_vertices,
                             is_t_vertex_free, mesh_edges, triangle_quality)
 from polygen.radiosity import (Camera, Polygon, adaptive_refine, bubble_element_mesher,

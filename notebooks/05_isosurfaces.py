@@ -36,7 +36,8 @@ FULL = os.environ.get("POLYGEN_FULL") == "1"   # thesis-scale sizes for everythi
 import ipywidgets
 import numpy as np
 
-from polygen import plot_volume, plotting
+from polygen import plotting
+from polygen.plotting import volume as plot_volume
 from polygen.volume import datasets, marching, seeds
 from polygen.volume.isosurface import extract
 from polygen.volume.propagate import Propagator

@@ -28,7 +28,7 @@
 #
 # A query tests the cells of the arcs whose range holds C and the boundary cells on the near
 # side of C, and grows the surface from every hit by propagation (6.3.4). Everything here is
-# `polygen.volume.extrema_graph`; the figures come from `polygen.plot_extrema`.
+# `polygen.volume.extrema_graph`; the figures come from `polygen.plotting.extrema`.
 
 # %%
 import os
@@ -39,7 +39,8 @@ FULL = os.environ.get("POLYGEN_FULL") == "1"   # all data sets and the long swee
 import numpy as np
 from scipy.spatial import Delaunay
 
-from polygen import plot_extrema, plotting
+from polygen import plotting
+from polygen.plotting import extrema as plot_extrema
 from polygen.volume import datasets, methods
 from polygen.volume.extrema_graph import build_extrema_graph, extrema_graph_2d, find_extrema
 from polygen.volume.isosurface import extract

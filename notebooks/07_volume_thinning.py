@@ -27,7 +27,7 @@
 # class of C and grows the surface from every hit (7.5.4–7.5.5).
 #
 # Everything here is `polygen.volume.thinning` (the kernels in `_thinning_kernels`); the
-# figures come from `polygen.plot_thinning`. `benchmarks/thinning.py` measures the same tables
+# figures come from `polygen.plotting.thinning`. `benchmarks/thinning.py` measures the same tables
 # and the O(n) preprocessing from 20k to 10M cells.
 
 # %%
@@ -39,7 +39,8 @@ FULL = os.environ.get("POLYGEN_FULL") == "1"   # every field of every data set i
 import matplotlib.pyplot as plt
 import numpy as np
 
-from polygen import plot_thinning, plotting
+from polygen import plotting
+from polygen.plotting import thinning as plot_thinning
 from polygen.volume import datasets, methods
 from polygen.volume.extrema_graph import build_extrema_graph
 from polygen.volume.isosurface import extract, same_surface

@@ -41,7 +41,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import polygen
-from polygen import plot_volume, plotting
+from polygen import plotting
+from polygen.plotting import volume as plot_volume
 from polygen.volume import datasets, methods
 from polygen.volume.isosurface import extract, same_surface
 

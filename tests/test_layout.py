@@ -18,6 +18,13 @@ ROOT = Path(polygen.__file__).parent
 ALGORITHMS = ("volume", "radiosity", "mesh2d")
 FORBIDDEN = ("polygen.plotting", "polygen.cli", "polygen.widgets")
 
+#: Cycles that exist and are owned elsewhere, each through imports inside functions (so not an
+#: import-time failure, but still two modules that cannot be understood apart). The test fails
+#: when one of them goes away (remove it here) as much as when a new one appears.
+#: - radiosity.layout raises radiosity.mesh.MeshError, and mesh builds layouts' RegionSize: came
+#:   with main's radiosity layouts (issue 13); MeshError in a module below both would break it.
+KNOWN_CYCLES = [{"polygen.radiosity.layout", "polygen.radiosity.mesh"}]
+
 #: polygen/volume, bottom up: a module may import its own layer or lower ones (CONTRIBUTING.md)
 VOLUME_LAYERS = [
     ("tables", ["_cells", "registry"]),
@@ -160,7 +167,7 @@ def test_no_algorithm_imports_plotting_or_cli():
 
 
 def test_no_import_cycle():
-    assert cycles(ROOT) == []
+    assert [set(c) for c in cycles(ROOT)] == KNOWN_CYCLES
 
 
 def test_volume_layers_point_down():
@@ -180,7 +187,8 @@ def test_the_walk_sees_the_imports_it_should():
 def test_checks_catch_planted_violations(tmp_path):
     root = tmp_path / "polygen"
     shutil.copytree(ROOT, root, ignore=shutil.ignore_patterns("__pycache__", "*.nbi", "*.nbc"))
-    assert forbidden_imports(root) == cycles(root) == upward_imports(root) == []
+    assert forbidden_imports(root) == upward_imports(root) == []
+    assert [set(c) for c in cycles(root)] == KNOWN_CYCLES
 
     def plant(rel, line):
         """Append ``line`` to the copy of ``rel``; the line number of its last line."""

@@ -299,3 +299,14 @@ def test_every_seed_source_serves_the_same_interface(tiny_volume):
             assert same_surface(prop.extract(v, found.cells), ref, geometry=False), (name, v)
     with pytest.raises(IsoSurfaceError, match="unknown seed source"):
         seed_source(tiny_volume, field, "octree")
+
+
+def test_seeds_unpack_as_the_old_triple():
+    from polygen.volume import datasets
+    from polygen.volume.seeds import seed_source
+
+    vol = datasets.load("torus")
+    found = seed_source(vol, None, "span-space").query(0.4)
+    cells, n_tested, seconds = found
+    assert cells is found.cells and n_tested == found.n_tested and seconds == found.seconds
+    assert found[0] is found.cells and len(found) == 3

@@ -48,6 +48,9 @@ class Seeds:
         :class:`~polygen.volume.seeds.QueryResult`, a
         :class:`~polygen.volume.extrema_graph.GraphSeeds` or a
         :class:`~polygen.volume.thinning.SkeletonSeeds`).
+
+    It also unpacks as ``cells, n_tested, seconds`` (and ``seeds[0]`` is the
+    cells), as the seed sources of :mod:`polygen.volume.edge_centred` answered.
     """
 
     value: float
@@ -55,6 +58,16 @@ class Seeds:
     n_tested: int
     seconds: float
     found: object = None
+
+    # the (cells, n_tested, seconds) triple that edge_centred's seed sources answered before
+    def __iter__(self):
+        return iter((self.cells, self.n_tested, self.seconds))
+
+    def __getitem__(self, i):
+        return (self.cells, self.n_tested, self.seconds)[i]
+
+    def __len__(self):
+        return 3
 
 
 @dataclasses.dataclass(eq=False)
