@@ -34,6 +34,9 @@ __all__ = ["Seeds", "SeedSource", "seed_source"]
 class Seeds:
     """What a seed source answers for one isovalue.
 
+    It also unpacks as ``cells, n_tested, seconds`` (and ``seeds[0]`` is the
+    cells), as the seed sources of :mod:`polygen.volume.edge_centred` answered.
+
     Attributes
     ----------
     value : float
@@ -48,9 +51,6 @@ class Seeds:
         :class:`~polygen.volume.seeds.QueryResult`, a
         :class:`~polygen.volume.extrema_graph.GraphSeeds` or a
         :class:`~polygen.volume.thinning.SkeletonSeeds`).
-
-    It also unpacks as ``cells, n_tested, seconds`` (and ``seeds[0]`` is the
-    cells), as the seed sources of :mod:`polygen.volume.edge_centred` answered.
     """
 
     value: float
