@@ -70,6 +70,28 @@ def oriented_triangles(iso):
     return {tuple(t) for t in rolled.tolist()}
 
 
+def assert_same_surface(ref, iso, *, cells=True, lookups=False):
+    """``iso`` is ``ref`` triangle for triangle (orientation included), vertex for vertex (positions bit for
+    bit), each vertex once, with the same normals; with ``cells`` also the same intersected cells and each
+    triangle made in the same cell; with ``lookups`` the same vertex look-ups."""
+    assert iso.n_triangles == ref.n_triangles and iso.n_vertices == ref.n_vertices
+    assert oriented_triangles(iso) == oriented_triangles(ref)
+    assert np.unique(iso.vertex_keys).size == iso.n_vertices  # no vertex twice
+    oa, ob = np.argsort(ref.vertex_keys), np.argsort(iso.vertex_keys)
+    np.testing.assert_array_equal(ref.vertex_keys[oa], iso.vertex_keys[ob])
+    np.testing.assert_array_equal(ref.vertices[oa], iso.vertices[ob])  # (5.2) bit for bit
+    assert (ref.normals is None) == (iso.normals is None)
+    if ref.normals is not None:
+        np.testing.assert_allclose(ref.normals[oa], iso.normals[ob], atol=1e-12)
+    if lookups:
+        assert iso.vertex_lookups == ref.vertex_lookups
+    if cells:
+        assert iso.cells_intersected == ref.cells_intersected
+        ka = {tuple(sorted(t)) + (c,) for t, c in zip(ref.vertex_keys[ref.triangles].tolist(), ref.triangle_cells)}
+        kb = {tuple(sorted(t)) + (c,) for t, c in zip(iso.vertex_keys[iso.triangles].tolist(), iso.triangle_cells)}
+        assert ka == kb  # each triangle made in the same cell
+
+
 def sorted_triangles(iso):
     """(T, 3) vertex keys of each triangle, sorted within and across triangles."""
     t = np.sort(iso.vertex_keys[iso.triangles], axis=1)

@@ -8,25 +8,8 @@ from polygen.volume.edge_centred import EdgeCentred, EdgeCentredMethod, edge_cen
 from polygen.volume.isosurface import IsoSurfaceError, extract
 from polygen.volume.propagate import Propagator
 
-from _surfaces import grid_volume  # noqa: E402
+from _surfaces import assert_same_surface, grid_volume  # noqa: E402
 from _surfaces import oriented_triangles as triangle_set  # noqa: E402
-
-
-def assert_same_surface(ref, iso, *, cells=True):
-    assert iso.n_triangles == ref.n_triangles and iso.n_vertices == ref.n_vertices
-    assert triangle_set(iso) == triangle_set(ref)  # triangle for triangle, orientation included
-    assert np.unique(iso.vertex_keys).size == iso.n_vertices  # no vertex twice
-    oa, ob = np.argsort(ref.vertex_keys), np.argsort(iso.vertex_keys)
-    np.testing.assert_array_equal(ref.vertex_keys[oa], iso.vertex_keys[ob])
-    np.testing.assert_array_equal(ref.vertices[oa], iso.vertices[ob])  # (5.2) bit for bit
-    if ref.normals is not None:
-        np.testing.assert_allclose(ref.normals[oa], iso.normals[ob], atol=1e-12)
-    if cells:
-        assert iso.cells_intersected == ref.cells_intersected
-    # each triangle made in the same cell
-    ka = {tuple(sorted(t)) + (c,) for t, c in zip(ref.vertex_keys[ref.triangles].tolist(), ref.triangle_cells)}
-    kb = {tuple(sorted(t)) + (c,) for t, c in zip(iso.vertex_keys[iso.triangles].tolist(), iso.triangle_cells)}
-    assert ka == kb
 
 
 def one_seed_per_component(iso):
