@@ -45,7 +45,6 @@ instead of waiting one after the other.
 
 import os
 
-import numba
 import numpy as np
 
 from polygen import _jit
@@ -87,8 +86,9 @@ def case_masks(tri_table, tri_count):
 # ------------------------------------------------------------------ intrinsics
 # The prefetch hint and the count of trailing zeros are written against numba's internals
 # (``numba.core.cgutils``) and LLVM intrinsic names (``llvm.prefetch.p0`` is the name under
-# opaque pointers, LLVM >= 15). Either can change with a numba/llvmlite release, so they are
-# compiled once in a probe at import; when the probe fails, or ``POLYGEN_PREFETCH=0`` asks for it,
+# opaque pointers, LLVM >= 15). Either can change with a numba/llvmlite release, so a probe kernel
+# runs all three at import (cached on disk like the others, so only the first import compiles it);
+# when the internals are missing, the probe fails, or ``POLYGEN_PREFETCH=0`` asks for it,
 # plain kernels take their place: no prefetch (slower by the misses it overlapped, same results)
 # and a loop for the trailing zeros. ``PREFETCH`` says which ones the kernels below were built with.
 
@@ -116,15 +116,15 @@ def _ctz_plain(x):
     return n
 
 
-def _llvm_intrinsics():
-    """``(prefetch_row, prefetch_item, ctz)`` built on numba internals, or ``None`` when they fail."""
-    try:
-        from llvmlite import ir
-        from numba import types
-        from numba.core import cgutils
-        from numba.extending import intrinsic
-    except ImportError:
-        return None
+try:  # numba internals: an ImportError here, or a failing probe below, selects the plain kernels
+    from llvmlite import ir
+    from numba import types
+    from numba.core import cgutils
+    from numba.extending import intrinsic
+except ImportError:  # pragma: no cover - depends on the numba release
+    intrinsic = None
+
+if intrinsic is not None:
 
     def _prefetch_codegen(rw):
         def codegen(context, builder, signature, args):
@@ -170,25 +170,27 @@ def _llvm_intrinsics():
 
         return types.int64(x), codegen
 
-    @numba.njit(cache=False)
-    def probe(arr, v, x):
+    @njit
+    def _probe(arr, v, x):
+        """All three intrinsics once (cached on disk like every kernel: the next import only loads it)."""
         _prefetch_row(arr, 0)
         _prefetch_item(v, 0)
         return _ctz(x)
 
+
+def _intrinsics_work():
+    """Whether the intrinsics compile and give the right answer with this numba/llvmlite."""
+    if intrinsic is None:
+        return False
     try:
-        ok = probe(np.zeros((1, 16), np.int32), np.zeros(1, np.int32), np.int32(8)) == 3
+        return int(_probe(np.zeros((1, 16), np.int32), np.zeros(1, np.int32), np.int32(8))) == 3
     except Exception:  # an internal API moved or LLVM rejected the intrinsic: use the plain kernels
-        return None
-    return (_prefetch_row, _prefetch_item, _ctz) if ok else None
+        return False
 
 
-_INTRINSICS = _llvm_intrinsics() if os.environ.get("POLYGEN_PREFETCH", "1") != "0" else None
 #: whether the kernels use the prefetch and ctz intrinsics (else the plain fallbacks)
-PREFETCH = _INTRINSICS is not None
-if PREFETCH:
-    _prefetch_row, _prefetch_item, _ctz = _INTRINSICS
-else:
+PREFETCH = os.environ.get("POLYGEN_PREFETCH", "1") != "0" and _intrinsics_work()
+if not PREFETCH:
     _prefetch_row, _prefetch_item, _ctz = _prefetch_row_plain, _prefetch_item_plain, _ctz_plain
 # a kernel's on-disk cache does not know which of the two it was compiled with: only the
 # intrinsic build is cached, a fallback build is compiled in its process
