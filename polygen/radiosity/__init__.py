@@ -16,7 +16,10 @@ Layers, each usable on its own (chapters 3 and 4 build on them):
 * :mod:`~polygen.radiosity.raster` -- node intensities (2.8) and a Gouraud
   scanline z-buffer (2.9, 2.10);
 * :mod:`~polygen.radiosity.adaptive` -- adaptive subdivision of elements
-  (Def. 2.6), the baseline of chapters 3 and 4.
+  (Def. 2.6), the baseline of chapters 3 and 4;
+* :mod:`~polygen.radiosity.error` -- image error against a reference, and
+  the error-vs-elements curves of uniform meshes and adaptive subdivision
+  (the yardstick of chapters 3 and 4).
 """
 
 from polygen.radiosity.adaptive import (
@@ -24,6 +27,13 @@ from polygen.radiosity.adaptive import (
     adaptive_refine,
     element_jumps,
     mark_jumps,
+)
+from polygen.radiosity.error import (
+    ErrorPoint,
+    adaptive_curve,
+    image_error,
+    shade,
+    uniform_curve,
 )
 from polygen.radiosity.formfactor import (
     FormFactorError,
@@ -55,7 +65,15 @@ from polygen.radiosity.mesh import (
     mesh_scene,
     split_triangles,
 )
-from polygen.radiosity.raster import Camera, RasterError, node_intensities, render, to_pyvista
+from polygen.radiosity.raster import (
+    Camera,
+    RasterError,
+    auto_exposure,
+    node_intensities,
+    render,
+    tone_map,
+    to_pyvista,
+)
 from polygen.radiosity.scene import (
     AreaLight,
     ParallelLight,
@@ -82,6 +100,7 @@ __all__ = [
     "AdaptiveRefinement",
     "AreaLight",
     "Camera",
+    "ErrorPoint",
     "FormFactorError",
     "HemicubeError",
     "MeshError",
@@ -94,8 +113,10 @@ __all__ = [
     "Scene",
     "SceneError",
     "SolverError",
+    "adaptive_curve",
     "adaptive_refine",
     "analytic_column",
+    "auto_exposure",
     "assemble_mesh",
     "bubble_element_mesher",
     "bubble_mesher",
@@ -105,6 +126,7 @@ __all__ = [
     "gauss_seidel",
     "hemicube_form_factors",
     "hemicube_polygon_form_factor",
+    "image_error",
     "lattice_delaunay_mesher",
     "mark_jumps",
     "mesh_scene",
@@ -113,6 +135,9 @@ __all__ = [
     "polygon_form_factor",
     "progressive_refinement",
     "render",
+    "shade",
     "split_triangles",
     "to_pyvista",
+    "tone_map",
+    "uniform_curve",
 ]
