@@ -18,12 +18,9 @@ ROOT = Path(polygen.__file__).parent
 ALGORITHMS = ("volume", "radiosity", "mesh2d")
 FORBIDDEN = ("polygen.plotting", "polygen.cli", "polygen.widgets")
 
-#: Cycles that exist and are owned elsewhere, each through imports inside functions (so not an
-#: import-time failure, but still two modules that cannot be understood apart). The test fails
-#: when one of them goes away (remove it here) as much as when a new one appears.
-#: - radiosity.layout raises radiosity.mesh.MeshError, and mesh builds layouts' RegionSize: came
-#:   with main's radiosity layouts (issue 13); MeshError in a module below both would break it.
-KNOWN_CYCLES = [{"polygen.radiosity.layout", "polygen.radiosity.mesh"}]
+#: Cycles that are known and accepted (none now): the test fails when one of them goes away
+#: (remove it here) as much as when a new one appears.
+KNOWN_CYCLES = []
 
 #: polygen/volume, bottom up: a module may import its own layer or lower ones (CONTRIBUTING.md)
 VOLUME_LAYERS = [

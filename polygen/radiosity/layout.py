@@ -29,6 +29,7 @@ import numpy as np
 
 from polygen.mesh2d import InvalidDomainError, planar_graph
 from polygen.mesh2d.pslg import BOUNDARY, D0, D1, _union_find, edge_node_parameters
+from polygen.radiosity._errors import MeshError
 from polygen.radiosity.scene import Polygon
 
 __all__ = ["D0", "D1", "Segments", "RegionSize", "polygon_layout", "contact_segments"]
@@ -168,8 +169,6 @@ def polygon_layout(polygon, segments=None, *, points=None, tol=LAYOUT_TOL):
     MeshError
         Naming the polygon and the offending segment.
     """
-    from polygen.radiosity.mesh import MeshError
-
     if not isinstance(polygon, Polygon):
         raise MeshError(f"polygon must be a Polygon, got {type(polygon).__name__}")
     try:

@@ -35,6 +35,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from polygen.radiosity import layout as lay
+from polygen.radiosity._errors import MeshError
+from polygen.radiosity.layout import RegionSize, _as_segments
 from polygen.radiosity.scene import Scene, SceneError
 
 __all__ = [
@@ -47,10 +50,6 @@ __all__ = [
     "mesh_scene",
     "assemble_mesh",
 ]
-
-
-class MeshError(ValueError):
-    """Inconsistent patch/element/node arrays."""
 
 
 class RadiosityMesh:
@@ -647,7 +646,6 @@ def _ccw(pts2, tris):
 
 def _per_polygon(value, n, what):
     """One entry per polygon: a sequence of length n, or one value for all."""
-    from polygen.radiosity.layout import RegionSize
 
     if isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 1):
         if len(value) != n:
@@ -662,7 +660,6 @@ def _per_polygon(value, n, what):
 
 
 def _check_size(spec, k, poly):
-    from polygen.radiosity.layout import RegionSize
 
     if isinstance(spec, RegionSize) or callable(spec):
         return spec
@@ -677,7 +674,6 @@ def _check_size(spec, k, poly):
 
 
 def _segments_per_polygon(segments, scene):
-    from polygen.radiosity.layout import _as_segments
 
     n = len(scene.polygons)
     out = [None] * n
@@ -776,8 +772,6 @@ def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_m
         polygon, off its plane or crossing another one without a common
         vertex (the message names the polygon and the segment).
     """
-    from polygen.radiosity import layout as lay
-
     if not isinstance(scene, Scene):
         raise SceneError(f"scene must be a Scene, got {type(scene).__name__}")
     n = len(scene.polygons)
