@@ -105,6 +105,9 @@ templates_path = ["_templates"]
 # -- notebooks: stored outputs only ---------------------------------------------------
 nb_execution_mode = "off"
 nb_merge_streams = True
+# a widget's stored PNG (docs/execute_notebooks.py puts it beside the widget) is shown
+# rather than the widget, which would need JavaScript from a CDN and a kernel to move
+nb_mime_priority_overrides = [("html", "image/png", 0)]
 myst_enable_extensions = ["dollarmath", "colon_fence", "substitution"]
 # {{ chapters }} on the index: a list of links to the chapter pages, in reading order
 myst_substitutions = {"chapters": "\n".join(f"- [{t}](notebooks/{stem}.ipynb)" for stem, t in CHAPTERS)}
