@@ -22,6 +22,7 @@ error included, so that the pair stays in sync and the traceback can be read.
 
 import argparse
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -158,7 +159,8 @@ def execute(py_path, *, timeout=900, kernel_name="python3"):
     try:
         client.execute()
     except CellExecutionError as exc:
-        error = str(exc).strip().splitlines()[-1] if str(exc).strip() else repr(exc)
+        text = re.sub(r"\x1b\[[0-9;]*m", "", str(exc)).strip()  # no terminal colours
+        error = text.splitlines()[-1] if text else repr(exc)
     except (CellControlSignal, DeadKernelError) as exc:  # a cell ran out of time, the kernel died
         error = f"{type(exc).__name__}: {exc}"
     finally:
