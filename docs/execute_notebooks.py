@@ -29,7 +29,6 @@ from pathlib import Path
 from queue import Empty
 
 import jupytext
-import nbformat
 from nbclient import NotebookClient
 from nbclient.exceptions import CellControlSignal, CellExecutionError, DeadKernelError
 
