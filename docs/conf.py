@@ -105,6 +105,9 @@ templates_path = ["_templates"]
 # -- notebooks: stored outputs only ---------------------------------------------------
 nb_execution_mode = "off"
 nb_merge_streams = True
+# a widget's stored PNG (docs/execute_notebooks.py puts it beside the widget) is shown
+# rather than the widget, which would need JavaScript from a CDN and a kernel to move
+nb_mime_priority_overrides = [("html", "image/png", 0)]
 myst_enable_extensions = ["dollarmath", "colon_fence", "substitution"]
 # {{ chapters }} on the index: a list of links to the chapter pages, in reading order
 myst_substitutions = {"chapters": "\n".join(f"- [{t}](notebooks/{stem}.ipynb)" for stem, t in CHAPTERS)}
@@ -135,7 +138,10 @@ html_css_files = ["book.css"]
 
 # -- docstring fix-ups, by configuration (polygen/ is not edited for the book) --------
 _KEYWORD_ONLY = re.compile(r"^(\s*)Parameters \((keyword-only[^)]*)\)\s*$")
-_PARAM = re.compile(r"^\s*\*{0,2}[A-Za-z_]\w*\s*(:.*)?$|^\s*-+\s*$|^\s*[A-Z][a-z]+( [A-Z][a-z]+)?\s*$")
+# a parameter line ("name : type", "**params"), an underline, or a section heading
+_PARAM = re.compile(r"^\s*\*{0,2}[A-Za-z_]\w*\s*(:.*)?$"
+                    r"|^\s*-+\s*$"
+                    r"|^\s*[A-Z][a-z]+( [A-Z][a-z]+)?\s*$")
 _SUBSCRIPT_MINUS = re.compile(r"\b([A-Za-z]\w*)_(?=-\d)")
 
 
@@ -143,9 +149,10 @@ def _fix_docstring(app, what, name, obj, options, lines):
     """Two conventions of polygen's docstrings that napoleon/docutils misread.
 
     * A ``Parameters (keyword-only, to :meth:`build`)`` heading (parameters of a
-      method class, passed on to another call) is not a numpydoc section (napoleon would leave it as a reST title): it becomes
-      ``Other Parameters``, with its parenthesis kept as a sentence above it; a
-      paragraph that follows those parameters without a heading becomes ``Notes``.
+      method class, passed on to another call) is not a numpydoc section (napoleon
+      would leave it as a reST title): it becomes ``Other Parameters``, with its
+      parenthesis kept as a sentence above it; a paragraph that follows those
+      parameters without a heading becomes ``Notes``.
     * ``C_-1`` (a class name with a negative subscript, outside literals) reads as a
       hyperlink reference ``C_`` in reST: the underscore is escaped.
     """

@@ -127,3 +127,74 @@ def test_notebook_stored_with_outputs(ipynb):
         f"{ipynb.name} has no stored outputs: run python docs/execute_notebooks.py {ipynb.stem}")
     errors = [c.id for c in code for o in c.outputs if o.output_type == "error"]
     assert errors == [], f"{ipynb.name}: cells {errors} stored an error"
+
+
+# -- the runner that stores the outputs (docs/execute_notebooks.py) ----------------------
+
+def _runner():
+    import importlib.util
+
+    path = NOTEBOOKS.parent / "docs" / "execute_notebooks.py"
+    spec = importlib.util.spec_from_file_location("execute_notebooks", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+TINY = '''# %% [markdown]
+# # A tiny notebook
+
+# %%
+import matplotlib.pyplot as plt
+print("n  n^2")
+for n in range(3):
+    print(n, n * n)
+
+# %%
+plt.plot([0, 1, 2], [0, 1, 4])
+plt.show()
+'''
+
+
+def test_runner_stores_text_and_png(tmp_path):
+    py = tmp_path / "01_tiny.py"
+    py.write_text(TINY)
+    error, seconds, mb = _runner().execute(py, timeout=120)
+    assert error is None
+    nb = nbformat.read(py.with_suffix(".ipynb"), as_version=4)
+    assert [c.id for c in nb.cells] == ["c00", "c01", "c02"]
+    assert "".join(o.get("text", "") for o in nb.cells[1].outputs) == "n  n^2\n0 0\n1 1\n2 4\n"
+    assert [o for o in nb.cells[2].outputs if "image/png" in o.get("data", {})], "the figure is not a PNG"
+    assert pair_differences(py) == []
+    assert 0 < mb < 1
+
+
+def test_runner_reports_a_failing_cell_and_keeps_the_pair(tmp_path):
+    py = tmp_path / "01_fails.py"
+    py.write_text(TINY + "\n# %%\n1 / 0\n")
+    error, _, _ = _runner().execute(py, timeout=120)
+    assert error == "ZeroDivisionError: division by zero"
+    assert pair_differences(py) == []
+
+
+def test_widget_gets_its_png_and_jpeg_copies_go():
+    runner = _runner()
+    nb = nbformat.v4.new_notebook()
+    view = {runner.WIDGET_VIEW: {"model_id": "box"}, "text/plain": "interactive(...)"}
+    nb.cells = [nbformat.v4.new_code_cell("interact(...)", outputs=[
+        nbformat.v4.new_output("display_data", data=view),
+        nbformat.v4.new_output("display_data", data={"image/png": "P0", "image/jpeg": "J0"}),
+    ])]
+    nb.metadata["widgets"] = {runner.WIDGET_STATE: {"state": {
+        "box": {"state": {"children": ["IPY_MODEL_slider", "IPY_MODEL_out"]}},
+        "slider": {"state": {"value": 0.5}},
+        "out": {"state": {"outputs": [{"output_type": "display_data",
+                                        "data": {"image/jpeg": "J1", "image/png": "P1"}}]}},
+    }}}
+    runner.keep_png_only(nb)
+    runner.add_widget_fallbacks(nb)
+    first, second = nb.cells[0].outputs
+    assert first["data"]["image/png"] == "P1" and runner.WIDGET_VIEW in first["data"]
+    assert second["data"] == {"image/png": "P0"}
+    out = nb.metadata["widgets"][runner.WIDGET_STATE]["state"]["out"]["state"]["outputs"][0]
+    assert out["data"] == {"image/png": "P1"}
