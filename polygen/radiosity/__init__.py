@@ -58,6 +58,7 @@ from polygen.radiosity.solve import (
     RadiosityResult,
     SolverError,
     form_factor_matrix,
+    furnace_error,
     gauss_seidel,
     progressive_refinement,
 )
@@ -86,6 +87,7 @@ __all__ = [
     "delta_form_factors",
     "element_jumps",
     "form_factor_matrix",
+    "furnace_error",
     "gauss_seidel",
     "hemicube_form_factors",
     "hemicube_polygon_form_factor",
