@@ -544,9 +544,14 @@ def triangle_samples(level):
     return pts[tris].mean(axis=1)
 
 
-VISIBILITY_SAMPLES = 3
-"""Default k of the k x k visibility rays per element-patch pair (see
-``benchmarks/visibility.py``: the error-vs-cost curve it was chosen from)."""
+VISIBILITY_SAMPLES = 4
+"""Default k of the k x k visibility rays per element-patch pair.
+
+Chosen from the error-vs-cost curve of ``benchmarks/visibility.py``
+(``benchmarks/results/visibility.md``; against k = 16 in the Fig 2.8 room
+and the Cornell box): the smallest k whose largest element radiosity error
+is under 3 % in both scenes (k = 3: 4.1-4.2 %, k = 4: 2.4-2.5 %; RMS 0.12-0.29
+%), at 1.1-1.4 times the time per shot of k = 3."""
 
 NEAR = 4.0
 """An element is *near* a patch when its centroid is closer to the patch's
