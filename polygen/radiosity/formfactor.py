@@ -240,8 +240,8 @@ def _segment_blocked_by(a, b, cand, ncand, origin, pu, pv, pn, bbox, ring2d, rin
 
 @njit
 def _area_element(e, patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, ec, ediam, epoly,
-                  qbary, qw, rule_start, near, k, occ, occ_box, origin, pu, pv, pn, bbox, ring2d,
-                  ring_start, poly_ring_start, eps, cand, pa, pb):
+                  qbary, qw, rule_start, near, k, occ, occ_box, occ_front, origin, pu, pv, pn,
+                  bbox, ring2d, ring_start, poly_ring_start, eps, cand, pa, pb):
     """F(e -> patch): Lambert's formula integrated over the element where it is near the
     patch, at its centroid elsewhere, times the kernel-weighted visible fraction of k * k
     jittered rays."""
@@ -281,7 +281,7 @@ def _area_element(e, patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, e
     ncand = 0
     for m in range(occ.shape[0]):
         o = occ[m]
-        if o == epoly[e] or o == ppoly:
+        if o == epoly[e] or o == ppoly or not occ_front[epoly[e], m] or not occ_front[ppoly, m]:
             continue
         if (occ_box[m, 0] > hi0 or occ_box[m, 3] < lo0 or occ_box[m, 1] > hi1
                 or occ_box[m, 4] < lo1 or occ_box[m, 2] > hi2 or occ_box[m, 5] < lo2):
@@ -326,30 +326,30 @@ def _area_element(e, patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, e
 
 @njit(parallel=True)
 def _area_column_parallel(patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, ec, ediam,
-                          epoly, qbary, qw, rule_start, near, k, occ, occ_box, origin, pu, pv, pn,
-                          bbox, ring2d, ring_start, poly_ring_start, eps, out):
+                          epoly, qbary, qw, rule_start, near, k, occ, occ_box, occ_front, origin,
+                          pu, pv, pn, bbox, ring2d, ring_start, poly_ring_start, eps, out):
     for e in prange(ec.shape[0]):
         cand = np.empty(occ.shape[0], dtype=np.int64)
         pa = np.empty(3)
         pb = np.empty(3)
         out[e] = _area_element(e, patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, ec,
-                               ediam, epoly, qbary, qw, rule_start, near, k, occ, occ_box, origin,
-                               pu, pv, pn, bbox, ring2d, ring_start, poly_ring_start, eps, cand,
-                               pa, pb)
+                               ediam, epoly, qbary, qw, rule_start, near, k, occ, occ_box,
+                               occ_front, origin, pu, pv, pn, bbox, ring2d, ring_start,
+                               poly_ring_start, eps, cand, pa, pb)
 
 
 @njit
 def _area_column_serial(patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, ec, ediam,
-                        epoly, qbary, qw, rule_start, near, k, occ, occ_box, origin, pu, pv, pn,
-                        bbox, ring2d, ring_start, poly_ring_start, eps, out):
+                        epoly, qbary, qw, rule_start, near, k, occ, occ_box, occ_front, origin,
+                        pu, pv, pn, bbox, ring2d, ring_start, poly_ring_start, eps, out):
     cand = np.empty(occ.shape[0], dtype=np.int64)
     pa = np.empty(3)
     pb = np.empty(3)
     for e in range(ec.shape[0]):
         out[e] = _area_element(e, patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, ec,
-                               ediam, epoly, qbary, qw, rule_start, near, k, occ, occ_box, origin,
-                               pu, pv, pn, bbox, ring2d, ring_start, poly_ring_start, eps, cand,
-                               pa, pb)
+                               ediam, epoly, qbary, qw, rule_start, near, k, occ, occ_box,
+                               occ_front, origin, pu, pv, pn, bbox, ring2d, ring_start,
+                               poly_ring_start, eps, cand, pa, pb)
 
 
 # ----------------------------------------------------------------------------
@@ -377,6 +377,8 @@ class PackedPolygons:
         only ones that can block a segment between two scene points.
     occluder_box : (J, 6) float64
         Their bounding boxes (xmin, ymin, zmin, xmax, ymax, zmax).
+    occluder_front : (K, J) bool
+        Whether occluder j has a vertex strictly in front of polygon k's plane.
     eps : float
         Segment-parameter tolerance for the end points.
     """
@@ -416,6 +418,14 @@ class PackedPolygons:
                             self.ring_start[self.poly_ring_start[k + 1]]]
             box.append(np.concatenate([r.min(axis=0), r.max(axis=0)]))
         self.occluder_box = np.asarray(box, dtype=np.float64).reshape(-1, 6)
+        # a ray that carries light lies in front of the planes of both its ends' polygons, so an
+        # occluder with no vertex strictly in front of either plane cannot block it
+        occ_front = np.zeros((len(self.origin), len(self.occluders)), dtype=np.bool_)
+        for m, k in enumerate(self.occluders):
+            r = slice(self.ring_start[self.poly_ring_start[k]],
+                      self.ring_start[self.poly_ring_start[k + 1]])
+            occ_front[:, m] = (dist[:, r] > tol).any(axis=1)
+        self.occluder_front = occ_front
 
     def args(self):
         return (self.origin, self.u, self.v, self.normal, self.bbox, self.ring2d, self.ring_start,
@@ -676,7 +686,7 @@ def analytic_column(mesh, patch, *, packed=None, geometry=None,
     kernel(int(patch), tri, np.ascontiguousarray(mesh.patch_normal[patch]), centre, radius,
            int(mesh.patch_polygon[patch]), etri, mesh.element_normal, mesh.element_centroid,
            ediam, mesh.element_polygon, qbary, qw, rule_start, float(near), k, packed.occluders,
-           packed.occluder_box, *packed.args(), out)
+           packed.occluder_box, packed.occluder_front, *packed.args(), out)
     return out
 
 
