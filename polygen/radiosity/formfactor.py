@@ -328,14 +328,17 @@ def _area_element(e, patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, e
 def _area_column_parallel(patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, ec, ediam,
                           epoly, qbary, qw, rule_start, near, k, occ, occ_box, occ_front, origin,
                           pu, pv, pn, bbox, ring2d, ring_start, poly_ring_start, eps, out):
-    for e in prange(ec.shape[0]):
+    m = ec.shape[0]
+    chunk = 256  # scratch arrays once per chunk, not per element
+    for c in prange((m + chunk - 1) // chunk):
         cand = np.empty(occ.shape[0], dtype=np.int64)
         pa = np.empty(3)
         pb = np.empty(3)
-        out[e] = _area_element(e, patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, ec,
-                               ediam, epoly, qbary, qw, rule_start, near, k, occ, occ_box,
-                               occ_front, origin, pu, pv, pn, bbox, ring2d, ring_start,
-                               poly_ring_start, eps, cand, pa, pb)
+        for e in range(c * chunk, min(m, (c + 1) * chunk)):
+            out[e] = _area_element(e, patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en,
+                                   ec, ediam, epoly, qbary, qw, rule_start, near, k, occ,
+                                   occ_box, occ_front, origin, pu, pv, pn, bbox, ring2d,
+                                   ring_start, poly_ring_start, eps, cand, pa, pb)
 
 
 @njit
