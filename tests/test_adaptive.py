@@ -223,9 +223,14 @@ def test_refine_marked_bad_input():
 # ---------------------------------------------------------------------------
 
 def _shadow_scene():
+    # a 0.6 x 0.6 light at height 3 over a 1 x 1 blocker at 1.5: on the floor the umbra is
+    # |x|, |z| < 0.7 and the penumbra 0.7 < max(|x|, |z|) < 1.3, wider than the elements (0.25)
+    # so that refining it resolves a gradient (area-sampled visibility averages the light over
+    # an element: across a penumbra narrower than the elements, smaller elements see a sharper
+    # step, and the jumps between neighbours would grow, not shrink)
     floor = Polygon([[-2, 0, -2], [-2, 0, 2], [2, 0, 2], [2, 0, -2]], reflectance=0.5, name="floor")
-    light = AreaLight(np.array([[-0.1, 3, -0.1], [-0.1, 3, 0.1], [0.1, 3, 0.1],
-                                [0.1, 3, -0.1]])[::-1], emission=100.0)
+    light = AreaLight(np.array([[-0.3, 3, -0.3], [-0.3, 3, 0.3], [0.3, 3, 0.3],
+                                [0.3, 3, -0.3]])[::-1], emission=100.0)
     blocker = Polygon([[-0.5, 1.5, -0.5], [0.5, 1.5, -0.5], [0.5, 1.5, 0.5], [-0.5, 1.5, 0.5]],
                       reflectance=0.0, name="blocker")
     return Scene([floor, light, blocker])
@@ -254,8 +259,8 @@ def _check_patches_kept(m, new, parent):
 def test_adaptive_refine_conforming_and_local():
     s = _shadow_scene()
     m = mesh_scene(s, 0.5, element_levels=1)
-    # 64 visibility samples on the light: a soft penumbra rather than a binary shadow
-    r = progressive_refinement(m, form_factors="analytic", visibility_level=3, tol=1e-6)
+    # 8 x 8 visibility rays per pair: a soft penumbra rather than a binary shadow
+    r = progressive_refinement(m, form_factors="analytic", visibility_samples=8, tol=1e-6)
     b = r.radiosity
     thr = 0.1 * b[m.element_polygon == 0].max()
     marked = mark_jumps(m, b, thr)
@@ -292,7 +297,7 @@ def test_adaptive_refine_conforming_and_local():
     # elements are rotated by 45 degrees against the axis-aligned penumbra.)
     j1 = element_jumps(m, b)[m.element_polygon == 0].max()
     for refined in (new, rg.mesh):
-        r2 = progressive_refinement(refined, form_factors="analytic", visibility_level=3, tol=1e-6)
+        r2 = progressive_refinement(refined, form_factors="analytic", visibility_samples=8, tol=1e-6)
         assert element_jumps(refined, r2.radiosity)[refined.element_polygon == 0].max() < j1
     with pytest.raises(MeshError, match="element_values"):
         mark_jumps(m, b[:-1], thr)

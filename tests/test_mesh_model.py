@@ -372,7 +372,7 @@ def test_two_sided_plate_in_the_furnace(two_sided):
                     emission=1.0, reflectance=0.5, two_sided=two_sided, name="plate")
     s = Scene(scenes.furnace_box().polygons + [plate])
     m = mesh_scene(s, 0.25, element_levels=1)
-    r = progressive_refinement(m, form_factors="analytic", tol=1e-6, visibility_level=1)
+    r = progressive_refinement(m, tol=1e-6)   # the default factors, k x k visibility rays
     b = np.asarray(r.radiosity).reshape(m.n_elements, -1)[:, 0]
     if two_sided:
         np.testing.assert_allclose(b, 2.0, rtol=0.01)

@@ -86,6 +86,7 @@ from polygen.radiosity.solve import (
     RadiosityResult,
     SolverError,
     form_factor_matrix,
+    furnace_error,
     gauss_seidel,
     progressive_refinement,
 )
@@ -123,6 +124,7 @@ __all__ = [
     "delta_form_factors",
     "element_jumps",
     "form_factor_matrix",
+    "furnace_error",
     "gauss_seidel",
     "hemicube_form_factors",
     "hemicube_polygon_form_factor",

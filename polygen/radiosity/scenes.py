@@ -2,6 +2,11 @@
 
 All polygons face the viewer-relevant side: room walls face inwards, solid
 objects outwards, thin floating rectangles are two polygons back to back.
+Where an object stands on a receiver (the Cornell box's blocks on the
+floor, the chair's legs on the floor and its back on the seat), the
+receiver is cut along the object's footprint and the object has no face
+there: no light reaches the contact, and elements straddling it would
+otherwise leak light.
 """
 
 from __future__ import annotations
@@ -78,7 +83,7 @@ def _two_sided(ring, *, reflectance, name):
 
 
 def box_room(size=(1.0, 1.0, 1.0), *, reflectance=0.5, emission=0.0, light=None, hole_for_light=True,
-             name="box_room"):
+             floor_holes=(), name="box_room"):
     """The inside of an axis-aligned box [0, size], walls facing in; y is up.
 
     Parameters
@@ -89,6 +94,9 @@ def box_room(size=(1.0, 1.0, 1.0), *, reflectance=0.5, emission=0.0, light=None,
     light : (4, 3) ring, keyword-only
         A convex light in the ceiling plane; the ceiling gets a hole there
         when ``hole_for_light``.
+    floor_holes : sequence of (k, 3) rings, keyword-only
+        Footprints of objects standing on the floor (y = 0): the floor is
+        cut there, since no light reaches a receiver under an object.
 
     Returns
     -------
@@ -104,6 +112,8 @@ def box_room(size=(1.0, 1.0, 1.0), *, reflectance=0.5, emission=0.0, light=None,
         holes = []
         if f == "y1" and light is not None and hole_for_light:
             holes = [np.asarray(light, dtype=np.float64)]
+        if f == "y0":
+            holes = [np.asarray(h, dtype=np.float64) for h in floor_holes]
         polys.append(Polygon(_facing(rings[f], centre), holes, reflectance=rho, emission=em,
                              name=f"{name}_{f}"))
     return polys
@@ -123,26 +133,45 @@ def unit_cube(*, ceiling_emission=1.0, reflectance=0.5):
                  name="unit_cube")
 
 
-def cornell_box(*, blocks=True, light_emission=CORNELL_LIGHT):
+CORNELL_SHORT_TOP = ((130.0, 165.0, 65.0), (82.0, 165.0, 225.0), (240.0, 165.0, 272.0),
+                     (290.0, 165.0, 114.0))
+CORNELL_TALL_TOP = ((423.0, 330.0, 247.0), (265.0, 330.0, 296.0), (314.0, 330.0, 456.0),
+                    (472.0, 330.0, 406.0))
+
+
+def cornell_box(*, blocks=True, closed=False, light_emission=CORNELL_LIGHT):
     """The Cornell box, in millimetres, from the published Cornell geometry.
 
     Floor, ceiling (with a hole where the light is), back, left (red) and
     right (green) walls; the 130 x 105 light at y = 548.8 facing down; the
-    short and the tall block.  The front is open.  The published left wall
-    is not planar (one corner is 3.2 mm off the plane of the other three),
-    so it is given as two triangles.
+    short and the tall block.  The published left wall is not planar (one
+    corner is 3.2 mm off the plane of the other three), so it is given as
+    two triangles.  The blocks stand on the floor: the floor has holes
+    where they stand (their footprints) and the blocks have no bottom
+    faces, since no light reaches either.
+
+    Parameters
+    ----------
+    blocks : bool, keyword-only
+    closed : bool, keyword-only
+        Close the front (z = 0) with a white wall, for furnace tests; the
+        published box is open.
+    light_emission : (3,) float, keyword-only
 
     Returns
     -------
     Scene
     """
     inside = np.array([278.0, 274.4, 279.6])
+    tops = {"short_block": np.array(CORNELL_SHORT_TOP), "tall_block": np.array(CORNELL_TALL_TOP)}
+    footprints = [t * [1.0, 0.0, 1.0] for t in tops.values()] if blocks else []
     light = np.array([[343.0, 548.8, 227.0], [343.0, 548.8, 332.0], [213.0, 548.8, 332.0],
                       [213.0, 548.8, 227.0]])
     light_ring = _facing(light, [278.0, 0.0, 279.6])
     polys = [
         Polygon(_facing([[552.8, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 559.2],
-                         [549.6, 0.0, 559.2]], inside), reflectance=CORNELL_WHITE, name="floor"),
+                         [549.6, 0.0, 559.2]], inside), footprints, reflectance=CORNELL_WHITE,
+                name="floor"),
         Polygon(_facing([[556.0, 548.8, 0.0], [556.0, 548.8, 559.2], [0.0, 548.8, 559.2],
                          [0.0, 548.8, 0.0]], inside), [light_ring], reflectance=CORNELL_WHITE,
                 name="ceiling"),
@@ -158,13 +187,12 @@ def cornell_box(*, blocks=True, light_emission=CORNELL_LIGHT):
                 reflectance=CORNELL_RED, name="left_wall_b"),
         AreaLight(light_ring, emission=light_emission, name="light"),
     ]
+    if closed:
+        polys.append(Polygon(_facing([[552.8, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 548.8, 0.0],
+                                      [556.0, 548.8, 0.0]], inside), reflectance=CORNELL_WHITE,
+                             name="front_wall"))
     if blocks:
-        short_top = [[130.0, 165.0, 65.0], [82.0, 165.0, 225.0], [240.0, 165.0, 272.0],
-                     [290.0, 165.0, 114.0]]
-        tall_top = [[423.0, 330.0, 247.0], [265.0, 330.0, 296.0], [314.0, 330.0, 456.0],
-                    [472.0, 330.0, 406.0]]
-        for name, top in (("short_block", short_top), ("tall_block", tall_top)):
-            top = np.asarray(top)
+        for name, top in tops.items():
             h = top[0, 1]
             centre = top.mean(axis=0) - np.array([0.0, 0.5 * h, 0.0])
             polys.append(Polygon(_facing(top, centre, away=True), reflectance=CORNELL_WHITE,
@@ -311,14 +339,29 @@ def chair_scene(*, emission=2000.0, reflectance=0.6, light_size=0.2):
     """A chair-like object (seat, four legs, back) under a very small area light (Fig. 3.20)."""
     room = np.array([10.0, 10.0, 10.0])
     light = _ceiling_light(room, (light_size, light_size), emission=emission)
-    polys = box_room(room, reflectance=reflectance, light=light, name="room")
-    polys.append(AreaLight(light, emission=emission, name="light"))
     x0, z0, w, t, hs = 3.5, 3.5, 3.0, 0.3, 2.5
-    polys += _solid_box([x0, hs, z0], [x0 + w, hs + t, z0 + w], reflectance=reflectance,
-                        name="seat")
     leg = 0.3
-    for k, (lx, lz) in enumerate([(x0, z0), (x0 + w - leg, z0), (x0, z0 + w - leg),
-                                  (x0 + w - leg, z0 + w - leg)]):
+    feet = [(x0, z0), (x0 + w - leg, z0), (x0, z0 + w - leg), (x0 + w - leg, z0 + w - leg)]
+    # the legs stand on the floor: it is cut under them (no light reaches there)
+    polys = box_room(room, reflectance=reflectance, light=light, name="room",
+                     floor_holes=[[[lx, 0.0, lz], [lx + leg, 0.0, lz], [lx + leg, 0.0, lz + leg],
+                                   [lx, 0.0, lz + leg]] for lx, lz in feet])
+    polys.append(AreaLight(light, emission=emission, name="light"))
+    # the seat's sides; its top is cut where the back stands on it and its bottom where the
+    # legs meet it (corner squares: the bottom becomes a cross-shaped polygon)
+    polys += _solid_box([x0, hs, z0], [x0 + w, hs + t, z0 + w], reflectance=reflectance,
+                        name="seat", faces=("x0", "x1", "z0", "z1"))
+    centre = np.array([x0 + 0.5 * w, hs + 0.5 * t, z0 + 0.5 * w])
+    y = hs + t
+    polys.append(Polygon(_facing([[x0, y, z0], [x0 + w, y, z0], [x0 + w, y, z0 + w - t],
+                                  [x0, y, z0 + w - t]], centre, away=True),
+                         reflectance=reflectance, name="seat_y1"))
+    a, b = leg, w - leg
+    cross = [(a, 0), (b, 0), (b, a), (w, a), (w, b), (b, b), (b, w), (a, w), (a, b), (0, b),
+             (0, a), (a, a)]
+    polys.append(Polygon(_facing([[x0 + cx, hs, z0 + cz] for cx, cz in cross], centre,
+                                 away=True), reflectance=reflectance, name="seat_y0"))
+    for k, (lx, lz) in enumerate(feet):
         polys += _solid_box([lx, 0.0, lz], [lx + leg, hs, lz + leg], reflectance=reflectance,
                             name=f"leg{k}", faces=("x0", "x1", "z0", "z1"))
     polys += _solid_box([x0, hs + t, z0 + w - t], [x0 + w, hs + t + 3.0, z0 + w],
