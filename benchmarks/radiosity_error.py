@@ -31,15 +31,20 @@ from polygen.radiosity.error import adaptive_curve, shade, uniform_curve
 # coarse patch size of adaptive subdivision and its rounds; element_levels 1 everywhere
 SETUPS = {
     "cornell": dict(scene=scenes.cornell_box, camera=lambda n: Camera.cornell(width=n, height=n),
-                    reference=30.0, uniform=[160.0, 113.0, 80.0, 57.0, 40.0], coarse=160.0,
-                    rounds=4),
+                    # 16 elements per patch: 4x the elements of the finest uniform mesh
+                    reference=57.0, reference_levels=2, uniform=[160.0, 113.0, 80.0, 57.0],
+                    coarse=160.0, rounds=4),
     "room": dict(scene=scenes.small_shadows_room,
                  camera=lambda n: Camera([5.0, 7.0, -5.0], [5.0, 0.5, 5.0], fov=50.0, width=n,
                                          height=n, near=0.01),
-                 reference=0.4, uniform=[2.0, 1.4, 1.0, 0.7], coarse=2.0, rounds=4),
+                 # the floor, where the shadows are, with 16 elements per 0.5 patch (elements 4x
+                 # smaller in area than the finest uniform mesh's); the smooth walls as the
+                 # second finest
+                 reference=lambda sc: [0.5 if p.name == "room_y0" else 1.4 for p in sc.polygons],
+                 reference_levels=2, uniform=[2.0, 1.4, 1.0], coarse=2.0, rounds=3),
 }
-QUICK = {"cornell": dict(reference=57.0, uniform=[160.0, 113.0], rounds=1),
-         "room": dict(reference=1.0, uniform=[2.0, 1.4], rounds=1)}
+QUICK = {"cornell": dict(reference=113.0, uniform=[160.0], rounds=1),
+         "room": dict(reference=lambda sc: 2.0, uniform=[4.0], rounds=1)}
 
 
 def main(argv=None):
@@ -57,7 +62,9 @@ def main(argv=None):
         cfg = dict(SETUPS[name], **(QUICK[name] if args.quick else {}))
         scene, cam = cfg["scene"](), cfg["camera"](args.image)
         t0 = time.perf_counter()
-        ref_mesh = mesh_scene(scene, cfg["reference"])
+        ref = cfg["reference"]
+        ref_mesh = mesh_scene(scene, ref(scene) if callable(ref) else ref,
+                              element_levels=cfg.get("reference_levels", 1))
         ref_result = progressive_refinement(ref_mesh, **solve)
         reference = shade(ref_mesh, ref_result.display_radiosity(ref_mesh), cam)
         t_ref = time.perf_counter() - t0
