@@ -286,6 +286,19 @@ def _area_element(e, patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, e
         if (occ_box[m, 0] > hi0 or occ_box[m, 3] < lo0 or occ_box[m, 1] > hi1
                 or occ_box[m, 4] < lo1 or occ_box[m, 2] > hi2 or occ_box[m, 5] < lo2):
             continue
+        # every ray joins a point of the element to a point of the patch: if their six corners
+        # lie on one side of the occluder's plane, no ray crosses it
+        dmin = np.inf
+        dmax = -np.inf
+        for v in range(6):
+            dv = 0.0
+            for c in range(3):
+                q = tri[v - 3, c] if v >= 3 else etri[e, v, c]
+                dv += pn[o, c] * (q - origin[o, c])
+            dmin = min(dmin, dv)
+            dmax = max(dmax, dv)
+        if dmin >= 0.0 or dmax <= 0.0:
+            continue
         cand[ncand] = o
         ncand += 1
     if ncand == 0:
@@ -643,8 +656,10 @@ def analytic_column(mesh, patch, *, packed=None, geometry=None,
     whatever the threading.
     Rays are tested only against scene polygons whose plane separates
     scene vertices (the others -- the walls of a convex room -- cannot block
-    anything) and whose bounding box meets the box of element and patch;
-    where none is left no ray is cast.
+    anything), that lie partly in front of both ends' planes, whose
+    bounding box meets the box of element and patch, and whose plane
+    separates the corners of element and patch; where none is left no ray
+    is cast.
 
     Parameters
     ----------
