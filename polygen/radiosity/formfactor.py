@@ -278,13 +278,39 @@ def _area_element(e, patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, e
     hi0 = max(tri[0, 0], tri[1, 0], tri[2, 0], etri[e, 0, 0], etri[e, 1, 0], etri[e, 2, 0])
     hi1 = max(tri[0, 1], tri[1, 1], tri[2, 1], etri[e, 0, 1], etri[e, 1, 1], etri[e, 2, 1])
     hi2 = max(tri[0, 2], tri[1, 2], tri[2, 2], etri[e, 0, 2], etri[e, 1, 2], etri[e, 2, 2])
+    # which side of its polygon the element and the patch receive on (two-sided polygons)
+    se = 0
+    sp = 0
+    de = 0.0
+    dp = 0.0
+    for c in range(3):
+        de += n[c] * pn[epoly[e], c]
+        dp += pnormal[c] * pn[ppoly, c]
+    if de < 0.0:
+        se = 1
+    if dp < 0.0:
+        sp = 1
     ncand = 0
     for m in range(occ.shape[0]):
         o = occ[m]
-        if o == epoly[e] or o == ppoly or not occ_front[epoly[e], m] or not occ_front[ppoly, m]:
+        if (o == epoly[e] or o == ppoly or not occ_front[se, epoly[e], m]
+                or not occ_front[sp, ppoly, m]):
             continue
         if (occ_box[m, 0] > hi0 or occ_box[m, 3] < lo0 or occ_box[m, 1] > hi1
                 or occ_box[m, 4] < lo1 or occ_box[m, 2] > hi2 or occ_box[m, 5] < lo2):
+            continue
+        # every ray joins a point of the element to a point of the patch: if their six corners
+        # lie on one side of the occluder's plane, no ray crosses it
+        dmin = np.inf
+        dmax = -np.inf
+        for v in range(6):
+            dv = 0.0
+            for c in range(3):
+                q = tri[v - 3, c] if v >= 3 else etri[e, v, c]
+                dv += pn[o, c] * (q - origin[o, c])
+            dmin = min(dmin, dv)
+            dmax = max(dmax, dv)
+        if dmin >= 0.0 or dmax <= 0.0:
             continue
         cand[ncand] = o
         ncand += 1
@@ -380,8 +406,9 @@ class PackedPolygons:
         only ones that can block a segment between two scene points.
     occluder_box : (J, 6) float64
         Their bounding boxes (xmin, ymin, zmin, xmax, ymax, zmax).
-    occluder_front : (K, J) bool
-        Whether occluder j has a vertex strictly in front of polygon k's plane.
+    occluder_front : (2, K, J) bool
+        Whether occluder j has a vertex strictly in front of polygon k's
+        plane ([0]) or strictly behind it ([1]).
     eps : float
         Segment-parameter tolerance for the end points.
     """
@@ -423,11 +450,14 @@ class PackedPolygons:
         self.occluder_box = np.asarray(box, dtype=np.float64).reshape(-1, 6)
         # a ray that carries light lies in front of the planes of both its ends' polygons, so an
         # occluder with no vertex strictly in front of either plane cannot block it
-        occ_front = np.zeros((len(self.origin), len(self.occluders)), dtype=np.bool_)
+        # (the side is the receiving surface's: [0] in front of the polygon's normal, [1] behind
+        # it, for the back of a two-sided polygon)
+        occ_front = np.zeros((2, len(self.origin), len(self.occluders)), dtype=np.bool_)
         for m, k in enumerate(self.occluders):
             r = slice(self.ring_start[self.poly_ring_start[k]],
                       self.ring_start[self.poly_ring_start[k + 1]])
-            occ_front[:, m] = (dist[:, r] > tol).any(axis=1)
+            occ_front[0, :, m] = (dist[:, r] > tol).any(axis=1)
+            occ_front[1, :, m] = (dist[:, r] < -tol).any(axis=1)
         self.occluder_front = occ_front
 
     def args(self):
@@ -643,8 +673,10 @@ def analytic_column(mesh, patch, *, packed=None, geometry=None,
     whatever the threading.
     Rays are tested only against scene polygons whose plane separates
     scene vertices (the others -- the walls of a convex room -- cannot block
-    anything) and whose bounding box meets the box of element and patch;
-    where none is left no ray is cast.
+    anything), that lie partly in front of both ends' planes, whose
+    bounding box meets the box of element and patch, and whose plane
+    separates the corners of element and patch; where none is left no ray
+    is cast.
 
     Parameters
     ----------

@@ -379,7 +379,11 @@ def hemicube_column(mesh, patch, *, delta, near=None, parallel=True):
     (M,) float64
     """
     poly = mesh.scene.polygons[int(mesh.patch_polygon[patch])]
-    frame = np.ascontiguousarray(np.stack([poly.u, poly.v, poly.normal]))
+    n = mesh.patch_normal[patch]
+    # the patch's own normal (the back of a two-sided polygon faces the other way); the
+    # polygon's (u, v) keep the pixel grid aligned with its edges, swapped to stay right-handed
+    u, v = (poly.u, poly.v) if n @ poly.normal > 0 else (poly.v, poly.u)
+    frame = np.ascontiguousarray(np.stack([u, v, n]))
     skip = mesh.element_polygon == mesh.patch_polygon[patch]
     f_pe = _hemicube_raw(mesh.patch_centroid[patch], frame, mesh.nodes, mesh.elements,
                          mesh.element_normal, mesh.element_centroid, skip, near, delta[0], delta[1],
