@@ -94,7 +94,7 @@ def box_room(size=(1.0, 1.0, 1.0), *, reflectance=0.5, emission=0.0, light=None,
     light : (4, 3) ring, keyword-only
         A convex light in the ceiling plane; the ceiling gets a hole there
         when ``hole_for_light``.
-    floor_holes : sequence of (k, 3) rings, keyword-only
+    floor_holes : sequence of (k, 3) float64, keyword-only
         Footprints of objects standing on the floor (y = 0): the floor is
         cut there, since no light reaches a receiver under an object.
 

@@ -323,8 +323,10 @@ SEED_SOURCES = _registry.SEED_SOURCES
 class EdgeCentredMethod(IsosurfaceMethod):
     """Seeds from a skeleton (volume thinning by default), then cell-edge-centred construction.
 
-    Parameters (keyword-only, after ``vol`` and ``field``)
-    ------------------------------------------------------
+    The keyword-only parameters after ``vol`` and ``field`` are these.
+
+    Other Parameters
+    ----------------
     seeds : str
         Seed source (:func:`seed_source`): ``"auto"`` (thinning), ``"thinning"``,
         ``"extrema-graph"``, ``"span-filter"``, ...
@@ -333,6 +335,8 @@ class EdgeCentredMethod(IsosurfaceMethod):
     **params
         Passed to the seed source.
 
+    Notes
+    -----
     After each :meth:`extract`, ``stats`` holds the construction counters
     of :attr:`EdgeCentred.stats` plus ``T_search`` (seed search, s) and
     ``N_cg`` (cells the seed search tested). ``seed_preprocess_s`` is the

@@ -544,8 +544,10 @@ def extrema_graph_2d(points, triangles, values):
 class ExtremaGraphMethod(SeedsThenPropagate):
     """The extrema graph method (thesis chapter 6) for :mod:`polygen.volume.methods`: its seeds x propagation.
 
-    Parameters (keyword-only, after ``vol`` and ``field``)
-    ------------------------------------------------------
+    The keyword-only parameters after ``vol`` and ``field`` are these.
+
+    Other Parameters
+    ----------------
     polyline : bool
         Passed to :func:`build_extrema_graph`.
     boundary : {"lists", "loops"}
@@ -561,6 +563,8 @@ class ExtremaGraphMethod(SeedsThenPropagate):
         them (in id order). The surface is the same; the thesis's order
         tests fewer boundary cells.
 
+    Notes
+    -----
     After each :meth:`extract`, ``stats`` holds Table 6.5's quantities for
     that call: ``T_mg``, ``T_mb`` (seed search on arcs / boundary lists; in
     the thesis's order the boundary cells' tests run inside the propagation

@@ -11,7 +11,7 @@ Preprocessing (once per volume and field, Fig. 7.5, :func:`thin_volume`):
 
 1. **Marks** (Defs 7.1, 7.9). The extrema are found as in chapter 6
    (:func:`polygen.volume.extrema_graph.find_extrema`); one cell touching
-   each extremum is marked, class C_-1, and is never removed. (A
+   each extremum is marked, class ``C_-1``, and is never removed. (A
    face-connected part of the volume that holds no extremum of its own --
    possible only when parts touch at a node -- gets one marked cell too, so
    no part vanishes.)
@@ -162,7 +162,7 @@ class Skeleton:
     s : (N,) float64
     extrema : Extrema
     marked : (X,) int64
-        Marked cells (class C_-1), one per extremum (plus one per part without an extremum).
+        Marked cells (class ``C_-1``), one per extremum (plus one per part without an extremum).
     classes : (M,) int8
         Final class of every cell: -1 marked, 0 removed, n non-removed neighbours.
     cells : (K,) int64
@@ -453,7 +453,7 @@ def pixel_removable(patch):
 class ThinningMethod(SeedsThenPropagate):
     """Volume thinning (thesis chapter 7) for :mod:`polygen.volume.methods`: the skeleton's seeds x propagation.
 
-    Parameters (keyword-only, after ``vol`` and ``field``): those of
+    The keyword-only parameters after ``vol`` and ``field`` are those of
     :func:`thin_volume`. After each :meth:`extract`, ``stats`` holds that
     call's ``T_mg`` (seed search on the skeleton), ``T_mt`` (triangles:
     propagation), ``T_mv`` (vertex positions and normals), ``N_cg`` (skeleton

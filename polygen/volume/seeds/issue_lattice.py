@@ -158,8 +158,10 @@ def default_lattice_size(m):
 class IssueLattice(ActiveCellSearch):
     """Shen's ISSUE lattice over span space (see the module docstring).
 
-    Parameters (keyword-only, to :meth:`build`)
-    -------------------------------------------
+    The keyword-only parameters of :meth:`build` are these.
+
+    Other Parameters
+    ----------------
     L : int, optional
         Classes per axis; default :func:`default_lattice_size` of ``M``.
     inner : {"kdtree", "sorted"}, default "kdtree"

@@ -133,8 +133,10 @@ def _query_by_min(kmin, kmax, offsets, ids, top, lo, hi, width, nb, value, out):
 class SpanFilter(ActiveCellSearch):
     """Equal-width value classes over the data range (see the module docstring).
 
-    Parameters (keyword-only, to :meth:`build`)
-    -------------------------------------------
+    The keyword-only parameters of :meth:`build` are these.
+
+    Other Parameters
+    ----------------
     n_buckets : int, default 64
         Number of classes ``B``.
     layout : {"replicate", "by-min"}, default "replicate"
