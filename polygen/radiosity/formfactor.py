@@ -346,7 +346,10 @@ def _area_element(e, patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, e
                                    ring_start, poly_ring_start, eps):
             seen += w
     if total == 0.0:
-        return 0.0
+        # no sampled ray carries light (the element barely in front of the patch, or the
+        # reverse): nothing is known about blocking, so count the pair as visible -- as when
+        # no occluder can block at all -- rather than as dark
+        return f
     return f * seen / total
 
 
