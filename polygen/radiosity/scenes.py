@@ -78,8 +78,8 @@ def _rectangle(centre, size_u, size_v, axis_u, axis_v):
 
 
 def _two_sided(ring, *, reflectance, name):
-    p = Polygon(ring, reflectance=reflectance, name=name + "_front")
-    return [p, p.flipped(name=name + "_back")]
+    # a thin occluder: one polygon meshed on both faces (not two back-to-back polygons)
+    return [Polygon(ring, reflectance=reflectance, name=name, two_sided=True)]
 
 
 def box_room(size=(1.0, 1.0, 1.0), *, reflectance=0.5, emission=0.0, light=None, hole_for_light=True,
