@@ -31,16 +31,17 @@ from polygen.radiosity.error import adaptive_curve, shade, uniform_curve
 # coarse patch size of adaptive subdivision and its rounds; element_levels 1 everywhere
 SETUPS = {
     "cornell": dict(scene=scenes.cornell_box, camera=lambda n: Camera.cornell(width=n, height=n),
-                    # 16 elements per patch: 4x the elements of the finest uniform mesh
-                    reference=57.0, reference_levels=2, uniform=[160.0, 113.0, 80.0, 57.0],
+                    # 16 elements per patch, patches of a size no uniform mesh has (a reference
+                    # that shares a mesh's patches would flatter that mesh)
+                    reference=48.0, reference_levels=2, uniform=[160.0, 113.0, 80.0, 57.0],
                     coarse=160.0, rounds=4),
     "room": dict(scene=scenes.small_shadows_room,
                  camera=lambda n: Camera([5.0, 7.0, -5.0], [5.0, 0.5, 5.0], fov=50.0, width=n,
                                          height=n, near=0.01),
                  # the floor, where the shadows are, with 16 elements per 0.5 patch (elements 4x
-                 # smaller in area than the finest uniform mesh's); the smooth walls as the
-                 # second finest
-                 reference=lambda sc: [0.5 if p.name == "room_y0" else 1.4 for p in sc.polygons],
+                 # smaller in area than the finest uniform mesh's); the smooth walls with
+                 # patches of a size no uniform mesh has
+                 reference=lambda sc: [0.5 if p.name == "room_y0" else 1.2 for p in sc.polygons],
                  reference_levels=2, uniform=[2.0, 1.4, 1.0], coarse=2.0, rounds=3),
 }
 QUICK = {"cornell": dict(reference=113.0, uniform=[160.0], rounds=1),

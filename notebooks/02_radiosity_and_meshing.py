@@ -605,7 +605,13 @@ assert np.all((nv_d1[on1] > 0) & (nv_d1[on1] < 1))
 # Gouraud images over the pixels that show a surface. The curves below come from
 # `benchmarks/radiosity_error.py` (its results file, as last run; nothing is asserted on a
 # stored file): the Cornell box and the room of Fig. 2.8, uniform meshes of decreasing patch
-# size against adaptive subdivision repeated on the coarsest one.
+# size against adaptive subdivision repeated on the coarsest one. In the last run, in the
+# room (sharp shadows on the floor) adaptive subdivision reached an error of 0.017 with 3457
+# elements, where the uniform meshes needed more than 5064 elements for 0.029; in the Cornell
+# box (soft light, large smooth walls) it stalled at 0.0038 from about 3900 elements on, while
+# a uniform mesh of 4816 elements reached 0.0022: subdivision keeps the patches, so light
+# shot from the coarse patches stays coarse. These are the two baselines that chapters 3 and
+# 4 have to beat.
 
 # %%
 import json
