@@ -387,7 +387,7 @@ hole = np.c_[1.2 + 0.5 * np.cos(th), 1.4 + 0.5 * np.sin(th)][::-1]
 H27 = 0.2
 bm = bubble_mesh(outer, [hole], H27, init="random", seed=1)
 raw = constrained_delaunay(bm.initial, bm.constrained_edges)
-fig, axes = plt.subplots(2, 2, figsize=(12, 9))
+fig, axes = plt.subplots(2, 2, figsize=(10, 7.5))
 plot_radiosity.plot_bubbles(bm.initial, H27, ax=axes[0, 0], title=f"initial bubbles ({len(bm.initial)})")
 plot_radiosity.plot_mesh2d(raw.nodes, raw.triangles, ax=axes[0, 1], title="Delaunay of the initial bubbles")
 plot_radiosity.plot_bubbles(bm.nodes, bm.sizes, kind=bm.kind, ax=axes[1, 0],
@@ -431,7 +431,12 @@ assert inside >= 0.9
 # elements come by regular 1 → 4 splitting, or by a finer bubble mesh inside each patch
 # (`element_mesher=bubble_element_mesher`) that keeps every patch edge. Below, the Cornell
 # floor and the quality of all elements, against the lattice-plus-Delaunay placeholder mesher
-# at the same patch size.
+# at the same patch size. The bubble mesh's elements are better on average. Its worst one is
+# not: since the floor is cut where the blocks stand, the short block's footprint comes within
+# 65 mm of the floor's front edge, less than a patch (80 mm), and the bubbles squeezed into
+# that gap make the smallest angle of the scene (17.6° against the lattice's 22.8° when last
+# run; the lattice keeps its nodes half a size away from every boundary and leaves the gap to
+# the Delaunay triangulation of the boundary nodes alone).
 
 # %%
 meshes = {
@@ -440,7 +445,7 @@ meshes = {
     "bubble + bubble": mesh_scene(cornell, CORNELL_PATCH, element_levels=1, mesher=bubble_mesher,
                                   element_mesher=bubble_element_mesher),
 }
-fig, axes = plt.subplots(1, 3, figsize=(15, 5))
+fig, axes = plt.subplots(1, 3, figsize=(12, 4))
 for ax, (name, m) in zip(axes, meshes.items()):
     plot_radiosity.plot_polygon_mesh(m, 0, ax=ax)
     ax.set_title(f"{name} (the floor)\nscene: {m.n_patches} patches, {m.n_elements} elements", fontsize=9)
@@ -455,7 +460,6 @@ for name, (ang, q) in qual.items():
     assert n_t == 0
 assert qual["bubble + split"][1].mean() > qual["lattice + split"][1].mean()
 assert qual["bubble + bubble"][1].mean() > qual["lattice + split"][1].mean()
-assert qual["bubble + split"][0].min() >= qual["lattice + split"][0].min()
 
 # %% [markdown]
 # ## Adaptive subdivision (Def. 2.6, Fig. 2.8)
@@ -498,7 +502,7 @@ lum = lambda r: r.radiosity.mean(axis=1)   # noqa: E731
 vmax = lum(rref)[mref.element_polygon == FLOOR].max()
 
 # %%
-fig, axes = plt.subplots(1, len(sol) + 1, figsize=(4.3 * (len(sol) + 1), 4.3))
+fig, axes = plt.subplots(1, len(sol) + 1, figsize=(3.6 * (len(sol) + 1), 3.6))
 for k, (ax, (m, r)) in enumerate(zip(axes, sol)):
     plot_radiosity.plot_polygon_mesh(m, FLOOR, values=lum(r), ax=ax, vmin=0, vmax=vmax)
     ax.set_title(f"{'first mesh' if k == 0 else f'after subdivision {k}'}: "
@@ -551,7 +555,7 @@ mid = img[img.shape[0] // 2]
 print("left / right wall pixel (RGB):", mid[8].round(3), mid[-9].round(3))
 assert mid[8, 0] > mid[8, 1] and mid[-9, 1] > mid[-9, 0]    # red wall left, green wall right
 pd = to_pyvista(cmesh, node_rgb, exposure=auto_exposure(img))
-p = pv.Plotter(window_size=(500, 500))
+p = pv.Plotter(window_size=(400, 400))
 p.add_mesh(pd, scalars="rgb", rgb=True, lighting=False)
 p.camera_position = [(278.0, 273.0, -800.0), (278.0, 273.0, 280.0), (0.0, 1.0, 0.0)]
 p.show()
@@ -572,7 +576,7 @@ p.show()
 # %%
 sq4 = Polygon([[0, 0, 0], [4, 0, 0], [4, 4, 0], [0, 4, 0]], name="square")
 cut = [[[2.0, 0.0, 0.0], [2.0, 4.0, 0.0]]]
-fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
+fig, axes = plt.subplots(1, 2, figsize=(8, 3.6))
 node_values = {}
 for ax, kind in zip(axes, ("D0", "D1")):
     mk = mesh_scene(Scene([sq4]), 0.7, mesher=bubble_mesher, segments=[Segments(cut, kind)])
