@@ -140,31 +140,37 @@ def _point_in_rings(px, py, ring2d, ring_start, r0, r1):
 
 
 @njit
+def _crosses(a, b, k, origin, pu, pv, pn, bbox, ring2d, ring_start, poly_ring_start, eps):
+    """True when the open segment a-b crosses the interior of scene polygon k."""
+    da = 0.0
+    db = 0.0
+    for c in range(3):
+        da += pn[k, c] * (a[c] - origin[k, c])
+        db += pn[k, c] * (b[c] - origin[k, c])
+    if (da > 0.0 and db > 0.0) or (da < 0.0 and db < 0.0) or da == db:
+        return False
+    t = da / (da - db)
+    if t <= eps or t >= 1.0 - eps:
+        return False
+    qx = 0.0
+    qy = 0.0
+    for c in range(3):
+        q = a[c] + t * (b[c] - a[c]) - origin[k, c]
+        qx += q * pu[k, c]
+        qy += q * pv[k, c]
+    if qx < bbox[k, 0] or qx > bbox[k, 2] or qy < bbox[k, 1] or qy > bbox[k, 3]:
+        return False
+    return _point_in_rings(qx, qy, ring2d, ring_start, poly_ring_start[k], poly_ring_start[k + 1])
+
+
+@njit
 def _segment_blocked(a, b, skip1, skip2, origin, pu, pv, pn, bbox, ring2d, ring_start,
                      poly_ring_start, eps):
     """True when the open segment a-b crosses the interior of a scene polygon."""
     for k in range(origin.shape[0]):
         if k == skip1 or k == skip2:
             continue
-        da = 0.0
-        db = 0.0
-        for c in range(3):
-            da += pn[k, c] * (a[c] - origin[k, c])
-            db += pn[k, c] * (b[c] - origin[k, c])
-        if (da > 0.0 and db > 0.0) or (da < 0.0 and db < 0.0) or da == db:
-            continue
-        t = da / (da - db)
-        if t <= eps or t >= 1.0 - eps:
-            continue
-        qx = 0.0
-        qy = 0.0
-        for c in range(3):
-            q = a[c] + t * (b[c] - a[c]) - origin[k, c]
-            qx += q * pu[k, c]
-            qy += q * pv[k, c]
-        if qx < bbox[k, 0] or qx > bbox[k, 2] or qy < bbox[k, 1] or qy > bbox[k, 3]:
-            continue
-        if _point_in_rings(qx, qy, ring2d, ring_start, poly_ring_start[k], poly_ring_start[k + 1]):
+        if _crosses(a, b, k, origin, pu, pv, pn, bbox, ring2d, ring_start, poly_ring_start, eps):
             return True
     return False
 
@@ -214,26 +220,8 @@ def _segment_blocked_by(a, b, cand, ncand, origin, pu, pv, pn, bbox, ring2d, rin
                         poly_ring_start, eps):
     """_segment_blocked over the polygons cand[:ncand] only."""
     for m in range(ncand):
-        k = cand[m]
-        da = 0.0
-        db = 0.0
-        for c in range(3):
-            da += pn[k, c] * (a[c] - origin[k, c])
-            db += pn[k, c] * (b[c] - origin[k, c])
-        if (da > 0.0 and db > 0.0) or (da < 0.0 and db < 0.0) or da == db:
-            continue
-        t = da / (da - db)
-        if t <= eps or t >= 1.0 - eps:
-            continue
-        qx = 0.0
-        qy = 0.0
-        for c in range(3):
-            q = a[c] + t * (b[c] - a[c]) - origin[k, c]
-            qx += q * pu[k, c]
-            qy += q * pv[k, c]
-        if qx < bbox[k, 0] or qx > bbox[k, 2] or qy < bbox[k, 1] or qy > bbox[k, 3]:
-            continue
-        if _point_in_rings(qx, qy, ring2d, ring_start, poly_ring_start[k], poly_ring_start[k + 1]):
+        if _crosses(a, b, cand[m], origin, pu, pv, pn, bbox, ring2d, ring_start, poly_ring_start,
+                    eps):
             return True
     return False
 
