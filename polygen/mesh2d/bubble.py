@@ -1082,6 +1082,15 @@ def bubble_subdivide_patches(nodes, patches, element_size, *, seed=0, edge_nodes
         edges = np.concatenate([edges[keep]] + chains).astype(np.int64)
         bare = np.concatenate([bare[keep], np.ones(sum(len(c) for c in chains), np.bool_)])
         n = np.concatenate([n] + extra)
+    bm = _bubble_core(dom, n, edges, element_size, True, seed=seed, bare=bare,
+                      **_bubble_opts(kwargs))
+    cen = bm.nodes[bm.triangles].mean(axis=1)
+    owner = locate_in_triangles(cen, n[:len(nodes)], p)
+    return PatchElements(bm.nodes, p.copy(), bm.triangles, owner)
+
+
+def _bubble_opts(kwargs):
+    """The relaxation's keyword arguments with their defaults; unknown names raise TypeError."""
     opts = dict(init="lattice", n_cycles=4, steps_per_cycle=150, final_steps=200, dt=0.3, mass=1.0,
                 damping=1.5, tol=1e-3, remove_below=0.6, insert_above=0.85, resize_every=10,
                 progress=False)
@@ -1089,7 +1098,4 @@ def bubble_subdivide_patches(nodes, patches, element_size, *, seed=0, edge_nodes
     if unknown:
         raise TypeError(f"unexpected keyword arguments {sorted(unknown)}")
     opts.update(kwargs)
-    bm = _bubble_core(dom, n, edges, element_size, True, seed=seed, bare=bare, **opts)
-    cen = bm.nodes[bm.triangles].mean(axis=1)
-    owner = locate_in_triangles(cen, n[:len(nodes)], p)
-    return PatchElements(bm.nodes, p.copy(), bm.triangles, owner)
+    return opts

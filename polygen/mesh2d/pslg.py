@@ -504,7 +504,7 @@ def mesh_planar_graph(graph, sizes, *, method="lattice", edge_nodes=None, seed=0
     -------
     GraphMesh
     """
-    from polygen.mesh2d.bubble import _bubble_core
+    from polygen.mesh2d.bubble import _bubble_core, _bubble_opts
 
     if method not in ("lattice", "bubble"):
         raise ValueError(f"method: expected 'lattice' or 'bubble', got {method!r}")
@@ -595,17 +595,6 @@ def mesh_planar_graph(graph, sizes, *, method="lattice", edge_nodes=None, seed=0
     h_ref = float(sizef(cen).min()) if len(cen) else 1.0
     keep = shapely.contains_xy(graph.domain, cen[:, 0], cen[:, 1]) & (np.abs(area2) > 1e-8 * h_ref ** 2)
     return GraphMesh(nodes, np.ascontiguousarray(tri[keep]), chains)
-
-
-def _bubble_opts(kwargs):
-    opts = dict(init="lattice", n_cycles=4, steps_per_cycle=150, final_steps=200, dt=0.3, mass=1.0,
-                damping=1.5, tol=1e-3, remove_below=0.6, insert_above=0.85, resize_every=10,
-                progress=False)
-    unknown = set(kwargs) - set(opts)
-    if unknown:
-        raise TypeError(f"unexpected keyword arguments {sorted(unknown)}")
-    opts.update(kwargs)
-    return opts
 
 
 def convex_partition(outer, holes=()):
