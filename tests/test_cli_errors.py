@@ -53,7 +53,7 @@ def _bad_inputs(tmp):
         "directory": ([directory], ["adir", "directory"]),
         "random bytes as .msh": ([corrupt], ["corrupt.msh"]),
         "triangles only": ([tri], ["triangles.vtu", "tetrahedra"]),
-        "unknown field": ([good, "--field", "nope"], ["'nope'", "'f'"]),
+        "unknown field": ([good, "--field", "nope"], ["'nope'", "node fields are f"]),
         "unknown method": ([good, "--method", "nope"], ["'nope'", "scan"]),
         "inverted cells": ([inverted], ["inverted", "--orient"]),
         "no such file or data set": ([tmp / "missing.vtu"], ["missing.vtu", "data set"]),
@@ -100,3 +100,32 @@ def test_help_has_examples(tmp_path):
     for cmd in ("isosurface", "datasets"):
         res = _polygen(cmd, "--help", cwd=tmp_path)
         assert res.returncode == 0 and "examples:" in res.stdout and f"polygen {cmd} " in res.stdout
+
+
+def test_default_field_skips_id_arrays():
+    from polygen.cli.isosurface import choose_field
+    from polygen.volume import UnstructuredVolume
+
+    x = PTS.sum(axis=1)
+    ids = np.arange(len(PTS))
+    fields = {"vtkOriginalPointIds": ids, "GlobalNodeId": ids.astype(float), "temperature": x, "stress": -x}
+    vol = UnstructuredVolume(PTS, GOOD, fields)
+    field, how = choose_field(vol)
+    assert field == "temperature" and "vtkOriginalPointIds, GlobalNodeId" in how
+    assert choose_field(vol, "stress") == ("stress", "--field")
+    only_ids = UnstructuredVolume(PTS, GOOD, {"ids": ids})
+    assert choose_field(only_ids)[0] == "ids"  # nothing better: contour what there is
+
+
+def test_cell_data_asked_for_is_named(tmp_path):
+    from pyvista import examples
+
+    # point data: sample_point_scalars, VTKorigID (int64 ids); cell data: sample_cell_scalars
+    path = examples.hexbeamfile
+    res = _polygen("isosurface", path, "--method", "scan", "--values", "2", "--no-files", "--no-compare-vtk",
+                   cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "field 'sample_point_scalars' (the first field; --field to pick another)" in res.stdout
+    line = _assert_one_line(_polygen("isosurface", path, "--field", "sample_cell_scalars", cwd=tmp_path),
+                            "'sample_cell_scalars' is cell data", "sample_point_scalars")
+    assert "no field" not in line

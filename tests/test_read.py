@@ -62,6 +62,7 @@ def test_legacy_vtk_that_meshio_misreads_falls_back_to_pyvista():
     np.testing.assert_array_equal(vol.points, np.asarray(grid.points))
     np.testing.assert_array_equal(vol.cells, np.asarray(grid.cell_connectivity).reshape(-1, 8))
     np.testing.assert_array_equal(vol.fields["sample_point_scalars"], grid.point_data["sample_point_scalars"])
+    assert vol.cell_data_names == ("sample_cell_scalars",)  # not a field: the CLI says so when asked for it
 
 
 def test_meshio_round_trip_still_reads(tmp_path):

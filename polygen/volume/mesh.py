@@ -586,6 +586,13 @@ class UnstructuredVolume:
         validate, orient : bool, keyword-only
             As for the constructor.
 
+        Returns
+        -------
+        UnstructuredVolume
+            Its fields are the file's node (point) arrays of one component;
+            ``cell_data_names`` (tuple of str) names the cell arrays, which
+            are not read.
+
         Raises
         ------
         VolumeError
@@ -616,9 +623,12 @@ class UnstructuredVolume:
                 raise VolumeError(f"cannot read {str(path)!r} as a volume mesh: meshio: {why_meshio}; "
                                   f"pyvista: {_reader_message(e2)}") from e2
         try:
-            return convert(data, validate=validate, orient=orient)
+            vol = convert(data, validate=validate, orient=orient)
         except VolumeError as e:
             raise VolumeError(f"{str(path)!r}: {e}") from e
+        # what was not kept: a caller asking for one of these is told it is cell data
+        vol.cell_data_names = tuple(str(k) for k in data.cell_data.keys())
+        return vol
 
 
 def _read_pyvista(path):
