@@ -89,3 +89,34 @@ def test_local_origin_is_exact_and_zero_near_the_origin():
             # exact: adding the origin back gives every input bit for bit, and the frame is near 0
             np.testing.assert_array_equal(local + o, xy)
             assert np.abs(local).max() <= 2 * scale
+
+
+@pytest.fixture(scope="module")
+def graph_base():
+    from polygen.mesh2d import mesh_planar_graph, planar_graph
+
+    g = planar_graph(SQUARE, [HOLE], SEGMENTS, "D0")
+    return g, {m: mesh_planar_graph(g, SIZES, method=m, seed=1) for m in ("lattice", "bubble")}
+
+
+SEGMENTS = np.array([[[0.0, 0.5], [0.375, 0.5]], [[0.625, 0.5], [1.0, 0.5]]])  # cut into two regions
+SIZES = [0.15, 0.25]
+
+
+@pytest.mark.parametrize("off", OFFSETS)
+@pytest.mark.parametrize("method", ["lattice", "bubble"])
+def test_shifted_planar_graph_meshes_the_same(graph_base, off, method):
+    from polygen.mesh2d import mesh_planar_graph, planar_graph
+
+    g0, meshes = graph_base
+    g = planar_graph(SQUARE + off, [HOLE + off], SEGMENTS + off, "D0")
+    assert g.n_regions == g0.n_regions == 2
+    np.testing.assert_array_equal(g.edges, g0.edges)
+    np.testing.assert_array_equal(g.region_area, g0.region_area)
+    np.testing.assert_array_equal(g.vertices - off, g0.vertices)  # exact: binary fractions
+    m, m0 = mesh_planar_graph(g, SIZES, method=method, seed=1), meshes[method]
+    used = np.zeros(len(m.nodes), bool)
+    used[m.triangles.ravel()] = True
+    assert used.all()
+    np.testing.assert_array_equal(m.triangles, m0.triangles)
+    np.testing.assert_allclose(m.nodes - off, m0.nodes, rtol=0, atol=0.5 * np.spacing(off))
