@@ -38,8 +38,9 @@ class CLIError(ValueError):
 
 def _input_errors():
     from polygen.volume import VolumeError
+    from polygen.volume.surface import IsoSurfaceError
 
-    return (CLIError, VolumeError)
+    return (CLIError, VolumeError, IsoSurfaceError)
 
 
 def build_parser():
