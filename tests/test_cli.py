@@ -41,8 +41,12 @@ def test_isosurface_on_a_mesh_file_with_an_empty_value(tmp_path, capsys):
     assert "empty surface (0 triangles" in text
 
 
-def test_isosurface_bad_arguments(tmp_path):
-    with pytest.raises(ValueError, match="unknown isosurface method 'nope'"):
-        main(["isosurface", "torus", "--method", "nope", "--no-files"])
-    with pytest.raises(SystemExit, match="neither a file nor a data set"):
-        main(["isosurface", str(tmp_path / "missing.vtu")])
+def test_isosurface_bad_arguments(tmp_path, capsys):
+    # one line on stderr and exit status 2 (tests/test_cli_errors.py runs the command as a process)
+    assert main(["isosurface", "torus", "--method", "nope", "--no-files"]) == 2
+    assert capsys.readouterr().err == (f"polygen isosurface: unknown method 'nope'; the methods are "
+                                       f"{', '.join(methods.names())}\n")
+    assert main(["isosurface", str(tmp_path / "missing.vtu")]) == 2
+    assert "neither a file nor a data set" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="unknown method 'nope'"):  # --debug: the exception itself
+        main(["isosurface", "torus", "--method", "nope", "--no-files", "--debug"])

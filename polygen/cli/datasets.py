@@ -10,6 +10,13 @@ from __future__ import annotations
 import sys
 import time
 
+EXAMPLES = """examples:
+  polygen datasets                        every data set, its size and whether it is cached
+  polygen datasets info data4             what data set 4 is (thesis figure, fields, topology)
+  polygen datasets build data1 data4      build two data sets into the cache
+  polygen datasets path                   the cache directory
+"""
+
 
 def configure(parser):
     parser.add_argument(

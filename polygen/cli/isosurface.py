@@ -19,12 +19,21 @@ import numpy as np
 
 DEFAULT_DATA = "data4"
 
+EXAMPLES = """examples:
+  polygen isosurface                      data set 4, 20 values, every method against VTK
+  polygen isosurface torus --values 4     a small data set (see 'polygen datasets')
+  polygen isosurface part.vtu --field temperature --value 350 --method edge-centred
+  polygen isosurface part.msh --orient    reorder the nodes of inverted cells instead of refusing them
+  polygen isosurface part.vtu --no-compare-vtk --no-files --json times.json
+"""
+
 
 def configure(parser):
     parser.add_argument("mesh", nargs="?", default=DEFAULT_DATA,
                         help="a mesh file that meshio or pyvista reads, or a data-set name "
                              f"(see 'polygen datasets'; default: {DEFAULT_DATA})")
-    parser.add_argument("--field", help="the node field to contour (default: the mesh's first field)")
+    parser.add_argument("--field", help="the node field to contour (default: the first one that is not an id "
+                                         "array such as vtkOriginalPointIds; the command says which)")
     vals = parser.add_mutually_exclusive_group()
     vals.add_argument("--values", type=int, default=20, metavar="N",
                       help="N values evenly inside the field's range (default: 20)")
@@ -37,6 +46,9 @@ def configure(parser):
     parser.add_argument("--output", metavar="DIR", default="polygen-output",
                         help="where the .vtp surfaces and the PNG go (default: ./polygen-output)")
     parser.add_argument("--no-files", action="store_true", help="write no surfaces or image")
+    parser.add_argument("--orient", action="store_true",
+                        help="reorder the nodes of inverted cells (negative volume in VTK node order) "
+                             "instead of refusing the mesh")
 
 
 def _method_names():
@@ -45,16 +57,52 @@ def _method_names():
     return methods.names()
 
 
-def _load(spec, progress):
-    from polygen.volume import UnstructuredVolume, datasets
+def _load(spec, progress, orient=False):
+    from polygen.cli import CLIError
+    from polygen.volume import UnstructuredVolume, VolumeError, datasets
 
     if spec in datasets.names():
         return spec, datasets.load(spec, progress=progress)
     path = Path(spec)
     if not path.exists():
-        raise SystemExit(f"polygen isosurface: {spec!r} is neither a file nor a data set "
-                         f"(data sets: {', '.join(datasets.names())})")
-    return path.name, UnstructuredVolume.read(path)
+        raise CLIError(f"{spec!r} is neither a file nor a data set (data sets: {', '.join(datasets.names())})")
+    try:
+        return path.name, UnstructuredVolume.read(path, orient=orient)
+    except VolumeError as e:  # the library's advice, in the CLI's words
+        raise CLIError(str(e).replace("pass orient=True", "pass --orient")) from e
+
+
+def _is_id_array(name, values):
+    """An id or integer-index array (vtkOriginalPointIds, VTKorigID, GlobalNodeId, ...): nothing to contour."""
+    low = name.lower()
+    return (np.issubdtype(np.asarray(values).dtype, np.integer)
+            or low.endswith(("ids", "_id", "origid", "nodeid", "pointid"))
+            or low in ("id", "ids"))
+
+
+def choose_field(vol, field=None):
+    """The field to contour: ``field`` if given (else a one-line error, saying when it is cell data),
+    or the first that is not an id array; and how it was chosen."""
+    from polygen.cli import CLIError
+
+    cell_data = getattr(vol, "cell_data_names", ())
+    if not vol.fields:
+        extra = f"; the file's cell data ({', '.join(cell_data)}) is one value per cell" if cell_data else ""
+        raise CLIError(f"the volume has no node field to contour{extra}")
+    if field is not None:
+        if field in vol.fields:
+            return field, "--field"
+        if field in cell_data:
+            raise CLIError(f"{field!r} is cell data (one value per cell); isosurfaces need node data: "
+                           f"the node fields are {', '.join(vol.fields)}")
+        raise CLIError(f"no field {field!r}; the node fields are {', '.join(vol.fields)}")
+    names = list(vol.fields)
+    skipped = [n for n in names if _is_id_array(n, vol.fields[n])]
+    usable = [n for n in names if n not in skipped]
+    if not usable:
+        return names[0], "the only kind of field here: id arrays"
+    how = "the first field" if usable[0] == names[0] else f"the first that is not an id array ({', '.join(skipped)})"
+    return usable[0], f"{how}; --field to pick another" if len(names) > 1 else how
 
 
 def _vtk_time(vol, field, values):
@@ -77,19 +125,26 @@ def run(args):
 
     from polygen.volume import isovalues, methods
 
+    from polygen.cli import CLIError
+
+    chosen = args.method or methods.names()
+    unknown = [m for m in chosen if m not in methods.names()]
+    if unknown:  # before any work
+        raise CLIError(f"unknown method{'s' if len(unknown) > 1 else ''} {', '.join(map(repr, unknown))}; "
+                       f"the methods are {', '.join(methods.names())}")
+    if not args.value and args.values < 1:
+        raise CLIError(f"--values needs at least 1; got {args.values}")
     progress = sys.stderr.isatty()
-    label, vol = _load(args.mesh, progress)
+    label, vol = _load(args.mesh, progress, orient=args.orient)
+    args.field, how = choose_field(vol, args.field)
     s = vol.scalars(args.field)
     if args.value:
         values = np.asarray(args.value, float)
+        if not np.isfinite(values).all():
+            raise CLIError(f"--value must be finite; got {args.value}")
     else:
-        if args.values < 1:
-            raise SystemExit("polygen isosurface: --values needs at least 1")
         values = isovalues(s, args.values)
-    chosen = args.method or methods.names()
-    for m in chosen:
-        methods.get(m)  # unknown names fail here, before any work
-    print(f"{label}: {vol}; field {args.field or next(iter(vol.fields))!r} in [{s.min():.6g}, {s.max():.6g}]; "
+    print(f"{label}: {vol}; field {args.field!r} ({how}) in [{s.min():.6g}, {s.max():.6g}]; "
           f"{len(values)} values")
     # the volume's topology is shared by the methods: built once here, so that no method's
     # preprocessing column carries it

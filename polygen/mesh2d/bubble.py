@@ -76,7 +76,7 @@ import shapely
 
 from polygen._jit import njit, prange
 from polygen.mesh2d.delaunay import constrained_delaunay
-from polygen.mesh2d.domain import validate_domain
+from polygen.mesh2d.domain import Domain, local_origin, validate_domain
 from polygen.mesh2d.sizing import as_size_function
 from polygen.mesh2d.subdivision import PatchElements, triangle_edges
 
@@ -767,9 +767,32 @@ def bubble_mesh(outer, holes=(), size=None, *, init="lattice", n_cycles=4, steps
                         progress=progress)
 
 
-def _bubble_core(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cycle, final_steps,
-                 dt, mass, damping, tol, remove_below, insert_above, resize_every, seed, progress,
-                 near_segment=0.35, bare=False, fixed_size=None, regions=None):
+def _bubble_core(dom, pts, seg, size, internal, *, regions=None, **kwargs):
+    # Far from the origin the relaxation's small moves and the Delaunay predicates drown in the
+    # coordinates' round-off (a unit square at 1e12 left 38 of 58 nodes in no triangle): mesh in
+    # coordinates relative to local_origin (an exact translation; none near the origin) and shift
+    # back. No scaling: the relaxation's step (dt^2 f) is in absolute units, and scaling would
+    # change every mesh already made.
+    origin = local_origin(pts)
+    if not origin.any():
+        return _bubble_core_local(dom, pts, seg, size, internal, regions=regions, **kwargs)
+    if size is not None:
+        field = as_size_function(size)
+
+        def size(q):
+            return field(q + origin)
+
+        size.constant = field.constant
+    local_regions = None if regions is None else (lambda q: regions(q + origin))
+    local_dom = Domain(dom.outer - origin, tuple(h - origin for h in dom.holes))
+    bm = _bubble_core_local(local_dom, pts - origin, seg, size, internal, regions=local_regions, **kwargs)
+    return BubbleMesh(bm.nodes + origin, bm.triangles, bm.kind, bm.sizes, bm.constrained_edges,
+                      bm.initial + origin, bm.n_steps, bm.n_inserted, bm.n_removed, bm.history)
+
+
+def _bubble_core_local(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cycle, final_steps,
+                       dt, mass, damping, tol, remove_below, insert_above, resize_every, seed, progress,
+                       near_segment=0.35, bare=False, fixed_size=None, regions=None):
     # pts: fixed vertex bubbles; seg: segments carrying edge bubbles (the domain
     # boundary, plus internal segments when `internal`); `bare` (bool or (S,)
     # mask): segments whose nodes are already all in `pts` (no edge bubbles);

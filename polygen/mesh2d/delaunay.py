@@ -12,7 +12,7 @@ import numpy as np
 import pythoncdt
 
 from polygen._jit import njit
-from polygen.mesh2d.domain import InvalidDomainError, points_in_domain, validate_domain
+from polygen.mesh2d.domain import InvalidDomainError, local_origin, points_in_domain, validate_domain
 
 __all__ = ["Mesh2D", "constrained_delaunay", "triangulate_domain", "boundary_chain_edges"]
 
@@ -68,7 +68,9 @@ def constrained_delaunay(points, edges=None, *, erase_outside=True, order="auto"
     -------
     Mesh2D
         ``nodes`` are ``points`` in the same order (no node is added or
-        merged), ``triangles`` are counter-clockwise.
+        merged), ``triangles`` are counter-clockwise. Points far from the
+        origin are triangulated relative to :func:`~polygen.mesh2d.domain.local_origin`
+        (the same triangles as the points shifted near 0).
 
     Raises
     ------
@@ -98,7 +100,8 @@ def constrained_delaunay(points, edges=None, *, erase_outside=True, order="auto"
         pythoncdt.IntersectingConstraintEdges.NOT_ALLOWED,
         0.0,
     )
-    cdt.insert_vertices(pts)
+    local = pts - local_origin(pts)  # exact; pts itself when near the origin
+    cdt.insert_vertices(np.ascontiguousarray(local))
     if len(e):
         try:
             cdt.insert_edges(np.ascontiguousarray(e, dtype=np.uint32))
@@ -111,7 +114,7 @@ def constrained_delaunay(points, edges=None, *, erase_outside=True, order="auto"
     if cdt.vertices_count() != len(pts):
         raise ValueError("constraint edges intersect or touch a point: the triangulation added nodes")
     tri = cdt.triangles_array()["vertices"].astype(np.int64)
-    _orient_ccw_kernel(pts, tri)
+    _orient_ccw_kernel(local, tri)
     return Mesh2D(pts.copy(), np.ascontiguousarray(tri), e.copy())
 
 

@@ -8,6 +8,7 @@ closing vertex dropped. Everything else in :mod:`polygen.mesh2d` calls it
 first, so bad input fails early with :class:`InvalidDomainError`.
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,8 +35,44 @@ def signed_area(ring):
     ring : (K, 2) float64
     """
     ring = np.asarray(ring, dtype=np.float64)
-    x, y = ring[:, 0], ring[:, 1]
+    # relative to the first vertex: far from the origin (a square at 1e9) the products of
+    # absolute coordinates cancel to nothing
+    x, y = ring[:, 0] - ring[0, 0], ring[:, 1] - ring[0, 1]
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def local_origin(xy):
+    """A translation that brings points far from the origin near it, exactly.
+
+    The meshers work in coordinates relative to this origin, so that a
+    domain far from (0, 0) (a part at 1e9 m in a site's frame) meshes as the
+    same domain near (0, 0) does. Per axis: 0 when the bounding box's centre
+    is within 1024 box sizes of 0 (at most 10 of 53 bits lost there: every
+    domain near the origin, e.g. a radiosity polygon in its own plane frame
+    or one of its patches, meshes exactly as before); else the centre rounded to a multiple
+    of ``2**ceil(log2(size))``, so that ``x - origin`` is exact (Sterbenz:
+    both lie within a factor 2 of each other) and a domain shifted by a
+    multiple of that power of two meshes identically, up to the shift.
+
+    Parameters
+    ----------
+    xy : (N, 2) float64
+        Finite points (N >= 1).
+
+    Returns
+    -------
+    origin : (2,) float64
+    """
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    span = float((hi - lo).max())
+    centre = 0.5 * (lo + hi)
+    if span == 0.0:
+        span = float(np.abs(centre).max()) * 2.0**-40 or 1.0
+    unit = 2.0 ** math.ceil(math.log2(span))
+    origin = np.round(centre / unit) * unit
+    origin[np.abs(centre) < 1024.0 * span] = 0.0
+    return origin
 
 
 @dataclass(frozen=True, eq=False)

@@ -22,13 +22,13 @@ derivative discontinuity: nodes shared).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import shapely
 
 from polygen.mesh2d.delaunay import constrained_delaunay
-from polygen.mesh2d.domain import InvalidDomainError, validate_domain
+from polygen.mesh2d.domain import InvalidDomainError, local_origin, validate_domain
 from polygen.mesh2d.sizing import as_size_function
 
 __all__ = [
@@ -221,6 +221,10 @@ def planar_graph(outer, holes=(), segments=None, kinds=None, *, points=None, tol
     Returns
     -------
     PlanarGraph
+        Built relative to :func:`~polygen.mesh2d.domain.local_origin` of the
+        outer ring (an exact translation; none near the origin), so that a
+        polygon far from the origin gives the graph of the same polygon near
+        it, shifted.
 
     Raises
     ------
@@ -229,6 +233,35 @@ def planar_graph(outer, holes=(), segments=None, kinds=None, *, points=None, tol
         than the tolerance), outside the polygon, or crossing another
         segment without a common vertex.  The message names the segment.
     """
+    origin = _origin_of(outer)
+    if not origin.any():
+        return _planar_graph_local(outer, holes, segments, kinds, points=points, tol=tol)
+    g = _planar_graph_local(np.asarray(outer, dtype=np.float64) - origin,
+                            [np.asarray(h, dtype=np.float64) - origin for h in holes],
+                            None if segments is None else np.asarray(segments, dtype=np.float64) - origin,
+                            kinds, points=None if points is None else np.asarray(points, dtype=np.float64) - origin,
+                            tol=tol)
+    return _shifted(g, origin)
+
+
+def _origin_of(xy):
+    """local_origin of well-formed coordinates; 0 for anything else (the builder's checks report it)."""
+    try:
+        a = np.asarray(xy, dtype=np.float64)
+    except (TypeError, ValueError):
+        return np.zeros(2)
+    if a.ndim != 2 or a.shape[1] != 2 or not len(a) or not np.all(np.isfinite(a)):
+        return np.zeros(2)
+    return local_origin(a)
+
+
+def _shifted(g, by):
+    """The graph ``g`` translated by ``by`` (its topology, areas and tolerance unchanged)."""
+    return replace(g, vertices=g.vertices + by, region_point=g.region_point + by,
+                   domain=shapely.transform(g.domain, lambda c: c + by))
+
+
+def _planar_graph_local(outer, holes=(), segments=None, kinds=None, *, points=None, tol=1e-9):
     o = np.asarray(outer, dtype=np.float64)
     if o.ndim != 2 or o.shape[1] != 2 or not np.all(np.isfinite(o)):
         raise InvalidDomainError(f"outer polygon: expected finite (K, 2) coordinates, got {o.shape}")
@@ -503,7 +536,36 @@ def mesh_planar_graph(graph, sizes, *, method="lattice", edge_nodes=None, seed=0
     Returns
     -------
     GraphMesh
+        Meshed relative to :func:`~polygen.mesh2d.domain.local_origin` of
+        the graph's vertices (an exact translation; none near the origin);
+        size fields are called with the caller's coordinates.
     """
+    origin = local_origin(graph.vertices)
+    if not origin.any():
+        return _mesh_planar_graph_local(graph, sizes, method=method, edge_nodes=edge_nodes, seed=seed,
+                                        samples=samples, **bubble_kwargs)
+    if callable(sizes) or np.isscalar(sizes):
+        sizes = [sizes] * graph.n_regions
+    local_sizes = [_size_at(as_size_function(f), origin) for f in sizes]
+    gm = _mesh_planar_graph_local(_shifted(graph, -origin), local_sizes, method=method, edge_nodes=edge_nodes,
+                                  seed=seed, samples=samples, **bubble_kwargs)
+    return GraphMesh(gm.nodes + origin, gm.triangles, gm.chains)
+
+
+def _size_at(field, origin):
+    """A size field of local coordinates from one of the caller's."""
+    if field.constant is not None:
+        return field.constant
+
+    def size(q):
+        return field(np.asarray(q, dtype=np.float64) + origin)
+
+    size.constant = None
+    return size
+
+
+def _mesh_planar_graph_local(graph, sizes, *, method="lattice", edge_nodes=None, seed=0, samples=33,
+                             **bubble_kwargs):
     from polygen.mesh2d.bubble import _bubble_core, _bubble_opts
 
     if method not in ("lattice", "bubble"):

@@ -381,17 +381,29 @@ class EdgeCentredMethod(IsosurfaceMethod):
         values : sequence of float
         normals : {"mean", "gradient", None}, keyword-only
         threads : int, optional, keyword-only
-            How many at a time (default: numba's thread count).
+            How many at a time, at least 1 (default, ``None``: numba's thread
+            count). Never more than ``len(values)`` are used.
 
         Returns
         -------
         list of IsoSurface
-            In the order of ``values``; ``stats_many`` holds each one's counters.
+            In the order of ``values`` (empty for no values); ``stats_many``
+            holds each one's counters.
+
+        Raises
+        ------
+        IsoSurfaceError
+            ``threads`` is not a whole number >= 1, or a value is not finite.
         """
         import numba
 
+        if threads is None:
+            threads = numba.get_num_threads()
+        elif isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+            raise IsoSurfaceError(f"threads must be a whole number >= 1 (or None: numba's {numba.get_num_threads()}); "
+                                  f"got {threads!r}")
         values = [check_value(v) for v in values]
-        threads = min(int(threads or numba.get_num_threads()), len(values))
+        threads = min(int(threads), len(values))
         if threads < 1:
             return []
         found = [self.source.query(v) for v in values]

@@ -573,13 +573,136 @@ class UnstructuredVolume:
 
     @classmethod
     def read(cls, path, *, validate=True, orient=False):
-        """Read any file meshio reads (VTU, MSH, XDMF, ...), or else pyvista."""
-        import meshio
+        """Read a volume from any file meshio reads (VTU, MSH, XDMF, ...), or else pyvista reads.
+
+        meshio is tried first; whatever it cannot read (any failure, including
+        the ``SystemExit`` meshio raises on a corrupt file, or a legacy VTK file
+        it misparses) is handed to pyvista. Neither reader prints anything.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The mesh file.
+        validate, orient : bool, keyword-only
+            As for the constructor.
+
+        Returns
+        -------
+        UnstructuredVolume
+            Its fields are the file's node (point) arrays of one component;
+            ``cell_data_names`` (tuple of str) names the cell arrays, which
+            are not read.
+
+        Raises
+        ------
+        VolumeError
+            Naming the file: it is missing, a directory, unreadable by both
+            readers (with each reader's reason), or holds no valid volume.
+        """
+        import contextlib
+        import io
+        import pathlib
+
+        path = pathlib.Path(path)
+        if not path.exists():
+            raise VolumeError(f"{str(path)!r}: no such file")
+        if path.is_dir():
+            raise VolumeError(f"{str(path)!r} is a directory, not a mesh file")
+        said = io.StringIO()  # meshio prints its reasons before it gives up
+        try:
+            import meshio
+
+            with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+                mesh = meshio.read(path)
+            convert, data = cls.from_meshio, mesh
+        except (Exception, SystemExit) as e:  # meshio ends a failed read with sys.exit(1)
+            why_meshio = _reader_message(e, said.getvalue())
+            try:
+                convert, data = cls.from_pyvista, _read_pyvista(path)
+            except (Exception, SystemExit) as e2:
+                raise VolumeError(f"cannot read {str(path)!r} as a volume mesh: meshio: {why_meshio}; "
+                                  f"pyvista: {_reader_message(e2)}") from e2
+        try:
+            vol = convert(data, validate=validate, orient=orient)
+        except VolumeError as e:
+            raise VolumeError(f"{str(path)!r}: {e}") from e
+        # what was not kept: a caller asking for one of these is told it is cell data
+        vol.cell_data_names = tuple(str(k) for k in data.cell_data.keys())
+        return vol
+
+
+def _read_pyvista(path):
+    """pyvista's reader for ``path``: VTK's complaints become an exception, not printed nor logged."""
+    import gc
+    import logging
+    import warnings
+
+    import pyvista as pv
+
+    failure = data = None
+    # pyvista's readers log VTK's errors with logging.error on the root logger (which installs a
+    # stderr handler when the root has none): a handler of our own, and logging off, meanwhile
+    quiet, was_disabled = logging.NullHandler(), logging.root.manager.disable
+    logging.root.addHandler(quiet)
+    logging.disable(logging.CRITICAL)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # pyvista repeats VTK's errors as warnings: the exception says it
+            # the outer catcher keeps VTK quiet until a failed reader is freed (it complains again then)
+            with _stderr_fd_silenced(), pv.vtk_verbosity("off"), pv.VtkErrorCatcher(send_to_logging=False):
+                try:
+                    with pv.VtkErrorCatcher(raise_errors=True, send_to_logging=False):
+                        data = pv.get_reader(str(path)).read()
+                except Exception as e:
+                    failure = RuntimeError(_reader_message(e))  # no traceback holding the VTK reader
+                    data = None
+                gc.collect()
+    finally:
+        logging.disable(was_disabled)
+        logging.root.removeHandler(quiet)
+    if failure is not None:
+        raise failure
+    return data
+
+
+class _stderr_fd_silenced:
+    """Send file descriptor 2 to the null device meanwhile: C libraries VTK links (libxml2) print there."""
+
+    def __enter__(self):
+        import os
+        import sys
 
         try:
-            mesh = meshio.read(path)
-        except meshio.ReadError:
-            import pyvista as pv
+            sys.stderr.flush()
+            self._saved = os.dup(2)
+        except (OSError, ValueError, AttributeError):
+            self._saved = None  # no real descriptor 2 (an embedding host): nothing to silence
+            return self
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, 2)
+        os.close(null)
+        return self
 
-            return cls.from_pyvista(pv.read(path), validate=validate, orient=orient)
-        return cls.from_meshio(mesh, validate=validate, orient=orient)
+    def __exit__(self, *exc):
+        import os
+
+        if self._saved is not None:
+            os.dup2(self._saved, 2)
+            os.close(self._saved)
+        return False
+
+
+def _reader_message(exc, printed=""):
+    """One line saying why a reader failed: VTK's source locations and object addresses dropped."""
+    import re
+
+    if isinstance(exc, SystemExit):  # what meshio printed before sys.exit is the reason
+        lines = [ln.strip() for ln in printed.splitlines() if ln.strip()]
+        return lines[0].removeprefix("Error:").strip() if lines else "failed"
+    text = re.sub(r"ERROR: In \S+, line \d+", " ", str(exc))
+    text = re.sub(r"\w+ \(0x[0-9a-fA-F]+\): ", "", text)
+    text = " ".join(text.split())
+    text = text if len(text) <= 160 else text[:157] + "..."
+    if isinstance(exc, RuntimeError) and type(exc) is RuntimeError:  # already said by _read_pyvista
+        return text
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
