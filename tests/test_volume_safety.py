@@ -1,4 +1,4 @@
-"""Issue 19, items 1-2: threads, changed fields.
+"""Issue 19, items 1, 2 and 4: threads, changed fields, unreferenced nodes.
 
 Each test is the issue's reproducer; the oracle is the full scan of a volume
 built afresh (or, for threads, the same method called from one thread).
@@ -13,7 +13,7 @@ import polygen.volume  # noqa: F401  (registers every method)
 from polygen.volume import registry
 from polygen.volume._cells import KUHN_TETS
 from polygen.volume.isosurface import extract
-from polygen.volume.mesh import UnstructuredVolume, VolumeError
+from polygen.volume.mesh import UnstructuredVolume, VolumeError, VolumeWarning
 from polygen.volume.surface import IsoSurfaceError, same_surface
 
 METHODS = registry.method_names()
@@ -151,3 +151,45 @@ def test_prepared_method_refuses_a_replaced_field():
     with pytest.raises(VolumeError, match="shape"):
         vol.fields["h"] = np.zeros(3)
     assert list(vol.fields) == ["g"]
+
+
+# ----------------------------------------------------------------- item 4: unreferenced nodes
+@pytest.mark.parametrize("unused_value", ["extreme", "inside"])
+@pytest.mark.parametrize("where", ["first", "middle", "last", "all three"])
+@pytest.mark.parametrize("cell_type", ["tetra", "hexa"])
+def test_unreferenced_nodes_every_method_equals_the_scan(where, cell_type, unused_value):
+    """Issue 19.4: unused nodes (first, middle, last), holding the field's extreme values or ones inside its range."""
+    points, cells = grid_tets(5)
+    if cell_type == "hexa":
+        n = 5
+        i, j, k = (a.ravel() for a in np.meshgrid(np.arange(n), np.arange(n), np.arange(n), indexing="ij"))
+        corners = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]])
+        cells = ((i[:, None] + corners[:, 0]) * (n + 1) + j[:, None] + corners[:, 1]) * (n + 1) + k[:, None] \
+            + corners[:, 2]
+    f = two_blobs(points)
+    n = points.shape[0]
+    at = {"first": [0], "middle": [n // 2], "last": [n], "all three": [0, n // 2, n]}[where]
+    # insert unused nodes before the given positions of the original numbering (the last one at the end)
+    new_id = np.arange(n) + np.searchsorted(np.array(at), np.arange(n), side="right")
+    m = n + len(at)
+    unused = np.setdiff1d(np.arange(m), new_id)
+    P = np.zeros((m, 3))
+    P[new_id] = points
+    P[unused] = [100.0, 100.0, 100.0]
+    F = np.zeros(m)
+    F[new_id] = f
+    if unused_value == "extreme":  # the field's global max / min
+        F[unused] = np.where(np.arange(len(at)) % 2 == 0, 10.0, -10.0)
+    else:  # a value between the isovalues
+        F[unused] = 0.2
+    with pytest.warns(VolumeWarning, match=f"{len(at)} of {m} nodes are used by no cell"):
+        vol = UnstructuredVolume(P, new_id[cells], {"f": F}, orient=True)
+    assert vol.unreferenced_nodes.tolist() == unused.tolist()
+    plain = UnstructuredVolume(points, cells, {"f": f}, orient=True)
+    for method in METHODS:
+        for v in (0.1, 0.3, 0.5):
+            iso = vol.isosurface(v, method=method)
+            ref = scan(vol, v)
+            assert ref.n_triangles > 0
+            assert same_surface(iso, ref, geometry=False), (method, v)
+            assert iso.n_triangles == scan(plain, v).n_triangles

@@ -156,7 +156,8 @@ class UnstructuredVolume:
         if self.unreferenced_nodes.size:
             warnings.warn(
                 f"{self.unreferenced_nodes.size} of {n} nodes are used by no cell, e.g. nodes "
-                f"{_examples(self.unreferenced_nodes)}; they are kept (see remove_unreferenced_nodes)",
+                f"{_examples(self.unreferenced_nodes)}; they keep their ids and every isosurface method ignores them "
+                "(remove_unreferenced_nodes() gives a copy without them)",
                 VolumeWarning,
                 stacklevel=2,
             )
