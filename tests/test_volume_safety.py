@@ -1,4 +1,4 @@
-"""Issue 19, items 1, 2 and 4: threads, changed fields, unreferenced nodes.
+"""Issue 19, items 1-4: threads, changed fields, huge values, unreferenced nodes.
 
 Each test is the issue's reproducer; the oracle is the full scan of a volume
 built afresh (or, for threads, the same method called from one thread).
@@ -14,6 +14,7 @@ from polygen.volume import registry
 from polygen.volume._cells import KUHN_TETS
 from polygen.volume.isosurface import extract
 from polygen.volume.mesh import UnstructuredVolume, VolumeError, VolumeWarning
+from polygen.volume.seeds.span_filter import SpanFilter
 from polygen.volume.surface import IsoSurfaceError, same_surface
 
 METHODS = registry.method_names()
@@ -151,6 +152,61 @@ def test_prepared_method_refuses_a_replaced_field():
     with pytest.raises(VolumeError, match="shape"):
         vol.fields["h"] = np.zeros(3)
     assert list(vol.fields) == ["g"]
+
+
+# ----------------------------------------------------------------- item 3: huge values
+@pytest.mark.parametrize("big", [1e308, 8e307])
+def test_overflowing_field_is_rejected(big):
+    """Issue 19.3: +-1e308 (max - min = inf) and +-8e307 (x 30 overflows in (5.2)) name the field."""
+    points, cells = grid_tets(30)
+    f = np.where(points[:, 0] > 15, big, -big)
+    with pytest.raises(VolumeError, match="field 'huge' spans .*overflows float64"):
+        UnstructuredVolume(points, cells, {"huge": f}, orient=True)
+    vol = UnstructuredVolume(points, cells, {"ok": points[:, 0]}, orient=True)
+    with pytest.raises(VolumeError, match="field 'huge'"):
+        vol.fields["huge"] = f
+    assert list(vol.fields) == ["ok"]
+
+
+def test_overflowing_values_given_as_an_array_are_rejected():
+    """The same bound on a field passed as node values rather than by name."""
+    points, cells = grid_tets(4)
+    vol = UnstructuredVolume(points, cells, {"ok": points[:, 0]}, orient=True)
+    with pytest.raises(IsoSurfaceError, match="overflows float64"):
+        extract(vol, 0.0, field=np.where(points[:, 0] > 2, 1e308, -1e308))
+
+
+def test_overflowing_coordinates_are_rejected():
+    points, cells = grid_tets(2)
+    with pytest.raises(VolumeError, match="max - min of a coordinate overflows"):
+        UnstructuredVolume((points - 1) * 1e308, cells, validate=False)
+
+
+def test_largest_accepted_field_gives_finite_surfaces():
+    """Just under the bound 2 (max - min) max|x| < float max, every method gives the scan's finite surface."""
+    points, cells = grid_tets(4)  # coordinates 0..4
+    scale = np.finfo(np.float64).max / (2 * 4) / 2.0 * 0.999  # range 2 * scale
+    f = (two_blobs(points) * 2 - 1) * scale
+    f = f / np.abs(f).max() * scale
+    vol = UnstructuredVolume(points, cells, {"f": f}, orient=True)
+    for method in METHODS:
+        for v in (-0.3 * scale, 0.0, 0.4 * scale):
+            iso = vol.isosurface(v, method=method)
+            ref = scan(vol, v)
+            assert ref.n_triangles > 0 and np.all(np.isfinite(ref.vertices))
+            assert np.all(np.isfinite(iso.vertices)) and same_surface(iso, ref, geometry=False)
+
+
+@pytest.mark.parametrize("layout", ["replicate", "by-min"])
+def test_span_filter_classes_never_come_from_nan(layout):
+    """A class index from (x - lo) / width with width = inf is inf / inf = NaN: it must stay in range."""
+    cmin = np.array([-1e308, -1e308, 0.0, 5e307, 1e308])
+    cmax = np.array([-1e308, 0.0, 1e308, 1e308, 1e308])
+    sf = SpanFilter.build(cmin, cmax, n_buckets=8, layout=layout)
+    for v in (-1e308, -1.0, 0.0, 6e307, 1e308):
+        active = np.flatnonzero((cmin <= v) & (cmax >= v))
+        found = sf.query(v).cells
+        assert set(active) <= set(found.tolist()) and set(found.tolist()) <= set(range(5))
 
 
 # ----------------------------------------------------------------- item 4: unreferenced nodes

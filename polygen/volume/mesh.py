@@ -101,7 +101,7 @@ class UnstructuredVolume:
     ------
     VolumeError
         On wrong shapes, indices out of range, non-finite coordinates or
-        scalars, degenerate (zero-volume) or inverted cells, faces shared by
+        scalars, scalars whose range overflows float64, degenerate (zero-volume) or inverted cells, faces shared by
         more than two cells.
     """
 
@@ -130,6 +130,11 @@ class UnstructuredVolume:
         bad_pts = np.flatnonzero(~np.all(np.isfinite(self.points), axis=1))
         if bad_pts.size:
             raise VolumeError(f"{bad_pts.size} points have NaN or infinite coordinates, e.g. points {_examples(bad_pts)}")
+        with np.errstate(over="ignore"):
+            extent = self.points.max(axis=0) - self.points.min(axis=0) if n else np.zeros(3)
+        if not np.all(np.isfinite(extent)):
+            raise VolumeError(f"the points span {extent.tolist()}: max - min of a coordinate overflows float64; "
+                              "rescale the coordinates")
         out_of_range = np.flatnonzero(np.any((self.cells < 0) | (self.cells >= n), axis=1))
         if out_of_range.size:
             c = out_of_range[0]
@@ -196,7 +201,12 @@ class UnstructuredVolume:
         Raises
         ------
         VolumeError
-            On a wrong length, a non-real dtype, NaN or infinite values.
+            On a wrong length, a non-real dtype, NaN or infinite values, or
+            values so large that the isosurface arithmetic overflows float64:
+            the kernels form differences of node values (``max - min`` must
+            be finite) and the crossing points of (5.2) multiply such a
+            difference by a coordinate, so ``2 * (max - min) * max|x|`` must
+            be finite too.
         """
         name = str(name)
         values = np.asarray(values)
@@ -208,6 +218,17 @@ class UnstructuredVolume:
         bad = np.flatnonzero(~np.isfinite(values))
         if bad.size:
             raise VolumeError(f"field {name!r} has {bad.size} NaN or infinite values, e.g. at nodes {_examples(bad)}")
+        if values.size:
+            lo, hi = float(values.min()), float(values.max())
+            with np.errstate(over="ignore"):
+                span = hi - lo
+                reach = 2.0 * span * float(np.abs(self.points).max())
+            if not np.isfinite(span):
+                raise VolumeError(f"field {name!r} spans {lo:.6g} .. {hi:.6g}: max - min overflows float64; "
+                                  "rescale the field")
+            if not np.isfinite(reach):
+                raise VolumeError(f"field {name!r} spans {lo:.6g} .. {hi:.6g}: its range times the coordinates "
+                                  "overflows float64 in the crossing points (5.2); rescale the field")
         values.setflags(write=False)
         self.fields._data[name] = values
         self._forget_field(name)
