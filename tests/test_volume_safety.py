@@ -101,6 +101,36 @@ def test_two_threads_on_vol_isosurface(grid30):
         assert same_surface(a, ref, geometry=False) and same_surface(b, ref, geometry=False)
 
 
+def test_every_method_at_once_on_one_volume(grid30):
+    """Different methods share the volume's tables: each in its own thread, all at once, via vol.isosurface."""
+    vol = UnstructuredVolume(grid30.points, grid30.cells, {"f": grid30.fields["f"]}, validate=False)
+    values = np.linspace(0.1, 0.9, 12)
+    out = {name: [None] * len(values) for name in METHODS}
+    errors = []
+    start = threading.Barrier(len(METHODS))
+
+    def work(name):
+        try:
+            start.wait()
+            for i, v in enumerate(values):
+                out[name][i] = vol.isosurface(v, method=name)
+        except BaseException as exc:  # re-raised below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=work, args=(name,)) for name in METHODS]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    if errors:
+        raise errors[0]
+    assert sorted(k[1] for k in vol._iso_methods) == sorted(METHODS)
+    for i, v in enumerate(values):
+        ref = scan(grid30, v)
+        for name in METHODS:
+            assert same_surface(out[name][i], ref, geometry=False), (name, v)
+
+
 # ----------------------------------------------------------------- item 2: changed fields
 def test_fields_are_read_only_copies():
     """Issue 19.2: ``vol.fields["f"][:] = new`` raises; the caller's array is copied, not shared."""
