@@ -279,3 +279,5 @@ def test_unreferenced_nodes_every_method_equals_the_scan(where, cell_type, unuse
             assert ref.n_triangles > 0
             assert same_surface(iso, ref, geometry=False), (method, v)
             assert iso.n_triangles == scan(plain, v).n_triangles
+        grad = vol.isosurface(0.3, method=method, normals="gradient")  # node gradients skip the unused nodes
+        assert np.all(np.isfinite(grad.normals))
