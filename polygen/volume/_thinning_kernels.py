@@ -426,12 +426,13 @@ def query(skel_cells, skel_min, skel_max, offsets, ids, lo, hi, width, nb, value
         b = 0
     else:
         t = (value - lo) / width
-        if t <= 0.0:
-            b = 0
-        elif t >= nb - 1:
+        # never an index from NaN (inf / inf when hi - lo overflows float64): NaN goes to class 0
+        if t >= nb - 1:
             b = nb - 1
-        else:
+        elif t > 0.0:
             b = int(t)
+        else:
+            b = 0
     k = 0
     for j in range(offsets[b], offsets[b + 1]):
         i = ids[j]

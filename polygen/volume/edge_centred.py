@@ -92,7 +92,9 @@ class EdgeCentred:
 
     Preparing builds the cells around each edge and around each node, each
     with its local index in the cell (O(n)); every query reuses the stamps
-    and buffers.
+    and buffers, so one builder serves one thread at a time (the
+    ``edge-centred`` method holds a lock around it; :meth:`copy` gives a
+    builder for another thread).
 
     Parameters
     ----------

@@ -163,6 +163,9 @@ def _extrema_from_arrays(cells, s, node_off, node_cells):
     n_fmax, n_fmin = _k._register_extrema(s, cells, node_off, node_cells, not_max, not_min, plural_max.copy(),
                                           plural_min.copy(), kind)
     nodes = np.flatnonzero(kind).astype(np.int64)
+    # a node no cell uses (FE exports keep reference nodes) has no neighbour, so it would count as an
+    # extremum with no cell to seed from: it is not part of the volume (Def. 5.2), drop it
+    nodes = nodes[node_off[nodes + 1] > node_off[nodes]]
     kk = kind[nodes]
     return Extrema(nodes=nodes, is_max=(kk & _k.KIND_MAX) > 0, is_min=(kk & _k.KIND_MIN) > 0, not_max=not_max,
                    not_min=not_min, plural_max=plural_max, plural_min=plural_min, n_flat=int(n_fmax + n_fmin))

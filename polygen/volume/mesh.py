@@ -10,7 +10,9 @@ lazily, by the numba kernels of :mod:`polygen.volume._topology`.
 
 from __future__ import annotations
 
+import collections.abc
 import functools
+import threading
 import warnings
 
 import numpy as np
@@ -37,6 +39,39 @@ class VolumeWarning(UserWarning):
     """Something in a volume is suspicious but usable (e.g. unreferenced nodes)."""
 
 
+class _Fields(collections.abc.MutableMapping):
+    """The node fields of a volume: a mapping name -> read-only (N,) float64 array.
+
+    Assigning a name (``vol.fields["f"] = values``) is :meth:`UnstructuredVolume.add_field`:
+    the values are checked and copied, and the methods prepared on that name are
+    dropped. The arrays themselves are read-only, so ``vol.fields["f"][:] = new``
+    raises ``ValueError`` instead of leaving prepared structures stale.
+    """
+
+    def __init__(self, owner):
+        self._owner = owner
+        self._data = {}
+
+    def __getitem__(self, name):
+        return self._data[name]
+
+    def __setitem__(self, name, values):
+        self._owner.add_field(name, values)
+
+    def __delitem__(self, name):
+        del self._data[name]
+        self._owner._forget_field(name)
+
+    def __iter__(self):
+        return iter(self._data)
+
+    def __len__(self):
+        return len(self._data)
+
+    def __repr__(self):
+        return f"fields({', '.join(f'{k!r}: ({v.shape[0]},)' for k, v in self._data.items())})"
+
+
 def _examples(idx, n=5):
     idx = np.asarray(idx).ravel()
     head = ", ".join(str(int(i)) for i in idx[:n])
@@ -53,7 +88,9 @@ class UnstructuredVolume:
     cells : (M, 4) or (M, 8) int64
         Node ids of each cell in VTK order (``VTK_TETRA`` or ``VTK_HEXAHEDRON``).
     fields : dict of str -> (N,) float64, optional
-        Scalar fields on the nodes. The first one is the default.
+        Scalar fields on the nodes. The first one is the default. They are
+        copied and kept read-only (:meth:`add_field`); ``vol.fields`` is a
+        mapping whose assignment is :meth:`add_field`.
     validate : bool, keyword-only
         Check cell geometry (zero-volume and inverted cells). Shapes, index
         ranges and finiteness are always checked.
@@ -64,7 +101,7 @@ class UnstructuredVolume:
     ------
     VolumeError
         On wrong shapes, indices out of range, non-finite coordinates or
-        scalars, degenerate (zero-volume) or inverted cells, faces shared by
+        scalars, scalars whose range overflows float64, degenerate (zero-volume) or inverted cells, faces shared by
         more than two cells.
     """
 
@@ -93,6 +130,11 @@ class UnstructuredVolume:
         bad_pts = np.flatnonzero(~np.all(np.isfinite(self.points), axis=1))
         if bad_pts.size:
             raise VolumeError(f"{bad_pts.size} points have NaN or infinite coordinates, e.g. points {_examples(bad_pts)}")
+        with np.errstate(over="ignore"):
+            extent = self.points.max(axis=0) - self.points.min(axis=0) if n else np.zeros(3)
+        if not np.all(np.isfinite(extent)):
+            raise VolumeError(f"the points span {extent.tolist()}: max - min of a coordinate overflows float64; "
+                              "rescale the coordinates")
         out_of_range = np.flatnonzero(np.any((self.cells < 0) | (self.cells >= n), axis=1))
         if out_of_range.size:
             c = out_of_range[0]
@@ -107,8 +149,9 @@ class UnstructuredVolume:
                 f"(cell {repeated[0]} has nodes {self.cells[repeated[0]].tolist()})"
             )
         self.cell_type = _CELL_TYPES[self.cells.shape[1]]
-        self.fields = {}
+        self.fields = _Fields(self)
         self._iso_methods = {}  # (field, method) -> a prepared IsosurfaceMethod, for isosurface()
+        self._iso_lock = threading.RLock()  # guards _iso_methods (isosurface() from several threads)
         for name, values in (fields or {}).items():
             self.add_field(name, values)
         if validate or orient:
@@ -118,7 +161,8 @@ class UnstructuredVolume:
         if self.unreferenced_nodes.size:
             warnings.warn(
                 f"{self.unreferenced_nodes.size} of {n} nodes are used by no cell, e.g. nodes "
-                f"{_examples(self.unreferenced_nodes)}; they are kept (see remove_unreferenced_nodes)",
+                f"{_examples(self.unreferenced_nodes)}; they keep their ids and every isosurface method ignores them "
+                "(remove_unreferenced_nodes() gives a copy without them)",
                 VolumeWarning,
                 stacklevel=2,
             )
@@ -147,19 +191,52 @@ class UnstructuredVolume:
         return f"UnstructuredVolume({self.n_cells} {self.cell_type} cells, {self.n_points} nodes; {names})"
 
     def add_field(self, name, values):
-        """Attach a node scalar field, checking its length and finiteness."""
+        """Attach a node scalar field (also ``vol.fields[name] = values``).
+
+        The values are copied into a read-only float64 array, so neither the
+        caller's array nor ``vol.fields[name][:] = ...`` can change them behind
+        the methods prepared on them; replacing a field by name drops the
+        methods prepared on it (:meth:`isosurface` prepares them again).
+
+        Raises
+        ------
+        VolumeError
+            On a wrong length, a non-real dtype, NaN or infinite values, or
+            values so large that the isosurface arithmetic overflows float64:
+            the kernels form differences of node values (``max - min`` must
+            be finite) and the crossing points of (5.2) multiply such a
+            difference by a coordinate, so ``2 * (max - min) * max|x|`` must
+            be finite too.
+        """
+        name = str(name)
         values = np.asarray(values)
         if values.ndim != 1 or values.shape[0] != self.n_points:
             raise VolumeError(f"field {name!r} must have shape ({self.n_points},); got {values.shape}")
         if not np.issubdtype(values.dtype, np.number) or np.issubdtype(values.dtype, np.complexfloating):
             raise VolumeError(f"field {name!r} must be real numbers; got dtype {values.dtype}")
-        values = np.ascontiguousarray(values, dtype=np.float64)
+        values = np.array(values, dtype=np.float64, order="C", copy=True)
         bad = np.flatnonzero(~np.isfinite(values))
         if bad.size:
             raise VolumeError(f"field {name!r} has {bad.size} NaN or infinite values, e.g. at nodes {_examples(bad)}")
-        self.fields[str(name)] = values
-        # methods prepared on a field of that name are stale now
-        self._iso_methods = {k: m for k, m in self._iso_methods.items() if k[0] != str(name)}
+        if values.size:
+            lo, hi = float(values.min()), float(values.max())
+            with np.errstate(over="ignore"):
+                span = hi - lo
+                reach = 2.0 * span * float(np.abs(self.points).max())
+            if not np.isfinite(span):
+                raise VolumeError(f"field {name!r} spans {lo:.6g} .. {hi:.6g}: max - min overflows float64; "
+                                  "rescale the field")
+            if not np.isfinite(reach):
+                raise VolumeError(f"field {name!r} spans {lo:.6g} .. {hi:.6g}: its range times the coordinates "
+                                  "overflows float64 in the crossing points (5.2); rescale the field")
+        values.setflags(write=False)
+        self.fields._data[name] = values
+        self._forget_field(name)
+
+    def _forget_field(self, name):
+        """Drop the methods :meth:`isosurface` prepared on field ``name`` (it changed or went)."""
+        with self._iso_lock:
+            self._iso_methods = {k: m for k, m in self._iso_methods.items() if k[0] != name}
 
     def scalars(self, name=None) -> np.ndarray:
         """The node values of field ``name`` (the first field by default)."""
@@ -256,6 +333,10 @@ class UnstructuredVolume:
         cell-edge-centred construction, that is volume thinning and the edge
         incidence: about a second per million cells) and kept, so later
         calls cost only the query (milliseconds on a 2M-cell volume).
+        Replacing the field (``vol.fields[name] = new``) drops the prepared
+        method. Safe from several threads: the preparation happens once, and
+        the prepared method's lock lets one extraction run at a time
+        (:class:`~polygen.volume.methods.IsosurfaceMethod`).
 
         Parameters
         ----------
@@ -275,11 +356,12 @@ class UnstructuredVolume:
         name = field if field is not None else next(iter(self.fields))
         method = _registry.DEFAULT_METHOD if method is None else method
         key = (name, method)
-        prepared = self._iso_methods.get(key)
-        if prepared is None:
-            # the registry, not the methods: they sit above the mesh and register themselves there
-            prepared = self._iso_methods[key] = _registry.get_method(method)(self, field=name)
-        return prepared.extract(value, normals=normals)
+        with self._iso_lock:  # one preparation per (field, method), also when threads ask at once
+            prepared = self._iso_methods.get(key)
+            if prepared is None:
+                # the registry, not the methods: they sit above the mesh and register themselves there
+                prepared = self._iso_methods[key] = _registry.get_method(method)(self, field=name)
+        return prepared.extract(value, normals=normals)  # serialised per method (IsosurfaceMethod's lock)
 
     # ------------------------------------------------------------- adjacency
     @functools.cached_property

@@ -26,6 +26,8 @@ from __future__ import annotations
 
 import abc
 import dataclasses
+import functools
+import threading
 import time
 
 import numpy as np
@@ -34,7 +36,7 @@ from polygen.volume import registry as _registry
 from polygen.volume.isosurface import extract as _extract
 from polygen.volume.propagate import Propagator
 from polygen.volume.seeds.source import seed_source as _seed_source
-from polygen.volume.surface import same_surface
+from polygen.volume.surface import IsoSurfaceError, same_surface
 
 __all__ = ["IsosurfaceMethod", "SeedsThenPropagate", "METHODS", "DEFAULT", "register", "get", "names", "default",
            "Sweep", "sweep"]
@@ -114,8 +116,39 @@ def sweep(method, values, *, reference=None, normals="mean"):
                  same_as_reference=same)
 
 
+def _serialised(fn):
+    """``fn`` (an ``extract``) under the method's lock, after checking its field is still the volume's."""
+
+    @functools.wraps(fn)
+    def guarded(self, *args, **kwargs):
+        with self._lock:
+            self._check_field()
+            return fn(self, *args, **kwargs)
+
+    guarded._serialised = True
+    return guarded
+
+
 class IsosurfaceMethod(abc.ABC):
     """An isosurface method prepared on one volume and field.
+
+    Threads: a prepared method keeps scratch buffers and counters between
+    calls (visit stamps, queues, ``stats``), so its :meth:`extract` and
+    :meth:`extract_many` hold a per-method lock (a ``threading.RLock``):
+    several threads may share one prepared method and each gets the right
+    surface, but their calls run one at a time. For queries side by side,
+    prepare one method per thread or use :meth:`extract_many` (the
+    edge-centred method runs its values in parallel there). Every subclass's
+    ``extract`` and ``extract_many`` get the lock by themselves
+    (``__init_subclass__``).
+
+    Changed fields: a method prepared on a field *name* checks at every call
+    that the volume still holds the array it was prepared on (fields are
+    read-only once added, so only ``vol.fields[name] = new`` or
+    ``vol.add_field(name, new)`` can change one) and raises
+    :class:`~polygen.volume.surface.IsoSurfaceError` if it was replaced,
+    instead of answering for the old values. A method prepared on an array
+    of values (``field=array``) answers for the values it was given.
 
     Parameters
     ----------
@@ -133,9 +166,24 @@ class IsosurfaceMethod(abc.ABC):
     #: how the surface is built from there: ``"scan"``, ``"propagate"`` or ``"edge-centred"``
     construction: str = ""
 
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        for name in ("extract", "extract_many"):
+            fn = cls.__dict__.get(name)
+            if fn is not None and not getattr(fn, "_serialised", False) and not getattr(
+                    fn, "__isabstractmethod__", False):
+                setattr(cls, name, _serialised(fn))
+
     def __init__(self, vol, field=None, **params):
         self.vol = vol
         self.field = field
+        self._lock = threading.RLock()
+        # the array prepared on, when the field is named: a replaced field must not give a stale surface
+        self._field_name = self._field_values = None
+        fields = getattr(vol, "fields", None)
+        if (field is None or isinstance(field, str)) and fields:
+            self._field_name = next(iter(fields)) if field is None else field
+            self._field_values = fields.get(self._field_name)
         self.seed_cells_tested = 0
         t0 = time.perf_counter()
         self._prepare(**params)
@@ -144,10 +192,17 @@ class IsosurfaceMethod(abc.ABC):
     def _prepare(self, **params):
         """Build what the method needs once per volume (timed as preprocessing)."""
 
+    def _check_field(self):
+        if self._field_values is not None and self.vol.fields.get(self._field_name) is not self._field_values:
+            raise IsoSurfaceError(f"field {self._field_name!r} of the volume was replaced or removed after this "
+                                  f"{self.name or type(self).__name__!r} method was prepared on it; prepare the "
+                                  "method again (vol.isosurface does so by itself)")
+
     @abc.abstractmethod
     def extract(self, value, *, normals="mean"):
         """The isosurface ``S = value`` as an :class:`~polygen.volume.isosurface.IsoSurface`."""
 
+    @_serialised
     def extract_many(self, values, *, normals="mean", threads=None):
         """The isosurfaces of several values, in their order (one after the other here;
         methods that can run queries side by side override this and use ``threads``)."""

@@ -222,6 +222,9 @@ class Propagator:
 
     Keeps the ``visited`` generation stamps (so each query starts in O(1)),
     the field, the face neighbours and, once asked for, the node gradients.
+    The stamps and buffers are shared by its queries, so one propagator
+    serves one thread at a time (the methods of :mod:`polygen.volume.methods`
+    hold a lock around it; use one propagator per thread otherwise).
 
     Parameters
     ----------

@@ -183,6 +183,13 @@ def volume_arrays(vol, field):
             raise IsoSurfaceError(f"field values must have shape ({vol.n_points},); got {s.shape}")
         if not np.all(np.isfinite(s)):
             raise IsoSurfaceError("field values must be finite")
+        if s.size:  # the bound UnstructuredVolume.add_field puts on a named field
+            with np.errstate(over="ignore"):
+                span = float(s.max()) - float(s.min())
+                reach = 2.0 * span * float(np.abs(points).max())
+            if not (np.isfinite(span) and np.isfinite(reach)):
+                raise IsoSurfaceError(f"field values span {s.min():.6g} .. {s.max():.6g}: their range (times the "
+                                      "coordinates, in the crossing points (5.2)) overflows float64; rescale them")
     return points, cells, np.ascontiguousarray(s, np.float64), cell_type
 
 

@@ -38,11 +38,12 @@ def _bucket(x, lo, width, nb):
     if width <= 0.0:
         return 0
     t = (x - lo) / width
-    if t <= 0.0:
-        return 0
+    # never an index from NaN (inf / inf when max - min overflows float64): NaN goes to class 0
     if t >= nb - 1:
         return nb - 1
-    return int(t)
+    if t > 0.0:
+        return int(t)
+    return 0
 
 
 @njit
