@@ -281,3 +281,22 @@ def test_unreferenced_nodes_every_method_equals_the_scan(where, cell_type, unuse
             assert iso.n_triangles == scan(plain, v).n_triangles
         grad = vol.isosurface(0.3, method=method, normals="gradient")  # node gradients skip the unused nodes
         assert np.all(np.isfinite(grad.normals))
+
+
+# ----------------------------------------------------------------------------
+# item 8: a value a hair above a minimum (vertices round onto the node)
+# ----------------------------------------------------------------------------
+@pytest.mark.parametrize("name", registry.method_names())
+def test_normals_of_a_surface_shrunk_onto_a_node(name):
+    from polygen.volume import datasets
+
+    v = datasets.load("hollow_cube")
+    p0 = np.array([1.0, 1.0, 0.0])                    # a node on the bottom face z = 0
+    vol = UnstructuredVolume(v.points, v.cells, {"f": ((v.points - p0) ** 2).sum(axis=1)})
+    for c in (1e-300, 1e-17):
+        iso = registry.get_method(name)(vol, field="f").extract(c)
+        assert iso.n_triangles > 0
+        # every triangle has collapsed onto p0 (zero area): the normals must still be unit
+        # vectors, pointing away from the minimum, i.e. into the volume above z = 0
+        np.testing.assert_allclose(np.linalg.norm(iso.normals, axis=1), 1.0, rtol=1e-12)
+        assert np.all(iso.normals[:, 2] >= 0.0)

@@ -287,7 +287,7 @@ class EdgeCentred:
         if n_v:
             _k.positions(self._vend, n_v, self.points, self.s, value, vertices)
         nrm = vertex_normals(normals, vertices, tri, keys, edges=np.ascontiguousarray(self.vol.edges), s=self.s,
-                             value=value, node_grad=node_grad)
+                             value=value, node_grad=node_grad, points=self.points)
         t3 = time.perf_counter() - t0
 
         self.stats = {

@@ -226,7 +226,8 @@ def finish(value, keys, tri, tri_cell, *, points, edges, s, normals, node_grad, 
     vertices = np.empty((keys.shape[0], 3))
     if keys.shape[0]:
         _m._vertex_positions(keys, edges, points, s, value, vertices)
-    nrm = vertex_normals(normals, vertices, tri, keys, edges=edges, s=s, value=value, node_grad=node_grad)
+    nrm = vertex_normals(normals, vertices, tri, keys, edges=edges, s=s, value=value, node_grad=node_grad,
+                         points=points)
     t3 = time.perf_counter() - t0
     return IsoSurface(
         value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys,
@@ -235,7 +236,7 @@ def finish(value, keys, tri, tri_cell, *, points, edges, s, normals, node_grad, 
     )
 
 
-def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad):
+def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad, points=None):
     """The normals half of stage 3, shared by every construction.
 
     Parameters
@@ -252,10 +253,22 @@ def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad):
     value : float
     node_grad : (N, 3) float64 or None
         Needed for ``"gradient"`` only.
+    points : (N, 3) float64, optional
+        Node positions: a vertex whose normal comes out zero gets the
+        direction of its edge towards increasing scalar instead.
 
     Returns
     -------
     (V, 3) float64 or None
+
+    Notes
+    -----
+    A value a hair above a minimum (or below a maximum) makes a surface so
+    small around the node that its vertices round onto the node: every
+    triangle there has zero area, and so has their mean normal. The edge
+    the vertex lies on, oriented towards increasing scalar, is then the
+    limit of the normal (the surface around a node shrinks to a point whose
+    outward directions are its edges).
     """
     if normals is None:
         return None
@@ -265,6 +278,13 @@ def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad):
             _m._mean_normals(vertices, tri, nrm)
         else:
             _m._gradient_normals(keys, edges, s, value, node_grad, nrm)
+        if points is not None:
+            zero = np.flatnonzero(~(np.abs(nrm).sum(axis=1) > 0.0))
+            on_edge = zero[keys[zero] < edges.shape[0]]
+            if on_edge.size:
+                e = edges[keys[on_edge]]
+                d = (points[e[:, 1]] - points[e[:, 0]]) * np.sign(s[e[:, 1]] - s[e[:, 0]])[:, None]
+                nrm[on_edge] = d / np.linalg.norm(d, axis=1)[:, None]
     return nrm
 
 
