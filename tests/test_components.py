@@ -199,3 +199,32 @@ def test_component_table_by_hand():
     np.testing.assert_array_equal(c["component"], [1, 1, 1, 1, 0, 0, 0, 0, 2])
     # reversed orientation: negative volume
     np.testing.assert_allclose(component_table(v, t[:, ::-1])["volume"][:2], [-8 / 6, -1 / 6])
+
+
+def test_cli_prints_the_table(tmp_path, capsys):
+    from polygen.cli import main
+
+    vol = _box((-0.7, -0.35, -0.35), (0.9, 0.35, 0.35), 0.05)
+    p = vol.points
+    f = np.minimum(np.linalg.norm(p - [-0.35, 0, 0], axis=1) - 0.3, np.linalg.norm(p - [0.6, 0, 0], axis=1) - 0.25)
+    vol.add_field("f", f)
+    path = tmp_path / "spheres.vtu"
+    vol.to_meshio().write(path)
+    rc = main(["isosurface", str(path), "--field", "f", "--value", "0", "--value", "0.3", "--method", "scan",
+               "--components", "--no-compare-vtk", "--no-files"])
+    assert rc == 0
+    lines = capsys.readouterr().out.splitlines()
+    start = next(i for i, s in enumerate(lines) if s.startswith("components (by scan"))
+    rows = [s.split() for s in lines[start + 3:]]
+    c = extract(vol, 0.0, field="f").components()
+    assert [r[:2] for r in rows[:2]] == [["0", "0"], ["0", "1"]]
+    for i, r in enumerate(rows[:2]):
+        assert int(r[2]) == c["triangles"][i]
+        assert float(r[3]) == pytest.approx(c["area"][i], rel=1e-5)
+        assert float(r[4]) == pytest.approx(c["volume"][i], rel=1e-5)
+        assert r[5:7] == ["yes", "no"]
+        np.testing.assert_allclose([float(x) for x in r[7:13]], c["bounds"][i], rtol=1e-3, atol=1e-12)
+    # at 0.3 the spheres (radii 0.6, 0.55) leave the box: open pieces, ending on its boundary
+    k = extract(vol, 0.3, field="f").components()["area"].shape[0]
+    assert k > 1 and len(rows) == 2 + min(k, 10) + (k > 10)
+    assert all(r[0] == "0.3" and r[4:7] == ["-", "no", "yes"] for r in rows[2:2 + min(k, 10)])
