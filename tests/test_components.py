@@ -122,13 +122,17 @@ def holed_cube():
     vol = _box((-1, -1, -1), (1, 1, 1), h)
     keep = np.linalg.norm(vol.points[vol.cells].mean(axis=1), axis=1) >= 0.3
     used, cells = np.unique(vol.cells[keep], return_inverse=True)
+    # the void's wall: the nodes of both a kept and a removed cell, and how far they lie from the centre
+    wall = np.intersect1d(used, vol.cells[~keep])
+    wall_r = np.linalg.norm(vol.points[wall], axis=1)
     pts = vol.points[used]
     vol = UnstructuredVolume(pts, cells.reshape(-1, 4), {"r": np.linalg.norm(pts, axis=1)})
-    return vol, h
+    return vol, h, (wall_r.min(), wall_r.max())
 
 
 def test_shell_around_a_void(holed_cube):
-    vol, h = holed_cube
+    vol, h, (wall_lo, wall_hi) = holed_cube
+    assert wall_hi < 0.6
     assert vol.boundary_groups is not None
     iso = extract(vol, 0.6, field="r")
     c = iso.components()
@@ -137,12 +141,18 @@ def test_shell_around_a_void(holed_cube):
     assert c["area"].shape == (1,) and c["closed"][0] and not c["touches_boundary"][0]
     assert abs(c["area"][0] / (4 * np.pi * 0.36) - 1) < AREA_TOL
     assert abs(c["volume"][0] / (4 / 3 * np.pi * 0.216) - 1) < VOLUME_TOL  # the void is inside it
+    # a value inside the range of |x| on the void's wall: the surface ends on the wall (the boundary)
+    iso = extract(vol, 0.5 * (wall_lo + wall_hi), field="r")
+    c = iso.components()
+    _check_table(iso, c)
+    assert c["area"].shape[0] >= 1 and c["touches_boundary"].all() and not c["closed"].any()
+    assert np.all(np.abs(c["bounds"]) <= wall_hi)
 
 
 def test_sphere_clipped_by_the_cube(holed_cube):
     # |x| = 1.2 leaves the cube [-1, 1]^3 through six disjoint caps (1 < 1.2 < sqrt 2), each of area
     # 2 pi rho (rho - 1): one open piece of area 4 pi rho^2 - 12 pi rho (rho - 1), ending on the boundary
-    vol, h = holed_cube
+    vol, h, _ = holed_cube
     rho = 1.2
     iso = extract(vol, rho, field="r")
     c = iso.components()
