@@ -25,6 +25,7 @@ EXAMPLES = """examples:
   polygen isosurface part.vtu --field temperature --value 350 --method edge-centred
   polygen isosurface part.msh --orient    reorder the nodes of inverted cells instead of refusing them
   polygen isosurface part.vtu --no-compare-vtk --no-files --json times.json
+  polygen isosurface torus --value 0.5 --method scan --components   the surface's connected parts
 """
 
 
@@ -49,6 +50,9 @@ def configure(parser):
     parser.add_argument("--orient", action="store_true",
                         help="reorder the nodes of inverted cells (negative volume in VTK node order) "
                              "instead of refusing the mesh")
+    parser.add_argument("--components", action="store_true",
+                        help="print each surface's connected components (by the first method): triangles, area, "
+                             "enclosed volume, bounds, closed, touching the boundary")
 
 
 def _method_names():
@@ -214,6 +218,8 @@ def run(args):
     for v, iso in zip(values, keep):
         if iso.is_empty:
             print(f"value {v:.6g}: empty surface (0 triangles; {iso.cells_tested} cells tested)")
+    if args.components:
+        _print_components(values, keep, rows[0]["method"])
 
     if args.json:
         out = {"mesh": label, "cells": vol.n_cells, "cell_type": vol.cell_type, "values": values.tolist(),
@@ -251,6 +257,28 @@ def _print_table(rows, vtk_s, vtk_tris):
             if vtk_s is not None:
                 line += f" (VTK/ours {vtk_s / max(r['many_s'], 1e-12):.2f})"
             print(line)
+
+
+def _print_components(values, surfaces, method, most=10):
+    """One line per component (the ``most`` largest of each surface), from ``IsoSurface.components()``."""
+    print(f"components (by {method}; volume: enclosed by a closed component, positive around lower values)")
+    head = (f"{'value':>10s} {'#':>4s} {'triangles':>10s} {'area':>12s} {'volume':>12s} {'closed':>6s} "
+            f"{'boundary':>8s}  bounds (x, y, z)")
+    print(head)
+    print("-" * len(head))
+    for v, iso in zip(values, surfaces):
+        c = iso.components()
+        k = c["area"].shape[0]
+        for i in range(min(k, most)):
+            b = " ".join(f"{x:.4g}" for x in c["bounds"][i])
+            vol = "-" if np.isnan(c["volume"][i]) else f"{c['volume'][i]:.6g}"
+            print(f"{v:10.6g} {i:4d} {c['triangles'][i]:10d} {c['area'][i]:12.6g} {vol:>12s} "
+                  f"{'yes' if c['closed'][i] else 'no':>6s} {'yes' if c['touches_boundary'][i] else 'no':>8s}  {b}")
+        if k > most:
+            print(f"{v:10.6g} and {k - most} smaller components ({int(c['triangles'][most:].sum())} triangles, "
+                  f"area {c['area'][most:].sum():.6g})")
+        elif k == 0:
+            print(f"{v:10.6g} no components (empty surface)")
 
 
 def _write_files(out, label, vol, surfaces, values, method):

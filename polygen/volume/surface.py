@@ -12,6 +12,7 @@ sibling modules import them under these public names.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 
 import numpy as np
@@ -31,6 +32,7 @@ __all__ = [
     "drop_double_faces",
     "same_surface",
     "isovalues",
+    "component_table",
 ]
 
 #: the ``normals`` choices of every extractor
@@ -148,6 +150,58 @@ class IsoSurface:
         order = np.argsort(np.argsort(first))
         return order[tri_labels].astype(np.int64), int(first.shape[0])
 
+    @functools.cached_property
+    def _component_table(self):
+        # computed once per surface (the dataclass is frozen; cached_property writes the instance
+        # dict directly) and handed out as read-only arrays
+        table = component_table(self.vertices, self.triangles)
+        for a in table.values():
+            a.setflags(write=False)
+        return table
+
+    def components(self) -> dict:
+        """The connected components of the surface, one row per component, largest area first.
+
+        Two triangles are in one component when they share a vertex (vertices
+        are merged: each crossed edge is one vertex). Computed on first call
+        and kept; the arrays are read-only.
+
+        Returns
+        -------
+        dict of str to ndarray, each with one row per component (``k`` rows):
+
+        ``"triangles"`` : (k,) int64
+            Triangle count.
+        ``"area"`` : (k,) float64
+            Surface area; rows are sorted by it, descending (ties: the
+            component whose first triangle comes first).
+        ``"volume"`` : (k,) float64
+            For a closed component, the volume it encloses by the divergence
+            theorem, ``sum(v0 . (v1 x v2)) / 6`` over its triangles. It is
+            signed: the right-hand normal of our triangles points towards
+            increasing scalar, so the volume is positive when the enclosed
+            region holds the lower values (around a minimum, e.g. the sphere
+            ``|x| = r``) and negative when it holds the higher values (around
+            a maximum). NaN for a component that is not closed.
+        ``"bounds"`` : (k, 6) float64
+            ``xmin, xmax, ymin, ymax, zmin, zmax`` of its vertices.
+        ``"closed"`` : (k,) bool
+            Every edge of the component is shared by exactly two of its
+            triangles.
+        ``"touches_boundary"`` : (k,) bool
+            The component has an open edge (an edge of one triangle only): it
+            ends on the boundary of the volume.
+
+        See Also
+        --------
+        triangle_components : the component of each triangle, numbered as these rows.
+        """
+        return {k: v for k, v in self._component_table.items() if k != "component"}
+
+    def triangle_components(self) -> np.ndarray:
+        """(T,) int64 (read-only): the row of :meth:`components` each triangle belongs to."""
+        return self._component_table["component"]
+
     def to_pyvista(self):
         """A ``pyvista.PolyData`` with the normals as point data ``"Normals"``."""
         import pyvista as pv
@@ -168,6 +222,80 @@ class IsoSurface:
 
 
 # ------------------------------------------------------------------ helpers
+
+def component_table(vertices, triangles):
+    """The connected components of a triangle mesh (triangles sharing a vertex) as a table.
+
+    What :meth:`IsoSurface.components` returns, plus ``"component"``: the
+    (T,) int64 row of each triangle. Rows are sorted by area, descending.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64
+    triangles : (T, 3) int64
+        Vertex ids (merged vertices: a shared vertex is one id).
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``component`` (T,) int64, ``triangles`` (k,) int64, ``area`` (k,)
+        float64, ``volume`` (k,) float64 (signed, NaN unless closed),
+        ``bounds`` (k, 6) float64, ``closed`` (k,) bool,
+        ``touches_boundary`` (k,) bool.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    v = np.asarray(vertices, np.float64)
+    t = np.asarray(triangles, np.int64)
+    nt, nv = t.shape[0], v.shape[0]
+    if nt == 0:
+        return {"component": np.zeros(0, np.int64), "triangles": np.zeros(0, np.int64),
+                "area": np.zeros(0), "volume": np.zeros(0), "bounds": np.zeros((0, 6)),
+                "closed": np.zeros(0, bool), "touches_boundary": np.zeros(0, bool)}
+    # vertices joined along the triangles' edges: components of that graph are the surface's parts
+    e = t[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    n_raw, vlab = connected_components(coo_matrix((np.ones(e.shape[0], np.int8), (e[:, 0], e[:, 1])),
+                                                  shape=(nv, nv)), directed=False)
+    raw = vlab[t[:, 0]]
+    p0, p1, p2 = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
+    tri_area = 0.5 * np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
+    area_raw = np.bincount(raw, tri_area, minlength=n_raw)
+    first = np.full(n_raw, nt, np.int64)
+    np.minimum.at(first, raw, np.arange(nt))
+    present = first < nt  # vertex-graph components without triangles (unused vertices) are dropped
+    ids = np.flatnonzero(present)
+    ids = ids[np.lexsort((first[ids], -area_raw[ids]))]
+    k = ids.shape[0]
+    rank = np.full(n_raw, -1, np.int64)
+    rank[ids] = np.arange(k)
+    comp = rank[raw]
+    area = area_raw[ids]
+    count = np.bincount(comp, minlength=k).astype(np.int64)
+    # edges: shared by exactly two triangles everywhere = closed; by one = an open edge
+    es = np.sort(e, axis=1)
+    _, inv, uses = np.unique(es[:, 0] * nv + es[:, 1], return_inverse=True, return_counts=True)
+    uses = uses[inv.ravel()]
+    ecomp = np.repeat(comp, 3)
+    touches = np.bincount(ecomp, weights=uses == 1, minlength=k) > 0
+    closed = np.bincount(ecomp, weights=uses != 2, minlength=k) == 0
+    # bounds over the vertices of each component
+    vcomp = rank[vlab]
+    used = vcomp >= 0
+    order = np.argsort(vcomp[used], kind="stable")
+    pts = v[used][order]
+    starts = np.searchsorted(vcomp[used][order], np.arange(k))
+    lo, hi = np.minimum.reduceat(pts, starts, axis=0), np.maximum.reduceat(pts, starts, axis=0)
+    bounds = np.stack([lo[:, 0], hi[:, 0], lo[:, 1], hi[:, 1], lo[:, 2], hi[:, 2]], axis=1)
+    # divergence theorem about each component's centre (translation-invariant when closed; less cancellation)
+    c = (0.5 * (lo + hi))[comp]
+    six = np.einsum("ij,ij->i", p0 - c, np.cross(p1 - c, p2 - c))
+    volume = np.bincount(comp, six, minlength=k) / 6.0
+    volume[~closed] = np.nan
+    return {"component": comp, "triangles": count, "area": area, "volume": volume, "bounds": bounds,
+            "closed": closed, "touches_boundary": touches}
+
+
 def volume_arrays(vol, field):
     """(points, cells, s, cell_type) of ``vol``, the scalars from ``field``."""
     try:
