@@ -139,6 +139,8 @@ for name, x in points.items():
                                                        normalise=False).sum() - exact_x)
                              for r in res_list])
     slopes[name] = np.polyfit(np.log(res_list), np.log(np.maximum(errors[name], 1e-16)), 1)[0]
+
+# %%
 fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
 for name, e in errors.items():
     axes[0].loglog(res_list, e, "o-", label=f"{name}: slope {slopes[name]:.2f}")
@@ -629,5 +631,6 @@ for ax, (name, c) in zip(np.atleast_1d(axes), curves["curves"].items()):
         ax.loglog([p["n_elements"] for p in pts], [p["error"] for p in pts], style, label=kind)
     ax.set_xlabel("elements"); ax.set_ylabel("relative RMS image error")
     ax.set_title(f"{name} (reference: {c['reference_elements']} elements)"); ax.legend()
+fig.tight_layout()
 plt.show()
 
