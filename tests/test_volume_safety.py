@@ -52,21 +52,25 @@ def grid30():
     return UnstructuredVolume(points, cells, {"f": two_blobs(points)}, orient=True)
 
 
-def _two_threads(call, values):
-    """``call(v)`` for every value in each of two threads started together; the two result lists."""
-    out = [[None] * len(values), [None] * len(values)]
+def _in_threads(calls, values):
+    """``calls[k](v)`` for every value, each ``k`` in its own thread, all started together.
+
+    Returns one result list per call, in the order of ``calls``; the first
+    exception of any thread is raised here.
+    """
+    out = [[None] * len(values) for _ in calls]
     errors = []
-    start = threading.Barrier(2)
+    start = threading.Barrier(len(calls))
 
     def work(t):
         try:
             start.wait()
             for i, v in enumerate(values):
-                out[t][i] = call(v)
+                out[t][i] = calls[t](v)
         except BaseException as exc:  # re-raised below
             errors.append(exc)
 
-    threads = [threading.Thread(target=work, args=(t,)) for t in range(2)]
+    threads = [threading.Thread(target=work, args=(t,)) for t in range(len(calls))]
     for t in threads:
         t.start()
     for t in threads:
@@ -74,6 +78,11 @@ def _two_threads(call, values):
     if errors:
         raise errors[0]
     return out
+
+
+def _two_threads(call, values):
+    """``call(v)`` for every value in each of two threads started together; the two result lists."""
+    return _in_threads([call, call], values)
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -105,25 +114,9 @@ def test_every_method_at_once_on_one_volume(grid30):
     """Different methods share the volume's tables: each in its own thread, all at once, via vol.isosurface."""
     vol = UnstructuredVolume(grid30.points, grid30.cells, {"f": grid30.fields["f"]}, validate=False)
     values = np.linspace(0.1, 0.9, 12)
-    out = {name: [None] * len(values) for name in METHODS}
-    errors = []
-    start = threading.Barrier(len(METHODS))
-
-    def work(name):
-        try:
-            start.wait()
-            for i, v in enumerate(values):
-                out[name][i] = vol.isosurface(v, method=name)
-        except BaseException as exc:  # re-raised below
-            errors.append(exc)
-
-    threads = [threading.Thread(target=work, args=(name,)) for name in METHODS]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    if errors:
-        raise errors[0]
+    results = _in_threads([lambda v, name=name: vol.isosurface(v, method=name) for name in METHODS],
+                          values)
+    out = dict(zip(METHODS, results))
     assert sorted(k[1] for k in vol._iso_methods) == sorted(METHODS)
     for i, v in enumerate(values):
         ref = scan(grid30, v)
