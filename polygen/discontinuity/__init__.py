@@ -4,6 +4,16 @@
   their sections on receivers (:class:`ShadowSection`).
 """
 
-from polygen.discontinuity.shadow import ShadowError, ShadowSection, scene_sections, shadow_sections
+from polygen.discontinuity.shadow import (
+    Polyhedron,
+    ShadowError,
+    ShadowPolyhedra,
+    ShadowSection,
+    polyhedron_section,
+    scene_sections,
+    shadow_polyhedron,
+    shadow_sections,
+)
 
-__all__ = ["ShadowError", "ShadowSection", "shadow_sections", "scene_sections"]
+__all__ = ["Polyhedron", "ShadowError", "ShadowPolyhedra", "ShadowSection", "polyhedron_section",
+           "scene_sections", "shadow_polyhedron", "shadow_sections"]
