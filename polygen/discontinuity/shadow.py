@@ -30,6 +30,8 @@ __all__ = [
     "shadow_polyhedron",
     "polyhedron_section",
     "ShadowSection",
+    "SceneShadows",
+    "scene_lights",
     "shadow_sections",
     "scene_sections",
 ]
@@ -467,9 +469,242 @@ class ShadowSection:
     kind: str = "area"
 
 
+
+def scene_lights(scene):
+    """The scene's lights in :attr:`ShadowSection.light` order.
+
+    Returns
+    -------
+    list of (kind, light, polygon index or -1)
+        Area lights (``scene.area_lights``, emitting polygons) first, then
+        ``scene.lights``.
+    """
+    out = [("area", scene.polygons[k], k) for k in scene.area_lights]
+    for light in scene.lights:
+        out.append(("point" if isinstance(light, PointLight) else "parallel", light, -1))
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class SceneShadows:
+    """Every receiver's shadow sections, with the work counters and timings of the driver.
+
+    Attributes
+    ----------
+    sections : dict of int -> list of ShadowSection
+        Per receiver polygon index (receivers without sections absent).
+    counters : dict of str -> int
+        ``polyhedra`` (shadow-polyhedra pairs built, rebuilt ones
+        included), ``rebuilt`` (pairs rebuilt for a light or occluder
+        clipped by a receiver's plane), ``candidates`` (receiver-polyhedron
+        pairs the index returned), ``receiver_tests`` (pairs tested
+        exactly), ``node_tests`` (index nodes visited), ``sections``.
+    timings : dict of str -> float
+        Seconds: ``t_sdw`` (shadow polyhedra), ``t_isr`` (index queries,
+        receiver tests and sections), as Table 3.2's phases.
+    """
+
+    sections: dict
+    counters: dict
+    timings: dict = field(default_factory=dict)
+
+    def of(self, receiver):
+        """The sections on one receiver (a list, empty when none)."""
+        return list(self.sections.get(int(receiver), []))
+
+    @property
+    def n_sections(self):
+        return sum(len(v) for v in self.sections.values())
+
+
+def _area(poly3, n):
+    return 0.5 * abs(float(_newell(poly3) @ n)) if len(poly3) >= 3 else 0.0
+
+
+def _side_of(points, n, d, tol):
+    s = points @ n - d
+    return bool(np.any(s > tol)), bool(np.any(s < -tol))
+
+
+def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
+    """Shadow polyhedra of every (light, occluder) pair and their sections on every receiver.
+
+    The driver of Fig. 3.5: for each light and each convex piece of each
+    polygon, the shadow polyhedra; then the receivers the penumbra
+    polyhedron can reach, from a bounding-volume hierarchy over the
+    polygons' boxes (:class:`~polygen.discontinuity.scene_index.PolygonIndex`),
+    and for each the sections.
+
+    Parameters
+    ----------
+    scene : Scene
+    use_index : bool, keyword-only
+        False tests every polyhedron against every receiver (the thesis's
+        O(n^2) T_isr), for comparison.
+    margin : float, keyword-only
+        The sections are clipped to each receiver's 2-D box enlarged by
+        ``margin`` times its diameter.
+    tol : float, keyword-only
+        Relative to the scene's size: a vertex closer than this to a plane
+        is on it.
+
+    Returns
+    -------
+    SceneShadows
+
+    Notes
+    -----
+    Which pairs give sections, and how (each rule is a statement about
+    the rays from a receiver point to the light, which run in the open
+    half-space on the lit side of the receiver and in front of an area
+    light):
+
+    * a light lights a receiver's front face (both faces if two-sided)
+      when some of it is strictly in front of that face; an area light
+      partly behind it is clipped to the front, and a light behind it or
+      in its plane gives no section;
+    * an occluder acts only on the light's front side (an area light's
+      plane clips it) and on the receiver's lit side (clipped there:
+      an occluder touching the receiver is kept, one behind it dropped);
+    * an area light on both sides of an occluder's plane is split by that
+      plane: each part shadows the other side;
+    * a section is kept when the penumbra section overlaps the receiver
+      with positive area; the umbra section is emptied when it does not.
+    """
+    import shapely
+
+    from polygen.discontinuity.scene_index import PolygonIndex
+
+    polys = scene.polygons
+    lo, hi = scene.bounds
+    diam = float(np.linalg.norm(hi - lo))
+    atol = tol * diam
+    cap = np.stack([lo - 0.01 * diam, hi + 0.01 * diam])
+    t_sdw = t_isr = 0.0
+    cnt = dict(polyhedra=0, rebuilt=0, candidates=0, receiver_tests=0, node_tests=0, sections=0)
+    pieces = [[pc.vertices for pc in p.convex_pieces()] for p in polys]
+    rboxes = np.array([[p.vertices.min(axis=0) - atol, p.vertices.max(axis=0) + atol]
+                       for p in polys])
+    index = PolygonIndex(rboxes) if use_index else None
+    shapes = [shapely.Polygon(p.exterior_2d, p.holes_2d) for p in polys]
+    boxes2 = [np.stack([p.exterior_2d.min(axis=0) - margin * p.diameter,
+                        p.exterior_2d.max(axis=0) + margin * p.diameter]) for p in polys]
+    out = {}
+
+    def build(light_arr, O):
+        nonlocal t_sdw
+        t0 = time.perf_counter()
+        sp = shadow_polyhedron(light_arr, O, bounds=cap, tol=tol)
+        t_sdw += time.perf_counter() - t0
+        cnt["polyhedra"] += 1
+        return sp
+
+    for li, (kind, light, lpoly) in enumerate(scene_lights(scene)):
+        # the light as build() takes it, and its front half-space (area lights only)
+        if kind == "area":
+            L = light.vertices
+            nL, dL = light.normal, float(light.normal @ light.origin)
+        elif kind == "point":
+            L = light.position
+        else:
+            L = light
+        queries = []  # (polygon, piece, light part, occluder, polyhedra)
+        for k, p in enumerate(polys):
+            if k == lpoly:
+                continue
+            for j, O in enumerate(pieces[k]):
+                if kind == "area":
+                    O = geo.clip_polygon_3d(O, -nL, -dL)  # in front of the light's plane
+                    if _area(O, p.normal) <= atol * diam:
+                        continue
+                    n_o = geo.unit(_newell(O))
+                    d_o = float(n_o @ O.mean(axis=0))
+                    above, below = _side_of(L, n_o, d_o, atol)
+                    if not (above or below):
+                        continue  # light in the occluder's plane: no shadow
+                    parts = [L]
+                    if above and below:
+                        parts = [q for q in (geo.clip_polygon_3d(L, n_o, d_o),
+                                             geo.clip_polygon_3d(L, -n_o, -d_o))
+                                 if _area(q, nL) > atol * diam]
+                else:
+                    parts = [L]
+                for part in parts:
+                    sp = build(part, O)
+                    if not sp.penumbra.empty:
+                        queries.append((k, j, part, O, sp))
+        t0, sdw0 = time.perf_counter(), t_sdw
+        if use_index:
+            before = index.node_tests
+            pairs = index.query([q[4].penumbra.planes for q in queries],
+                                np.array([[q[4].penumbra.vertices.min(axis=0),
+                                           q[4].penumbra.vertices.max(axis=0)] for q in queries]
+                                         ).reshape(-1, 2, 3), tol=atol)
+            cnt["node_tests"] += index.node_tests - before
+        else:
+            pairs = np.array([(q, r) for q in range(len(queries)) for r in range(len(polys))],
+                             dtype=np.int64).reshape(-1, 2)
+        cnt["candidates"] += len(pairs)
+        for q, r in pairs:
+            k, j, part, O, sp = queries[q]
+            if r == k or r == lpoly:
+                continue
+            R = polys[r]
+            cnt["receiver_tests"] += 1
+            rv = R.vertices
+            pl = sp.penumbra.planes
+            if np.any(np.all(rv @ pl[:, :3].T > pl[:, 3] + atol, axis=0)):
+                continue  # a face of the penumbra polyhedron separates the receiver from it
+            for side in ((1, -1) if R.two_sided else (1,)):
+                n_r = side * R.normal
+                d_r = float(n_r @ R.origin)
+                # the light part that reaches this face, the occluder part on its lit side
+                if kind == "area":
+                    lit = geo.clip_polygon_3d(part, -n_r, -d_r - atol)
+                    if _area(lit, nL) <= atol * diam:
+                        continue
+                elif kind == "point":
+                    if float(n_r @ L) - d_r <= atol:
+                        continue
+                elif float(n_r @ light.direction) >= -1e-12:
+                    continue
+                front, back = _side_of(O, n_r, d_r, atol)
+                if not front:
+                    continue
+                this = sp
+                O2 = geo.clip_polygon_3d(O, -n_r, -d_r) if back else O
+                lit_changed = kind == "area" and (len(lit) != len(part) or
+                                                  np.abs(lit - part).max() > atol)
+                if back or lit_changed:
+                    this = build(lit if kind == "area" else part, O2)
+                    cnt["rebuilt"] += 1
+                    if this.penumbra.empty:
+                        continue
+                box = boxes2[r]
+                pen = polyhedron_section(this.penumbra, R, box, tol=tol)
+                if len(pen) == 0:
+                    continue
+                tiny = (1e-9 * R.diameter) ** 2
+                if shapes[r].intersection(shapely.Polygon(pen)).area <= tiny:
+                    continue
+                umb = polyhedron_section(this.umbra, R, box, tol=tol) if kind == "area" else pen
+                if len(umb) and shapes[r].intersection(shapely.Polygon(umb)).area <= tiny:
+                    umb = np.zeros((0, 2))
+                out.setdefault(int(r), []).append(ShadowSection(
+                    light=li, occluder=int(k), receiver=int(r), umbra=umb, penumbra=pen,
+                    side=side, piece=int(j), kind=kind))
+                cnt["sections"] += 1
+        t_isr += time.perf_counter() - t0 - (t_sdw - sdw0)  # rebuilt polyhedra count in t_sdw
+    return SceneShadows(sections=out, counters=cnt, timings=dict(t_sdw=t_sdw, t_isr=t_isr))
+
+
 def shadow_sections(scene, receiver_index, **kwargs):
-    raise NotImplementedError
+    """The :class:`ShadowSection` list of one receiver (all lights, all occluders).
 
-
-def scene_sections(scene, **kwargs):
-    raise NotImplementedError
+    Same keyword arguments as :func:`scene_sections` (which it runs on the
+    whole scene: call that once when several receivers are needed).
+    """
+    if not 0 <= int(receiver_index) < len(scene.polygons):
+        raise ShadowError(f"receiver_index {receiver_index} out of range (scene has "
+                          f"{len(scene.polygons)} polygons)")
+    return scene_sections(scene, **kwargs).of(receiver_index)
