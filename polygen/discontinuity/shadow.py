@@ -187,68 +187,94 @@ def _ray_hinges(S, O, Sf, Of, normal):
     return pairs[int(np.argmin(ang))], pairs[int(np.argmax(ang))]
 
 
-def _gift_wrap(S, O, cands, F0, n_o, tol):
+def _gift_wrap(S, O, cands, F0, n_o, tol, flat):
     """The penumbra's side planes by gift-wrapping over the EV/VE planes (Fig. 3.7).
 
-    ``cands`` are rows (n, d) oriented with the occluder inside.  From F0,
-    across the face's hinge ray (one light vertex, one occluder vertex),
-    the next face is the candidate through that ray with the largest
-    interior angle to the current face; it stops back at F0.
+    ``cands`` are rows (n, d) oriented with the occluder inside; ``flat``
+    marks those lying in the occluder's plane.  From F0, across the face's
+    hinge ray (one light vertex, one occluder vertex), the next face is the
+    candidate through that ray with the largest interior angle to the
+    current face; it stops back at F0.  A light touching the occluder's
+    plane leaves the band open at rays in that plane (the occluder's plane
+    closes it): then it wraps from F0 both ways.
     """
     m, n = len(S), len(O)
-    dS = cands[:, :3] @ S.T - cands[:, 3:4]   # (C, m)
-    dO = cands[:, :3] @ O.T - cands[:, 3:4]   # (C, n)
-    onS = np.abs(dS) <= tol
-    onO = np.abs(dO) <= tol
+    onS = np.abs(cands[:, :3] @ S.T - cands[:, 3:4]) <= tol   # (C, m)
+    onO = np.abs(cands[:, :3] @ O.T - cands[:, 3:4]) <= tol   # (C, n)
+    in_occ_plane = np.abs((S - O[0]) @ n_o) <= tol
 
     def coplanar(i, j):
         return np.abs(cands[i] - cands[j]).max() <= tol
 
-    def beyond(a, b):
-        return O[b] + (O[b] - S[a])  # a point on the ray S_a -> O_b past the occluder
+    def hinges(g):
+        return _ray_hinges(S, O, np.flatnonzero(onS[g]), np.flatnonzero(onO[g]), cands[g, :3])
 
-    faces = [F0]
-    lo, hi = _ray_hinges(S, O, np.flatnonzero(onS[F0]), np.flatnonzero(onO[F0]), cands[F0, :3])
-    cur, hinge, other = F0, hi, lo
-    for _ in range(2 * m * n + 2):
-        a, b = hinge
-        h = geo.unit(O[b] - S[a])
+    def wrap(hinge, other):
+        cur, faces = F0, []
+        for _ in range(2 * m * n + 2):
+            a, b = hinge
+            if in_occ_plane[a]:
+                return faces, False
+            h = geo.unit(O[b] - S[a])
 
-        def perp(x):
-            x = x - O[b]
-            return x - (x @ h) * h
+            def perp(x, a=a, b=b, h=h):
+                x = x - O[b]
+                return x - (x @ h) * h
 
-        f = geo.unit(perp(beyond(*other)))
-        nF = cands[cur, :3]
-        best, best_ang, best_other = -1, -np.inf, None
-        for g in np.flatnonzero(onS[:, a] & onO[:, b]):
-            if coplanar(g, cur):
-                continue
-            glo, ghi = _ray_hinges(S, O, np.flatnonzero(onS[g]), np.flatnonzero(onO[g]), cands[g, :3])
-            g_other = glo if (np.linalg.norm(perp(beyond(*glo))) > np.linalg.norm(perp(beyond(*ghi)))) \
-                else ghi
-            gv = perp(beyond(*g_other))
-            if np.linalg.norm(gv) <= tol:
-                continue
-            gv = geo.unit(gv)
-            ang = np.arctan2(gv @ (-nF), gv @ f)  # interior dihedral angle to the current face
-            if ang > best_ang + 1e-12:
-                best, best_ang, best_other = g, ang, g_other
-        if best < 0 or not (0.0 < best_ang <= np.pi + 1e-9):
-            raise ShadowError("penumbra gift-wrapping found no next face (degenerate light/occluder)")
-        if coplanar(best, F0):
-            break
-        faces.append(best)
-        cur, other = best, hinge
-        glo, ghi = _ray_hinges(S, O, np.flatnonzero(onS[best]), np.flatnonzero(onO[best]),
-                               cands[best, :3])
-        # the next hinge: the face's extreme ray that is not the one just crossed
-        same_lo = np.linalg.norm(perp(beyond(*glo))) <= tol and np.linalg.norm(perp(S[glo[0]])) <= tol
-        hinge = ghi if same_lo else glo
-        if np.linalg.norm(perp(beyond(*hinge))) <= tol:
-            hinge = ghi if hinge == glo else glo
-    else:
+            def off_line(hg):  # how far a hinge ray is from the current one
+                return max(np.linalg.norm(perp(S[hg[0]])), np.linalg.norm(perp(O[hg[1]])))
+
+            f = geo.unit(perp(O[other[1]] + (O[other[1]] - S[other[0]])))
+            nF = cands[cur, :3]
+            best, best_ang, best_next = -1, -np.inf, None
+            for g in np.flatnonzero(onS[:, a] & onO[:, b] & ~flat):
+                if coplanar(g, cur):
+                    continue
+                glo, ghi = hinges(g)
+                nxt = glo if off_line(glo) > off_line(ghi) else ghi
+                gv = perp(O[nxt[1]] + (O[nxt[1]] - S[nxt[0]]))
+                if np.linalg.norm(gv) <= tol:
+                    continue
+                gv = geo.unit(gv)
+                ang = np.arctan2(gv @ (-nF), gv @ f)  # interior dihedral angle to the current face
+                if ang > best_ang + 1e-12:
+                    best, best_ang, best_next = g, ang, nxt
+            if best < 0 or not (0.0 < best_ang <= np.pi + 1e-9):
+                raise ShadowError("penumbra gift-wrapping found no next face (degenerate light or "
+                                  "occluder)")
+            if coplanar(best, F0):
+                return faces, True
+            faces.append(best)
+            cur, other, hinge = best, hinge, best_next
         raise ShadowError("penumbra gift-wrapping did not close")
+
+    lo, hi = hinges(F0)
+    faces, closed = wrap(hi, lo)
+    if not closed:
+        back, _ = wrap(lo, hi)
+        faces = back[::-1] + faces
+    return [F0] + faces
+
+
+def _hull_faces(S, O, cands, flat, tol):
+    """The candidate planes that are facets of the hull of the occluder pushed away from the light.
+
+    For a light touching the occluder's plane, where the band of penumbra
+    faces is open (the gift-wrapping's degenerate case): the convex hull
+    of the occluder's vertices and of each pushed away from each light
+    vertex has the penumbra's side planes as its facets through a light
+    vertex and an occluder vertex.
+    """
+    from scipy.spatial import ConvexHull
+
+    X = np.vstack([O] + [O + 4.0 * (O - s) for s in S])
+    eq = ConvexHull(X).equations
+    faces = []
+    for g in np.flatnonzero(~flat):
+        c = cands[g]
+        if any(np.abs(e[:3] - c[:3]).max() < 1e-9 and abs(-e[3] - c[3]) <= tol for e in eq):
+            if not any(np.abs(cands[f] - c).max() <= tol for f in faces):
+                faces.append(int(g))
     return faces
 
 
@@ -372,12 +398,25 @@ def shadow_polyhedron(light, occluder, *, bounds=None, tol=1e-9):
             ve.append(pl)
             ve_gen.append(((k, (k + 1) % m), (i,)))
     cands = np.asarray(ev + ve)
-    F0 = int(np.argmax(theta.ravel()))
-    faces = _gift_wrap(S, O, cands, F0, n_o, atol)
+    # planes through a light vertex or edge lying in the occluder's plane are that plane itself:
+    # not a side of the penumbra (a light touching the occluder's plane)
+    flat = np.abs(cands[:, :3] @ n_o) > 1.0 - 1e-12
+    th = np.where(flat[:m * n].reshape(n, m), -np.inf, theta)
+    if not np.isfinite(th).any():
+        return _empty_pair(kind, S, O, bounds)
+    if np.any(np.abs(side) <= side_tol):
+        faces = _hull_faces(S, O, cands, flat, atol)
+    else:
+        F0 = int(np.argmax(th.ravel()))
+        faces = _gift_wrap(S, O, cands, F0, n_o, atol, flat)
     pen_planes = [occ_plane] + [cands[f] for f in faces]
     gens = ev_gen + ve_gen
     pen_gen = [((), allO)] + [gens[f] for f in faces]
-    U = _polyhedron(umbra_planes, umbra_gen, bounds, atol)
+    if np.any(np.abs(side) <= side_tol):
+        # a light vertex in the occluder's plane is never hidden (its rays meet the plane there)
+        U = _empty_pair(kind, S, O, bounds).umbra
+    else:
+        U = _polyhedron(umbra_planes, umbra_gen, bounds, atol)
     Pn = _polyhedron(pen_planes, pen_gen, bounds, atol)
     return ShadowPolyhedra(U, Pn, "area", S, O, candidate_planes=len(cands), wrap_steps=len(faces))
 
