@@ -356,3 +356,32 @@ def test_shadow_sections_of_one_receiver_and_bad_index():
     assert len(s.umbra) >= 3 and len(s.penumbra) >= 3
     with pytest.raises(ShadowError, match="receiver_index"):
         shadow_sections(sc, 7)
+
+
+def test_index_finds_what_testing_every_pair_finds():
+    # the bounding-volume hierarchy only prunes: the same sections as every polyhedron against
+    # every receiver, with fewer receiver tests
+    sc = scenes.chair_scene()
+    a, b = scene_sections(sc), scene_sections(sc, use_index=False)
+    key = lambda s: (s.receiver, s.light, s.occluder, s.piece, s.side)  # noqa: E731
+    sa = sorted(((key(s), s) for v in a.sections.values() for s in v), key=lambda t: t[0])
+    sb = sorted(((key(s), s) for v in b.sections.values() for s in v), key=lambda t: t[0])
+    assert [k for k, _ in sa] == [k for k, _ in sb]
+    for (_, x), (_, y) in zip(sa, sb):
+        assert np.array_equal(x.penumbra, y.penumbra) and np.array_equal(x.umbra, y.umbra)
+    assert a.counters["receiver_tests"] < b.counters["receiver_tests"]
+
+
+def test_section_edges_name_their_faces():
+    # a wall standing on the floor: the umbra's edge along the contact line lies on the
+    # occluder's own plane (0), the others on side planes; none on the clipping box inside
+    wall = Polygon([[4, 0, 5], [6, 0, 5], [6, 4, 5], [4, 4, 5]], name="wall", two_sided=True)
+    sc = _floor_scene(wall, light_size=1.0)
+    (s,) = scene_sections(sc).of(0)
+    assert len(s.umbra_edges) == len(s.umbra) and len(s.penumbra_edges) == len(s.penumbra)
+    assert list(s.umbra_edges).count(0) == 1 and list(s.penumbra_edges).count(0) == 1
+    assert np.all(s.umbra_edges >= 0) and np.all(s.penumbra_edges >= 0)
+    # a floating square: no contact, all side planes
+    sq = Polygon([[4, 3, 4], [6, 3, 4], [6, 3, 6], [4, 3, 6]], name="sq", two_sided=True)
+    (s,) = scene_sections(_floor_scene(sq)).of(0)
+    assert np.all(s.umbra_edges >= 1) and np.all(s.penumbra_edges >= 1)

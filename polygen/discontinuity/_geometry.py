@@ -8,13 +8,30 @@ half-space ``n . x <= d``.
 from __future__ import annotations
 
 from itertools import combinations
+from math import sqrt
 
 import numpy as np
 
 
 def unit(v):
     v = np.asarray(v, dtype=np.float64)
+    if v.ndim == 1:
+        return v / sqrt(float(v @ v))
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def norm(v):
+    """Length of one vector (faster than np.linalg.norm on 3 numbers)."""
+    return sqrt(float(v @ v))
+
+
+def cross(a, b):
+    """The cross product of two 3-vectors, or of rows (np.cross is slow on tiny inputs)."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+                     a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
 
 
 def plane_through(n, p):

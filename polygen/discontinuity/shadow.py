@@ -29,6 +29,7 @@ __all__ = [
     "ShadowPolyhedra",
     "shadow_polyhedron",
     "polyhedron_section",
+    "section_edge_planes",
     "ShadowSection",
     "SceneShadows",
     "scene_lights",
@@ -153,7 +154,7 @@ def _occluder_array(occluder):
 
 
 def _newell(ring):
-    return np.cross(ring, np.roll(ring, -1, axis=0)).sum(axis=0)
+    return geo.cross(ring, np.roll(ring, -1, axis=0)).sum(axis=0)
 
 
 # -- the polyhedra ------------------------------------------------------------------------------
@@ -182,7 +183,7 @@ def _ray_hinges(S, O, Sf, Of, normal):
     pairs = [(a, b) for a in Sf for b in Of]
     d = geo.unit(np.array([O[b] - S[a] for a, b in pairs]))
     t1 = geo.unit(d.sum(axis=0))
-    t2 = np.cross(normal, t1)
+    t2 = geo.cross(normal, t1)
     ang = np.arctan2(d @ t2, d @ t1)
     return pairs[int(np.argmin(ang))], pairs[int(np.argmax(ang))]
 
@@ -206,8 +207,12 @@ def _gift_wrap(S, O, cands, F0, n_o, tol, flat):
     def coplanar(i, j):
         return np.abs(cands[i] - cands[j]).max() <= tol
 
+    memo = {}
+
     def hinges(g):
-        return _ray_hinges(S, O, np.flatnonzero(onS[g]), np.flatnonzero(onO[g]), cands[g, :3])
+        if g not in memo:
+            memo[g] = _ray_hinges(S, O, np.flatnonzero(onS[g]), np.flatnonzero(onO[g]), cands[g, :3])
+        return memo[g]
 
     def wrap(hinge, other):
         cur, faces = F0, []
@@ -222,7 +227,7 @@ def _gift_wrap(S, O, cands, F0, n_o, tol, flat):
                 return x - (x @ h) * h
 
             def off_line(hg):  # how far a hinge ray is from the current one
-                return max(np.linalg.norm(perp(S[hg[0]])), np.linalg.norm(perp(O[hg[1]])))
+                return max(geo.norm(perp(S[hg[0]])), geo.norm(perp(O[hg[1]])))
 
             f = geo.unit(perp(O[other[1]] + (O[other[1]] - S[other[0]])))
             nF = cands[cur, :3]
@@ -233,7 +238,7 @@ def _gift_wrap(S, O, cands, F0, n_o, tol, flat):
                 glo, ghi = hinges(g)
                 nxt = glo if off_line(glo) > off_line(ghi) else ghi
                 gv = perp(O[nxt[1]] + (O[nxt[1]] - S[nxt[0]]))
-                if np.linalg.norm(gv) <= tol:
+                if geo.norm(gv) <= tol:
                     continue
                 gv = geo.unit(gv)
                 ang = np.arctan2(gv @ (-nF), gv @ f)  # interior dihedral angle to the current face
@@ -352,13 +357,13 @@ def shadow_polyhedron(light, occluder, *, bounds=None, tol=1e-9):
     occ_plane = np.concatenate([n_o, [d_o]])  # beyond the occluder: n_o . x <= d_o
     n = len(O)
     e = geo.unit(np.roll(O, -1, axis=0) - O)   # edge i: O_i -> O_i+1
-    w = np.cross(n_o, e)                       # inward, in the occluder's plane
+    w = geo.cross(n_o, e)                       # inward, in the occluder's plane
     allO = tuple(range(n))
     if kind in ("point", "parallel"):
         planes, gens = [occ_plane], [((), allO)]
         for i in range(n):
             through = (S[0] - O[i]) if kind == "point" else -dvec
-            nv = np.cross(e[i], through)
+            nv = geo.cross(e[i], through)
             if nv @ w[i] > 0:
                 nv = -nv
             planes.append(geo.plane_through(nv, O[i]))
@@ -374,7 +379,7 @@ def shadow_polyhedron(light, occluder, *, bounds=None, tol=1e-9):
             rp = r - (r @ e[i]) * e[i]
             b = -geo.unit(rp)                  # the plane's half beyond the edge
             theta[i, k] = np.arccos(np.clip(w[i] @ b, -1.0, 1.0))
-            nv = np.cross(e[i], b)
+            nv = geo.cross(e[i], b)
             if nv @ w[i] > 0:
                 nv = -nv
             ev.append(geo.plane_through(nv, O[i]))
@@ -389,9 +394,9 @@ def shadow_polyhedron(light, occluder, *, bounds=None, tol=1e-9):
     oc = O.mean(axis=0)
     for k in range(m):
         for i in range(n):
-            nv = np.cross(S[(k + 1) % m] - S[k], O[i] - S[k])
-            if np.linalg.norm(nv) <= 1e-12 * size * size:
-                nv = np.cross(S[(k + 1) % m] - S[k], n_o)  # degenerate: light edge through O_i
+            nv = geo.cross(S[(k + 1) % m] - S[k], O[i] - S[k])
+            if geo.norm(nv) <= 1e-12 * size * size:
+                nv = geo.cross(S[(k + 1) % m] - S[k], n_o)  # degenerate: light edge through O_i
             pl = geo.plane_through(nv, O[i])
             if pl[:3] @ oc > pl[3]:
                 pl = -pl
@@ -466,6 +471,25 @@ def polyhedron_section(polyhedron, receiver, box, *, tol=1e-9):
     return poly
 
 
+def section_edge_planes(polyhedron, receiver, ring, *, tol=1e-9):
+    """Which face of the polyhedron each edge of its section ``ring (k, 2)`` lies on.
+
+    Returns
+    -------
+    (k,) int64
+        Row of ``polyhedron.planes`` holding both ends of edge ``i`` (the
+        first such), -1 when none (an edge on the clipping box).
+    """
+    if len(ring) == 0:
+        return np.zeros(0, np.int64)
+    X = receiver.to_3d(ring)
+    P = polyhedron.planes
+    size = float(np.max(np.ptp(X, axis=0))) or 1.0
+    on = np.abs(X @ P[:, :3].T - P[:, 3]) <= 1e3 * tol * max(size, receiver.diameter)
+    both = on & np.roll(on, -1, axis=0)
+    return np.where(both.any(axis=1), np.argmax(both, axis=1), -1).astype(np.int64)
+
+
 @dataclass(frozen=True, eq=False)
 class ShadowSection:
     """The umbra and penumbra polyhedra of one (light, occluder) pair cut by one receiver's plane.
@@ -496,6 +520,12 @@ class ShadowSection:
     kind : str
         ``"area"`` (D1 boundaries), ``"point"`` or ``"parallel"`` (D0:
         umbra and penumbra are the same polygon).
+    umbra_edges, penumbra_edges : (k,) int64
+        For edge ``i`` (vertex ``i`` to ``i + 1``) of each polygon, the
+        polyhedron face it lies on: 0 the occluder's own plane (a contact
+        line, where the occluder touches the receiver: D0), ``>= 1`` a side
+        plane (``polyhedron.planes`` row; D1 for an area light, D0 for a
+        point or parallel light), -1 the clipping box (not a shadow edge).
     """
 
     light: int
@@ -506,6 +536,8 @@ class ShadowSection:
     side: int = 1
     piece: int = 0
     kind: str = "area"
+    umbra_edges: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    penumbra_edges: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
 
 
@@ -729,9 +761,12 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
                 umb = polyhedron_section(this.umbra, R, box, tol=tol) if kind == "area" else pen
                 if len(umb) and shapes[r].intersection(shapely.Polygon(umb)).area <= tiny:
                     umb = np.zeros((0, 2))
+                pe = section_edge_planes(this.penumbra, R, pen, tol=tol)
+                ue = (section_edge_planes(this.umbra, R, umb, tol=tol) if kind == "area"
+                      else pe)
                 out.setdefault(int(r), []).append(ShadowSection(
                     light=li, occluder=int(k), receiver=int(r), umbra=umb, penumbra=pen,
-                    side=side, piece=int(j), kind=kind))
+                    side=side, piece=int(j), kind=kind, umbra_edges=ue, penumbra_edges=pe))
                 cnt["sections"] += 1
         t_isr += time.perf_counter() - t0 - (t_sdw - sdw0)  # rebuilt polyhedra count in t_sdw
     return SceneShadows(sections=out, counters=cnt, timings=dict(t_sdw=t_sdw, t_isr=t_isr))
