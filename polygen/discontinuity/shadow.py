@@ -207,12 +207,21 @@ def _gift_wrap(S, O, cands, F0, n_o, tol, flat):
     def coplanar(i, j):
         return np.abs(cands[i] - cands[j]).max() <= tol
 
-    memo = {}
+    # every candidate's two extreme rays (light vertex -> occluder vertex) at once
+    d = O[None, :, :] - S[:, None, :]
+    d = d / np.linalg.norm(d, axis=-1, keepdims=True)                      # (m, n, 3)
+    mask = onS[:, :, None] & onO[:, None, :]                               # (C, m, n)
+    t1 = np.einsum("cmn,mnk->ck", mask.astype(np.float64), d)
+    t1 /= np.maximum(np.linalg.norm(t1, axis=-1, keepdims=True), 1e-300)
+    t2 = geo.cross(cands[:, :3], t1)
+    ang = np.arctan2(np.einsum("mnk,ck->cmn", d, t2), np.einsum("mnk,ck->cmn", d, t1))
+    lo_i = np.argmin(np.where(mask, ang, np.inf).reshape(len(cands), -1), axis=1)
+    hi_i = np.argmax(np.where(mask, ang, -np.inf).reshape(len(cands), -1), axis=1)
+    lo_p = np.stack(np.unravel_index(lo_i, (m, n)), axis=1)
+    hi_p = np.stack(np.unravel_index(hi_i, (m, n)), axis=1)
 
     def hinges(g):
-        if g not in memo:
-            memo[g] = _ray_hinges(S, O, np.flatnonzero(onS[g]), np.flatnonzero(onO[g]), cands[g, :3])
-        return memo[g]
+        return (int(lo_p[g, 0]), int(lo_p[g, 1])), (int(hi_p[g, 0]), int(hi_p[g, 1]))
 
     def wrap(hinge, other):
         cur, faces = F0, []
@@ -371,38 +380,36 @@ def shadow_polyhedron(light, occluder, *, bounds=None, tol=1e-9):
         P = _polyhedron(planes, gens, bounds, atol)
         return ShadowPolyhedra(P, P, kind, S, O, candidate_planes=n)
     m = len(S)
-    # EV planes: light vertex k, occluder edge i; theta = angle to the occluder (Fig. 3.6)
-    ev, ev_gen, theta = [], [], np.empty((n, m))
-    for i in range(n):
-        for k in range(m):
-            r = S[k] - O[i]
-            rp = r - (r @ e[i]) * e[i]
-            b = -geo.unit(rp)                  # the plane's half beyond the edge
-            theta[i, k] = np.arccos(np.clip(w[i] @ b, -1.0, 1.0))
-            nv = geo.cross(e[i], b)
-            if nv @ w[i] > 0:
-                nv = -nv
-            ev.append(geo.plane_through(nv, O[i]))
-            ev_gen.append(((k,), (i, (i + 1) % n)))
+    # EV planes: light vertex k, occluder edge i (row i * m + k); theta = angle to the occluder
+    # (Fig. 3.6): between the inward direction w_i and the plane's half beyond the edge, b
+    r = S[None, :, :] - O[:, None, :]                                  # (n, m, 3)
+    rp = r - (r * e[:, None, :]).sum(-1, keepdims=True) * e[:, None, :]
+    bvec = -rp / np.linalg.norm(rp, axis=-1, keepdims=True)
+    theta = np.arccos(np.clip((bvec * w[:, None, :]).sum(-1), -1.0, 1.0))   # (n, m)
+    nv = geo.cross(np.broadcast_to(e[:, None, :], bvec.shape), bvec)
+    nv *= np.where((nv * w[:, None, :]).sum(-1) > 0, -1.0, 1.0)[..., None]
+    nv /= np.linalg.norm(nv, axis=-1, keepdims=True)
+    ev = np.concatenate([nv, (nv * O[:, None, :]).sum(-1)[..., None]], axis=-1).reshape(-1, 4)
+    ev_gen = [((k,), (i, (i + 1) % n)) for i in range(n) for k in range(m)]
     umbra_planes, umbra_gen = [occ_plane], [((), allO)]
     for i in range(n):
         k = int(np.argmin(theta[i]))
         umbra_planes.append(ev[i * m + k])
         umbra_gen.append(ev_gen[i * m + k])
-    # VE planes: light edge (k, k+1), occluder vertex i; the occluder on the inner side
-    ve, ve_gen = [], []
-    oc = O.mean(axis=0)
-    for k in range(m):
-        for i in range(n):
-            nv = geo.cross(S[(k + 1) % m] - S[k], O[i] - S[k])
-            if geo.norm(nv) <= 1e-12 * size * size:
-                nv = geo.cross(S[(k + 1) % m] - S[k], n_o)  # degenerate: light edge through O_i
-            pl = geo.plane_through(nv, O[i])
-            if pl[:3] @ oc > pl[3]:
-                pl = -pl
-            ve.append(pl)
-            ve_gen.append(((k, (k + 1) % m), (i,)))
-    cands = np.asarray(ev + ve)
+    # VE planes: light edge (k, k+1), occluder vertex i (row k * n + i); the occluder inside
+    se = np.roll(S, -1, axis=0) - S                                    # (m, 3)
+    nv = geo.cross(np.broadcast_to(se[:, None, :], (m, n, 3)), O[None, :, :] - S[:, None, :])
+    small = np.linalg.norm(nv, axis=-1) <= 1e-12 * size * size
+    if small.any():  # a light edge through O_i: the plane through it along the occluder's normal
+        nv[small] = geo.cross(np.broadcast_to(se[:, None, :], (m, n, 3))[small], n_o)
+    nv /= np.linalg.norm(nv, axis=-1, keepdims=True)
+    dv = (nv * O[None, :, :]).sum(-1)
+    flip = (nv @ O.mean(axis=0)) > dv
+    nv[flip] *= -1.0
+    dv[flip] *= -1.0
+    ve = np.concatenate([nv, dv[..., None]], axis=-1).reshape(-1, 4)
+    ve_gen = [((k, (k + 1) % m), (i,)) for k in range(m) for i in range(n)]
+    cands = np.vstack([ev, ve])
     # planes through a light vertex or edge lying in the occluder's plane are that plane itself:
     # not a side of the penumbra (a light touching the occluder's plane)
     flat = np.abs(cands[:, :3] @ n_o) > 1.0 - 1e-12
@@ -567,9 +574,10 @@ class SceneShadows:
     counters : dict of str -> int
         ``polyhedra`` (shadow-polyhedra pairs built, rebuilt ones
         included), ``rebuilt`` (pairs rebuilt for a light or occluder
-        clipped by a receiver's plane), ``candidates`` (receiver-polyhedron
-        pairs the index returned), ``receiver_tests`` (pairs tested
-        exactly), ``node_tests`` (index nodes visited), ``sections``.
+        clipped by a receiver's plane), ``receiver_tests``
+        (receiver-polyhedron pairs tested against the polyhedron's faces),
+        ``candidates`` (pairs the index returned, all pairs without it), ``node_tests`` (index
+        nodes visited), ``sections``.
     timings : dict of str -> float
         Seconds: ``t_sdw`` (shadow polyhedra), ``t_isr`` (index queries,
         receiver tests and sections), as Table 3.2's phases.
@@ -656,7 +664,7 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
     pieces = [[pc.vertices for pc in p.convex_pieces()] for p in polys]
     rboxes = np.array([[p.vertices.min(axis=0) - atol, p.vertices.max(axis=0) + atol]
                        for p in polys])
-    index = PolygonIndex(rboxes) if use_index else None
+    index = PolygonIndex(rboxes, points=[p.vertices for p in polys]) if use_index else None
     shapes = [shapely.Polygon(p.exterior_2d, p.holes_2d) for p in polys]
     boxes2 = [np.stack([p.exterior_2d.min(axis=0) - margin * p.diameter,
                         p.exterior_2d.max(axis=0) + margin * p.diameter]) for p in polys]
@@ -706,12 +714,13 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
                         queries.append((k, j, part, O, sp))
         t0, sdw0 = time.perf_counter(), t_sdw
         if use_index:
-            before = index.node_tests
+            before, before_items = index.node_tests, index.item_tests
             pairs = index.query([q[4].penumbra.planes for q in queries],
                                 np.array([[q[4].penumbra.vertices.min(axis=0),
                                            q[4].penumbra.vertices.max(axis=0)] for q in queries]
                                          ).reshape(-1, 2, 3), tol=atol)
             cnt["node_tests"] += index.node_tests - before
+            cnt["receiver_tests"] += index.item_tests - before_items
         else:
             pairs = np.array([(q, r) for q in range(len(queries)) for r in range(len(polys))],
                              dtype=np.int64).reshape(-1, 2)
@@ -721,11 +730,11 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
             if r == k or r == lpoly:
                 continue
             R = polys[r]
-            cnt["receiver_tests"] += 1
-            rv = R.vertices
-            pl = sp.penumbra.planes
-            if np.any(np.all(rv @ pl[:, :3].T > pl[:, 3] + atol, axis=0)):
-                continue  # a face of the penumbra polyhedron separates the receiver from it
+            if not use_index:  # the index made this test already
+                cnt["receiver_tests"] += 1
+                pl = sp.penumbra.planes
+                if np.any(np.all(R.vertices @ pl[:, :3].T > pl[:, 3] + atol, axis=0)):
+                    continue  # a face of the penumbra polyhedron separates the receiver from it
             for side in ((1, -1) if R.two_sided else (1,)):
                 n_r = side * R.normal
                 d_r = float(n_r @ R.origin)
@@ -755,7 +764,7 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
                 pen = polyhedron_section(this.penumbra, R, box, tol=tol)
                 if len(pen) == 0:
                     continue
-                tiny = (1e-9 * R.diameter) ** 2
+                tiny = 1e-12 * R.area  # touching, not overlapping (round-off of a contact)
                 if shapes[r].intersection(shapely.Polygon(pen)).area <= tiny:
                     continue
                 umb = polyhedron_section(this.umbra, R, box, tol=tol) if kind == "area" else pen
