@@ -207,22 +207,30 @@ def _sample_in(poly, n, rng):
 
 
 def _inside_convex(uv, ring):
+    out = np.zeros(len(uv), bool)
     if len(ring) < 3:
-        return np.zeros(len(uv), bool)
+        return out
+    box = np.all((uv >= ring.min(axis=0)) & (uv <= ring.max(axis=0)), axis=1)
+    q = uv[box]
     a, b = ring, np.roll(ring, -1, axis=0)
-    cross = ((b[:, 0] - a[:, 0]) * (uv[:, None, 1] - a[:, 1])
-             - (b[:, 1] - a[:, 1]) * (uv[:, None, 0] - a[:, 0]))
-    return np.all(cross > 0, axis=1)
+    cross = ((b[:, 0] - a[:, 0]) * (q[:, None, 1] - a[:, 1])
+             - (b[:, 1] - a[:, 1]) * (q[:, None, 0] - a[:, 0]))
+    out[box] = np.all(cross > 0, axis=1)
+    return out
 
 
 def _near_ring(uv, ring, band):
+    out = np.zeros(len(uv), bool)
     if len(ring) < 3:
-        return np.zeros(len(uv), bool)
+        return out
+    box = np.all((uv >= ring.min(axis=0) - band) & (uv <= ring.max(axis=0) + band), axis=1)
+    q = uv[box]
     a, b = ring, np.roll(ring, -1, axis=0)
     d = b - a
-    t = np.clip(((uv[:, None, :] - a) * d).sum(-1) / (d * d).sum(-1), 0, 1)
-    dist = np.linalg.norm(uv[:, None, :] - (a + t[..., None] * d), axis=-1)
-    return dist.min(axis=1) <= band
+    t = np.clip(((q[:, None, :] - a) * d).sum(-1) / (d * d).sum(-1), 0, 1)
+    dist = np.linalg.norm(q[:, None, :] - (a + t[..., None] * d), axis=-1)
+    out[box] = dist.min(axis=1) <= band
+    return out
 
 
 @pytest.fixture(scope="module")
@@ -354,6 +362,10 @@ def test_shadow_sections_of_one_receiver_and_bad_index():
     (s,) = shadow_sections(sc, 0)
     assert s.receiver == 0 and s.occluder == 2 and s.light == 0 and s.kind == "area"
     assert len(s.umbra) >= 3 and len(s.penumbra) >= 3
+    # the polyhedra it was cut from hold its points
+    floor = sc.polygons[0]
+    assert s.polyhedra.umbra.contains(floor.to_3d(s.umbra.mean(axis=0)))[0]
+    assert s.polyhedra.penumbra.contains(floor.to_3d(s.penumbra), tol=1e-9).all()
     with pytest.raises(ShadowError, match="receiver_index"):
         shadow_sections(sc, 7)
 

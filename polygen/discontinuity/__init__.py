@@ -1,19 +1,56 @@
 """Chapter 3: simplified discontinuity meshing with shadow polyhedra.
 
-* :mod:`~polygen.discontinuity.shadow` -- shadow polyhedra (3.3.1) and
-  their sections on receivers (:class:`ShadowSection`).
+* :mod:`~polygen.discontinuity.shadow` -- shadow polyhedra (3.3.1, Defs
+  3.2-3.4: the umbra by the smallest-angle planes, the penumbra by
+  gift-wrapping) and their sections on receivers (:class:`ShadowSection`),
+  for a whole scene by :func:`scene_sections`;
+* :mod:`~polygen.discontinuity.scene_index` -- the bounding-volume
+  hierarchy that keeps the receiver tests sub-quadratic;
+* :mod:`~polygen.discontinuity.conventional` -- the baseline of 2.4.3:
+  all EV and VE critical surfaces on a receiver;
+* :mod:`~polygen.discontinuity.bsp` -- the 2-D BSP split of a receiver
+  (Figs 2.10, 3.4(b)).
 """
 
+from polygen.discontinuity.bsp import BSPRegions, bsp_split
+from polygen.discontinuity.conventional import (
+    CriticalSegments,
+    conventional_bsp,
+    conventional_segments,
+    critical_surfaces,
+    section_segments,
+)
 from polygen.discontinuity.shadow import (
     Polyhedron,
+    SceneShadows,
     ShadowError,
     ShadowPolyhedra,
     ShadowSection,
     polyhedron_section,
+    scene_lights,
     scene_sections,
+    section_edge_planes,
     shadow_polyhedron,
     shadow_sections,
 )
 
-__all__ = ["Polyhedron", "ShadowError", "ShadowPolyhedra", "ShadowSection", "polyhedron_section",
-           "scene_sections", "shadow_polyhedron", "shadow_sections"]
+__all__ = [
+    "BSPRegions",
+    "CriticalSegments",
+    "Polyhedron",
+    "SceneShadows",
+    "ShadowError",
+    "ShadowPolyhedra",
+    "ShadowSection",
+    "bsp_split",
+    "conventional_bsp",
+    "conventional_segments",
+    "critical_surfaces",
+    "polyhedron_section",
+    "scene_lights",
+    "scene_sections",
+    "section_edge_planes",
+    "section_segments",
+    "shadow_polyhedron",
+    "shadow_sections",
+]

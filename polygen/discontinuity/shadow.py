@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from polygen.discontinuity import _geometry as geo
-from polygen.radiosity.scene import AreaLight, ParallelLight, PointLight, Polygon
+from polygen.radiosity.scene import ParallelLight, PointLight, Polygon
 
 __all__ = [
     "ShadowError",
@@ -533,6 +533,11 @@ class ShadowSection:
         line, where the occluder touches the receiver: D0), ``>= 1`` a side
         plane (``polyhedron.planes`` row; D1 for an area light, D0 for a
         point or parallel light), -1 the clipping box (not a shadow edge).
+    polyhedra : ShadowPolyhedra or None
+        The polyhedra the sections were cut from (their edges for the
+        intersection walk of 3.3.3, their faces for the in/out tests of
+        3.3.5); built from the light and occluder parts that act on this
+        receiver face.
     """
 
     light: int
@@ -545,6 +550,7 @@ class ShadowSection:
     kind: str = "area"
     umbra_edges: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     penumbra_edges: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    polyhedra: object = None
 
 
 
@@ -775,7 +781,8 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
                       else pe)
                 out.setdefault(int(r), []).append(ShadowSection(
                     light=li, occluder=int(k), receiver=int(r), umbra=umb, penumbra=pen,
-                    side=side, piece=int(j), kind=kind, umbra_edges=ue, penumbra_edges=pe))
+                    side=side, piece=int(j), kind=kind, umbra_edges=ue, penumbra_edges=pe,
+                    polyhedra=this))
                 cnt["sections"] += 1
         t_isr += time.perf_counter() - t0 - (t_sdw - sdw0)  # rebuilt polyhedra count in t_sdw
     return SceneShadows(sections=out, counters=cnt, timings=dict(t_sdw=t_sdw, t_isr=t_isr))
