@@ -95,6 +95,8 @@ def bsp_split(cells, segments, *, tol=1e-9):
     size = float(np.max(np.ptp(allp, axis=0))) or 1.0
     atol = tol * size
     leaves = list(cells)
+    # the leaves' boxes: a segment is tested only against leaves its box meets
+    boxes = np.array([np.r_[c.min(axis=0), c.max(axis=0)] for c in leaves]).reshape(-1, 4)
     n_nodes = len(cells)
     splits = tests = 0
     for a, b in segments:
@@ -104,23 +106,30 @@ def bsp_split(cells, segments, *, tol=1e-9):
             continue
         nrm = np.array([-d[1], d[0]]) / L
         c = float(nrm @ a)
-        out = []
-        for cell in leaves:
+        lo, hi = np.minimum(a, b) - atol, np.maximum(a, b) + atol
+        near = np.flatnonzero((boxes[:, 0] <= hi[0]) & (boxes[:, 2] >= lo[0])
+                              & (boxes[:, 1] <= hi[1]) & (boxes[:, 3] >= lo[1]))
+        new_cells, drop = [], []
+        for idx in near:
+            cell = leaves[idx]
             tests += 1
             if _clip_segment(a, b, cell, atol) is None:
-                out.append(cell)
                 continue
             s = cell @ nrm - c
             if s.max() <= atol or s.min() >= -atol:  # the segment runs along the cell's boundary
-                out.append(cell)
                 continue
             left = geo.clean_ring(geo.clip_polygon_2d(cell, nrm, c), atol)
             right = geo.clean_ring(geo.clip_polygon_2d(cell, -nrm, -c), atol)
             if len(left) < 3 or len(right) < 3:
-                out.append(cell)
                 continue
-            out += [left, right]
+            drop.append(idx)
+            new_cells += [left, right]
             splits += 1
             n_nodes += 2
-        leaves = out
+        if drop:
+            keep = np.ones(len(leaves), bool)
+            keep[drop] = False
+            leaves = [leaves[i] for i in np.flatnonzero(keep)] + new_cells
+            boxes = np.vstack([boxes[keep]] + [np.r_[q.min(axis=0), q.max(axis=0)][None]
+                                               for q in new_cells])
     return BSPRegions(regions=leaves, n_nodes=n_nodes, splits=splits, cell_tests=tests)
