@@ -118,7 +118,8 @@ def main(argv=None):
                       f"{out['slope_receiver_tests_brute']:.2f}")
     lines += ["", "## Counts per scene", "",
               "| scene | polygons | polyhedra | sections | simplified segments | conventional segments "
-              "| BSP regions (simplified) | BSP regions (conventional) |", "|---|---|---|---|---|---|---|---|"]
+              "| BSP regions (simplified) | BSP regions (conventional) |",
+              "|---|---|---|---|---|---|---|---|"]
     for name, c in out["scenes"].items():
         lines.append(f"| {name} | {c['polygons']} | {c['polyhedra']} | {c['sections']} | "
                      f"{c['simplified_segments']} | {c['conventional_segments']} | "
