@@ -59,9 +59,16 @@ The same machinery splits patches into elements
 patch edges carry edge bubbles, and the final triangulation keeps every
 patch edge as a chain of constraints.
 
-Initial placement is a hexagonal lattice of spacing ``min size`` thinned
-with probability ``(min size / size)^2`` (seeded), or uniform random points
-(``init="random"``, as in the upper left of Fig. 2.7).
+Initial placement of the face bubbles is a hexagonal lattice of spacing
+``min size`` thinned with probability ``(min size / size)^2`` (seeded), or
+uniform random points (``init="random"``, as in the upper left of Fig. 2.7),
+or the centres of a size-driven quadtree's leaves (``init="quadtree"``, the
+intensity-based bubble mesh of 4.3.3, :mod:`polygen.mesh2d.tree_placement`).
+Edge bubbles start at equal quantiles of the integrated inverse size
+(``edge_init="quantile"``), or at the ends of a binary tree's leaves
+(``edge_init="tree"``, 4.3.3); the tree's start is then relaxed along the
+edges, thinned and filled (per segment, to the nearest count of the relaxed
+chain's ``sum of gap / r0``), and relaxed again until the count holds.
 
 Limitation: as in the thesis, every polygon vertex is a fixed bubble, so
 vertices closer together than the local size give small elements there
@@ -79,6 +86,7 @@ from polygen.mesh2d.delaunay import constrained_delaunay
 from polygen.mesh2d.domain import Domain, local_origin, validate_domain
 from polygen.mesh2d.sizing import as_size_function
 from polygen.mesh2d.subdivision import PatchElements, triangle_edges
+from polygen.mesh2d.tree_placement import _edge_bubbles_tree, _quadtree_bubbles
 
 __all__ = [
     "BubbleMesh",
@@ -548,6 +556,87 @@ def _place_edge_kernel(pts, seg, cum, counts, offsets, out_xy, out_seg):
             out_seg[o] = k
 
 
+@njit
+def _edge_control_kernel(pts, seg, vsize, exy, eseg, esz, out_xy, out_seg):
+    """Thinning/insertion of edge bubbles, segment by segment (4.3.3, edges step 3).
+
+    ``exy`` are sorted by segment and along it. A segment's chain (vertex a,
+    its bubbles, vertex b) has gaps ``g_i = d_i / r0_i`` (r0 from (2.11)) and
+    a normalised length ``sum g_i ~ integral ds / size``; its gap count goes
+    to the nearest count ``max(1, round(sum g_i))``: bubbles are added at the
+    midpoints of the largest gaps (one per gap per call), or removed where
+    the two gaps beside a bubble are the smallest (never two neighbours per
+    call). Returns (count, inserted, removed); ``out_*`` hold 2 M entries.
+    """
+    ns = seg.shape[0]
+    m = 0
+    n_ins = 0
+    n_rem = 0
+    first = 0
+    ne = eseg.shape[0]
+    for k in range(ns):
+        last = first
+        while last < ne and eseg[last] == k:
+            last += 1
+        nb = last - first
+        # chain: vertex a, bubbles first..last-1, vertex b
+        cx = np.empty(nb + 2)
+        cy = np.empty(nb + 2)
+        cs = np.empty(nb + 2)
+        cx[0] = pts[seg[k, 0], 0]
+        cy[0] = pts[seg[k, 0], 1]
+        cs[0] = vsize[seg[k, 0]]
+        for i in range(nb):
+            cx[i + 1] = exy[first + i, 0]
+            cy[i + 1] = exy[first + i, 1]
+            cs[i + 1] = esz[first + i]
+        cx[nb + 1] = pts[seg[k, 1], 0]
+        cy[nb + 1] = pts[seg[k, 1], 1]
+        cs[nb + 1] = vsize[seg[k, 1]]
+        ng = nb + 1
+        g = np.empty(ng)
+        lam = 0.0
+        for i in range(ng):
+            g[i] = math.hypot(cx[i + 1] - cx[i], cy[i + 1] - cy[i]) / (0.5 * (cs[i] + cs[i + 1]))
+            lam += g[i]
+        target = max(1, int(math.floor(lam + 0.5)))
+        add = np.zeros(ng, np.bool_)
+        drop = np.zeros(nb + 2, np.bool_)
+        if target > ng:
+            for _ in range(min(target - ng, ng)):
+                best = -1
+                for i in range(ng):
+                    if not add[i] and (best < 0 or g[i] > g[best]):
+                        best = i
+                add[best] = True
+            n_ins += min(target - ng, ng)
+        elif target < ng:
+            for _ in range(ng - target):
+                best = -1
+                for j in range(1, nb + 1):
+                    if drop[j] or drop[j - 1] or drop[j + 1]:
+                        continue
+                    if best < 0 or g[j - 1] + g[j] < g[best - 1] + g[best]:
+                        best = j
+                if best < 0:
+                    break
+                drop[best] = True
+                n_rem += 1
+        for i in range(ng):
+            if i > 0 and not drop[i]:
+                out_xy[m, 0] = cx[i]
+                out_xy[m, 1] = cy[i]
+                out_seg[m] = k
+                m += 1
+            if add[i]:
+                out_xy[m, 0] = 0.5 * (cx[i] + cx[i + 1])
+                out_xy[m, 1] = 0.5 * (cy[i] + cy[i + 1])
+                out_seg[m] = k
+                m += 1
+        first = last
+    return m, n_ins, n_rem
+
+
 def edge_bubbles(domain, size, *, samples=33):
     """Initial bubbles on the boundary segments, spaced by the size field.
 
@@ -711,7 +800,8 @@ def _boundary_edges(n_vertex, seg, eseg):
     return np.concatenate([head, inner, tail]).astype(np.int64)
 
 
-def bubble_mesh(outer, holes=(), size=None, *, init="lattice", n_cycles=4, steps_per_cycle=150,
+def bubble_mesh(outer, holes=(), size=None, *, init="lattice", edge_init="quantile", n_cycles=4,
+                steps_per_cycle=150,
                 final_steps=200, dt=0.3, mass=1.0, damping=1.5, tol=1e-3, remove_below=0.6,
                 insert_above=0.85, resize_every=10, seed=0, progress=False):
     """Bubble mesh of a polygon with holes (thesis 2.3.3).
@@ -725,9 +815,14 @@ def bubble_mesh(outer, holes=(), size=None, *, init="lattice", n_cycles=4, steps
         Target element edge length: a number (uniform), or ``size(xy) -> (K,)``
         for a graded mesh. Bubble diameter = size at its centre, so two
         neighbours settle at ``r0 = 0.5 (d_i + d_j)`` (2.11).
-    init : {"lattice", "random"}
-        Initial face bubbles: thinned hexagonal lattice, or seeded uniform
-        random points with the same expected density.
+    init : {"lattice", "random", "quadtree"}
+        Initial face bubbles: thinned hexagonal lattice, seeded uniform
+        random points with the same expected density, or the (jittered)
+        centres of a size-driven quadtree's leaves (4.3.3, Fig. 4.7 (5)).
+    edge_init : {"quantile", "tree"}
+        Initial edge bubbles: equal quantiles of the integrated inverse size,
+        or the leaf ends of a binary-tree bisection (4.3.3, Fig. 4.7 (3)),
+        followed by relaxation and thinning/insertion along the edges.
     n_cycles : int
         Relaxation + population-control cycles for the face bubbles.
     steps_per_cycle, final_steps : int
@@ -760,7 +855,7 @@ def bubble_mesh(outer, holes=(), size=None, *, init="lattice", n_cycles=4, steps
     """
     dom = validate_domain(outer, holes)
     pts, seg, _ = dom.segments()
-    return _bubble_core(dom, pts, seg, size, False, init=init, n_cycles=n_cycles,
+    return _bubble_core(dom, pts, seg, size, False, init=init, edge_init=edge_init, n_cycles=n_cycles,
                         steps_per_cycle=steps_per_cycle, final_steps=final_steps, dt=dt,
                         mass=mass, damping=damping, tol=tol, remove_below=remove_below,
                         insert_above=insert_above, resize_every=resize_every, seed=seed,
@@ -790,7 +885,7 @@ def _bubble_core(dom, pts, seg, size, internal, *, regions=None, **kwargs):
                       bm.initial + origin, bm.n_steps, bm.n_inserted, bm.n_removed, bm.history)
 
 
-def _bubble_core_local(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cycle, final_steps,
+def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, n_cycles, steps_per_cycle, final_steps,
                        dt, mass, damping, tol, remove_below, insert_above, resize_every, seed, progress,
                        near_segment=0.35, bare=False, fixed_size=None, regions=None):
     # pts: fixed vertex bubbles; seg: segments carrying edge bubbles (the domain
@@ -801,8 +896,10 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, n_cycles, steps_p
     # ignore each other (each region is packed against its own boundary)
     if size is None:
         raise ValueError("size: required (a number, a GridSize or a callable)")
-    if init not in ("lattice", "random"):
-        raise ValueError(f"init: expected 'lattice' or 'random', got {init!r}")
+    if init not in ("lattice", "random", "quadtree"):
+        raise ValueError(f"init: expected 'lattice', 'random' or 'quadtree', got {init!r}")
+    if edge_init not in ("quantile", "tree"):
+        raise ValueError(f"edge_init: expected 'quantile' or 'tree', got {edge_init!r}")
     for name, v in (("dt", dt), ("mass", mass), ("tol", tol)):
         if not (np.isfinite(v) and v > 0):
             raise ValueError(f"{name}: must be positive, got {v}")
@@ -844,36 +941,65 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, n_cycles, steps_p
     bare = np.broadcast_to(np.asarray(bare, dtype=np.bool_), (len(seg),))
     if bare.all():
         exy, eseg = np.zeros((0, 2)), np.zeros(0, np.int64)
+    elif edge_init == "tree":
+        exy, eseg = _edge_bubbles_tree(pts, seg, sizef, bare=bare)
     else:
         exy, eseg = _edge_bubbles(pts, seg, sizef, bare=bare)
     n_vertex = len(pts)
-    n_edge = len(exy)
-    bxy = np.concatenate([pts, exy])
-    bsz = sizes_of(bxy)
-    # the segment of each edge bubble, by its end points
-    eab = np.zeros((len(bxy), 4))
-    eab[n_vertex:, :2] = pts[seg[eseg, 0]]
-    eab[n_vertex:, 2:] = pts[seg[eseg, 1]]
-    vel = np.zeros((len(bxy), 2))
     total_steps = 0
     history = []
-    if n_edge:
+    n_ins = n_rem = 0
+
+    def relax_edges(exy, eseg, n_steps):
         # 1-D relaxation (thesis 2.3.3): bubbles on an edge feel that edge's bubbles and the vertices
+        bxy = np.concatenate([pts, exy])
+        bsz = sizes_of(bxy)
+        eab = np.zeros((len(bxy), 4))
+        eab[n_vertex:, :2] = pts[seg[eseg, 0]]
+        eab[n_vertex:, 2:] = pts[seg[eseg, 1]]
+        vel = np.zeros((len(bxy), 2))
         group = np.concatenate([np.full(n_vertex, -1, np.int64), eseg])
-        steps, mx = _relax_kernel(bxy, vel, bsz, group, n_vertex, n_edge, eab, *largs,
-                                  *gargs, final_steps, dt, mass, damping, tol, 0.25)
-        total_steps += steps
+        steps, mx = _relax_kernel(bxy, vel, bsz, group, n_vertex, len(exy), eab, *largs,
+                                  *gargs, n_steps, dt, mass, damping, tol, 0.25)
         history.append(("edges", steps, float(mx)))
         # keep every segment's bubbles in order along it (for the constraint chains)
         a = pts[seg[eseg, 0]]
         s_along = np.einsum("ij,ij->i", bxy[n_vertex:] - a, pts[seg[eseg, 1]] - a)
         o = np.lexsort((s_along, eseg))
-        bxy[n_vertex:] = bxy[n_vertex:][o]
+        return steps, bxy[n_vertex:][o], eseg[o]
+
+    if len(exy) and edge_init == "tree":
+        # relaxation, then thinning/insertion until the counts hold (4.3.3, edges 2-3)
+        vsz = sizes_of(pts)
+        for cyc in range(n_cycles + 1):
+            steps, exy, eseg = relax_edges(exy, eseg, steps_per_cycle)
+            total_steps += steps
+            out_xy = np.empty((2 * len(exy) + len(seg), 2))
+            out_seg = np.empty(2 * len(exy) + len(seg), np.int64)
+            m, ni, nr = _edge_control_kernel(pts, seg, vsz, exy, eseg, sizes_of(exy), out_xy, out_seg)
+            history.append(("edge_control", cyc, int(ni), int(nr)))
+            n_ins += int(ni)
+            n_rem += int(nr)
+            exy, eseg = out_xy[:m], out_seg[:m]
+            if ni == 0 and nr == 0:
+                break
+    if len(exy):
+        steps, exy, eseg = relax_edges(exy, eseg, final_steps)
+        total_steps += steps
+    n_edge = len(exy)
+    bxy = np.concatenate([pts, exy])
+    eab = np.zeros((len(bxy), 4))
+    eab[n_vertex:, :2] = pts[seg[eseg, 0]]
+    eab[n_vertex:, 2:] = pts[seg[eseg, 1]]
     n_fixed = n_vertex + n_edge
 
     # initial face bubbles
+    thin = True
     if init == "lattice":
         cand = _hex_lattice(lo - h_min, hi + h_min, h_min, rng.random(2) * h_min)
+    elif init == "quadtree":
+        cand, _ = _quadtree_bubbles(dom, sizef, seed=int(rng.integers(2**62)))
+        thin = False  # the tree already follows the size field
     else:
         area_box = float(np.prod(hi - lo))
         n_cand = int(rng.poisson(area_box * 2.0 / (math.sqrt(3.0) * h_min**2)))
@@ -884,12 +1010,13 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, n_cycles, steps_p
     if internal:
         dist = np.minimum(dist, seg_index.distance(cand))
     csz = sizef(cand)
-    keep = (dist > 0.5 * csz) & (rng.random(len(cand)) < (h_min / csz) ** 2)
+    keep = dist > 0.5 * csz
+    if thin:
+        keep &= rng.random(len(cand)) < (h_min / csz) ** 2
     fxy = cand[keep]
     initial = np.concatenate([bxy, fxy])
 
     xy = initial.copy()
-    n_ins = n_rem = 0
     cycles = range(n_cycles + 1)
     if progress:
         from tqdm.auto import tqdm
@@ -1114,7 +1241,7 @@ def bubble_subdivide_patches(nodes, patches, element_size, *, seed=0, edge_nodes
 
 def _bubble_opts(kwargs):
     """The relaxation's keyword arguments with their defaults; unknown names raise TypeError."""
-    opts = dict(init="lattice", n_cycles=4, steps_per_cycle=150, final_steps=200, dt=0.3, mass=1.0,
+    opts = dict(init="lattice", edge_init="quantile", n_cycles=4, steps_per_cycle=150, final_steps=200, dt=0.3, mass=1.0,
                 damping=1.5, tol=1e-3, remove_below=0.6, insert_above=0.85, resize_every=10,
                 progress=False)
     unknown = set(kwargs) - set(opts)
