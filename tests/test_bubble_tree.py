@@ -168,7 +168,7 @@ def test_quadtree_matches_recursion_and_covers_the_domain():
     # the leaves tile the root square, so their parts in the polygon add up to it
     assert abs(shapely.area(shapely.intersection(boxes, dom.polygon)).sum() - dom.polygon.area) < 1e-12
     assert np.all(cells[:, 2] <= FACE_SPLIT * linear_size(cells[:, :2] + cells[:, 2:] / 2))
-    xy, side = quadtree_face_bubbles(dom, linear_size, seed=4)
+    xy, _ = quadtree_face_bubbles(dom, linear_size, seed=4)
     assert shapely.contains_xy(dom.polygon, xy[:, 0], xy[:, 1]).all()
     xy2, _ = quadtree_face_bubbles(dom, linear_size, seed=4)
     np.testing.assert_array_equal(xy, xy2)
@@ -176,13 +176,33 @@ def test_quadtree_matches_recursion_and_covers_the_domain():
         quadtree_face_bubbles(dom, linear_size, jitter=0.5)
 
 
-def test_split_rules_give_the_packing_density_on_average():
-    # The split constants are chosen so that a leaf whose size ratio c / s is
-    # log-uniform over (split / 2, split] holds on average one bubble per hexagonal cell.
+def test_edge_split_gives_the_right_gap_count_on_average():
+    # EDGE_SPLIT = 1/ln 2: a leaf whose L / s is log-uniform over (split / 2, split]
+    # has on average one gap per unit of the integrated 1 / size
     u = np.linspace(0.0, 1.0, 200001)
-    c = EDGE_SPLIT * 2.0 ** -u
-    assert abs(trapezoid(1.0 / c, u) - 1.0) < 1e-9
-    assert abs(trapezoid(1.0 / (FACE_SPLIT * 2.0 ** -u) ** 2, u) - 2.0 / math.sqrt(3.0)) < 1e-9
+    assert abs(trapezoid(1.0 / (EDGE_SPLIT * 2.0 ** -u), u) - 1.0) < 1e-9
+    # a leaf is never larger than a hexagonal packing's cell (FACE_SPLIT = sqrt(sqrt(3)/2))
+    assert math.isclose(FACE_SPLIT**2, math.sqrt(3.0) / 2.0)
+
+
+@pytest.mark.parametrize("field", [linear_size, lambda xy: np.full(len(xy), 0.02)], ids=["linear", "uniform"])
+def test_quadtree_bubbles_follow_the_packing_density_blockwise(field):
+    # error diffusion along the Z order: every aligned block of the quadtree
+    # (its leaves are one stretch of the curve) gets sum(share) bubbles to within one
+    cells = quadtree_cells(SQUARE, field)
+    xy, picked = quadtree_face_bubbles(SQUARE, field, seed=7)
+    assert len(xy) == len(picked)
+    assert np.all((xy >= picked[:, :2]) & (xy <= picked[:, :2] + picked[:, 2:]))  # in their leaves
+    share = np.minimum(1.0, cells[:, 2] ** 2 / (math.sqrt(3.0) / 2.0 * field(cells[:, :2] + cells[:, 2:] / 2) ** 2))
+    assert abs(len(xy) - share.sum()) < 1.0
+    for level in (1, 2, 3):
+        b = 0.5**level
+        assert cells[:, 2].max() <= b  # every leaf lies in one block
+        key = np.floor(cells[:, :2] / b).astype(int) @ [1, 1 << level]
+        pkey = np.floor(picked[:, :2] / b).astype(int) @ [1, 1 << level]
+        want = np.bincount(key, weights=share, minlength=4**level)
+        got = np.bincount(pkey, minlength=4**level)
+        assert np.all(np.abs(got - want) < 1.0)
 
 
 def test_tree_and_quadtree_bubble_mesh():

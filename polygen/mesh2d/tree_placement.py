@@ -4,33 +4,41 @@ The intensity-based bubble mesh places its first bubbles by recursion
 driven by the size grid: on each boundary edge a **binary tree** (an
 interval is halved while it is too long for the size at its midpoint; the
 bubbles go to the leaves' ends), and in the face a **quadtree** (a square
-cell is split in four while it is too large for the size at its centre;
-one bubble at the centre of every leaf cell inside the domain). The
-relaxation and the thinning/insertion that follow (:mod:`polygen.mesh2d.bubble`)
-correct the counts; the better the start, the fewer steps they take.
+cell is split in four while it is larger than the local size; bubbles at
+leaf centres inside the domain). The relaxation and the thinning/insertion
+that follow (:mod:`polygen.mesh2d.bubble`) correct the counts; the better
+the start, the fewer steps they take.
 
-When to split
--------------
-The thesis says only that the recursion refers to the size values. We split
-when splitting brings the local bubble density closer to the target (the
-nearest-count rule):
+How far to split, and where the face bubbles go
+-----------------------------------------------
+The thesis says only that the recursion refers to the size values.
 
-* an interval of length ``L`` holds one gap; halved, two gaps of ``L/2``.
-  ``|L/2 - s| < |L - s|`` iff ``L > 4/3 s``, so an interval is halved while
-  ``L > 4/3 size(midpoint)`` (:data:`EDGE_SPLIT`). Leaves lie in ``(2/3 s, 4/3 s]``.
-* a square cell of side ``c`` holds one bubble, i.e. an area ``c^2`` per
-  bubble; a hexagonal packing of edge ``s`` gives each bubble
-  ``A* = (sqrt(3)/2) s^2``. Split in four, ``c^2/4``; ``|c^2/4 - A*| < |c^2 - A*|``
-  iff ``c^2 > 8/5 A*``, i.e. ``c > sqrt(4 sqrt(3) / 5) s = 1.177 s``
-  (:data:`FACE_SPLIT`).
+* Edges: a leaf interval holds one gap. Halving whenever ``L > tau s`` leaves
+  ``L / s`` in ``(tau/2, tau]``; where the size varies, ``log2(L / s)`` is
+  spread evenly over that range, and the mean gaps per unit length,
+  ``E[1/L] = 1 / (tau s ln 2)``, is the target ``1/s`` for ``tau = 1/ln 2 = 1.443``
+  (:data:`EDGE_SPLIT`). Where the size is uniform the count is off by up to
+  a factor 1.44 (a power of two per edge); the edge thinning/insertion fixes it.
+* Faces: one bubble per leaf would put the density off by up to a factor 2
+  where the size is uniform (the leaves are powers of two), and the
+  population control, which only removes bubbles overlapping by 40 %, cannot
+  undo a 40 % excess: measured, a uniform size of 0.02 on the unit square
+  gave mean q 0.84 that way. So the cells are split while their side exceeds
+  the side of a hexagonal packing's cell, ``c > sqrt(sqrt(3)/2) s = 0.931 s``
+  (:data:`FACE_SPLIT`; the leaves are then never too coarse), and each leaf
+  carries a share ``c^2 / ((sqrt(3)/2) s^2) <= 1`` of a bubble; walking the
+  leaves in Z order (Morton order, which visits every quadtree block in one
+  stretch) a bubble goes to the leaf where the running sum of shares passes
+  an integer (error diffusion, seeded offset). Any block of the quadtree so
+  gets its expected count of bubbles to within one.
 
 Every level reads the size field once for all its intervals or cells (the
 field is a Python callable, a :class:`~polygen.mesh2d.sizing.GridSize`
-for chapter 4), so the recursion runs breadth first with numpy. A quadtree's
-leaf centres form a square lattice, an equilibrium of the inter-bubble force
-by symmetry (every force cancels), which relaxation would never leave; each
-centre is therefore jittered by a seeded uniform offset of up to
-``jitter * c`` in each coordinate.
+for chapter 4), so the recursion runs breadth first with numpy. Leaf
+centres of equal leaves form a square lattice, an equilibrium of the
+inter-bubble force by symmetry, which relaxation would leave only slowly;
+each centre is jittered by a seeded uniform offset of up to ``jitter * c``
+per coordinate.
 """
 
 import math
@@ -45,7 +53,8 @@ __all__ = ["EDGE_SPLIT", "FACE_SPLIT", "binary_tree_edge_bubbles", "quadtree_cel
            "quadtree_face_bubbles"]
 
 EDGE_SPLIT = 1.0 / math.log(2.0)  # halve an interval while L > 1.443 size
-FACE_SPLIT = math.sqrt(math.sqrt(3.0) * 3.0 / (4.0 * math.log(2.0)))  # split a cell while c > 1.369 size
+HEX_CELL = math.sqrt(3.0) / 2.0  # area per bubble of a hexagonal packing of edge 1
+FACE_SPLIT = math.sqrt(HEX_CELL)  # split a cell while c > 0.931 size: c^2 > the hexagonal cell
 MAX_DEPTH = 40  # 2^-40 of a segment or of the domain: far below any size a mesh can use
 
 
@@ -91,8 +100,9 @@ def binary_tree_edge_bubbles(domain, size, *, split=EDGE_SPLIT, max_depth=MAX_DE
     size : float, callable or GridSize
         Target element edge length.
     split : float, keyword-only
-        Halve while ``length > split * size(midpoint)`` (default 4/3, the
-        nearest-count rule; see the module docstring).
+        Halve while ``length > split * size(midpoint)`` (default 1/ln 2 = 1.443:
+        the right number of gaps on average where the size varies; see the
+        module docstring).
     max_depth : int, keyword-only
         Deepest bisection level.
 
@@ -134,8 +144,8 @@ def quadtree_cells(domain, size, *, split=FACE_SPLIT, max_depth=MAX_DEPTH):
     domain : Domain or (K, 2) array_like
     size : float, callable or GridSize
     split : float, keyword-only
-        Split while ``side > split * size(centre)`` (default 1.177, the
-        nearest-count rule for a hexagonal packing; see the module docstring).
+        Split while ``side > split * size(centre)`` (default 0.931: a leaf is
+        never larger than a hexagonal packing's cell; see the module docstring).
     max_depth : int, keyword-only
 
     Returns
@@ -181,7 +191,11 @@ def _quadtree(dom, sizef, split, max_depth):
 
 def quadtree_face_bubbles(domain, size, *, split=FACE_SPLIT, jitter=0.25, seed=0,
                           max_depth=MAX_DEPTH):
-    """Initial face bubbles at the centres of the quadtree's leaf cells (Fig. 4.7 (5)).
+    """Initial face bubbles at quadtree leaf centres, one per hexagonal cell's area (Fig. 4.7 (5)).
+
+    The leaves of :func:`quadtree_cells` are walked in Z order, each adding
+    its share ``side^2 / ((sqrt(3)/2) size^2)`` of a bubble; a leaf gets a
+    bubble where the running sum passes an integer (see the module docstring).
 
     Parameters
     ----------
@@ -199,21 +213,45 @@ def quadtree_face_bubbles(domain, size, *, split=FACE_SPLIT, jitter=0.25, seed=0
     Returns
     -------
     xy : (K, 2) float64
-        The (jittered) leaf centres strictly inside the polygon.
-    cell_side : (K,) float64
-        The side of each bubble's leaf.
+        The (jittered) centres of the chosen leaves, strictly inside the polygon.
+    cells : (K, 3) float64
+        ``(x0, y0, side)`` of each bubble's leaf.
     """
     dom = validate_domain(domain)
     return _quadtree_bubbles(dom, as_size_function(size), split=split, jitter=jitter, seed=seed,
                              max_depth=max_depth)
 
 
+def _morton(cells, lo, side):
+    """Z-order keys of leaf cells (their lower-left corners on the finest level's lattice)."""
+    depth = int(np.ceil(np.log2(side / cells[:, 2].min()))) if len(cells) else 0
+    depth = min(depth, 31)
+    ij = np.floor((cells[:, :2] - lo) / side * (1 << depth) + 0.5).astype(np.int64)
+    key = np.zeros(len(cells), np.int64)
+    for b in range(depth):
+        key |= ((ij[:, 0] >> b) & 1) << (2 * b)
+        key |= ((ij[:, 1] >> b) & 1) << (2 * b + 1)
+    return key
+
+
 def _quadtree_bubbles(dom, sizef, *, split=FACE_SPLIT, jitter=0.25, seed=0, max_depth=MAX_DEPTH):
     if not (np.isfinite(jitter) and 0.0 <= jitter < 0.5):
         raise ValueError(f"jitter: expected 0 <= jitter < 0.5, got {jitter}")
-    cells = _quadtree(dom, sizef, float(split), int(max_depth))
     rng = np.random.default_rng(seed)
+    cells = _quadtree(dom, sizef, float(split), int(max_depth))
     c = cells[:, 2]
+    # a leaf's share of a bubble: its area over a hexagonal cell's, at most 1
+    share = np.minimum(1.0, c * c / (HEX_CELL * sizef(cells[:, :2] + 0.5 * c[:, None]) ** 2))
+    # error diffusion along the Z order: a bubble wherever the running sum of
+    # shares passes an integer, so every stretch of the curve (a block of the
+    # quadtree) gets its expected count to within one
+    lo = dom.outer.min(axis=0)
+    side = float((dom.outer.max(axis=0) - lo).max())
+    order = np.argsort(_morton(cells, lo, side), kind="stable")
+    acc = np.floor(rng.random() + np.concatenate([[0.0], np.cumsum(share[order])]))
+    pick = order[np.diff(acc) > 0]
+    cells = cells[pick]
+    c = c[pick]
     xy = cells[:, :2] + c[:, None] * (0.5 + jitter * rng.uniform(-1.0, 1.0, (len(cells), 2)))
     inside = shapely.contains_xy(dom.polygon, xy[:, 0], xy[:, 1])
-    return xy[inside], c[inside]
+    return xy[inside], cells[inside]
