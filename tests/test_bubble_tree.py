@@ -31,6 +31,7 @@ from polygen.mesh2d.tree_placement import (
     quadtree_cells,
     quadtree_face_bubbles,
 )
+from polygen.mesh2d.bubble import _adjacency
 from polygen.mesh2d.theorem41 import (
     edge_length_ratio,
     packed_edge_ratio,
@@ -229,8 +230,28 @@ def test_tree_and_quadtree_bubble_mesh():
     assert any(h[0] == "edge_control" for h in bm.history)
     with pytest.raises(ValueError, match="edge_init"):
         bubble_mesh(SQUARE, (), 0.2, edge_init="octree")
+    with pytest.raises(ValueError, match="neighbours"):
+        bubble_mesh(SQUARE, (), 0.2, neighbours="voronoi")
     with pytest.raises(ValueError, match="init"):
         bubble_mesh(SQUARE, (), 0.2, init="octree")
+
+
+def test_delaunay_neighbours():
+    # the adjacency lists are the triangulation's edges, both ways
+    rng = np.random.default_rng(2)
+    from scipy.spatial import Delaunay
+
+    p = rng.random((60, 2))
+    tri = Delaunay(p).simplices.astype(np.int64)
+    start, adj = _adjacency(len(p), tri)
+    pairs = {(i, int(j)) for i in range(len(p)) for j in adj[start[i]:start[i + 1]]}
+    want = {tuple(e) for e in mesh_edges(tri).tolist()}
+    assert pairs == want | {(j, i) for i, j in want}
+    # relaxing between Delaunay neighbours only (4.3.3) gives a valid graded mesh
+    dom = validate_domain(L_SHAPE)
+    grid = GridSize.from_function(linear_size, (0, 0, 1, 1), (33, 33))
+    bm = bubble_mesh(dom, (), grid, init="quadtree", neighbours="delaunay", seed=0)
+    check_conforming_mesh(bm.nodes, bm.triangles, dom)
 
 
 # ---------------------------------------------------------------------------
@@ -247,15 +268,17 @@ def shadow_size(xy):
     return S_LARGE - (S_LARGE - S_SMALL) * np.exp(-r2 / (2 * 0.15**2))
 
 
-@pytest.mark.parametrize("init, edge_init", [("lattice", "quantile"), ("quadtree", "tree")])
+@pytest.mark.parametrize("init, edge_init, neighbours", [("lattice", "quantile", "range"),
+                                                         ("quadtree", "tree", "range"),
+                                                         ("quadtree", "quantile", "delaunay")])
 @pytest.mark.parametrize("field", [shadow_size, linear_size], ids=["shadow", "linear"])
-def test_graded_mesh_quality(field, init, edge_init):
+def test_graded_mesh_quality(field, init, edge_init, neighbours):
     # issue 15: mean q >= 0.93 and min angle >= 25 degrees on the graded second mesh;
     # q = 2 r_in / R_circ (polygen.mesh2d.quality), 1 for an equilateral triangle
     grid = GridSize.from_function(field, (0, 0, 1, 1), (33, 33))
     assert grid.values.max() / grid.values.min() > 7.5  # the ratio survives the sampling
     dom = validate_domain(SQUARE)
-    bm = bubble_mesh(dom, (), grid, init=init, edge_init=edge_init, seed=0)
+    bm = bubble_mesh(dom, (), grid, init=init, edge_init=edge_init, neighbours=neighbours, seed=0)
     check_conforming_mesh(bm.nodes, bm.triangles, dom)
     ang, q = triangle_quality(bm.nodes, bm.triangles)
     assert q.mean() >= 0.93

@@ -38,6 +38,9 @@ Each bubble obeys ``m x'' + c x' = f`` (2.13), summed over the neighbours
 within ``1.5 r0``, found through a uniform grid of cells (of the smallest
 interaction range) rebuilt every step; each pair is visited once, from its
 larger bubble, so a graded field costs little more than a uniform one.
+With ``neighbours="delaunay"`` a face bubble feels only its neighbours in the
+Delaunay triangulation of the bubbles, made again after each population
+control, as the thesis describes for the intensity-based bubble mesh (4.3.3).
 Integration is semi-implicit Euler with the damping taken implicitly,
 ``v <- (v + dt f / m) / (1 + dt c / m)``, ``x <- x + dt v``, stable for any
 damping. The size field is re-read at the moving bubbles every
@@ -436,6 +439,46 @@ def _forces(xy, size, group, first_movable, gx0, gy0, gcs, gnx, gny, starts, ord
 
 
 @njit
+def _forces_adjacent(xy, size, group, first_movable, adj_start, adj, force):
+    # forces between Delaunay neighbours only (4.3.3, faces step 2-3): the pair
+    # (i, j) is visited from its smaller index; beyond r1 the cubic is zero anyway
+    n = xy.shape[0]
+    for i in range(n):
+        force[i, 0] = 0.0
+        force[i, 1] = 0.0
+    for i in range(n):
+        for s in range(adj_start[i], adj_start[i + 1]):
+            j = adj[s]
+            if j <= i:
+                continue
+            if i < first_movable and j < first_movable:
+                continue
+            if group[i] >= 0 and group[j] >= 0 and group[i] != group[j]:
+                continue
+            dx = xy[i, 0] - xy[j, 0]
+            dy = xy[i, 1] - xy[j, 1]
+            r2 = dx * dx + dy * dy
+            r0 = 0.5 * (size[i] + size[j])  # (2.11)
+            if r2 >= (W_CUTOFF * r0) ** 2 or r2 == 0.0:
+                continue
+            r = math.sqrt(r2)
+            f = r0 * _force_w(r / r0) / r  # (2.12) with k0 = r0
+            force[i, 0] += f * dx
+            force[i, 1] += f * dy
+            force[j, 0] -= f * dx
+            force[j, 1] -= f * dy
+
+
+def _adjacency(n, tri):
+    """CSR neighbour lists ``(start (n+1,), adj)`` of the edges of triangles ``tri``."""
+    e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    e = np.concatenate([e, e[:, ::-1]])
+    e = np.unique(e, axis=0)
+    start = np.searchsorted(e[:, 0], np.arange(n + 1)).astype(np.int64)
+    return start, np.ascontiguousarray(e[:, 1], dtype=np.int64)
+
+
+@njit
 def _bin_points(xy, gx0, gy0, gcs, gnx, gny, starts, order, cell):
     n = xy.shape[0]
     nc = gnx * gny
@@ -457,8 +500,13 @@ def _bin_points(xy, gx0, gy0, gcs, gnx, gny, starts, order, cell):
 @njit
 def _relax_kernel(xy, vel, size, group, n_fixed, n_edge, eab, pts, seg, seg_prev, seg_next,
                   bx0, by0, bcs, bnx, bny, bstate, bstarts, bsegs,
-                  gx0, gy0, gcs, gnx, gny, n_steps, dt, mass, damping, tol, edge_margin):
-    """Relax bubbles ``n_fixed:`` for up to n_steps; returns (steps, last max |dx| / size)."""
+                  gx0, gy0, gcs, gnx, gny, n_steps, dt, mass, damping, tol, edge_margin,
+                  adj_start, adj):
+    """Relax bubbles ``n_fixed:`` for up to n_steps; returns (steps, last max |dx| / size).
+
+    Neighbours are the bubbles within r1 (a grid search every step), or, when
+    ``adj_start`` is not empty, the fixed lists ``adj`` (Delaunay neighbours).
+    """
     n = xy.shape[0]
     starts = np.empty(gnx * gny + 1, np.int64)
     order = np.empty(n, np.int64)
@@ -468,8 +516,11 @@ def _relax_kernel(xy, vel, size, group, n_fixed, n_edge, eab, pts, seg, seg_prev
     denom = 1.0 + dt * damping / mass
     step_max = 0.0
     for step in range(n_steps):
-        _bin_points(xy, gx0, gy0, gcs, gnx, gny, starts, order, cell)
-        _forces(xy, size, group, n_fixed, gx0, gy0, gcs, gnx, gny, starts, order, force)
+        if adj_start.shape[0] > 0:
+            _forces_adjacent(xy, size, group, n_fixed, adj_start, adj, force)
+        else:
+            _bin_points(xy, gx0, gy0, gcs, gnx, gny, starts, order, cell)
+            _forces(xy, size, group, n_fixed, gx0, gy0, gcs, gnx, gny, starts, order, force)
         step_max = 0.0
         # (2.13) m x'' + c x' = f, semi-implicit Euler with implicit damping
         for i in range(n_fixed, first_face):
@@ -800,8 +851,8 @@ def _boundary_edges(n_vertex, seg, eseg):
     return np.concatenate([head, inner, tail]).astype(np.int64)
 
 
-def bubble_mesh(outer, holes=(), size=None, *, init="lattice", edge_init="quantile", n_cycles=4,
-                steps_per_cycle=150,
+def bubble_mesh(outer, holes=(), size=None, *, init="lattice", edge_init="quantile", neighbours="range",
+                n_cycles=4, steps_per_cycle=150,
                 final_steps=200, dt=0.3, mass=1.0, damping=1.5, tol=1e-3, remove_below=0.6,
                 insert_above=0.85, resize_every=10, seed=0, progress=False):
     """Bubble mesh of a polygon with holes (thesis 2.3.3).
@@ -823,6 +874,11 @@ def bubble_mesh(outer, holes=(), size=None, *, init="lattice", edge_init="quanti
         Initial edge bubbles: equal quantiles of the integrated inverse size,
         or the leaf ends of a binary-tree bisection (4.3.3, Fig. 4.7 (3)),
         followed by relaxation and thinning/insertion along the edges.
+    neighbours : {"range", "delaunay"}
+        Face bubbles interact with every bubble within ``r1 = 1.5 r0`` (found
+        again every step), or only with their neighbours in the Delaunay
+        triangulation of the bubbles, made again after every population
+        control (4.3.3, faces steps 2-4).
     n_cycles : int
         Relaxation + population-control cycles for the face bubbles.
     steps_per_cycle, final_steps : int
@@ -855,7 +911,8 @@ def bubble_mesh(outer, holes=(), size=None, *, init="lattice", edge_init="quanti
     """
     dom = validate_domain(outer, holes)
     pts, seg, _ = dom.segments()
-    return _bubble_core(dom, pts, seg, size, False, init=init, edge_init=edge_init, n_cycles=n_cycles,
+    return _bubble_core(dom, pts, seg, size, False, init=init, edge_init=edge_init, neighbours=neighbours,
+                        n_cycles=n_cycles,
                         steps_per_cycle=steps_per_cycle, final_steps=final_steps, dt=dt,
                         mass=mass, damping=damping, tol=tol, remove_below=remove_below,
                         insert_above=insert_above, resize_every=resize_every, seed=seed,
@@ -885,7 +942,7 @@ def _bubble_core(dom, pts, seg, size, internal, *, regions=None, **kwargs):
                       bm.initial + origin, bm.n_steps, bm.n_inserted, bm.n_removed, bm.history)
 
 
-def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, n_cycles, steps_per_cycle, final_steps,
+def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, neighbours, n_cycles, steps_per_cycle, final_steps,
                        dt, mass, damping, tol, remove_below, insert_above, resize_every, seed, progress,
                        near_segment=0.35, bare=False, fixed_size=None, regions=None):
     # pts: fixed vertex bubbles; seg: segments carrying edge bubbles (the domain
@@ -900,6 +957,8 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, n_cycl
         raise ValueError(f"init: expected 'lattice', 'random' or 'quadtree', got {init!r}")
     if edge_init not in ("quantile", "tree"):
         raise ValueError(f"edge_init: expected 'quantile' or 'tree', got {edge_init!r}")
+    if neighbours not in ("range", "delaunay"):
+        raise ValueError(f"neighbours: expected 'range' or 'delaunay', got {neighbours!r}")
     for name, v in (("dt", dt), ("mass", mass), ("tol", tol)):
         if not (np.isfinite(v) and v > 0):
             raise ValueError(f"{name}: must be positive, got {v}")
@@ -949,6 +1008,7 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, n_cycl
     total_steps = 0
     history = []
     n_ins = n_rem = 0
+    no_adj = (np.zeros(0, np.int64), np.zeros(0, np.int64))
 
     def relax_edges(exy, eseg, n_steps):
         # 1-D relaxation (thesis 2.3.3): bubbles on an edge feel that edge's bubbles and the vertices
@@ -960,7 +1020,7 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, n_cycl
         vel = np.zeros((len(bxy), 2))
         group = np.concatenate([np.full(n_vertex, -1, np.int64), eseg])
         steps, mx = _relax_kernel(bxy, vel, bsz, group, n_vertex, len(exy), eab, *largs,
-                                  *gargs, n_steps, dt, mass, damping, tol, 0.25)
+                                  *gargs, n_steps, dt, mass, damping, tol, 0.25, *no_adj)
         history.append(("edges", steps, float(mx)))
         # keep every segment's bubbles in order along it (for the constraint chains)
         a = pts[seg[eseg, 0]]
@@ -1023,14 +1083,22 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, n_cycl
 
         cycles = tqdm(cycles, desc="bubble mesh")
     vel = np.zeros_like(xy)
+    cons = _boundary_edges(n_vertex, seg, eseg)
+    tri = None
     for cyc in cycles:
+        adjacency = no_adj
+        if neighbours == "delaunay":
+            # neighbours: the Delaunay edges, fixed for the cycle (4.3.3, faces 2 and 4)
+            if tri is None:
+                tri = constrained_delaunay(xy, cons, erase_outside=not internal).triangles
+            adjacency = _adjacency(len(xy), tri)
         budget = final_steps if cyc == n_cycles else steps_per_cycle
         done = 0
         while done < budget:
             sz = sizes_of(xy)
             chunk = min(resize_every, budget - done)
             steps, mx = _relax_kernel(xy, vel, sz, groups_of(xy, n_fixed), n_fixed, 0, eab,
-                                      *largs, *gargs, chunk, dt, mass, damping, tol, 0.25)
+                                      *largs, *gargs, chunk, dt, mass, damping, tol, 0.25, *adjacency)
             done += steps
             total_steps += steps
             if steps < chunk:
@@ -1050,8 +1118,7 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, n_cycl
             xy = xy[~near]
             break
         # population control on the Delaunay of the bubble centres
-        tri = constrained_delaunay(xy, _boundary_edges(n_vertex, seg, eseg),
-                                   erase_outside=not internal).triangles
+        tri = constrained_delaunay(xy, cons, erase_outside=not internal).triangles
         removed = near.copy()
         _removal_kernel(xy, sz, tri, n_fixed, remove_below, removed, groups_of(xy, n_fixed))
         gaps = np.empty((len(tri), 3))
@@ -1071,8 +1138,8 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, n_cycl
         n_ins += len(gaps)
         xy = np.concatenate([xy[~removed], gaps[:, :2]])
         vel = np.concatenate([vel[~removed], np.zeros((len(gaps), 2))])
+        tri = None  # the population changed: triangulate again
 
-    cons = _boundary_edges(n_vertex, seg, eseg)
     mesh = constrained_delaunay(xy, cons, erase_outside=not internal)
     if internal:
         # internal constraints defeat the parity rule: keep triangles by centroid.
@@ -1241,7 +1308,7 @@ def bubble_subdivide_patches(nodes, patches, element_size, *, seed=0, edge_nodes
 
 def _bubble_opts(kwargs):
     """The relaxation's keyword arguments with their defaults; unknown names raise TypeError."""
-    opts = dict(init="lattice", edge_init="quantile", n_cycles=4, steps_per_cycle=150, final_steps=200, dt=0.3, mass=1.0,
+    opts = dict(init="lattice", edge_init="quantile", neighbours="range", n_cycles=4, steps_per_cycle=150, final_steps=200, dt=0.3, mass=1.0,
                 damping=1.5, tol=1e-3, remove_below=0.6, insert_above=0.85, resize_every=10,
                 progress=False)
     unknown = set(kwargs) - set(opts)
