@@ -36,6 +36,7 @@ from polygen.mesh2d.theorem41 import (
     edge_length_ratio,
     packed_edge_ratio,
     packed_edge_ratio_bounds,
+    vertex_size_ratio,
 )
 
 SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
@@ -222,7 +223,7 @@ def test_tree_and_quadtree_bubble_mesh():
         d = b - a
         along = (edge_nodes - a) @ d / (d @ d)
         rel = edge_nodes - a
-        on = np.abs(rel[:, 0] * d[1] - rel[:, 1] * d[0]) < 1e-9 * np.hypot(*d)
+        on = (np.abs(rel[:, 0] * d[1] - rel[:, 1] * d[0]) < 1e-9 * np.hypot(*d)) & (along > 0) & (along < 1)
         chain = np.vstack([a, edge_nodes[on][np.argsort(along[on])], b])
         size = grid(chain)
         lam = np.sum(np.linalg.norm(np.diff(chain, axis=0), axis=1) / (0.5 * (size[1:] + size[:-1])))
@@ -234,6 +235,17 @@ def test_tree_and_quadtree_bubble_mesh():
         bubble_mesh(SQUARE, (), 0.2, neighbours="voronoi")
     with pytest.raises(ValueError, match="init"):
         bubble_mesh(SQUARE, (), 0.2, init="octree")
+
+
+def test_edge_thinning_leaves_no_gap_beyond_the_cutoff():
+    # the tree puts 64 gaps of 0.78 r0 on each side of the unit square at size 0.02;
+    # thinning to the nearest count (50) must end in the 1-D equilibrium, every gap
+    # at r0, not in a chain broken by gaps beyond r1 = 1.5 r0
+    bm = bubble_mesh(SQUARE, (), 0.02, edge_init="tree", seed=0)
+    assert ("edge_control", 0, 0, 4 * 14) in bm.history
+    e = bm.nodes[bm.kind == 1]
+    bottom = np.sort(np.r_[0.0, e[np.abs(e[:, 1]) < 1e-12, 0], 1.0])
+    np.testing.assert_allclose(np.diff(bottom), 0.02, rtol=1e-9)
 
 
 def test_delaunay_neighbours():
@@ -321,15 +333,19 @@ SLOPES = (0.15, 0.25, 0.4, 0.6, 1.0, 1.6)
 
 def test_theorem_41_on_meshes():
     # a family of size grids of the same ratio (8) and increasing gradient: the
-    # median edge-length ratio of the triangles in the ramp rises with the gradient
+    # median edge-length ratio of the triangles in the ramp rises with the gradient,
+    # and triangle by triangle the ratio rises with the vertex size ratio t
     dom = validate_domain(SQUARE)
-    medians = []
+    medians, ts, ratios = [], [], []
     for slope in SLOPES:
         size, width = ramp_size(slope)
         grid = GridSize.from_function(size, (0, 0, 1, 1), (65, 65))
         bm = bubble_mesh(dom, (), grid, seed=0)
         r = grid(bm.nodes)[bm.triangles]
         ramp = r.max(axis=1) > r.min(axis=1) * (1 + 1e-9)  # triangles meeting the ramp
-        medians.append(np.median(edge_length_ratio(bm.nodes, bm.triangles)[ramp]))
-    rho = spearmanr(SLOPES, medians).statistic
-    assert rho > 0, (SLOPES, medians)
+        er = edge_length_ratio(bm.nodes, bm.triangles)[ramp]
+        medians.append(np.median(er))
+        ts.append(vertex_size_ratio(r[ramp]))
+        ratios.append(er)
+    assert spearmanr(SLOPES, medians).statistic > 0, (SLOPES, medians)
+    assert spearmanr(np.concatenate(ts), np.concatenate(ratios)).statistic > 0

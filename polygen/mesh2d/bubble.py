@@ -70,8 +70,9 @@ intensity-based bubble mesh of 4.3.3, :mod:`polygen.mesh2d.tree_placement`).
 Edge bubbles start at equal quantiles of the integrated inverse size
 (``edge_init="quantile"``), or at the ends of a binary tree's leaves
 (``edge_init="tree"``, 4.3.3); the tree's start is then relaxed along the
-edges, thinned and filled (per segment, to the nearest count of the relaxed
-chain's ``sum of gap / r0``), and relaxed again until the count holds.
+edges, thinned or filled (per segment, to the nearest count of the relaxed
+chain's ``sum of gap / r0``, re-spaced evenly in that measure where the count
+changes), and relaxed again until the count holds.
 
 Limitation: as in the thesis, every polygon vertex is a fixed bubble, so
 vertices closer together than the local size give small elements there
@@ -613,11 +614,15 @@ def _edge_control_kernel(pts, seg, vsize, exy, eseg, esz, out_xy, out_seg):
 
     ``exy`` are sorted by segment and along it. A segment's chain (vertex a,
     its bubbles, vertex b) has gaps ``g_i = d_i / r0_i`` (r0 from (2.11)) and
-    a normalised length ``sum g_i ~ integral ds / size``; its gap count goes
-    to the nearest count ``max(1, round(sum g_i))``: bubbles are added at the
-    midpoints of the largest gaps (one per gap per call), or removed where
-    the two gaps beside a bubble are the smallest (never two neighbours per
-    call). Returns (count, inserted, removed); ``out_*`` hold 2 M entries.
+    a normalised length ``lam = sum g_i ~ integral ds / size``; its gap count
+    goes to the nearest count ``n = max(1, round(lam))``. Where the count
+    changes, the new chain is spaced at equal steps ``lam / n`` of the old
+    chain's normalised length (interpolated along it): the fixed point of the
+    1-D relaxation (every gap at its r0, up to the rounding of lam). Thinning
+    or filling a chain locally instead leaves gaps beyond the force's cut-off
+    r1 = 1.5 r0 (removing one bubble of a chain at 0.78 r0 makes a 1.56 r0
+    gap), which the relaxation cannot close. Returns (count, inserted, removed);
+    ``out_*`` hold ``2 M + S`` entries.
     """
     ns = seg.shape[0]
     m = 0
@@ -645,43 +650,32 @@ def _edge_control_kernel(pts, seg, vsize, exy, eseg, esz, out_xy, out_seg):
         cy[nb + 1] = pts[seg[k, 1], 1]
         cs[nb + 1] = vsize[seg[k, 1]]
         ng = nb + 1
-        g = np.empty(ng)
-        lam = 0.0
+        cum = np.zeros(ng + 1)
         for i in range(ng):
-            g[i] = math.hypot(cx[i + 1] - cx[i], cy[i + 1] - cy[i]) / (0.5 * (cs[i] + cs[i + 1]))
-            lam += g[i]
+            g = math.hypot(cx[i + 1] - cx[i], cy[i + 1] - cy[i]) / (0.5 * (cs[i] + cs[i + 1]))
+            cum[i + 1] = cum[i] + g
+        lam = cum[ng]
         target = max(1, int(math.floor(lam + 0.5)))
-        add = np.zeros(ng, np.bool_)
-        drop = np.zeros(nb + 2, np.bool_)
-        if target > ng:
-            for _ in range(min(target - ng, ng)):
-                best = -1
-                for i in range(ng):
-                    if not add[i] and (best < 0 or g[i] > g[best]):
-                        best = i
-                add[best] = True
-            n_ins += min(target - ng, ng)
-        elif target < ng:
-            for _ in range(ng - target):
-                best = -1
-                for j in range(1, nb + 1):
-                    if drop[j] or drop[j - 1] or drop[j + 1]:
-                        continue
-                    if best < 0 or g[j - 1] + g[j] < g[best - 1] + g[best]:
-                        best = j
-                if best < 0:
-                    break
-                drop[best] = True
-                n_rem += 1
-        for i in range(ng):
-            if i > 0 and not drop[i]:
+        if target == ng:
+            for i in range(1, nb + 1):
                 out_xy[m, 0] = cx[i]
                 out_xy[m, 1] = cy[i]
                 out_seg[m] = k
                 m += 1
-            if add[i]:
-                out_xy[m, 0] = 0.5 * (cx[i] + cx[i + 1])
-                out_xy[m, 1] = 0.5 * (cy[i] + cy[i + 1])
+        else:
+            if target > ng:
+                n_ins += target - ng
+            else:
+                n_rem += ng - target
+            j = 0
+            for q in range(1, target):
+                want = lam * q / target
+                while j < ng - 1 and cum[j + 1] < want:
+                    j += 1
+                span = cum[j + 1] - cum[j]
+                u = (want - cum[j]) / span if span > 0 else 0.0
+                out_xy[m, 0] = cx[j] + u * (cx[j + 1] - cx[j])
+                out_xy[m, 1] = cy[j] + u * (cy[j + 1] - cy[j])
                 out_seg[m] = k
                 m += 1
         first = last
@@ -1034,8 +1028,10 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, neighb
         for cyc in range(n_cycles + 1):
             steps, exy, eseg = relax_edges(exy, eseg, steps_per_cycle)
             total_steps += steps
-            out_xy = np.empty((2 * len(exy) + len(seg), 2))
-            out_seg = np.empty(2 * len(exy) + len(seg), np.int64)
+            cap = 2 * len(exy) + 2 * int(np.ceil(np.sum(np.linalg.norm(
+                pts[seg[:, 1]] - pts[seg[:, 0]], axis=1)) / h_min)) + len(seg)
+            out_xy = np.empty((cap, 2))
+            out_seg = np.empty(cap, np.int64)
             m, ni, nr = _edge_control_kernel(pts, seg, vsz, exy, eseg, sizes_of(exy), out_xy, out_seg)
             history.append(("edge_control", cyc, int(ni), int(nr)))
             n_ins += int(ni)
