@@ -18,6 +18,7 @@ from scipy.stats import spearmanr
 from polygen.mesh2d import (
     GridSize,
     bubble_mesh,
+    bubble_subdivide_patches,
     is_t_vertex_free,
     mesh_edges,
     triangle_areas,
@@ -246,6 +247,24 @@ def test_edge_thinning_leaves_no_gap_beyond_the_cutoff():
     e = bm.nodes[bm.kind == 1]
     bottom = np.sort(np.r_[0.0, e[np.abs(e[:, 1]) < 1e-12, 0], 1.0])
     np.testing.assert_allclose(np.diff(bottom), 0.02, rtol=1e-9)
+
+
+def test_tree_edges_leave_preset_patch_edges_alone():
+    # bubble_subdivide_patches: a patch edge with preset element nodes is a chain of
+    # bare segments; the tree's thinning/insertion must not put bubbles on it
+    coarse = bubble_mesh(SQUARE, (), 0.25, seed=0)
+    tri = coarse.triangles
+    i, j = sorted(int(v) for v in tri[len(tri) // 2, :2])
+    a, b = coarse.nodes[i], coarse.nodes[j]
+    preset = a + np.array([[0.3], [0.7]]) * (b - a)
+    pe = bubble_subdivide_patches(coarse.nodes, tri, 0.06, seed=0, edge_nodes={(i, j): preset},
+                                  edge_init="tree")
+    assert is_t_vertex_free(pe.nodes, pe.elements)
+    d = b - a
+    rel = pe.nodes - a
+    along = rel @ d / (d @ d)
+    on = (np.abs(rel[:, 0] * d[1] - rel[:, 1] * d[0]) < 1e-9 * (d @ d)) & (along > 1e-9) & (along < 1 - 1e-9)
+    np.testing.assert_allclose(np.sort(along[on]), [0.3, 0.7], atol=1e-12)
 
 
 def test_delaunay_neighbours():

@@ -609,7 +609,7 @@ def _place_edge_kernel(pts, seg, cum, counts, offsets, out_xy, out_seg):
 
 
 @njit
-def _edge_control_kernel(pts, seg, vsize, exy, eseg, esz, out_xy, out_seg):
+def _edge_control_kernel(pts, seg, bare, vsize, exy, eseg, esz, out_xy, out_seg):
     """Thinning/insertion of edge bubbles, segment by segment (4.3.3, edges step 3).
 
     ``exy`` are sorted by segment and along it. A segment's chain (vertex a,
@@ -621,8 +621,9 @@ def _edge_control_kernel(pts, seg, vsize, exy, eseg, esz, out_xy, out_seg):
     1-D relaxation (every gap at its r0, up to the rounding of lam). Thinning
     or filling a chain locally instead leaves gaps beyond the force's cut-off
     r1 = 1.5 r0 (removing one bubble of a chain at 0.78 r0 makes a 1.56 r0
-    gap), which the relaxation cannot close. Returns (count, inserted, removed);
-    ``out_*`` hold ``2 M + S`` entries.
+    gap), which the relaxation cannot close. Segments marked ``bare`` carry no
+    bubbles and get none. Returns (count, inserted, removed); ``out_*`` hold
+    ``2 M + S`` entries.
     """
     ns = seg.shape[0]
     m = 0
@@ -635,6 +636,9 @@ def _edge_control_kernel(pts, seg, vsize, exy, eseg, esz, out_xy, out_seg):
         while last < ne and eseg[last] == k:
             last += 1
         nb = last - first
+        if bare[k]:
+            first = last
+            continue
         # chain: vertex a, bubbles first..last-1, vertex b
         cx = np.empty(nb + 2)
         cy = np.empty(nb + 2)
@@ -1032,7 +1036,8 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, neighb
                 pts[seg[:, 1]] - pts[seg[:, 0]], axis=1)) / h_min)) + len(seg)
             out_xy = np.empty((cap, 2))
             out_seg = np.empty(cap, np.int64)
-            m, ni, nr = _edge_control_kernel(pts, seg, vsz, exy, eseg, sizes_of(exy), out_xy, out_seg)
+            m, ni, nr = _edge_control_kernel(pts, seg, np.ascontiguousarray(bare), vsz, exy, eseg,
+                                             sizes_of(exy), out_xy, out_seg)
             history.append(("edge_control", cyc, int(ni), int(nr)))
             n_ins += int(ni)
             n_rem += int(nr)
