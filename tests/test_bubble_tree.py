@@ -158,7 +158,8 @@ def naive_quadtree(poly, size, split, x0, y0, c):
         return []
     if c > split * size(np.array([[x0 + c / 2, y0 + c / 2]]))[0]:
         h = c / 2
-        return [q for dx in (0, 1) for dy in (0, 1) for q in naive_quadtree(poly, size, split, x0 + dx * h, y0 + dy * h, h)]
+        return [q for dx in (0, 1) for dy in (0, 1)
+                for q in naive_quadtree(poly, size, split, x0 + dx * h, y0 + dy * h, h)]
     return [(x0, y0, c)]
 
 

@@ -940,7 +940,8 @@ def _bubble_core(dom, pts, seg, size, internal, *, regions=None, **kwargs):
                       bm.initial + origin, bm.n_steps, bm.n_inserted, bm.n_removed, bm.history)
 
 
-def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, neighbours, n_cycles, steps_per_cycle, final_steps,
+def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, neighbours, n_cycles,
+                       steps_per_cycle, final_steps,
                        dt, mass, damping, tol, remove_below, insert_above, resize_every, seed, progress,
                        near_segment=0.35, bare=False, fixed_size=None, regions=None):
     # pts: fixed vertex bubbles; seg: segments carrying edge bubbles (the domain
@@ -1309,7 +1310,8 @@ def bubble_subdivide_patches(nodes, patches, element_size, *, seed=0, edge_nodes
 
 def _bubble_opts(kwargs):
     """The relaxation's keyword arguments with their defaults; unknown names raise TypeError."""
-    opts = dict(init="lattice", edge_init="quantile", neighbours="range", n_cycles=4, steps_per_cycle=150, final_steps=200, dt=0.3, mass=1.0,
+    opts = dict(init="lattice", edge_init="quantile", neighbours="range", n_cycles=4, steps_per_cycle=150,
+                final_steps=200, dt=0.3, mass=1.0,
                 damping=1.5, tol=1e-3, remove_below=0.6, insert_above=0.85, resize_every=10,
                 progress=False)
     unknown = set(kwargs) - set(opts)

@@ -33,9 +33,10 @@ def _bilinear_kernel(x0, y0, dx, dy, values, xy, out):
         j = min(max(int(v), 0), ny - 2)
         s = u - i  # (4.13) s = (x - x1) / (x2 - x1)
         t = v - j  # (4.13) t = (y - y1) / (y2 - y1)
-        # (4.12) (1 - t)((1 - s) r11 + s r21) + t((1 - s) r12 + s r22), r_ab at (x_a, y_b)
-        out[k] = ((1.0 - t) * ((1.0 - s) * values[j, i] + s * values[j, i + 1])
-                  + t * ((1.0 - s) * values[j + 1, i] + s * values[j + 1, i + 1]))
+        # (4.12) (1 - t)((1 - s) r11 + s r21) + t((1 - s) r12 + s r22), r_ab at (x_a, y_b),
+        # expanded (the form meshes made so far were computed with, to the last bit)
+        out[k] = ((1 - s) * (1 - t) * values[j, i] + s * (1 - t) * values[j, i + 1]
+                  + (1 - s) * t * values[j + 1, i] + s * t * values[j + 1, i + 1])
 
 
 @dataclass(frozen=True, eq=False)
