@@ -56,10 +56,12 @@ def _tri_box(pts, tri, eye, fwd, right, up, half_w, half_h, width, height, ortho
         rmax = max(rmax, row)
     if behind:  # straddles the eye's plane: any pixel may see it
         return 0, width - 1, 0, height - 1
-    c0 = max(0, int(np.floor(cmin)))
-    c1 = min(width - 1, int(np.ceil(cmax)))
-    r0 = max(0, int(np.floor(rmin)))
-    r1 = min(height - 1, int(np.ceil(rmax)))
+    # the pixel centres (integer coordinates) inside the box, widened by a hair against round-off
+    pad = 1e-6
+    c0 = max(0, int(np.ceil(cmin - pad)))
+    c1 = min(width - 1, int(np.floor(cmax + pad)))
+    r0 = max(0, int(np.ceil(rmin - pad)))
+    r1 = min(height - 1, int(np.floor(rmax + pad)))
     return c0, c1, r0, r1
 
 
@@ -434,25 +436,11 @@ def cast(pts, cells, faces, is_hex, nb, values, grads, btris, bcell, offsets, it
 
 # ------------------------------------------------------------------ equi-distance surfaces
 @njit(parallel=True)
-def count_fragments(pts, tris, offsets, items, origins, dirs, counts):
-    """Hits of each pixel's ray on the shell triangles binned to it (``counts (P,)``)."""
-    npix = origins.shape[0]
-    for p in prange(npix):
-        o = origins[p]
-        d = dirs[p]
-        n = 0
-        for q in range(offsets[p], offsets[p + 1]):
-            i = items[q]
-            t, u, v, dn = _ray_triangle(o, d, pts[tris[i, 0]], pts[tris[i, 1]], pts[tris[i, 2]])
-            if t > 0.0:
-                n += 1
-        counts[p] = n
-
-
-@njit(parallel=True)
-def fill_fragments(pts, tris, tri_shell, vs, vg, offsets, items, origins, dirs, frag_off, frag_shell, frag_sg,
-                   frag_n):
+def fill_fragments(pts, tris, tri_shell, vs, vg, offsets, items, origins, dirs, frag_shell, frag_sg, frag_n):
     """The fragments of each pixel, nearest shell first: shell index, S and gradient at the hit.
+
+    Pixel ``p``'s fragments go to rows ``offsets[p]:offsets[p] + frag_n[p]``
+    (a pixel has at most as many as triangles binned to it).
 
     A ray crosses an equi-distance surface once, so a second hit on the same
     shell (the ray through an edge two triangles share) is dropped: ``frag_n``
@@ -463,7 +451,7 @@ def fill_fragments(pts, tris, tri_shell, vs, vg, offsets, items, origins, dirs, 
     for p in prange(npix):
         o = origins[p]
         d = dirs[p]
-        n = frag_off[p]
+        n = offsets[p]
         last = -1
         for q in range(offsets[p], offsets[p + 1]):
             i = items[q]
@@ -479,7 +467,7 @@ def fill_fragments(pts, tris, tri_shell, vs, vg, offsets, items, origins, dirs, 
                 for ch in range(3):
                     frag_sg[n, 1 + ch] = w0 * vg[a, ch] + u * vg[b, ch] + v * vg[c, ch]
                 n += 1
-        frag_n[p] = n - frag_off[p]
+        frag_n[p] = n - offsets[p]
 
 
 @njit(parallel=True)

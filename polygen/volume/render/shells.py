@@ -253,15 +253,12 @@ class ShellRenderer:
             origins, dirs = cam.rays()
             eye, f, r, u, hw, hh, w, h, ortho = cam._kernel_args()
             offsets, items = _k.bin_triangles(sh.vertices, sh.triangles, eye, f, r, u, hw, hh, w, h, ortho)
-            counts = np.empty(origins.shape[0], np.int64)
-            _k.count_fragments(sh.vertices, sh.triangles, offsets, items, origins, dirs, counts)
-            frag_off = np.zeros(origins.shape[0] + 1, np.int64)
-            np.cumsum(counts, out=frag_off[1:])
-            frag_shell = np.empty(frag_off[-1], np.int64)
-            frag_sg = np.empty((frag_off[-1], 4))
+            frag_shell = np.empty(items.shape[0], np.int64)
+            frag_sg = np.empty((items.shape[0], 4))
             frag_n = np.empty(origins.shape[0], np.int64)
             _k.fill_fragments(sh.vertices, sh.triangles, sh.shell, sh.scalars, sh.gradients, offsets, items, origins,
-                              dirs, frag_off, frag_shell, frag_sg, frag_n)
+                              dirs, frag_shell, frag_sg, frag_n)
+            frag_off = offsets
             got = (frag_off, frag_n, frag_sg, dirs)
             self._fragments[key] = got
             return got
@@ -349,6 +346,7 @@ def render_shells_pyvista(shells, camera, tf, *, lighting=None, background=0.0, 
     pl = pv.Plotter(off_screen=True, window_size=(w, h))
     pl.set_background(bg)
     pl.add_mesh(poly, scalars="rgba", rgba=True, lighting=False, show_scalar_bar=False)
+    pl.disable_anti_aliasing()  # with multisampling on, VTK 9.7's depth peeling draws nothing off-screen (EGL)
     pl.enable_depth_peeling(number_of_peels=peels or 0, occlusion_ratio=0.0)
     pl.camera.position = camera.eye
     pl.camera.focal_point = camera.target
