@@ -110,12 +110,17 @@ def _slice_polys(vol, origin, normal):
     grid = vol.to_pyvista()
     sl = grid.slice(normal=normal, origin=origin).triangulate()
     n = np.asarray(normal, float) / np.linalg.norm(normal)
-    a = np.cross(n, [0, 0, 1.0]) if abs(n[2]) < 0.9 else np.cross(n, [1.0, 0, 0])
+    ref = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
+    a = ref - (ref @ n) * n  # the x axis seen along the normal (x right, y up for a z slice)
     a /= np.linalg.norm(a)
     b = np.cross(n, a)
+    sl = sl.clean()
     rel = np.asarray(sl.points) - origin
     xy = np.column_stack([rel @ a, rel @ b])
     tris = np.asarray(sl.faces).reshape(-1, 4)[:, 1:]
+    e1, e2 = xy[tris[:, 1]] - xy[tris[:, 0]], xy[tris[:, 2]] - xy[tris[:, 0]]
+    area = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    tris = tris[area > 1e-12 * float(np.ptp(xy)) ** 2]  # slivers where the plane grazes a cell
     return xy, tris, sl, (a, b)
 
 
@@ -133,7 +138,7 @@ def plot_fig_7_8(vol, *, field=None, eye_2d=(-1.5, 0.5), n_rays=7, step=0.25, sp
 
     lo, hi = vol.points.min(0), vol.points.max(0)
     centre = (lo + hi) / 2
-    xy, tris, sl, _ = _slice_polys(vol, centre, (0, 0, 1))
+    xy, tris, sl, (ax_a, ax_b) = _slice_polys(vol, centre, (0, 0, 1))
     s = np.asarray(sl.point_data[field or next(iter(vol.fields))])
     tri = mtri.Triangulation(xy[:, 0], xy[:, 1], tris)
     if axes is None:
@@ -141,8 +146,10 @@ def plot_fig_7_8(vol, *, field=None, eye_2d=(-1.5, 0.5), n_rays=7, step=0.25, sp
     eye = np.array(eye_2d) * (hi - lo)[:2] / 2 + np.array([0.0, 0.0])
     far = np.abs(xy).max() * 2.5
     angles = np.linspace(-spread, spread, n_rays)
-    trifinder = tri.get_trifinder()
-    interp = mtri.LinearTriInterpolator(tri, s)
+
+    def inside(p2):  # in material: the volume's own point location
+        return vol.locate(centre + p2[:, :1] * ax_a + p2[:, 1:] * ax_b) >= 0
+
     dist = np.hypot(xy[:, 0] - eye[0], xy[:, 1] - eye[1])
     titles = ["(a) ray casting", "(b) splatting", "(c) equi-distance surfaces"]
     for k, ax in enumerate(axes):
@@ -162,8 +169,8 @@ def plot_fig_7_8(vol, *, field=None, eye_2d=(-1.5, 0.5), n_rays=7, step=0.25, sp
             if k in (0, 2):
                 t = np.arange(0, far, step)
                 p = eye + t[:, None] * d
-                inside = trifinder(p[:, 0], p[:, 1]) >= 0
-                ax.plot(p[inside, 0], p[inside, 1], "o", ms=3, color="crimson" if k == 0 else "navy")
+                keep = inside(p)
+                ax.plot(p[keep, 0], p[keep, 1], "o", ms=3, color="crimson" if k == 0 else "navy")
         if k == 1:
             ax.scatter(xy[:, 0], xy[:, 1], s=30, c=s, cmap="viridis", alpha=0.5, edgecolors="none")
             ax.plot(*np.stack([eye, eye + far * direction]).T, color="0.4", lw=0.6)
@@ -171,7 +178,6 @@ def plot_fig_7_8(vol, *, field=None, eye_2d=(-1.5, 0.5), n_rays=7, step=0.25, sp
             ax.tricontour(tri, dist, levels=np.arange(0, dist.max() + step, step), colors="navy", linewidths=0.5)
         ax.set_xlim(xy[:, 0].min() - 0.1, xy[:, 0].max() + 0.1)
         ax.set_ylim(xy[:, 1].min() - 0.1, xy[:, 1].max() + 0.1)
-    del interp
     return axes
 
 
@@ -191,20 +197,23 @@ def plot_fig_7_9(vol, renderers, *, titles=None, window_size=(1300, 480)):
         sk = sr.skeleton
         p.add_mesh(boundary_mesh(vol), color="lightgray", opacity=0.12)
         cells = vol.to_pyvista().extract_cells(sk.cells)
-        cells.cell_data["distance"] = sr.distance[vol.cells[sk.cells]].mean(axis=1)
-        p.add_mesh(cells, scalars="distance", cmap="plasma", show_edges=False,
+        # (not "distance": the data sets carry a point field of that name, which pyvista would pick)
+        cells.cell_data["eye distance"] = sr.distance[vol.cells[sk.cells]].mean(axis=1)
+        p.add_mesh(cells, scalars="eye distance", preference="cell", cmap="plasma", show_edges=False,
                    scalar_bar_args={"title": f"distance from eye {i + 1}"})
-        p.add_mesh(pv.PolyData(vol.points[sk.extrema.nodes]), color=_EXTREMUM_COLOR, point_size=10,
+        p.add_mesh(pv.PolyData(vol.points[sk.extrema.nodes]), color=_EXTREMUM_COLOR, point_size=12,
                    render_points_as_spheres=True)
         eye = np.array(sr.camera.eye)
-        p.add_mesh(pv.Sphere(radius=0.04 * float(np.ptp(vol.points, axis=0).max()), center=eye), color="red")
+        size = float(np.ptp(vol.points, axis=0).max())
+        p.add_mesh(pv.Sphere(radius=0.03 * size, center=eye), color="red")
+        f = np.array(sr.camera.target) - eye
+        p.add_mesh(pv.Arrow(start=eye, direction=f, scale=0.15 * size), color="red")
         label = (titles[i] if titles else
                  f"eye {'inside' if vol.locate(eye[None])[0] >= 0 else 'outside'}: {sk.extrema.n} extrema, "
                  f"{sk.n_cells} skeleton cells")
         p.add_text(label, font_size=10)
-        p.camera_position = [tuple(eye + (eye - vol.points.mean(0)) * 0.6 + [0, 0, 2.0]), tuple(vol.points.mean(0)),
-                             (0, 0, 1)]
-        p.camera.zoom(1.1)
+        p.view_isometric()
+        p.reset_camera()
     return p
 
 

@@ -308,7 +308,7 @@ class ShellRenderer:
 
 
 def render_shells_pyvista(shells, camera, tf, *, lighting=None, background=0.0, peels=None):
-    """Draw ``shells`` through VTK with depth peeling (translucent polygons in depth order per pixel).
+    """Draw ``shells`` through VTK, far to near, with depth peeling (translucent polygons in depth order per pixel).
 
     Each vertex gets the colour (7.2) and spacing-corrected opacity of its
     scalar and gradient; VTK interpolates colours across a triangle (Gouraud)
@@ -340,7 +340,11 @@ def render_shells_pyvista(shells, camera, tf, *, lighting=None, background=0.0, 
         gl = np.where(gn > 0, np.abs(np.einsum("ij,ij->i", g, lv)) / np.maximum(gn, 1e-300), 0.0)
         rgb = e[None, :] + gl[:, None] * energy * rgb
     rgba = np.clip(np.concatenate([rgb, alpha[:, None]], axis=1), 0, 1)
-    poly = shells.to_pyvista()
+    # far to near, Koyamada's drawing order: then depth peeling has nothing to fix (and VTK 9.7 off-screen
+    # through EGL composites translucent triangles in the order they come, peeling on or off: measured on
+    # stacked translucent planes, the first drawn ends up behind the others)
+    order = np.argsort(-shells.shell, kind="stable")
+    poly = dataclasses.replace(shells, triangles=shells.triangles[order], shell=shells.shell[order]).to_pyvista()
     poly.point_data["rgba"] = (rgba * 255).round().astype(np.uint8)
     w, h = camera.size
     pl = pv.Plotter(off_screen=True, window_size=(w, h))
