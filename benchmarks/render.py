@@ -39,14 +39,14 @@ import numpy as np  # noqa: E402
 
 from _common import RESULTS, fmt, machine  # noqa: E402
 from polygen.volume import datasets  # noqa: E402
-from polygen.volume.render import Camera, Lighting, RayCaster, ShellRenderer, TransferFunction, psnr  # noqa: E402
+from polygen.volume.render import View, Lighting, RayCaster, ShellRenderer, TransferFunction, psnr  # noqa: E402
 
 
 def view(vol, size):
     lo, hi = vol.points.min(0), vol.points.max(0)
     c = (lo + hi) / 2
     diag = float(np.linalg.norm(hi - lo))
-    return Camera(eye=c + diag * np.array([1.2, -1.6, 0.9]), target=c, fov=35, size=(size, size)), diag
+    return View(eye=c + diag * np.array([1.2, -1.6, 0.9]), target=c, fov=35, size=(size, size)), diag
 
 
 def tfs(vol, diag):

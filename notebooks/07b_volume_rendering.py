@@ -55,7 +55,7 @@ import numpy as np
 from polygen import plotting
 from polygen.plotting import render as plot_render
 from polygen.volume import datasets
-from polygen.volume.render import (Camera, Lighting, RayCaster, ShellRenderer, TransferFunction,
+from polygen.volume.render import (View, Lighting, RayCaster, ShellRenderer, TransferFunction,
                                    psnr)
 from polygen.volume.render.shells import render_shells_pyvista
 
@@ -72,7 +72,7 @@ def view(vol, size=IMAGE, *, eye=(1.2, -1.6, 0.9), fov=35):
     """A perspective camera looking at the middle of ``vol`` from ``eye`` (in diagonals)."""
     lo, hi = vol.points.min(0), vol.points.max(0)
     diag = float(np.linalg.norm(hi - lo))
-    return Camera(eye=(lo + hi) / 2 + diag * np.array(eye), target=(lo + hi) / 2, fov=fov,
+    return View(eye=(lo + hi) / 2 + diag * np.array(eye), target=(lo + hi) / 2, fov=fov,
                   size=(size, size)), diag
 
 
@@ -140,7 +140,7 @@ assert ray4.entries.max() >= 2
 inner = np.flatnonzero(~np.isin(vol1.cells, vol1.boundary_face_nodes).any(axis=1))
 c_in = vol1.points[vol1.cells[inner]].mean(axis=1)
 eye_in = c_in[np.argmin(np.linalg.norm(c_in - [2.6, 1.0, 0.5], axis=1))]
-cam_in = Camera(eye=eye_in, target=eye_in + [1.0, 0.3, 0.0], fov=60, size=(IMAGE, IMAGE))
+cam_in = View(eye=eye_in, target=eye_in + [1.0, 0.3, 0.0], fov=60, size=(IMAGE, IMAGE))
 cam_out, diag1 = view(vol1, eye=(0.3, -0.45, 0.3))                 # just outside the block
 sr_in, sr_out = ShellRenderer(vol1, cam_in), ShellRenderer(vol1, cam_out)
 plot_render.plot_fig_7_9(vol1, [sr_in, sr_out]).show()

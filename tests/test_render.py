@@ -13,7 +13,7 @@ import pytest
 
 from polygen.volume import UnstructuredVolume, datasets
 from polygen.volume.render import (
-    Camera,
+    View,
     Lighting,
     RayCaster,
     RenderError,
@@ -105,7 +105,7 @@ def _polyhedron_lengths(vol, origins, dirs):
 
 def _ortho_x(size, extent, x0=-3.0):
     """Rays along +x over the square ``[-extent, extent]^2`` of (y, z)."""
-    return Camera(eye=(x0, 0, 0), target=(0, 0, 0), up=(0, 0, 1), fov=None, height=2 * extent, size=(size, size))
+    return View(eye=(x0, 0, 0), target=(0, 0, 0), up=(0, 0, 1), fov=None, height=2 * extent, size=(size, size))
 
 
 TF_FLAT = TransferFunction([0.0, 1.0], [[1, 1, 1], [1, 1, 1]], [0.0, 0.0])
@@ -178,7 +178,7 @@ def test_eye_inside_a_void(hollow_sphere):
     delta = _surface_band(vol, lambda x: np.minimum(np.abs(np.linalg.norm(x, axis=1) - R_OUT),
                                                     np.abs(np.linalg.norm(x, axis=1) - R_IN)))
     assert vol.locate([[0.0, 0.0, 0.0]])[0] == -1
-    cam = Camera(eye=(0, 0, 0), target=(1, 0.2, 0.1), fov=90, size=(16, 12))
+    cam = View(eye=(0, 0, 0), target=(1, 0.2, 0.1), fov=90, size=(16, 12))
     res = RayCaster(vol).render(cam, TF_FLAT, step=0.05)
     assert np.all(res.entries == 1)
     assert np.all(np.abs(res.length - (R_OUT - R_IN)) <= 2 * delta)
@@ -188,17 +188,17 @@ def test_eye_in_material_and_on_a_boundary_face():
     vol = datasets.load("hollow_cube")  # [0, 3]^3 minus the centre cube [1, 2]^3
     rc = RayCaster(vol, "linear")
     # in material, looking through the void along -x: 0.5 + 1
-    cam = Camera(eye=(2.5, 1.5, 1.5), target=(0, 1.5, 1.5), fov=1.0, size=(1, 1))
+    cam = View(eye=(2.5, 1.5, 1.5), target=(0, 1.5, 1.5), fov=1.0, size=(1, 1))
     res = rc.render(cam, TF_FLAT, step=0.1)
     assert res.length[0, 0] == pytest.approx(1.5, abs=1e-12) and res.entries[0, 0] == 2
     # on the outer face x = 0 (and on a cell face there), looking in: through everything
     for eye in [(0.0, 0.5, 0.5), (0.0, 1.0, 0.5), (0.0, 1.5, 1.5)]:
-        cam = Camera(eye=eye, target=(3, eye[1], eye[2]), fov=1.0, size=(1, 1))
+        cam = View(eye=eye, target=(3, eye[1], eye[2]), fov=1.0, size=(1, 1))
         res = rc.render(cam, TF_FLAT, step=0.1)
         expect = 2.0 if eye[1:] == (1.5, 1.5) else 3.0
         assert res.length[0, 0] == pytest.approx(expect, abs=1e-12)
     # on the face, looking out: nothing
-    cam = Camera(eye=(0.0, 0.5, 0.5), target=(-3, 0.5, 0.5), fov=1.0, size=(1, 1))
+    cam = View(eye=(0.0, 0.5, 0.5), target=(-3, 0.5, 0.5), fov=1.0, size=(1, 1))
     assert rc.render(cam, TF_FLAT, step=0.1).length[0, 0] == 0
 
 
@@ -207,7 +207,7 @@ def test_walk_on_tiny_volumes_matches_brute_force(name):
     vol = datasets.load(name)
     lo, hi = vol.points.min(0), vol.points.max(0)
     c = (lo + hi) / 2
-    cam = Camera(eye=c + [-2.0, -9.0, 3.0], target=c, fov=40, size=(20, 16))
+    cam = View(eye=c + [-2.0, -9.0, 3.0], target=c, fov=40, size=(20, 16))
     res = RayCaster(vol, "linear").render(cam, TF_FLAT, step=0.1)
     origins, dirs = cam.rays()
     np.testing.assert_allclose(res.length.ravel(), _polyhedron_lengths(vol, origins, dirs), atol=1e-9)
@@ -217,7 +217,7 @@ def test_walk_on_curved_hexahedra_matches_brute_force():
     vol = datasets.load("hexa1")
     lo, hi = vol.points.min(0), vol.points.max(0)
     c = (lo + hi) / 2
-    cam = Camera(eye=c + [1.0, -6.0, 4.0], target=c, fov=40, size=(12, 12))
+    cam = View(eye=c + [1.0, -6.0, 4.0], target=c, fov=40, size=(12, 12))
     res = RayCaster(vol).render(cam, TF_FLAT, step=0.1)
     origins, dirs = cam.rays()
     np.testing.assert_allclose(res.length.ravel(), _polyhedron_lengths(vol, origins, dirs), atol=1e-9)
@@ -253,7 +253,7 @@ def test_raycast_equals_literal_back_to_front(name):
     s = vol.scalars()
     step = float(np.linalg.norm(hi - lo)) / 60
     tf = TransferFunction.ramp(s.min(), s.max(), opacity=(0.05, 0.4), unit=step)
-    cam = Camera(eye=c + [2.5, -5.0, 3.0], target=c, fov=30, size=(7, 5))
+    cam = View(eye=c + [2.5, -5.0, 3.0], target=c, fov=30, size=(7, 5))
     light = Lighting()
     rc = RayCaster(vol)
     res = rc.render(cam, tf, step=step, lighting=light, background=0.25)
@@ -272,7 +272,7 @@ def test_opacity_correction_keeps_a_uniform_slab():
     """A constant opacity over a slab of thickness L: 1 - (1 - a)^(L / unit) whatever the step."""
     vol = datasets.load("hollow_cube")  # rays at y = z = 0.5 cross 3 units of material
     tf = TransferFunction([0.0, 10.0], [[1, 1, 1]] * 2, [0.3, 0.3], unit=1.0)
-    cam = Camera(eye=(-1, 0.5, 0.5), target=(3, 0.5, 0.5), fov=1.0, size=(1, 1))
+    cam = View(eye=(-1, 0.5, 0.5), target=(3, 0.5, 0.5), fov=1.0, size=(1, 1))
     flat = Lighting(emission=1.0, energy=0.0)
     for step in (0.5, 0.25, 0.1):
         img = raycast(vol, cam, tf, field="linear", step=step, lighting=flat).image[0, 0]
@@ -287,8 +287,8 @@ def _view(vol, size, *, ortho=False):
     diag = float(np.linalg.norm(hi - lo))
     eye = c + diag * np.array([1.2, -1.6, 0.9])
     if ortho:
-        return Camera(eye=eye, target=c, fov=None, height=diag, size=(size, size)), diag / 80
-    return Camera(eye=eye, target=c, fov=35, size=(size, size)), diag / 80
+        return View(eye=eye, target=c, fov=None, height=diag, size=(size, size)), diag / 80
+    return View(eye=eye, target=c, fov=35, size=(size, size)), diag / 80
 
 
 def _agreement(name, size, *, ortho=False):
@@ -372,7 +372,7 @@ def test_eye_inside_the_volume_is_the_distance_minimum():
     interior_cells = np.flatnonzero(~np.isin(vol.cells, vol.boundary_face_nodes).any(axis=1))
     cell = interior_cells[len(interior_cells) // 2]
     inside = vol.points[vol.cells[cell]].mean(axis=0)
-    cam = Camera(eye=inside, target=inside + [1.0, 0.2, 0.0], fov=60, size=(16, 16))
+    cam = View(eye=inside, target=inside + [1.0, 0.2, 0.0], fov=60, size=(16, 16))
     sr = ShellRenderer(vol, cam)
     ext = sr.extrema
     interior = ext.nodes[~np.isin(ext.nodes, vol.boundary_face_nodes)]
@@ -391,19 +391,19 @@ def test_bad_input():
     with pytest.raises(RenderError, match="strictly ascending"):
         TransferFunction([1, 0], [[0, 0, 0], [1, 1, 1]], [0.2, 0.1])
     with pytest.raises(RenderError, match="at least one pixel"):
-        Camera(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), size=(0, 10))
+        View(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), size=(0, 10))
     with pytest.raises(RenderError, match="whole numbers"):
-        Camera(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), size=(10.5, 10))
+        View(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), size=(10.5, 10))
     with pytest.raises(RenderError, match="coincide"):
-        Camera(eye=(1, 1, 1), target=(1, 1, 1))
+        View(eye=(1, 1, 1), target=(1, 1, 1))
     with pytest.raises(RenderError, match="parallel"):
-        Camera(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 0, 1))
+        View(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 0, 1))
     with pytest.raises(RenderError, match="height > 0"):
-        Camera(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov=None)
+        View(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov=None)
     with pytest.raises(RenderError, match="fov"):
-        Camera(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov=180)
+        View(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov=180)
     vol = datasets.load("hollow_cube")
-    cam = Camera(eye=(-5, 1.5, 1.5), target=(0, 1.5, 1.5), size=(4, 4))
+    cam = View(eye=(-5, 1.5, 1.5), target=(0, 1.5, 1.5), size=(4, 4))
     rc = RayCaster(vol, "linear")
     for step in (0, -1, np.nan, "a"):
         with pytest.raises(RenderError, match="step"):

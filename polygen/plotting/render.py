@@ -29,7 +29,7 @@ class VtkUgridRayCaster:
     Parameters
     ----------
     vol : UnstructuredVolume
-    camera : polygen.volume.render.Camera
+    camera : polygen.volume.render.View
     tf : polygen.volume.render.TransferFunction
     field : str, optional
     background : float or (3,) float

@@ -9,18 +9,18 @@
   skeleton by the edge-centred construction, and they are drawn translucent
   far to near. A :class:`ShellRenderer` rebuilds the skeleton only when the
   eye moves.
-* :mod:`~polygen.volume.render.camera`, :mod:`~polygen.volume.render.transfer`:
+* :mod:`~polygen.volume.render.view`, :mod:`~polygen.volume.render.transfer`:
   the view and the transfer functions.
 """
 
-from polygen.volume.render.camera import Camera, RenderError
+from polygen.volume.render.view import View, RenderError
 from polygen.volume.render.raycast import RayCaster, RenderResult, boundary_triangles, raycast
 from polygen.volume.render.shells import ShellRenderer, Shells, eye_distance, psnr
 from polygen.volume.render.transfer import Lighting, TransferFunction
 
 __all__ = [
     "RenderError",
-    "Camera",
+    "View",
     "TransferFunction",
     "Lighting",
     "RenderResult",

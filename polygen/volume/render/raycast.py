@@ -9,11 +9,11 @@ import time
 import numpy as np
 
 from polygen.volume.render import _kernels as _k
-from polygen.volume.render.camera import Camera, RenderError
-from polygen.volume.render.transfer import Lighting, TransferFunction
+from polygen.volume.render.transfer import Lighting, check_tf
+from polygen.volume.render.view import RenderError, check_background, check_step, check_view
 from polygen.volume.surface import node_gradients
 
-__all__ = ["RenderResult", "RayCaster", "raycast", "boundary_triangles", "check_step"]
+__all__ = ["RenderResult", "RayCaster", "raycast", "boundary_triangles"]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -39,35 +39,6 @@ class RenderResult:
     entries: np.ndarray | None
     samples: np.ndarray
     seconds: dict
-
-
-def check_step(step):
-    try:
-        step = float(step)
-    except (TypeError, ValueError):
-        raise RenderError(f"step must be a number; got {step!r}") from None
-    if not (np.isfinite(step) and step > 0):
-        raise RenderError(f"step must be a length > 0; got {step!r}")
-    return step
-
-
-def _check_camera(camera):
-    if not isinstance(camera, Camera):
-        raise RenderError(f"camera must be a Camera; got {type(camera).__name__}")
-    return camera
-
-
-def _check_tf(tf):
-    if not isinstance(tf, TransferFunction):
-        raise RenderError(f"tf must be a TransferFunction; got {type(tf).__name__}")
-    return tf
-
-
-def _background(bg):
-    b = np.broadcast_to(np.asarray(bg, np.float64), (3,)).copy()
-    if not np.all(np.isfinite(b)):
-        raise RenderError(f"background must be finite; got {bg!r}")
-    return b
 
 
 def boundary_triangles(vol):
@@ -152,7 +123,7 @@ class RayCaster:
 
         Parameters
         ----------
-        camera : Camera
+        camera : View
         tf : TransferFunction
         step : float, keyword-only
             Sample spacing along each ray (samples at ``k * step`` from the eye).
@@ -164,9 +135,9 @@ class RayCaster:
         -------
         RenderResult
         """
-        camera, tf, step = _check_camera(camera), _check_tf(tf), check_step(step)
+        camera, tf, step = check_view(camera), check_tf(tf), check_step(step)
         e, energy, light, head, shade = (lighting or Lighting()).arrays()
-        bg = _background(background)
+        bg = check_background(background)
         t0 = time.perf_counter()
         offsets, items, origins, dirs, start = self._view(camera)
         t1 = time.perf_counter()

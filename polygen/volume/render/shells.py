@@ -28,9 +28,9 @@ import numpy as np
 
 from polygen.volume import methods as _methods
 from polygen.volume.render import _kernels as _k
-from polygen.volume.render.camera import Camera, RenderError
-from polygen.volume.render.raycast import RenderResult, _background, _check_camera, _check_tf, check_step
-from polygen.volume.render.transfer import Lighting
+from polygen.volume.render.raycast import RenderResult
+from polygen.volume.render.transfer import Lighting, check_tf
+from polygen.volume.render.view import RenderError, check_background, check_step, check_view
 from polygen.volume.surface import node_gradients
 
 __all__ = ["eye_distance", "psnr", "Shells", "ShellRenderer", "render_shells_pyvista"]
@@ -45,7 +45,7 @@ def eye_distance(vol, camera):
     distance itself is used here because it is what the samples are spaced
     in, and its linear interpolation in a cell is closer to the sphere.
     """
-    return _check_camera(camera).distance(vol.points)
+    return check_view(camera).distance(vol.points)
 
 
 def psnr(a, b, *, peak=1.0):
@@ -126,7 +126,7 @@ class ShellRenderer:
     Parameters
     ----------
     vol : UnstructuredVolume
-    camera : Camera
+    camera : View
     field : str or (N,) float64, optional
         The scalar to render (the volume's first field by default).
     seeds : str, keyword-only
@@ -165,7 +165,7 @@ class ShellRenderer:
 
     def set_camera(self, camera):
         """Use ``camera``; rebuild distance and skeleton only when the eye (the distance field) changes."""
-        camera = _check_camera(camera)
+        camera = check_view(camera)
         with self._lock:
             if self.camera is not None and self._eye_key(camera) == self._eye_key(self.camera):
                 self.camera = camera
@@ -273,7 +273,7 @@ class ShellRenderer:
             Spacing of the surfaces (the ray caster's sample spacing).
         lighting : Lighting, optional, keyword-only
         background : float or (3,) float, keyword-only
-        camera : Camera, optional, keyword-only
+        camera : View, optional, keyword-only
             A new view (:meth:`set_camera`).
 
         Returns
@@ -282,9 +282,9 @@ class ShellRenderer:
             ``seconds`` has ``skeleton`` (0 unless the eye moved in this
             call), ``shells``, ``fragments``, ``composite``, ``total``.
         """
-        tf, step = _check_tf(tf), check_step(step)
+        tf, step = check_tf(tf), check_step(step)
         e, energy, light, head, shade = (lighting or Lighting()).arrays()
-        bg = _background(background)
+        bg = check_background(background)
         with self._lock:
             t0 = time.perf_counter()
             moved = self.set_camera(camera) if camera is not None else False
@@ -321,9 +321,9 @@ def render_shells_pyvista(shells, camera, tf, *, lighting=None, background=0.0, 
     """
     import pyvista as pv
 
-    camera, tf = _check_camera(camera), _check_tf(tf)
+    camera, tf = check_view(camera), check_tf(tf)
     e, energy, light, head, shade = (lighting or Lighting()).arrays()
-    bg = _background(background)
+    bg = check_background(background)
     rgb, _ = tf(shells.scalars)
     alpha = np.interp(shells.scalars, tf.knots, tf.corrected(shells.step))
     if shade:

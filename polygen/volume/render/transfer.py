@@ -6,9 +6,9 @@ import dataclasses
 
 import numpy as np
 
-from polygen.volume.render.camera import RenderError
+from polygen.volume.render.view import RenderError
 
-__all__ = ["TransferFunction", "Lighting"]
+__all__ = ["TransferFunction", "Lighting", "check_tf"]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -98,7 +98,9 @@ class TransferFunction:
 
 @dataclasses.dataclass(frozen=True)
 class Lighting:
-    """The light of (7.2), ``c = E + (G . L) l r``.
+    """The light of (7.2): emission E, light energy l and direction L.
+
+    The colour of a sample is ``c = E + (G . L) l r``.
 
     Parameters
     ----------
@@ -138,3 +140,10 @@ class Lighting:
                 raise RenderError(f"light direction must be a non-zero 3-vector; got {self.direction!r}")
             light, head = light / np.linalg.norm(light), False
         return e, float(self.energy), light, head, bool(self.shade)
+
+
+def check_tf(tf):
+    """``tf`` if it is a :class:`TransferFunction`; :class:`RenderError` otherwise."""
+    if not isinstance(tf, TransferFunction):
+        raise RenderError(f"tf must be a TransferFunction; got {type(tf).__name__}")
+    return tf

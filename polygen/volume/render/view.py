@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["RenderError", "Camera"]
+__all__ = ["RenderError", "View", "check_view", "check_step", "check_background"]
 
 
 class RenderError(ValueError):
@@ -24,7 +24,7 @@ def _vec3(x, name):
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class Camera:
+class View:
     """An orthographic or perspective view of ``size = (width, height)`` pixels.
 
     Parameters
@@ -154,3 +154,30 @@ class Camera:
         f, r, u = self.basis()
         hw, hh = self.half_extent()
         return np.array(self.eye), f, r, u, hw, hh, self.size[0], self.size[1], self.ortho
+
+
+# ------------------------------------------------------------------ validation shared by the renderers
+def check_view(camera):
+    """``camera`` if it is a :class:`View`; :class:`RenderError` otherwise."""
+    if not isinstance(camera, View):
+        raise RenderError(f"camera must be a View; got {type(camera).__name__}")
+    return camera
+
+
+def check_step(step):
+    """``step`` as a float > 0 (the sample and surface spacing); :class:`RenderError` otherwise."""
+    try:
+        step = float(step)
+    except (TypeError, ValueError):
+        raise RenderError(f"step must be a number; got {step!r}") from None
+    if not (np.isfinite(step) and step > 0):
+        raise RenderError(f"step must be a length > 0; got {step!r}")
+    return step
+
+
+def check_background(bg):
+    """(3,) float64 background colour from a grey level or an RGB triple."""
+    b = np.broadcast_to(np.asarray(bg, np.float64), (3,)).copy()
+    if not np.all(np.isfinite(b)):
+        raise RenderError(f"background must be finite; got {bg!r}")
+    return b
