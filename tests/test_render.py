@@ -10,6 +10,8 @@ equi-distance rendering (PSNR >= 35 dB, the issue's requirement).
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from polygen.volume import UnstructuredVolume, datasets
 from polygen.volume.render import (
@@ -213,6 +215,20 @@ def test_walk_on_tiny_volumes_matches_brute_force(name):
     np.testing.assert_allclose(res.length.ravel(), _polyhedron_lengths(vol, origins, dirs), atol=1e-9)
 
 
+@settings(max_examples=30, deadline=None)
+@given(st.floats(0, 2 * np.pi), st.floats(-1.2, 1.2), st.floats(3.0, 12.0), st.sampled_from(["genus3", "genus3_hex"]))
+def test_walk_from_any_side_matches_brute_force(azimuth, elevation, distance, name):
+    vol = datasets.load(name)
+    c = vol.points.mean(axis=0)
+    eye = c + distance * np.array([np.cos(azimuth) * np.cos(elevation), np.sin(azimuth) * np.cos(elevation),
+                                   np.sin(elevation)])
+    up = (0, 0, 1) if abs(np.sin(elevation)) < 0.99 else (1, 0, 0)
+    cam = View(eye=eye, target=c, up=up, fov=50, size=(6, 5))
+    res = RayCaster(vol, "linear").render(cam, TF_FLAT, step=0.2)
+    origins, dirs = cam.rays()
+    np.testing.assert_allclose(res.length.ravel(), _polyhedron_lengths(vol, origins, dirs), atol=1e-9)
+
+
 def test_walk_on_curved_hexahedra_matches_brute_force():
     vol = datasets.load("hexa1")
     lo, hi = vol.points.min(0), vol.points.max(0)
@@ -316,9 +332,16 @@ def test_equi_distance_surfaces_agree_with_ray_casting_large(name):
 
 
 def test_orthographic_planes_are_exact_in_tetrahedra():
-    """The depth is linear, so its isosurfaces in a tetrahedron are exact planes: the samples coincide."""
+    """The depth is linear, so its isosurfaces in a tetrahedron are exact planes: the samples coincide.
+
+    Where a pixel has as many fragments as ray samples, its colour is the ray caster's up to
+    round-off; the counts may differ only where a sample sits on the boundary (round-off
+    decides whether it is in), which is a few pixels.
+    """
     value, ray, shell = _agreement("data1", 32, ortho=True)
-    assert value >= 60.0  # round-off and the odd pixel where a sample sits on the boundary
+    same = ray.samples == shell.samples
+    assert ray.samples.sum() > 1000 and (~same).sum() <= 0.01 * same.size
+    np.testing.assert_allclose(ray.image[same], shell.image[same], atol=1e-9)
 
 
 def test_surfaces_through_vtk_agree():

@@ -239,9 +239,17 @@ class ShellRenderer:
             return out
 
     def fragments(self, step):
-        """Where each pixel's ray crosses the surfaces: ``(offsets (P+1,), count (P,), data (F, 4))``.
+        """Where each pixel's ray crosses the surfaces, kept per view and spacing.
 
-        ``data`` rows are ``(S, Gx, Gy, Gz)``, nearest surface first; kept per view and spacing.
+        Returns
+        -------
+        offsets : (P+1,) int64
+            Pixel ``p``'s fragments are rows ``offsets[p] : offsets[p] + count[p]`` of ``data``.
+        count : (P,) int64
+        data : (F, 4) float64
+            ``(S, Gx, Gy, Gz)`` at each crossing, nearest surface first.
+        dirs : (P, 3) float64
+            The pixels' unit ray directions.
         """
         sh = self.shells(step)
         cam = self.camera
