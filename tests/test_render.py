@@ -186,6 +186,18 @@ def test_eye_inside_a_void(hollow_sphere):
     assert np.all(np.abs(res.length - (R_OUT - R_IN)) <= 2 * delta)
 
 
+def test_surfaces_around_an_eye_in_a_void(hollow_sphere):
+    """Eye in the void: the distance's minima lie on the void's surface, and the surfaces still match the rays."""
+    vol = hollow_sphere
+    cam = View(eye=(0.05, -0.02, 0.03), target=(1, 0.2, 0.1), fov=90, size=(24, 24))
+    step = 0.02
+    tf = TransferFunction([-1.0, 1.0], [[0.1, 0.2, 0.9], [0.9, 0.6, 0.1]], [0.2, 0.8], unit=0.1)
+    sr = ShellRenderer(vol, cam)
+    assert np.isin(sr.extrema.nodes, vol.boundary_face_nodes).all()
+    ray = RayCaster(vol).render(cam, tf, step=step)
+    assert psnr(ray.image, sr.render(tf, step=step).image) >= PSNR_MIN
+
+
 def test_eye_in_material_and_on_a_boundary_face():
     vol = datasets.load("hollow_cube")  # [0, 3]^3 minus the centre cube [1, 2]^3
     rc = RayCaster(vol, "linear")
