@@ -38,22 +38,32 @@ def _project(x, eye, fwd, right, up, half_w, half_h, width, height, ortho):
     return col, row, z
 
 
+@njit(parallel=True)
+def _project_all(pts, eye, fwd, right, up, half_w, half_h, width, height, ortho, out):
+    """Pixel coordinates and depth of every point into ``out (N, 3)``: ``(col, row, z)``."""
+    for i in prange(pts.shape[0]):
+        col, row, z = _project(pts[i], eye, fwd, right, up, half_w, half_h, width, height, ortho)
+        out[i, 0] = col
+        out[i, 1] = row
+        out[i, 2] = z
+
+
 @njit
-def _tri_box(pts, tri, eye, fwd, right, up, half_w, half_h, width, height, ortho):
-    """Inclusive pixel bounding box ``c0, c1, r0, r1`` of a triangle (empty when c0 > c1)."""
+def _tri_box(proj, tri, width, height, ortho):
+    """Inclusive box ``c0, c1, r0, r1`` of the pixel centres a projected triangle can cover (empty when c0 > c1)."""
     cmin = 1e300
     cmax = -1e300
     rmin = 1e300
     rmax = -1e300
     behind = False
     for k in range(3):
-        col, row, z = _project(pts[tri[k]], eye, fwd, right, up, half_w, half_h, width, height, ortho)
-        if not ortho and z <= 0.0:
+        q = proj[tri[k]]
+        if not ortho and q[2] <= 0.0:
             behind = True
-        cmin = min(cmin, col)
-        cmax = max(cmax, col)
-        rmin = min(rmin, row)
-        rmax = max(rmax, row)
+        cmin = min(cmin, q[0])
+        cmax = max(cmax, q[0])
+        rmin = min(rmin, q[1])
+        rmax = max(rmax, q[1])
     if behind:  # straddles the eye's plane: any pixel may see it
         return 0, width - 1, 0, height - 1
     # the pixel centres (integer coordinates) inside the box, widened by a hair against round-off
@@ -74,9 +84,11 @@ def bin_triangles(pts, tris, eye, fwd, right, up, half_w, half_h, width, height,
     """
     n = tris.shape[0]
     npix = width * height
+    proj = np.empty((pts.shape[0], 3))
+    _project_all(pts, eye, fwd, right, up, half_w, half_h, width, height, ortho, proj)
     counts = np.zeros(npix + 1, np.int64)
     for i in range(n):
-        c0, c1, r0, r1 = _tri_box(pts, tris[i], eye, fwd, right, up, half_w, half_h, width, height, ortho)
+        c0, c1, r0, r1 = _tri_box(proj, tris[i], width, height, ortho)
         for r in range(r0, r1 + 1):
             for c in range(c0, c1 + 1):
                 counts[r * width + c + 1] += 1
@@ -85,7 +97,7 @@ def bin_triangles(pts, tris, eye, fwd, right, up, half_w, half_h, width, height,
     items = np.empty(counts[npix], np.int64)
     fill = counts[:npix].copy()
     for i in range(n):
-        c0, c1, r0, r1 = _tri_box(pts, tris[i], eye, fwd, right, up, half_w, half_h, width, height, ortho)
+        c0, c1, r0, r1 = _tri_box(proj, tris[i], width, height, ortho)
         for r in range(r0, r1 + 1):
             for c in range(c0, c1 + 1):
                 p = r * width + c
@@ -436,8 +448,8 @@ def cast(pts, cells, faces, is_hex, nb, values, grads, btris, bcell, offsets, it
 
 # ------------------------------------------------------------------ equi-distance surfaces
 @njit(parallel=True)
-def fill_fragments(pts, tris, tri_shell, vs, vg, offsets, items, origins, dirs, frag_shell, frag_sg, frag_n):
-    """The fragments of each pixel, nearest shell first: shell index, S and gradient at the hit.
+def fill_fragments(pts, tris, tri_shell, vs, vg, offsets, items, origins, dirs, frag_sg, frag_n):
+    """The fragments of each pixel, nearest shell first: S and gradient at the hit.
 
     Pixel ``p``'s fragments go to rows ``offsets[p]:offsets[p] + frag_n[p]``
     (a pixel has at most as many as triangles binned to it).
@@ -462,7 +474,6 @@ def fill_fragments(pts, tris, tri_shell, vs, vg, offsets, items, origins, dirs, 
             if t > 0.0 and tri_shell[i] != last:
                 last = tri_shell[i]
                 w0 = 1.0 - u - v
-                frag_shell[n] = last
                 frag_sg[n, 0] = w0 * vs[a] + u * vs[b] + v * vs[c]
                 for ch in range(3):
                     frag_sg[n, 1 + ch] = w0 * vg[a, ch] + u * vg[b, ch] + v * vg[c, ch]

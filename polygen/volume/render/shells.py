@@ -261,11 +261,10 @@ class ShellRenderer:
             origins, dirs = cam.rays()
             eye, f, r, u, hw, hh, w, h, ortho = cam._kernel_args()
             offsets, items = _k.bin_triangles(sh.vertices, sh.triangles, eye, f, r, u, hw, hh, w, h, ortho)
-            frag_shell = np.empty(items.shape[0], np.int64)
             frag_sg = np.empty((items.shape[0], 4))
             frag_n = np.empty(origins.shape[0], np.int64)
             _k.fill_fragments(sh.vertices, sh.triangles, sh.shell, sh.scalars, sh.gradients, offsets, items, origins,
-                              dirs, frag_shell, frag_sg, frag_n)
+                              dirs, frag_sg, frag_n)
             frag_off = offsets
             got = (frag_off, frag_n, frag_sg, dirs)
             self._fragments[key] = got
