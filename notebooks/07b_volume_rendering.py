@@ -262,7 +262,9 @@ print(f"PSNR ours vs VTK: {psnr(flat.image, img_vtk):.1f} dB")
 tf2 = ramp(vol4, diag4, "magma", 0.5, 0.05)
 rows, before = [], shell4.rebuilds
 t0 = time.perf_counter(); rc4.render(cam4, tf2, step=step4); t_cast = time.perf_counter() - t0
+work = (shell4.shell_builds, shell4.fragment_builds)
 r = shell4.render(tf2, step=step4)
+work = (shell4.shell_builds - work[0], shell4.fragment_builds - work[1])
 rows.append({"change": "transfer function", "seconds": r.seconds["total"], "skeleton rebuilt": shell4.rebuilds - before})
 r = shell4.render(tf2, step=step4 / 2)
 rows.append({"change": "2x surfaces", "seconds": r.seconds["total"], "skeleton rebuilt": shell4.rebuilds - before})
@@ -272,7 +274,9 @@ rows.append({"change": "eye moved", "seconds": r.seconds["total"], "skeleton reb
 rows.append({"change": "ray casting again (any change)", "seconds": t_cast, "skeleton rebuilt": "-"})
 print(plotting.table(rows, ["change", "seconds", "skeleton rebuilt"]))
 assert [r["skeleton rebuilt"] for r in rows[:3]] == [0, 0, 1]
-assert rows[0]["seconds"] < t_cast   # a transfer-function change: faster than casting again
+# a transfer-function change rebuilds nothing: no skeleton, no surfaces, no ray crossings --
+# only (7.1) runs again (how much faster that is on this machine: benchmarks/results/render.md)
+assert work == (0, 0)
 
 # %% [markdown]
 # ## Transfer-function editor and surface count

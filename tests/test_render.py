@@ -379,14 +379,17 @@ def test_shell_renderer_contract():
     tf1 = TransferFunction.ramp(s.min(), s.max(), opacity=(0.0, 0.5), unit=step)
     tf2 = TransferFunction.ramp(s.min(), s.max(), cmap="magma", opacity=(0.4, 0.0), unit=step)
     a = sr.render(tf1, step=step)
+    assert (sr.shell_builds, sr.fragment_builds) == (1, 1)
     b = sr.render(tf2, step=step)
     assert sr.rebuilds == 1 and b.seconds["shells"] == 0.0 and b.seconds["skeleton"] == 0.0
+    assert (sr.shell_builds, sr.fragment_builds) == (1, 1)  # a new transfer function only composites
     assert not np.allclose(a.image, b.image)
     np.testing.assert_allclose(sr.render(tf1, step=step).image, a.image)
     # turning the camera about its eye keeps skeleton and surfaces
     turned = cam.replace(target=tuple(np.array(cam.target) + [0.3, 0.0, 0.1]))
     c = sr.render(tf1, step=step, camera=turned)
     assert sr.rebuilds == 1 and c.seconds["shells"] == 0.0
+    assert (sr.shell_builds, sr.fragment_builds) == (1, 2)  # new crossings for the new view
     assert psnr(c.image, RayCaster(vol).render(turned, tf1, step=step).image) >= PSNR_MIN
     # another spacing: new surfaces from the same skeleton
     sr.render(tf1, step=step * 2)

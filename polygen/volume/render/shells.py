@@ -142,6 +142,10 @@ class ShellRenderer:
         Seconds the last eye took (distance, extrema, skeleton, incidence tables).
     rebuilds : int
         How many times the skeleton was built.
+    shell_builds, fragment_builds : int
+        How many times a spacing's surfaces were extracted, and a view's
+        fragments (ray-surface crossings) computed: counters of the work a
+        call did, for checks that do not depend on the machine's speed.
     """
 
     def __init__(self, vol, camera, field=None, *, seeds="thinning"):
@@ -154,6 +158,8 @@ class ShellRenderer:
         self.grads = np.ascontiguousarray(node_gradients(vol, self.values))
         self.seeds = seeds
         self.rebuilds = 0
+        self.shell_builds = 0
+        self.fragment_builds = 0
         self._lock = threading.RLock()
         self.camera = None
         self.set_camera(camera)
@@ -236,6 +242,7 @@ class ShellRenderer:
                          triangles_per_shell=np.array(per, np.int64), cells_tested=int(tested),
                          seconds=time.perf_counter() - t0)
             self._shells[step] = out
+            self.shell_builds += 1
             return out
 
     def fragments(self, step):
@@ -268,6 +275,7 @@ class ShellRenderer:
             frag_off = offsets
             got = (frag_off, frag_n, frag_sg, dirs)
             self._fragments[key] = got
+            self.fragment_builds += 1
             return got
 
     def render(self, tf, *, step, lighting=None, background=0.0, camera=None):
