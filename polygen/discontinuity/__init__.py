@@ -1,0 +1,1 @@
+"""Chapter 3: simplified discontinuity meshing with shadow polyhedra."""

@@ -1,0 +1,343 @@
+"""The receiver complex of simplified discontinuity meshing (thesis 3.3.2, Defs 3.6-3.10).
+
+A receiver polygon and the discontinuity lines drawn on it are held as a
+non-manifold complex (Fig. 3.8):
+
+* **vertices** (Def. 3.6): the polygon's vertices and the end points of
+  discontinuity edges, with the edges that end there;
+* **edges** (Def. 3.7): ring edges of the polygon (kind ``BOUNDARY``, one
+  loop, Def. 3.10) and discontinuity edges (``D0``/``D1``, two loops);
+* **loops** (Def. 3.8): closed chains of *signed edge uses* (half-edges,
+  ``h = 2 * e + d``, ``d = 0`` from ``edges[e, 0]`` to ``edges[e, 1]``,
+  ``d = 1`` the other way) with the region they bound on their left;
+* **faces** (Def. 3.9): one counter-clockwise outer loop and any number of
+  clockwise hole loops.
+
+The complex stores its geometry in growing numpy arrays (read by the numba
+kernels of :mod:`polygen.discontinuity.walk`) and its loops as lists of
+half-edges.  It is built and updated by :func:`polygen.discontinuity.states.
+receiver_complex`; :meth:`ReceiverComplex.check` verifies every topological
+invariant the tests rely on.  Coordinates are held relative to the centre of
+the receiver's bounding box (an exact shift back on output), so that a
+receiver far from its frame's origin keeps its precision.
+
+Not thread-safe: one complex is updated by one caller at a time.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from polygen.mesh2d.domain import InvalidDomainError, validate_domain
+from polygen.mesh2d.pslg import BOUNDARY, D0, D1
+
+__all__ = ["ComplexError", "ReceiverComplex", "BOUNDARY", "D0", "D1"]
+
+
+class ComplexError(ValueError):
+    """A receiver or section the complex cannot take, or a broken invariant (says which)."""
+
+
+def _grow(a, n):
+    if n <= len(a):
+        return a
+    out = np.empty((max(n, 2 * len(a)),) + a.shape[1:], dtype=a.dtype)
+    out[:len(a)] = a
+    return out
+
+
+class ReceiverComplex:
+    """Vertices, edges, loops and faces of one receiver polygon (Defs 3.6-3.9).
+
+    Parameters
+    ----------
+    outer : (K, 2) array_like
+        The receiver's outer ring in its own 2-D frame (either orientation).
+    holes : sequence of (K_h, 2) array_like
+        Its holes (they may touch each other or the outer ring at vertices).
+    n_lights : int, keyword-only
+        Number of lights: the width of the illumination-state table.
+    tol : float, keyword-only
+        Snapping tolerance relative to the receiver's extent: a point within
+        ``tol * extent`` of a vertex is that vertex, of an edge lies on it.
+
+    Attributes
+    ----------
+    eps : float
+        The absolute tolerance.
+    origin : (2,) float64
+        The shift subtracted from every coordinate held.
+    n_receiver_holes : int
+    counters : dict
+        ``point_in_loop`` (point-in-loop tests), ``edge_tests`` (segment-edge
+        intersection tests), ``state_tests`` (region-in-section tests),
+        ``sections`` (sections inserted), ``splits`` (edges split),
+        ``loops_traced``, ``loops_deleted``.
+    """
+
+    def __init__(self, outer, holes=(), *, n_lights=1, tol=1e-6):
+        try:
+            dom = validate_domain(outer, holes, allow_touching=True)
+        except InvalidDomainError as exc:
+            raise ComplexError(f"receiver: {exc}") from None
+        if int(n_lights) != n_lights or n_lights < 0:
+            raise ComplexError(f"n_lights must be a non-negative integer, got {n_lights!r}")
+        if not (0 < tol < 1e-2):
+            raise ComplexError(f"tol must be in (0, 1e-2), got {tol!r}")
+        lo, hi = dom.outer.min(axis=0), dom.outer.max(axis=0)
+        self.origin = 0.5 * (lo + hi)
+        self.extent = float((hi - lo).max())
+        self.eps = float(tol) * self.extent
+        self.tol = float(tol)
+        self.n_lights = int(n_lights)
+        self.n_receiver_holes = len(dom.holes)
+        self.counters = dict(point_in_loop=0, edge_tests=0, state_tests=0, sections=0, splits=0,
+                             loops_traced=0, loops_deleted=0)
+        # geometry (growing arrays)
+        self.xy = np.empty((64, 2))
+        self.nv = 0
+        self.ev = np.empty((64, 2), np.int64)
+        self.ekind = np.empty(64, np.int8)
+        self.ne = 0
+        self.hloop = []          # loop of each half-edge (-1: outside the receiver, or not yet traced)
+        self.vedges = []         # incident edges per vertex
+        self.boundary_edges = []  # ring edges (their outside half has no loop)
+        # loops and faces
+        self.loops = []          # list of half-edge lists (None when deleted)
+        self.loop_face = []
+        self.loop_area = []
+        self.loop_box = []
+        self.face_outer = []     # outer loop per face (-1 when deleted)
+        self.face_holes = []
+        self.face_state = []     # per face: list of n_lights states
+        rings = [dom.outer - self.origin] + [h - self.origin for h in dom.holes]
+        face = self._new_face(None)
+        for r in rings:
+            vs = [self.add_vertex(p) for p in r]
+            hs = []
+            for i in range(len(vs)):
+                e = self.add_edge(vs[i], vs[(i + 1) % len(vs)], BOUNDARY)
+                self.boundary_edges.append(e)
+                hs.append(2 * e)
+            loop = self._new_loop(hs, face)
+            if loop == 0:
+                self.face_outer[face] = loop
+            else:
+                self.face_holes[face].append(loop)
+
+    # ------------------------------------------------------------------ growth
+    def add_vertex(self, p):
+        self.xy = _grow(self.xy, self.nv + 1)
+        self.xy[self.nv] = p
+        self.vedges.append([])
+        self.nv += 1
+        return self.nv - 1
+
+    def add_edge(self, a, b, kind):
+        self.ev = _grow(self.ev, self.ne + 1)
+        self.ekind = _grow(self.ekind, self.ne + 1)
+        self.ev[self.ne] = (a, b)
+        self.ekind[self.ne] = kind
+        self.hloop += [-1, -1]
+        self.vedges[a].append(self.ne)
+        self.vedges[b].append(self.ne)
+        self.ne += 1
+        return self.ne - 1
+
+    def split_edge(self, e, p):
+        """Split edge ``e`` at the new vertex ``p``; the loops using it follow.  Returns the vertex."""
+        a, b = (int(i) for i in self.ev[e])
+        x = self.add_vertex(p)
+        e2 = self.add_edge(x, b, int(self.ekind[e]))
+        self.ev[e, 1] = x
+        self.vedges[b].remove(e)
+        self.vedges[x].insert(0, e)
+        fwd, rev = self.hloop[2 * e], self.hloop[2 * e + 1]
+        self.hloop[2 * e2], self.hloop[2 * e2 + 1] = fwd, rev
+        if fwd >= 0:
+            hs = self.loops[fwd]
+            hs.insert(hs.index(2 * e) + 1, 2 * e2)
+        if rev >= 0:
+            hs = self.loops[rev]
+            hs.insert(hs.index(2 * e + 1), 2 * e2 + 1)
+        if self.ekind[e] == BOUNDARY:
+            self.boundary_edges.append(e2)
+        self.counters["splits"] += 1
+        return x
+
+    def _new_loop(self, hs, face):
+        lid = len(self.loops)
+        self.loops.append(hs)
+        for h in hs:
+            self.hloop[h] = lid
+        pts = self.xy[[self.origin_of(h) for h in hs]]
+        self.loop_area.append(_ring_area(pts))
+        self.loop_box.append((*pts.min(axis=0), *pts.max(axis=0)))
+        self.loop_face.append(face)
+        return lid
+
+    def _new_face(self, state):
+        self.face_outer.append(-1)
+        self.face_holes.append([])
+        self.face_state.append([0] * self.n_lights if state is None else list(state))
+        return len(self.face_outer) - 1
+
+    # ------------------------------------------------------------------ queries
+    def origin_of(self, h):
+        return int(self.ev[h >> 1, h & 1])
+
+    def dest_of(self, h):
+        return int(self.ev[h >> 1, 1 - (h & 1)])
+
+    def face_edges(self, f):
+        """Edge ids of face ``f``'s loops (``f = -1``: the receiver's ring edges)."""
+        if f < 0:
+            return list(self.boundary_edges)
+        out = [h >> 1 for h in self.loops[self.face_outer[f]]]
+        for lp in self.face_holes[f]:
+            out.extend(h >> 1 for h in self.loops[lp])
+        return out
+
+    @property
+    def alive_faces(self):
+        return [f for f, o in enumerate(self.face_outer) if o >= 0]
+
+    @property
+    def alive_loops(self):
+        return [i for i, hs in enumerate(self.loops) if hs is not None]
+
+    @property
+    def vertices(self):
+        """(V, 2) float64 vertex coordinates in the receiver's frame."""
+        return self.xy[:self.nv] + self.origin
+
+    @property
+    def edges(self):
+        """(E, 2) int64 vertex pairs."""
+        return self.ev[:self.ne].copy()
+
+    @property
+    def edge_kind(self):
+        """(E,) int8: ``BOUNDARY``, ``D0`` or ``D1``."""
+        return self.ekind[:self.ne].copy()
+
+    @property
+    def edge_loops(self):
+        """(E, 2) int64: the loop using each edge forwards and backwards (-1: none)."""
+        return np.asarray(self.hloop, dtype=np.int64).reshape(-1, 2)
+
+    def loop_vertices(self, lp):
+        """(k, 2) float64 vertices of loop ``lp`` in order (receiver frame)."""
+        return self.xy[[self.origin_of(h) for h in self.loops[lp]]] + self.origin
+
+    def face_rings(self, f):
+        """``(outer (k, 2), [holes (k_h, 2)])`` of face ``f`` in the receiver's frame."""
+        return self.loop_vertices(self.face_outer[f]), [self.loop_vertices(h) for h in self.face_holes[f]]
+
+    def face_states(self):
+        """(F, n_lights) int8 states of the alive faces (in :attr:`alive_faces` order)."""
+        fs = self.alive_faces
+        return np.array([self.face_state[f] for f in fs], dtype=np.int8).reshape(len(fs), self.n_lights)
+
+    def loop_states(self):
+        """(L, n_lights) int8 per loop (all loops ever made): an outer loop carries its face's
+        states (Fig. 3.10), a hole or a deleted loop 0."""
+        out = np.zeros((len(self.loops), self.n_lights), np.int8)
+        for f in self.alive_faces:
+            out[self.face_outer[f]] = self.face_state[f]
+        return out
+
+    def euler(self):
+        """``(V, E, F, L)`` counts of the alive complex (vertices with an edge)."""
+        V = sum(1 for v in range(self.nv) if self.vedges[v])
+        return V, self.ne, len(self.alive_faces), len(self.alive_loops)
+
+    # ------------------------------------------------------------------ invariants
+    def check(self):
+        """Verify the complex; raise :class:`ComplexError` naming the first broken invariant.
+
+        * every loop is a closed chain of half-edges, each half-edge in the
+          loop its table says;
+        * a ring edge is used by exactly one loop side (the inside), a
+          discontinuity edge by exactly two (Def. 3.10);
+        * outer loops are counter-clockwise, holes clockwise (Def. 3.9), and
+          a face's area (outer minus holes) is positive;
+        * the face areas add up to the receiver's area;
+        * Euler-Poincare for a planar complex whose faces have holes:
+          ``V - E + F - H = 1 - (receiver holes)``, ``H`` the hole loops;
+          and the connected components of the edge graph number ``1 + H``.
+        """
+        alive = self.alive_loops
+        for lp in alive:
+            hs = self.loops[lp]
+            for i, h in enumerate(hs):
+                if self.hloop[h] != lp:
+                    raise ComplexError(f"loop {lp}: half-edge {h} is recorded in loop {self.hloop[h]}")
+                if self.dest_of(h) != self.origin_of(hs[(i + 1) % len(hs)]):
+                    raise ComplexError(f"loop {lp}: not a closed chain at half-edge {h}")
+        bset = set(self.boundary_edges)
+        for e in range(self.ne):
+            used = (self.hloop[2 * e] >= 0) + (self.hloop[2 * e + 1] >= 0)
+            if e in bset:
+                if self.ekind[e] != BOUNDARY or self.hloop[2 * e] < 0 or self.hloop[2 * e + 1] >= 0:
+                    raise ComplexError(f"ring edge {e}: must be used forwards by exactly one loop")
+            elif used != 2:
+                raise ComplexError(f"discontinuity edge {e}: used by {used} loop sides, not 2")
+            for h in (2 * e, 2 * e + 1):
+                lp = self.hloop[h]
+                if lp >= 0 and (self.loops[lp] is None or h not in self.loops[lp]):
+                    raise ComplexError(f"half-edge {h}: its loop {lp} is deleted or does not hold it")
+        total = 0.0
+        n_holes = 0
+        for f in self.alive_faces:
+            o = self.face_outer[f]
+            if self.loop_area[o] <= 0:
+                raise ComplexError(f"face {f}: outer loop {o} is not counter-clockwise")
+            a = self.loop_area[o]
+            for h in self.face_holes[f]:
+                if self.loop_area[h] >= 0:
+                    raise ComplexError(f"face {f}: hole loop {h} is not clockwise")
+                a += self.loop_area[h]
+                n_holes += 1
+            if a <= 0:
+                raise ComplexError(f"face {f}: area {a:.3g} is not positive")
+            total += a
+        owned = sum(1 + len(self.face_holes[f]) for f in self.alive_faces)
+        if owned != len(alive):
+            raise ComplexError(f"{len(alive)} loops but faces hold {owned}")
+        ref = self.loop_area[0] + sum(self.loop_area[i] for i in range(1, 1 + self.n_receiver_holes))
+        if abs(total - ref) > 1e-9 * abs(ref) + 10 * self.eps * self.extent:
+            raise ComplexError(f"face areas add up to {total!r}, the receiver's is {ref!r}")
+        V, E, F, L = self.euler()
+        if V - E + F - n_holes != 1 - self.n_receiver_holes:
+            raise ComplexError(f"Euler-Poincare: V - E + F - H = {V} - {E} + {F} - {n_holes} "
+                               f"!= 1 - {self.n_receiver_holes}")
+        if _components(self.ev[:self.ne], self.nv, [v for v in range(self.nv) if self.vedges[v]]) != 1 + n_holes:
+            raise ComplexError("connected components of the edges != 1 + hole loops")
+
+
+def _ring_area(pts):
+    x, y = pts[:, 0] - pts[0, 0], pts[:, 1] - pts[0, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def _components(ev, nv, used):
+    parent = list(range(nv))
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for a, b in ev:
+        ra, rb = find(int(a)), find(int(b))
+        if ra != rb:
+            parent[ra] = rb
+    return len({find(v) for v in used})
+
+
+def _angle(dx, dy):
+    return math.atan2(dy, dx)
