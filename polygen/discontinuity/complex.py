@@ -26,10 +26,9 @@ Not thread-safe: one complex is updated by one caller at a time.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from polygen._jit import njit
 from polygen.mesh2d.domain import InvalidDomainError, validate_domain
 from polygen.mesh2d.pslg import BOUNDARY, D0, D1
 
@@ -108,10 +107,11 @@ class ReceiverComplex:
         self.loops = []          # list of half-edge lists (None when deleted)
         self.loop_face = []
         self.loop_area = []
-        self.loop_box = []
-        self.face_outer = []     # outer loop per face (-1 when deleted)
+        self.loop_box = np.empty((64, 4))   # (xmin, ymin, xmax, ymax) per loop
+        self.face_outer = np.empty(64, np.int64)  # outer loop per face (-1 when deleted)
         self.face_holes = []
-        self.face_state = []     # per face: list of n_lights states
+        self.face_state = np.empty((64, self.n_lights), np.int8)
+        self.nf = 0
         rings = [dom.outer - self.origin] + [h - self.origin for h in dom.holes]
         face = self._new_face(None)
         for r in rings:
@@ -172,17 +172,21 @@ class ReceiverComplex:
         self.loops.append(hs)
         for h in hs:
             self.hloop[h] = lid
-        pts = self.xy[[self.origin_of(h) for h in hs]]
-        self.loop_area.append(_ring_area(pts))
-        self.loop_box.append((*pts.min(axis=0), *pts.max(axis=0)))
+        ids = np.fromiter((self.origin_of(h) for h in hs), dtype=np.int64, count=len(hs))
+        self.loop_box = _grow(self.loop_box, lid + 1)
+        self.loop_area.append(_area_box(self.xy, ids, self.loop_box[lid]))
         self.loop_face.append(face)
         return lid
 
     def _new_face(self, state):
-        self.face_outer.append(-1)
+        f = self.nf
+        self.face_outer = _grow(self.face_outer, f + 1)
+        self.face_state = _grow(self.face_state, f + 1)
+        self.face_outer[f] = -1
+        self.face_state[f] = 0 if state is None else state
         self.face_holes.append([])
-        self.face_state.append([0] * self.n_lights if state is None else list(state))
-        return len(self.face_outer) - 1
+        self.nf += 1
+        return f
 
     # ------------------------------------------------------------------ queries
     def origin_of(self, h):
@@ -202,7 +206,8 @@ class ReceiverComplex:
 
     @property
     def alive_faces(self):
-        return [f for f, o in enumerate(self.face_outer) if o >= 0]
+        """(F,) int64 ids of the faces not superseded."""
+        return np.flatnonzero(self.face_outer[:self.nf] >= 0)
 
     @property
     def alive_loops(self):
@@ -238,15 +243,14 @@ class ReceiverComplex:
 
     def face_states(self):
         """(F, n_lights) int8 states of the alive faces (in :attr:`alive_faces` order)."""
-        fs = self.alive_faces
-        return np.array([self.face_state[f] for f in fs], dtype=np.int8).reshape(len(fs), self.n_lights)
+        return self.face_state[self.alive_faces].copy()
 
     def loop_states(self):
         """(L, n_lights) int8 per loop (all loops ever made): an outer loop carries its face's
         states (Fig. 3.10), a hole or a deleted loop 0."""
         out = np.zeros((len(self.loops), self.n_lights), np.int8)
-        for f in self.alive_faces:
-            out[self.face_outer[f]] = self.face_state[f]
+        fs = self.alive_faces
+        out[self.face_outer[fs]] = self.face_state[fs]
         return out
 
     def euler(self):
@@ -318,9 +322,29 @@ class ReceiverComplex:
             raise ComplexError("connected components of the edges != 1 + hole loops")
 
 
-def _ring_area(pts):
-    x, y = pts[:, 0] - pts[0, 0], pts[:, 1] - pts[0, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+@njit
+def _area_box(xy, ids, box):
+    """Signed area of the ring through ``xy[ids]`` (shoelace, relative to its first vertex);
+    its bounding box is written into ``box``."""
+    x0 = xy[ids[0], 0]
+    y0 = xy[ids[0], 1]
+    box[0] = x0
+    box[1] = y0
+    box[2] = x0
+    box[3] = y0
+    a = 0.0
+    n = ids.shape[0]
+    for i in range(n):
+        x1 = xy[ids[i], 0]
+        y1 = xy[ids[i], 1]
+        x2 = xy[ids[(i + 1) % n], 0] - x0
+        y2 = xy[ids[(i + 1) % n], 1] - y0
+        a += (x1 - x0) * y2 - (y1 - y0) * x2
+        box[0] = min(box[0], x1)
+        box[1] = min(box[1], y1)
+        box[2] = max(box[2], x1)
+        box[3] = max(box[3], y1)
+    return 0.5 * a
 
 
 def _components(ev, nv, used):
@@ -337,7 +361,3 @@ def _components(ev, nv, used):
         if ra != rb:
             parent[ra] = rb
     return len({find(v) for v in used})
-
-
-def _angle(dx, dy):
-    return math.atan2(dy, dx)

@@ -28,6 +28,7 @@ it errs on the side of finer meshing).
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -64,24 +65,45 @@ def update_states(cx, ring, light, value):
     eps = cx.eps
     lo = ring.min(axis=0) - eps
     hi = ring.max(axis=0) + eps
-    a = ring
-    d = np.roll(ring, -1, axis=0) - ring
-    ln = np.hypot(d[:, 0], d[:, 1])
+    fs = cx.alive_faces
+    box = cx.loop_box[cx.face_outer[fs]]
+    # faces already at least this dark for the light need no test
+    fs = fs[(box[:, 0] >= lo[0]) & (box[:, 1] >= lo[1]) & (box[:, 2] <= hi[0]) & (box[:, 3] <= hi[1])
+            & (cx.face_state[fs, light] < value)]
     n_in = 0
-    for f in cx.alive_faces:
-        o = cx.face_outer[f]
-        bx = cx.loop_box[o]
-        if bx[0] < lo[0] or bx[1] < lo[1] or bx[2] > hi[0] or bx[3] > hi[1]:
-            continue
+    for f in fs:
         cx.counters["state_tests"] += 1
-        p = cx.xy[[cx.origin_of(h) for h in cx.loops[o]]]
-        cross = d[None, :, 0] * (p[:, None, 1] - a[None, :, 1]) - d[None, :, 1] * (p[:, None, 0] - a[None, :, 0])
-        if np.all(cross >= -eps * ln[None, :]):
-            st = cx.face_state[f]
-            if st[light] < value:
-                st[light] = value
+        if _face_inside(cx, int(cx.face_outer[f]), ring, eps):
+            cx.face_state[f, light] = value
             n_in += 1
     return n_in
+
+
+def _face_inside(cx, o, ring, eps):
+    """Whether the face with outer loop ``o`` lies inside the convex ``ring``.
+
+    The section's boundary is in the complex, so a face is wholly inside or
+    wholly outside: the first outer-loop vertex strictly inside or strictly
+    outside decides; a loop with every vertex on the ring's boundary lies
+    inside (its vertices are on a convex curve).
+    """
+    n = len(ring)
+    for h in cx.loops[o]:
+        v = cx.origin_of(h)
+        px, py = cx.xy[v, 0], cx.xy[v, 1]
+        worst = np.inf
+        for i in range(n):
+            ax, ay = ring[i]
+            bx, by = ring[(i + 1) % n]
+            dx, dy = bx - ax, by - ay
+            d = (dx * (py - ay) - dy * (px - ax)) / math.hypot(dx, dy)
+            if d < worst:
+                worst = d
+        if worst < -eps:
+            return False
+        if worst > eps:
+            return True
+    return True
 
 
 def _as_section(s, i):
@@ -172,11 +194,8 @@ def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-6, c
             cx.counters["sections"] += 1
             if check:
                 cx.check()
-    for f in cx.alive_faces:
-        st = cx.face_state[f]
-        for k in range(n_lights):
-            if st[k] == UNPROCESSED:
-                st[k] = BRIGHT
+    fs = cx.face_state[:cx.nf]
+    fs[fs == UNPROCESSED] = BRIGHT
     cx.timings = timings
     return cx
 

@@ -221,11 +221,11 @@ def locate_point(cx, p):
     px, py = float(p[0]), float(p[1])
     eps = cx.eps
     found = -1
-    for f in cx.alive_faces:
-        o = cx.face_outer[f]
-        bx = cx.loop_box[o]
-        if not (bx[0] - eps <= px <= bx[2] + eps and bx[1] - eps <= py <= bx[3] + eps):
-            continue
+    fs = cx.alive_faces
+    bx = cx.loop_box[cx.face_outer[fs]]
+    fs = fs[(bx[:, 0] - eps <= px) & (px <= bx[:, 2] + eps) & (bx[:, 1] - eps <= py) & (py <= bx[:, 3] + eps)]
+    for f in fs:
+        o = int(cx.face_outer[f])
         cx.counters["point_in_loop"] += 1
         if not _in_ring(cx.xy, _ring(cx, o), px, py):
             continue
@@ -239,7 +239,7 @@ def locate_point(cx, p):
                 in_hole = True
                 break
         if not in_hole:
-            found = f
+            found = int(f)
             break
     edges = np.asarray(cx.face_edges(found), dtype=np.int64)
     cx.counters["edge_tests"] += len(edges)
