@@ -92,6 +92,7 @@ class ReceiverComplex:
         self.tol = float(tol)
         self.n_lights = int(n_lights)
         self.n_receiver_holes = len(dom.holes)
+        self.t_idd = 0.0  # seconds spent intersecting section edges with existing edges (T_idd)
         self.counters = dict(point_in_loop=0, edge_tests=0, state_tests=0, sections=0, splits=0,
                              loops_traced=0, loops_deleted=0)
         # geometry (growing arrays)

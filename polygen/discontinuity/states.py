@@ -196,6 +196,9 @@ def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-6, c
                 cx.check()
     fs = cx.face_state[:cx.nf]
     fs[fs == UNPROCESSED] = BRIGHT
+    # the walk interleaves both: T_idd is the time in the segment-edge intersection kernel
+    timings["T_idd"] = cx.t_idd
+    timings["T_isr"] -= cx.t_idd
     cx.timings = timings
     return cx
 

@@ -24,6 +24,7 @@ face's edges, point in loop) are numba kernels.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -94,8 +95,8 @@ def _nearest_hit(xy, ev, edges, cur_v, cx, cy, qx, qy, eps):
                     be = e
                     bex = px
                     bey = py
-        else:
-            # q itself within eps of the edge's interior
+        if L < be_s:
+            # q itself within eps of the edge's interior (also when the lines cross past q)
             ex = bx - ax
             ey = by - ay
             le2 = ex * ex + ey * ey
@@ -368,8 +369,10 @@ def _walk_segment(cx, cur_v, cur_f, cur_p, q, q_v, kind, new, newset, edge_face)
         cp = cx.xy[cur_v] if cur_v >= 0 else cur_p
         edges = np.asarray(cx.face_edges(f), dtype=np.int64)
         cx.counters["edge_tests"] += len(edges)
+        t0 = time.perf_counter()
         hk, idx, s, px, py = _nearest_hit(cx.xy, cx.ev, edges, cur_v, float(cp[0]), float(cp[1]),
                                           float(q[0]), float(q[1]), eps)
+        cx.t_idd += time.perf_counter() - t0
         L = math.hypot(q[0] - cp[0], q[1] - cp[1])
         if hk == _NONE:
             if f >= 0:
