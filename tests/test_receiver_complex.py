@@ -162,7 +162,8 @@ def test_fig_3_9_walk():
     assert len(cx.alive_faces) == 3
     before = dict(cx.counters)
     tri = np.array([[0.2, 0.3], [0.9, 0.5], [0.2, 0.7]])  # V1, V4, V5
-    new, edge_face = insert_section(cx, clean_ring(tri - cx.origin, cx.eps), 1)
+    new, edge_face, snapped = insert_section(cx, clean_ring(tri - cx.origin, cx.eps), 1)
+    assert snapped == []
     c = {k: cx.counters[k] - before[k] for k in before}
     assert (c["point_in_loop"], c["edge_tests"], c["splits"]) == (1, 42, 4)
     # new edges V1V2, V2V3, V3V4, V4V6, V6V7, V7V5, V5V1, drawn in L1, L2, L3, L3, L2, L1, L1
@@ -202,7 +203,7 @@ def test_fig_3_13_loops_replaced_by_traced_ones():
 
     o3 = clean_ring(rect(0.2, 0.25, 0.9, 0.7) - cx.origin, cx.eps)
     alive_before = set(cx.alive_loops)
-    new, ef = insert_section(cx, o3, 2)
+    new, ef, _ = insert_section(cx, o3, 2)
     table, created, deleted = rebuild_loops(cx, new, ef)
     cx.check()
     assert all(l_ >= 0 and r >= 0 for l_, r in table.values())
@@ -255,3 +256,26 @@ def test_bad_sections_are_named(bad, match):
 def test_bad_receiver():
     with pytest.raises(ComplexError, match="receiver"):
         ReceiverComplex(np.array([[0, 0], [1, 1], [1, 0], [0, 1.0]]))
+
+
+@pytest.mark.parametrize("noise, fallback", [(1e-12, 0), (1e-10, 1)])
+@pytest.mark.parametrize("name", ["square_with_hole", "hexagon"])
+def test_near_degenerate_sections(name, noise, fallback):
+    """Sections on a 0.1 grid moved by Gaussian noise: well below the tolerance (1e-11 here) the
+    walk snaps them consistently; at 10x the tolerance (lines closer than it without meeting,
+    crossings at angles ~ tol / length) it cannot, and the receiver is rebuilt by snap-rounded
+    noding.  Either way the complex is valid and the states are right."""
+    outer, holes = RECEIVERS[name]
+    rng = np.random.default_rng(7)
+    sec = random_sections(rng, 30, 2, grid=True)
+    sec = [(l_, u + noise * rng.standard_normal(u.shape) if len(u) else u,
+            p + noise * rng.standard_normal(p.shape), k) for l_, u, p, k in sec]
+    cx = receiver_complex(outer, holes, sec, n_lights=2, tol=1e-11)
+    assert cx.counters.get("fallback", 0) == fallback
+    cx.check()
+    p = rng.uniform(outer.min(axis=0), outer.max(axis=0), (3000, 2))
+    p = p[shapely.contains(shapely.Polygon(outer, holes), shapely.points(p))]
+    p = p[~near_lines(p, sec, outer, holes, 1e-9 + 10 * noise)]
+    f = face_of(cx, p)
+    assert np.all(f >= 0)
+    np.testing.assert_array_equal(cx.face_states()[f], brute_state(p, sec, 2))

@@ -73,10 +73,11 @@ class ReceiverComplex:
         ``point_in_loop`` (point-in-loop tests), ``edge_tests`` (segment-edge
         intersection tests), ``state_tests`` (region-in-section tests),
         ``sections`` (sections inserted), ``splits`` (edges split),
+        ``snaps`` (edges bent through a vertex closer than the tolerance),
         ``loops_traced``, ``loops_deleted``.
     """
 
-    def __init__(self, outer, holes=(), *, n_lights=1, tol=1e-6):
+    def __init__(self, outer, holes=(), *, n_lights=1, tol=1e-9):
         try:
             dom = validate_domain(outer, holes, allow_touching=True)
         except InvalidDomainError as exc:
@@ -94,7 +95,7 @@ class ReceiverComplex:
         self.n_receiver_holes = len(dom.holes)
         self.t_idd = 0.0  # seconds spent intersecting section edges with existing edges (T_idd)
         self.counters = dict(point_in_loop=0, edge_tests=0, state_tests=0, sections=0, splits=0,
-                             loops_traced=0, loops_deleted=0)
+                             snaps=0, loops_traced=0, loops_deleted=0)
         # geometry (growing arrays)
         self.xy = np.empty((64, 2))
         self.nv = 0
@@ -127,6 +128,14 @@ class ReceiverComplex:
                 self.face_outer[face] = loop
             else:
                 self.face_holes[face].append(loop)
+        self.receiver_area = float(sum(self.loop_area))
+
+    def _reset(self):
+        """Drop every vertex, edge, loop and face (for a rebuild from scratch)."""
+        self.nv = self.ne = self.nf = 0
+        self.hloop, self.vedges, self.boundary_edges = [], [], []
+        self.loops, self.loop_face, self.loop_area = [], [], []
+        self.face_holes = []
 
     # ------------------------------------------------------------------ growth
     def add_vertex(self, p):
@@ -147,10 +156,11 @@ class ReceiverComplex:
         self.ne += 1
         return self.ne - 1
 
-    def split_edge(self, e, p):
-        """Split edge ``e`` at the new vertex ``p``; the loops using it follow.  Returns the vertex."""
+    def split_edge(self, e, p, *, vertex=-1):
+        """Split edge ``e`` at a new vertex at ``p`` (or through the existing ``vertex``: a
+        snap within the tolerance); the loops using it follow.  Returns the vertex."""
         a, b = (int(i) for i in self.ev[e])
-        x = self.add_vertex(p)
+        x = self.add_vertex(p) if vertex < 0 else vertex
         e2 = self.add_edge(x, b, int(self.ekind[e]))
         self.ev[e, 1] = x
         self.vedges[b].remove(e)
@@ -260,7 +270,7 @@ class ReceiverComplex:
         return V, self.ne, len(self.alive_faces), len(self.alive_loops)
 
     # ------------------------------------------------------------------ invariants
-    def check(self):
+    def check(self, *, geometry=True):
         """Verify the complex; raise :class:`ComplexError` naming the first broken invariant.
 
         * every loop is a closed chain of half-edges, each half-edge in the
@@ -272,7 +282,9 @@ class ReceiverComplex:
         * the face areas add up to the receiver's area;
         * Euler-Poincare for a planar complex whose faces have holes:
           ``V - E + F - H = 1 - (receiver holes)``, ``H`` the hole loops;
-          and the connected components of the edge graph number ``1 + H``.
+          and the connected components of the edge graph number ``1 + H``;
+        * with ``geometry``: no two edges cross, touch away from a common
+          vertex, or overlap.
         """
         alive = self.alive_loops
         for lp in alive:
@@ -292,8 +304,11 @@ class ReceiverComplex:
                 raise ComplexError(f"discontinuity edge {e}: used by {used} loop sides, not 2")
             for h in (2 * e, 2 * e + 1):
                 lp = self.hloop[h]
-                if lp >= 0 and (self.loops[lp] is None or h not in self.loops[lp]):
-                    raise ComplexError(f"half-edge {h}: its loop {lp} is deleted or does not hold it")
+                if lp >= 0 and self.loops[lp] is None:
+                    raise ComplexError(f"half-edge {h}: its loop {lp} is deleted")
+        # every half-edge recorded in a loop is in it (the loops' members were checked above)
+        if sum(len(self.loops[lp]) for lp in alive) != sum(1 for lp in self.hloop if lp >= 0):
+            raise ComplexError("half-edges recorded in loops that do not hold them")
         total = 0.0
         n_holes = 0
         for f in self.alive_faces:
@@ -312,7 +327,7 @@ class ReceiverComplex:
         owned = sum(1 + len(self.face_holes[f]) for f in self.alive_faces)
         if owned != len(alive):
             raise ComplexError(f"{len(alive)} loops but faces hold {owned}")
-        ref = self.loop_area[0] + sum(self.loop_area[i] for i in range(1, 1 + self.n_receiver_holes))
+        ref = self.receiver_area
         if abs(total - ref) > 1e-9 * abs(ref) + 10 * self.eps * self.extent:
             raise ComplexError(f"face areas add up to {total!r}, the receiver's is {ref!r}")
         V, E, F, L = self.euler()
@@ -321,6 +336,37 @@ class ReceiverComplex:
                                f"!= 1 - {self.n_receiver_holes}")
         if _components(self.ev[:self.ne], self.nv, [v for v in range(self.nv) if self.vedges[v]]) != 1 + n_holes:
             raise ComplexError("connected components of the edges != 1 + hole loops")
+        if geometry:
+            self._check_embedding()
+
+    def _check_embedding(self):
+        import shapely
+
+        ev = self.ev[:self.ne]
+        seg = self.xy[ev]
+        lines = shapely.linestrings(seg)
+        i, j = shapely.STRtree(lines).query(lines, predicate="intersects")
+        m = i < j
+        i, j = i[m], j[m]
+        share = (ev[i, 0] == ev[j, 0]) | (ev[i, 0] == ev[j, 1]) | (ev[i, 1] == ev[j, 0]) | (ev[i, 1] == ev[j, 1])
+        if np.any(~share):
+            k = int(np.flatnonzero(~share)[0])
+            raise ComplexError(f"edges {i[k]} and {j[k]} meet away from a common vertex")
+        # edges at a common vertex must leave it in different directions
+        i, j = i[share], j[share]
+        same2 = (np.sort(ev[i], axis=1) == np.sort(ev[j], axis=1)).all(axis=1)
+        if np.any(same2):
+            k = int(np.flatnonzero(same2)[0])
+            raise ComplexError(f"edges {i[k]} and {j[k]} join the same two vertices")
+        v = np.where((ev[i, 0] == ev[j, 0]) | (ev[i, 0] == ev[j, 1]), ev[i, 0], ev[i, 1])
+        pa = self.xy[np.where(ev[i, 0] == v, ev[i, 1], ev[i, 0])] - self.xy[v]
+        pb = self.xy[np.where(ev[j, 0] == v, ev[j, 1], ev[j, 0])] - self.xy[v]
+        cr = np.abs(pa[:, 0] * pb[:, 1] - pa[:, 1] * pb[:, 0])
+        ln = np.maximum(np.hypot(pa[:, 0], pa[:, 1]), np.hypot(pb[:, 0], pb[:, 1]))
+        bad = ((pa * pb).sum(axis=1) > 0) & (cr <= 1e-12 * self.extent * ln)
+        if np.any(bad):
+            k = int(np.flatnonzero(bad)[0])
+            raise ComplexError(f"edges {i[k]} and {j[k]} overlap from vertex {v[k]}")
 
 
 @njit

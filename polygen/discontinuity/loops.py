@@ -45,7 +45,7 @@ def _next_half(cx, h):
     return best
 
 
-def rebuild_loops(cx, new, edge_face):
+def rebuild_loops(cx, new, edge_face, snapped=()):
     """Trace the loops through the new edges, delete the loops they supersede, sort out faces.
 
     Parameters
@@ -55,6 +55,9 @@ def rebuild_loops(cx, new, edge_face):
         New discontinuity edges (from :func:`~polygen.discontinuity.walk.insert_section`).
     edge_face : dict {edge: face}
         The face each new edge was drawn in.
+    snapped : sequence of int
+        Existing edges bent through a vertex by the walk (snap rounding):
+        a loop through them may be pinched in two, so they are retraced too.
 
     Returns
     -------
@@ -70,40 +73,40 @@ def rebuild_loops(cx, new, edge_face):
     table = {e: [-1, -1] for e in new}
     created, deleted, origin = [], set(), {}
     limit = 2 * cx.ne + 4
-    for e in new:
-        for d in (0, 1):
-            if table[e][d] >= 0:
-                continue
-            lid = len(cx.loops)
-            cx.loops.append(None)
-            h0 = 2 * e + d
-            h = h0
-            hs = []
-            src = -1
-            while True:
-                old = cx.hloop[h]
-                if old >= first_new:
-                    raise ComplexError(f"loop rebuilding: half-edge {h} traced twice")
-                if old >= 0:
-                    deleted.add(old)
-                    if src < 0:
-                        src = cx.loop_face[old]
-                elif (h >> 1) not in newset:
-                    raise ComplexError(f"loop rebuilding: reached the outside of the receiver at edge {h >> 1}")
-                else:
-                    table[h >> 1][h & 1] = lid
-                cx.hloop[h] = lid
-                hs.append(h)
-                h = _next_half(cx, h)
-                if h == h0:
-                    break
-                if len(hs) > limit:
-                    raise ComplexError("loop rebuilding: a loop does not close")
-            cx.loops.pop()
-            cx._new_loop(hs, -1)
-            created.append(lid)
-            origin[lid] = src if src >= 0 else edge_face[e]
-            cx.counters["loops_traced"] += 1
+    seeds = [2 * e + d for e in new for d in (0, 1)] + [2 * e + d for e in snapped for d in (0, 1)]
+    for h0 in seeds:
+        e = h0 >> 1
+        if cx.hloop[h0] >= first_new or (e not in newset and cx.hloop[h0] < 0):
+            continue
+        lid = len(cx.loops)
+        cx.loops.append(None)
+        h = h0
+        hs = []
+        src = -1
+        while True:
+            old = cx.hloop[h]
+            if old >= first_new:
+                raise ComplexError(f"loop rebuilding: half-edge {h} traced twice")
+            if old >= 0:
+                deleted.add(old)
+                if src < 0:
+                    src = cx.loop_face[old]
+            elif (h >> 1) not in newset:
+                raise ComplexError(f"loop rebuilding: reached the outside of the receiver at edge {h >> 1}")
+            else:
+                table[h >> 1][h & 1] = lid
+            cx.hloop[h] = lid
+            hs.append(h)
+            h = _next_half(cx, h)
+            if h == h0:
+                break
+            if len(hs) > limit:
+                raise ComplexError("loop rebuilding: a loop does not close")
+        cx.loops.pop()
+        cx._new_loop(hs, -1)
+        created.append(lid)
+        origin[lid] = src if src >= 0 else edge_face[e]
+        cx.counters["loops_traced"] += 1
     if not created:
         return table, created, deleted
     # faces touched: those of the deleted loops and those the new edges were drawn in

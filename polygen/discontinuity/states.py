@@ -34,7 +34,8 @@ import time
 import numpy as np
 import shapely
 
-from polygen.discontinuity.complex import D0, D1, BOUNDARY, ComplexError, ReceiverComplex
+from polygen.discontinuity.arrangement import arrangement_complex
+from polygen.discontinuity.complex import BOUNDARY, D0, D1, ComplexError, ReceiverComplex
 from polygen.discontinuity.loops import rebuild_loops
 from polygen.discontinuity.walk import clean_ring, insert_section
 
@@ -119,7 +120,7 @@ def _as_section(s, i):
     return int(s[0]), s[1], s[2], s[3] if len(s) == 4 else "area"
 
 
-def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-6, check=False):
+def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-9, check=False):
     """The receiver complex of one polygon cut by its shadow sections, with illumination states.
 
     For each section in turn, its umbra and then its penumbra polygon is
@@ -166,6 +167,8 @@ def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-6, c
     cx = ReceiverComplex(outer, holes, n_lights=n_lights, tol=tol)
     timings = dict(T_isr=0.0, T_idd=0.0, T_lop=0.0, T_lit=0.0)
     box = np.array(cx.loop_box[0])
+    rings = []
+    failed = None
     for i, (light, umbra, penumbra, kind) in enumerate(secs):
         if not 0 <= light < n_lights:
             raise ComplexError(f"section {i}: light {light} outside 0..{n_lights - 1}")
@@ -181,19 +184,40 @@ def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-6, c
             lo, hi = r.min(axis=0), r.max(axis=0)
             if np.any(lo > box[2:] + cx.eps) or np.any(hi < box[:2] - cx.eps):
                 continue
-            t0 = time.perf_counter()
-            new, edge_face = insert_section(cx, r, ekind)
-            t1 = time.perf_counter()
-            rebuild_loops(cx, new, edge_face)
-            t2 = time.perf_counter()
-            update_states(cx, r, light, value)
-            t3 = time.perf_counter()
+            rings.append((light, value, r + cx.origin, ekind))
+            if failed is not None:
+                continue
+            try:
+                t0 = time.perf_counter()
+                new, edge_face, snapped = insert_section(cx, r, ekind)
+                t1 = time.perf_counter()
+                rebuild_loops(cx, new, edge_face, snapped)
+                t2 = time.perf_counter()
+                update_states(cx, r, light, value)
+                t3 = time.perf_counter()
+                if check:
+                    cx.check()
+            except ComplexError as exc:
+                failed = exc
+                continue
             timings["T_isr"] += t1 - t0
             timings["T_lop"] += t2 - t1
             timings["T_lit"] += t3 - t2
             cx.counters["sections"] += 1
-            if check:
-                cx.check()
+    if failed is None and not check:
+        try:
+            cx.check()
+        except ComplexError as exc:
+            failed = exc
+    if failed is not None:
+        # degenerate at the tolerance's scale: rebuild from all sections at once
+        t0 = time.perf_counter()
+        counters, t_idd = dict(cx.counters), cx.t_idd
+        cx = arrangement_complex(outer, holes, rings, n_lights=n_lights, tol=tol)
+        cx.counters.update({k: v for k, v in counters.items() if k != "fallback"}, fallback=1)
+        cx.t_idd = t_idd
+        cx.fallback_reason = str(failed)
+        timings["T_lop"] += time.perf_counter() - t0
     fs = cx.face_state[:cx.nf]
     fs[fs == UNPROCESSED] = BRIGHT
     # the walk interleaves both: T_idd is the time in the segment-edge intersection kernel
@@ -203,8 +227,17 @@ def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-6, c
     return cx
 
 
-def discontinuity_segments(cx):
+def discontinuity_segments(cx, *, min_length=None):
     """The complex's discontinuity edges as :class:`~polygen.radiosity.layout.Segments`.
+
+    Parameters
+    ----------
+    cx : ReceiverComplex
+    min_length : float, keyword-only, optional
+        Edges shorter than this are left out: the mesh model merges vertices
+        closer than its own tolerance (:data:`polygen.radiosity.layout.LAYOUT_TOL`
+        times the polygon's extent) and rejects shorter segments, so the
+        default is twice that.
 
     Returns
     -------
@@ -213,12 +246,16 @@ def discontinuity_segments(cx):
         split at every vertex, so that no two cross), ``kinds`` "D0" for the
         boundaries of point and parallel lights' shadows, "D1" otherwise.
     """
-    from polygen.radiosity.layout import Segments
+    from polygen.radiosity.layout import LAYOUT_TOL, Segments
 
+    if min_length is None:
+        min_length = 2 * LAYOUT_TOL * cx.extent
     k = cx.ekind[:cx.ne]
-    sel = np.flatnonzero(k != BOUNDARY)
+    ev = cx.ev[:cx.ne]
     xy = cx.vertices
-    ends = xy[cx.ev[sel]].reshape(-1, 2, 2)
+    d = xy[ev[:, 1]] - xy[ev[:, 0]]
+    sel = np.flatnonzero((k != BOUNDARY) & (np.hypot(d[:, 0], d[:, 1]) > min_length))
+    ends = xy[ev[sel]].reshape(-1, 2, 2)
     return Segments(ends, ["D0" if k[e] == D0 else "D1" for e in sel])
 
 

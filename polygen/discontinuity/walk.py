@@ -33,7 +33,7 @@ from polygen.discontinuity.complex import BOUNDARY, D0, ComplexError
 
 __all__ = ["insert_section", "locate_point", "clean_ring"]
 
-_NONE, _VERTEX, _EDGE = 0, 1, 2
+_NONE, _VERTEX, _EDGE, _SNAP, _NEAR_VERTEX = 0, 1, 2, 3, 4
 
 
 @njit
@@ -64,6 +64,17 @@ def _nearest_hit(xy, ev, edges, cur_v, cx, cy, qx, qy, eps):
         ay = xy[a, 1]
         bx = xy[b, 0]
         by = xy[b, 1]
+        if cur_v >= 0:
+            # an edge passing within eps of the current vertex: it must go through it first
+            if (ax - cx) ** 2 + (ay - cy) ** 2 <= eps * eps:
+                return _NEAR_VERTEX, a, 0.0, ax, ay
+            if (bx - cx) ** 2 + (by - cy) ** 2 <= eps * eps:
+                return _NEAR_VERTEX, b, 0.0, bx, by
+            ex = bx - ax
+            ey = by - ay
+            t = ((cx - ax) * ex + (cy - ay) * ey) / (ex * ex + ey * ey)
+            if 0.0 < t < 1.0 and (ax + t * ex - cx) ** 2 + (ay + t * ey - cy) ** 2 <= eps * eps:
+                return _SNAP, e, 0.0, cx, cy
         da = ux * (ay - cy) - uy * (ax - cx)
         sa = ux * (ax - cx) + uy * (ay - cy)
         db = ux * (by - cy) - uy * (bx - cx)
@@ -206,7 +217,9 @@ def clean_ring(ring, eps):
     d1 = np.roll(r, -1, axis=0) - r
     cr = d1[:, 0] * np.roll(d1, -1, axis=0)[:, 1] - d1[:, 1] * np.roll(d1, -1, axis=0)[:, 0]
     ln = np.hypot(d1[:, 0], d1[:, 1])
-    if np.any(cr < -eps * (ln + np.roll(ln, -1))):
+    # reflex by more than round-off (1e-6 of the ring's size) is not convex; less is tolerated
+    slack = max(eps, 1e-6 * float(np.ptp(r, axis=0).max()))
+    if np.any(cr < -slack * (ln + np.roll(ln, -1))):
         raise ComplexError("section: not a convex polygon")
     return np.ascontiguousarray(r)
 
@@ -309,8 +322,12 @@ def insert_section(cx, ring, kind, *, timer=None):
         The new discontinuity edges, in walk order.
     edge_face : dict {edge: face}
         The face each new edge was drawn in.
+    snapped : list of int
+        Existing edges bent through the walk's current vertex because they
+        passed within the tolerance of it (snap rounding); the loops through
+        them are retraced with the new ones.
     """
-    new, edge_face = [], {}
+    new, edge_face, snapped = [], {}, []
     newset = set()
     loc = locate_point(cx, ring[0])
     if loc[0] == "v":
@@ -327,8 +344,9 @@ def insert_section(cx, ring, kind, *, timer=None):
     for i in range(n):
         q = ring[(i + 1) % n]
         q_v = start_v if i == n - 1 else -1
-        cur_v, cur_f, cur_p = _walk_segment(cx, cur_v, cur_f, cur_p, q, q_v, kind, new, newset, edge_face)
-    return new, edge_face
+        cur_v, cur_f, cur_p = _walk_segment(cx, cur_v, cur_f, cur_p, q, q_v, kind, new, newset, edge_face,
+                                            snapped)
+    return new, edge_face, snapped
 
 
 def _draw(cx, a, b, kind, f, new, newset, edge_face):
@@ -340,7 +358,7 @@ def _draw(cx, a, b, kind, f, new, newset, edge_face):
     edge_face[e] = f
 
 
-def _walk_segment(cx, cur_v, cur_f, cur_p, q, q_v, kind, new, newset, edge_face):
+def _walk_segment(cx, cur_v, cur_f, cur_p, q, q_v, kind, new, newset, edge_face, snapped):
     eps = cx.eps
     for _ in range(10 * cx.ne + 100):
         f = cur_f
@@ -374,6 +392,14 @@ def _walk_segment(cx, cur_v, cur_f, cur_p, q, q_v, kind, new, newset, edge_face)
                                           float(q[0]), float(q[1]), eps)
         cx.t_idd += time.perf_counter() - t0
         L = math.hypot(q[0] - cp[0], q[1] - cp[1])
+        if hk == _SNAP:
+            # snap rounding: the edge is bent through the current vertex (by less than eps)
+            cx.split_edge(int(idx), cx.xy[cur_v], vertex=cur_v)
+            snapped.extend((int(idx), cx.ne - 1))
+            cx.counters["snaps"] += 1
+            continue
+        if hk == _NEAR_VERTEX:
+            raise ComplexError(f"walk: vertices {cur_v} and {int(idx)} closer than the tolerance")
         if hk == _NONE:
             if f >= 0:
                 v = q_v if q_v >= 0 else cx.add_vertex(q)
