@@ -61,3 +61,89 @@ def one_seed_per_component(vol, iso):
     _, labels = connected_components(g, directed=False)
     _, first = np.unique(labels[cells], return_index=True)
     return cells[first]
+
+
+def light_samples(light, samples, *, seed=0):
+    """Stratified points on a light: ``samples x samples`` jittered cells of a convex area light
+    (those inside it), the position of a point light; ``None`` for a parallel light."""
+    from polygen.radiosity.scene import ParallelLight, PointLight
+
+    if isinstance(light, PointLight):
+        return light.position[None, :]
+    if isinstance(light, ParallelLight):
+        return None
+    import shapely
+
+    rng = np.random.default_rng(seed)
+    lo, hi = light.exterior_2d.min(axis=0), light.exterior_2d.max(axis=0)
+    i, j = np.meshgrid(np.arange(samples), np.arange(samples), indexing="ij")
+    uv = (np.stack([i.ravel(), j.ravel()], axis=1) + rng.random((samples * samples, 2))) / samples
+    uv = lo + uv * (hi - lo)
+    uv = uv[shapely.contains_xy(shapely.Polygon(light.exterior_2d), uv[:, 0], uv[:, 1])]
+    return light.to_3d(uv)
+
+
+def visible_fraction(scene, light, points, *, normals, samples=4, skip=(), seed=0, chunk=4096):
+    """Fraction of a light seen from each point, by casting rays against every scene polygon.
+
+    Parameters
+    ----------
+    scene : Scene
+    light : AreaLight, PointLight or ParallelLight
+    points : (N, 3) float64
+    normals : (N, 3) float64
+        The receiving face's normal at each point: light samples not
+        strictly in front of it are left out of the fraction (the light
+        part a point can see at all).
+    samples : int
+        ``samples x samples`` stratified light samples.
+    skip : sequence of int
+        Polygons not tested (the receiver the points lie on).
+
+    Returns
+    -------
+    (N,) float64
+        1 bright, 0 umbra; NaN where no light sample is in front of the point.
+    """
+    import shapely
+
+    from polygen.radiosity.scene import ParallelLight
+
+    points = np.asarray(points, dtype=np.float64)
+    normals = np.asarray(normals, dtype=np.float64)
+    S = light_samples(light, samples, seed=seed)
+    far = 10.0 * float(np.linalg.norm(np.ptp(scene.bounds, axis=0)))
+    skip = set(int(k) for k in skip)
+    for k, p in enumerate(scene.polygons):
+        if p is light:
+            skip.add(k)
+    occ = [(p, shapely.Polygon(p.exterior_2d, p.holes_2d)) for k, p in enumerate(scene.polygons)
+           if k not in skip]
+    out = np.full(len(points), np.nan)
+    for s0 in range(0, len(points), chunk):
+        P = points[s0:s0 + chunk]
+        Nn = normals[s0:s0 + chunk]
+        if isinstance(light, ParallelLight):
+            Q = P[:, None, :] - far * light.direction  # (n, 1, 3)
+        else:
+            Q = np.broadcast_to(S[None, :, :], (len(P), len(S), 3))
+        A = np.broadcast_to(P[:, None, :], Q.shape)
+        front = np.einsum("nsc,nc->ns", Q - A, Nn) > 0.0
+        blocked = np.zeros(front.shape, bool)
+        for p, shp in occ:
+            da = (A - p.origin) @ p.normal
+            db = (Q - p.origin) @ p.normal
+            cross = ((da > 0) & (db < 0)) | ((da < 0) & (db > 0))
+            cross &= ~blocked & front
+            if not cross.any():
+                continue
+            t = da[cross] / (da[cross] - db[cross])
+            X = A[cross] + t[:, None] * (Q[cross] - A[cross])
+            uv = p.to_2d(X)
+            hit = shapely.contains_xy(shp, uv[:, 0], uv[:, 1])
+            idx = np.flatnonzero(cross.ravel())[hit]
+            blocked.ravel()[idx] = True
+        nf = front.sum(axis=1)
+        vis = (front & ~blocked).sum(axis=1)
+        out[s0:s0 + chunk] = np.where(nf > 0, vis / np.maximum(nf, 1), np.nan)
+    return out

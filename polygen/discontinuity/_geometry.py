@@ -1,0 +1,163 @@
+"""Small convex-geometry helpers of chapter 3: planes, half-space polytopes, 2-D clipping.
+
+Private to :mod:`polygen.discontinuity`; every function takes plain arrays.
+A plane is a row ``(nx, ny, nz, d)`` with a unit normal, and stands for the
+half-space ``n . x <= d``.
+"""
+
+from __future__ import annotations
+
+from itertools import combinations
+
+import numpy as np
+
+
+def unit(v):
+    v = np.asarray(v, dtype=np.float64)
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def plane_through(n, p):
+    """The row (n, n . p) of a unit normal n through point p."""
+    n = unit(n)
+    return np.concatenate([n, [float(n @ p)]])
+
+
+def dedupe_planes(planes, tol):
+    """Planes without repeats (same normal and offset within ``tol``); first occurrence kept."""
+    keep = []
+    for k, p in enumerate(planes):
+        if not any(np.abs(p[:3] - planes[j][:3]).max() < 1e-9 and abs(p[3] - planes[j][3]) < tol
+                   for j in keep):
+            keep.append(k)
+    return np.asarray([planes[k] for k in keep], dtype=np.float64).reshape(-1, 4), keep
+
+
+def box_planes(lo, hi):
+    """The six planes of an axis-aligned box."""
+    out = []
+    for a in range(3):
+        e = np.zeros(3)
+        e[a] = 1.0
+        out.append(np.concatenate([e, [hi[a]]]))
+        out.append(np.concatenate([-e, [-lo[a]]]))
+    return np.asarray(out)
+
+
+def polytope_vertices(planes, tol):
+    """Vertices and edges of the bounded polytope ``planes[:, :3] @ x <= planes[:, 3]``.
+
+    Every triple of planes is solved; the solutions inside all half-spaces
+    (within ``tol``) are merged when closer than ``tol``.  Two vertices are
+    joined by an edge when they lie on two common planes (for a convex
+    polytope that common part is an edge, never a face diagonal).
+
+    Returns
+    -------
+    vertices : (V, 3) float64
+    edges : (E, 2) int64
+    on : (V, P) bool
+        Which planes each vertex lies on.
+    """
+    P = len(planes)
+    if P < 4:
+        return np.zeros((0, 3)), np.zeros((0, 2), np.int64), np.zeros((0, P), bool)
+    tri = np.array(list(combinations(range(P), 3)), dtype=np.int64)
+    A = planes[tri, :3]
+    b = planes[tri, 3]
+    det = np.linalg.det(A)
+    ok = np.abs(det) > 1e-12
+    x = np.linalg.solve(A[ok], b[ok][..., None])[..., 0]
+    inside = np.all(x @ planes[:, :3].T <= planes[:, 3] + tol, axis=1)
+    x = x[inside]
+    verts = []
+    for p in x:
+        if not any(np.abs(p - q).max() <= tol for q in verts):
+            verts.append(p)
+    V = np.asarray(verts, dtype=np.float64).reshape(-1, 3)
+    on = np.abs(V @ planes[:, :3].T - planes[:, 3]) <= tol
+    shared = on.astype(np.int64) @ on.T.astype(np.int64)
+    i, j = np.nonzero(np.triu(shared >= 2, k=1))
+    return V, np.stack([i, j], axis=1).astype(np.int64), on
+
+
+def clip_polygon_2d(poly, a, c, tol=0.0):
+    """Sutherland-Hodgman: the part of convex polygon ``poly (k, 2)`` where ``a . x <= c``."""
+    if len(poly) == 0:
+        return poly
+    s = poly @ a - c
+    if np.all(s <= tol):
+        return poly
+    out = []
+    k = len(poly)
+    for i in range(k):
+        p, q = poly[i], poly[(i + 1) % k]
+        sp, sq = s[i], s[(i + 1) % k]
+        if sp <= 0.0:
+            out.append(p)
+        if (sp < 0.0 < sq) or (sq < 0.0 < sp):
+            out.append(p + (q - p) * (sp / (sp - sq)))
+    return np.asarray(out, dtype=np.float64).reshape(-1, 2)
+
+
+def clip_polygon_3d(poly, n, d):
+    """The part of a planar convex polygon ``poly (k, 3)`` where ``n . x <= d``."""
+    if len(poly) == 0:
+        return poly
+    s = poly @ n - d
+    if np.all(s <= 0.0):
+        return poly
+    out = []
+    k = len(poly)
+    for i in range(k):
+        p, q = poly[i], poly[(i + 1) % k]
+        sp, sq = s[i], s[(i + 1) % k]
+        if sp <= 0.0:
+            out.append(p)
+        if (sp < 0.0 < sq) or (sq < 0.0 < sp):
+            out.append(p + (q - p) * (sp / (sp - sq)))
+    return np.asarray(out, dtype=np.float64).reshape(-1, 3)
+
+
+def clean_ring(poly, tol):
+    """A convex ring without repeated (closer than ``tol``) or collinear vertices; (0, d) if flat."""
+    if len(poly) < 3:
+        return np.zeros((0, poly.shape[1]))
+    keep = [poly[0]]
+    for p in poly[1:]:
+        if np.abs(p - keep[-1]).max() > tol:
+            keep.append(p)
+    while len(keep) > 1 and np.abs(keep[-1] - keep[0]).max() <= tol:
+        keep.pop()
+    P = np.asarray(keep)
+    if len(P) < 3:
+        return np.zeros((0, poly.shape[1]))
+    # drop vertices on the segment between their neighbours
+    changed = True
+    while changed and len(P) >= 3:
+        changed = False
+        for i in range(len(P)):
+            a, b, c = P[i - 1], P[i], P[(i + 1) % len(P)]
+            ab, ac = b - a, c - a
+            L = np.linalg.norm(ac)
+            if L == 0.0:
+                area2 = 0.0
+            elif P.shape[1] == 2:
+                area2 = abs(ab[0] * ac[1] - ab[1] * ac[0]) / L
+            else:
+                area2 = np.linalg.norm(np.cross(ab, ac)) / L
+            if area2 <= tol:
+                P = np.delete(P, i, axis=0)
+                changed = True
+                break
+    if len(P) < 3:
+        return np.zeros((0, poly.shape[1]))
+    return P
+
+
+def area_2d(poly):
+    """Signed area of a 2-D ring (positive counter-clockwise)."""
+    if len(poly) < 3:
+        return 0.0
+    x, y = poly[:, 0], poly[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))

@@ -1,0 +1,163 @@
+"""A bounding-volume hierarchy over polygons, queried with convex polyhedra.
+
+The thesis's T_isr (Table 3.2) tests every shadow polyhedron against every
+receiver, O(n^2) in the polygon count.  Here the receivers' axis-aligned
+boxes are kept in a binary tree (median split on the longest axis); a
+polyhedron visits only the nodes whose box it may meet: a box entirely
+outside one of its planes, or outside its own capped bounding box, is
+skipped with its subtree.
+
+The tree is built once per scene and only read afterwards, so one
+:class:`PolygonIndex` may be queried from several threads.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from polygen._jit import njit
+
+__all__ = ["PolygonIndex"]
+
+
+@njit
+def _box_outside(lo, hi, planes, nplanes, qlo, qhi):
+    """Whether the box [lo, hi] misses the query's box or lies outside one of its planes."""
+    for a in range(3):
+        if lo[a] > qhi[a] or hi[a] < qlo[a]:
+            return True
+    for p in range(nplanes):
+        # the box corner furthest along -n: if even it is beyond the plane, all is
+        s = 0.0
+        for a in range(3):
+            n = planes[p, a]
+            s += n * (lo[a] if n > 0.0 else hi[a])
+        if s > planes[p, 3]:
+            return True
+    return False
+
+
+@njit
+def _query_kernel(node_lo, node_hi, child, start, count, order, planes, plane_start, qlo, qhi,
+                  tol, out_q, out_item, node_tests):
+    """All (query, item) pairs whose boxes survive the plane tests; returns how many."""
+    k = 0
+    nq = len(plane_start) - 1
+    stack = np.empty(128, np.int64)
+    for q in range(nq):
+        pl = planes[plane_start[q]:plane_start[q + 1]].copy()
+        for p in range(len(pl)):
+            pl[p, 3] += tol
+        top = 0
+        stack[top] = 0
+        top += 1
+        while top > 0:
+            top -= 1
+            nd = stack[top]
+            node_tests[0] += 1
+            if _box_outside(node_lo[nd], node_hi[nd], pl, len(pl), qlo[q], qhi[q]):
+                continue
+            if child[nd, 0] < 0:
+                for j in range(start[nd], start[nd] + count[nd]):
+                    if k < len(out_q):
+                        out_q[k] = q
+                        out_item[k] = order[j]
+                    k += 1
+            else:
+                stack[top] = child[nd, 0]
+                stack[top + 1] = child[nd, 1]
+                top += 2
+    return k
+
+
+class PolygonIndex:
+    """A BVH over the axis-aligned boxes of polygons.
+
+    Parameters
+    ----------
+    boxes : (N, 2, 3) float64
+        Min and max corner of each polygon.
+    leaf_size : int, keyword-only
+        Largest number of polygons in a leaf.
+
+    Attributes
+    ----------
+    node_tests : int
+        Node boxes tested by all queries so far (a work counter).
+    """
+
+    def __init__(self, boxes, *, leaf_size=4):
+        boxes = np.asarray(boxes, dtype=np.float64)
+        if boxes.ndim != 3 or boxes.shape[1:] != (2, 3):
+            raise ValueError(f"PolygonIndex: boxes must be (N, 2, 3), got {boxes.shape}")
+        self.boxes = boxes
+        centre = boxes.mean(axis=1)
+        lo, hi, child, start, count = [], [], [], [], []
+        order = np.arange(len(boxes))
+
+        def build(s, e):
+            nd = len(lo)
+            idx = order[s:e]
+            lo.append(boxes[idx, 0].min(axis=0))
+            hi.append(boxes[idx, 1].max(axis=0))
+            child.append([-1, -1])
+            start.append(s)
+            count.append(e - s)
+            if e - s > leaf_size:
+                c = centre[idx]
+                axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
+                order[s:e] = idx[np.argsort(c[:, axis], kind="stable")]
+                mid = (s + e) // 2
+                left = build(s, mid)
+                right = build(mid, e)
+                child[nd] = [left, right]
+            return nd
+
+        if len(boxes):
+            build(0, len(boxes))
+        self.node_lo = np.asarray(lo, dtype=np.float64).reshape(-1, 3)
+        self.node_hi = np.asarray(hi, dtype=np.float64).reshape(-1, 3)
+        self.child = np.asarray(child, dtype=np.int64).reshape(-1, 2)
+        self.start = np.asarray(start, dtype=np.int64)
+        self.count = np.asarray(count, dtype=np.int64)
+        self.order = order.astype(np.int64)
+        self.node_tests = 0
+
+    def query(self, planes, boxes, *, tol=0.0):
+        """Polygons whose boxes may meet each convex query.
+
+        Parameters
+        ----------
+        planes : list of (P_q, 4) float64
+            Each query's half-spaces ``n . x <= d``.
+        boxes : (Q, 2, 3) float64
+            Each query's bounding box (its capped vertices' box).
+        tol : float, keyword-only
+            Slack added to every plane offset.
+
+        Returns
+        -------
+        (K, 2) int64
+            Rows ``(query, polygon)``.
+        """
+        Q = len(planes)
+        if Q == 0 or len(self.boxes) == 0:
+            return np.zeros((0, 2), np.int64)
+        ps = np.zeros(Q + 1, np.int64)
+        ps[1:] = np.cumsum([len(p) for p in planes])
+        P = np.ascontiguousarray(np.vstack([np.asarray(p, float).reshape(-1, 4) for p in planes]))
+        boxes = np.asarray(boxes, dtype=np.float64)
+        qlo = np.ascontiguousarray(boxes[:, 0])
+        qhi = np.ascontiguousarray(boxes[:, 1])
+        cap = 4 * len(self.boxes) + 16
+        while True:
+            oq = np.empty(cap, np.int64)
+            oi = np.empty(cap, np.int64)
+            nt = np.zeros(1, np.int64)
+            k = _query_kernel(self.node_lo, self.node_hi, self.child, self.start, self.count,
+                              self.order, P, ps, qlo, qhi, float(tol), oq, oi, nt)
+            if k <= cap:
+                break
+            cap = k
+        self.node_tests += int(nt[0])
+        return np.stack([oq[:k], oi[:k]], axis=1)

@@ -1,0 +1,710 @@
+"""Shadow polyhedra (thesis 3.3.1, Defs 3.2-3.4) and their sections on receivers.
+
+A light and a convex occluder bound two convex, half-infinite polyhedra
+(Def. 3.2): the *umbra* polyhedron, inside which the occluder hides the
+whole light, and the *penumbra* polyhedron, inside which it hides some of
+it.  A point or a parallel light casts one (umbra = penumbra, D0
+boundaries; Theorem 3.1).
+
+The interface with the loop code of :mod:`polygen.discontinuity` is the
+:class:`ShadowSection`: for one receiver polygon, one light and one convex
+occluder, the two polyhedra cut by the receiver's plane, as convex polygons
+in the receiver's own (u, v) frame (:meth:`Polygon.to_2d`, the frame of
+:func:`~polygen.radiosity.layout.polygon_layout`).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from polygen.discontinuity import _geometry as geo
+from polygen.radiosity.scene import AreaLight, ParallelLight, PointLight, Polygon
+
+__all__ = [
+    "ShadowError",
+    "Polyhedron",
+    "ShadowPolyhedra",
+    "shadow_polyhedron",
+    "polyhedron_section",
+    "ShadowSection",
+    "SceneShadows",
+    "scene_lights",
+    "shadow_sections",
+    "scene_sections",
+]
+
+
+class ShadowError(ValueError):
+    """A light or occluder that shadow polyhedra cannot be built from (names the polygon)."""
+
+
+@dataclass(frozen=True, eq=False)
+class Polyhedron:
+    """A convex polyhedron ``planes[:, :3] @ x <= planes[:, 3]`` (unit normals, outward).
+
+    Attributes
+    ----------
+    planes : (P, 4) float64
+        Its faces; the first is the occluder's plane (the side beyond the
+        occluder), the others the side planes.
+    generators : tuple of ((int, ...), (int, ...))
+        Per plane, the light vertices and occluder vertices it passes
+        through (``((), (0, .., n-1))`` for the occluder's plane; for a
+        parallel light the light part is empty).
+    vertices : (V, 3) float64
+        Vertices of the polyhedron cut by the far cap ``cap`` (a box); empty
+        when the polyhedron has no interior.
+    edges : (E, 2) int64
+        Pairs of ``vertices``, the cap's edges included.
+    on_cap : (V,) bool
+        Vertices lying on the cap (not vertices of the polyhedron itself).
+    cap : (2, 3) float64
+        Min and max corner of the capping box.
+    """
+
+    planes: np.ndarray
+    generators: tuple
+    vertices: np.ndarray
+    edges: np.ndarray
+    on_cap: np.ndarray
+    cap: np.ndarray
+
+    @property
+    def empty(self):
+        return len(self.vertices) == 0
+
+    @property
+    def bounded(self):
+        """True when no vertex lies on the far cap (the umbra of a light larger than its occluder)."""
+        return not self.empty and not bool(self.on_cap.any())
+
+    def contains(self, points, *, tol=0.0):
+        """(N,) bool: whether points (N, 3) lie inside (within ``tol``)."""
+        p = np.atleast_2d(np.asarray(points, dtype=np.float64))
+        if self.empty:
+            return np.zeros(len(p), bool)
+        return np.all(p @ self.planes[:, :3].T <= self.planes[:, 3] + tol, axis=1)
+
+
+@dataclass(frozen=True, eq=False)
+class ShadowPolyhedra:
+    """The umbra and penumbra polyhedra of one light and one convex occluder (Def. 3.4).
+
+    Attributes
+    ----------
+    umbra, penumbra : Polyhedron
+        The same object for a point or a parallel light (Def. 3.4).
+    kind : str
+        ``"area"``, ``"point"`` or ``"parallel"``.
+    light_vertices : (m, 3) float64
+        The area light's vertices, the point light's position (1, 3), or
+        (0, 3) for a parallel light.
+    occluder_vertices : (n, 3) float64
+        Counter-clockwise seen from the light.
+    candidate_planes : int
+        EV and VE planes generated (``2 m n`` for an area light, ``n`` else).
+    wrap_steps : int
+        Faces visited by the gift-wrapping of the penumbra (Fig. 3.7).
+    """
+
+    umbra: Polyhedron
+    penumbra: Polyhedron
+    kind: str
+    light_vertices: np.ndarray
+    occluder_vertices: np.ndarray
+    candidate_planes: int = 0
+    wrap_steps: int = 0
+
+
+# -- input --------------------------------------------------------------------------------------
+def _light_arrays(light):
+    """``(kind, vertices (m, 3), direction (3,) or None, name)``."""
+    if isinstance(light, PointLight):
+        return "point", light.position[None, :].copy(), None, light.name
+    if isinstance(light, ParallelLight):
+        return "parallel", np.zeros((0, 3)), light.direction.copy(), light.name
+    if isinstance(light, Polygon):
+        if not light.is_convex:
+            raise ShadowError(f"{light.name}: an area light must be convex (split it into convex "
+                              "lights, one per piece of Polygon.convex_pieces())")
+        return "area", light.vertices.copy(), None, light.name
+    v = np.asarray(light, dtype=np.float64)
+    if v.ndim == 1 and v.shape == (3,):
+        return "point", v[None, :].copy(), None, "point light"
+    if v.ndim != 2 or v.shape[1] != 3 or len(v) < 3:
+        raise ShadowError(f"light: expected a light object, a point (3,) or a convex polygon "
+                          f"(m>=3, 3), got shape {v.shape}")
+    return "area", v.copy(), None, "area light"
+
+
+def _occluder_array(occluder):
+    if isinstance(occluder, Polygon):
+        if not occluder.is_convex:
+            raise ShadowError(f"{occluder.name}: an occluder must be convex; split it with "
+                              "Polygon.convex_pieces() first")
+        return occluder.vertices.copy(), occluder.name
+    v = np.asarray(occluder, dtype=np.float64)
+    if v.ndim != 2 or v.shape[1] != 3 or len(v) < 3:
+        raise ShadowError(f"occluder: expected a convex polygon (n>=3, 3), got shape {v.shape}")
+    return v.copy(), "occluder"
+
+
+def _newell(ring):
+    return np.cross(ring, np.roll(ring, -1, axis=0)).sum(axis=0)
+
+
+# -- the polyhedra ------------------------------------------------------------------------------
+def _polyhedron(planes, generators, cap, tol):
+    planes = np.asarray(planes, dtype=np.float64).reshape(-1, 4)
+    capped = np.vstack([planes, geo.box_planes(cap[0], cap[1])])
+    V, E, on = geo.polytope_vertices(capped, tol)
+    if len(V) >= 4:
+        c = V - V.mean(axis=0)
+        if np.linalg.svd(c, compute_uv=False)[2] <= tol:
+            V = np.zeros((0, 3))
+    if len(V) < 4:
+        V, E, on = np.zeros((0, 3)), np.zeros((0, 2), np.int64), np.zeros((0, len(capped)), bool)
+    return Polyhedron(planes=planes, generators=tuple(generators), vertices=V, edges=E,
+                      on_cap=on[:, len(planes):].any(axis=1), cap=np.asarray(cap, dtype=np.float64))
+
+
+def _empty_pair(kind, S, O, cap):
+    e = Polyhedron(np.zeros((0, 4)), (), np.zeros((0, 3)), np.zeros((0, 2), np.int64),
+                   np.zeros(0, bool), np.asarray(cap, dtype=np.float64))
+    return ShadowPolyhedra(e, e, kind, S, O)
+
+
+def _ray_hinges(S, O, Sf, Of, normal):
+    """The two extreme rays (light vertex -> occluder vertex) of a face, as index pairs."""
+    pairs = [(a, b) for a in Sf for b in Of]
+    d = geo.unit(np.array([O[b] - S[a] for a, b in pairs]))
+    t1 = geo.unit(d.sum(axis=0))
+    t2 = np.cross(normal, t1)
+    ang = np.arctan2(d @ t2, d @ t1)
+    return pairs[int(np.argmin(ang))], pairs[int(np.argmax(ang))]
+
+
+def _gift_wrap(S, O, cands, F0, n_o, tol):
+    """The penumbra's side planes by gift-wrapping over the EV/VE planes (Fig. 3.7).
+
+    ``cands`` are rows (n, d) oriented with the occluder inside.  From F0,
+    across the face's hinge ray (one light vertex, one occluder vertex),
+    the next face is the candidate through that ray with the largest
+    interior angle to the current face; it stops back at F0.
+    """
+    m, n = len(S), len(O)
+    dS = cands[:, :3] @ S.T - cands[:, 3:4]   # (C, m)
+    dO = cands[:, :3] @ O.T - cands[:, 3:4]   # (C, n)
+    onS = np.abs(dS) <= tol
+    onO = np.abs(dO) <= tol
+
+    def coplanar(i, j):
+        return np.abs(cands[i] - cands[j]).max() <= tol
+
+    def beyond(a, b):
+        return O[b] + (O[b] - S[a])  # a point on the ray S_a -> O_b past the occluder
+
+    faces = [F0]
+    lo, hi = _ray_hinges(S, O, np.flatnonzero(onS[F0]), np.flatnonzero(onO[F0]), cands[F0, :3])
+    cur, hinge, other = F0, hi, lo
+    for _ in range(2 * m * n + 2):
+        a, b = hinge
+        h = geo.unit(O[b] - S[a])
+
+        def perp(x):
+            x = x - O[b]
+            return x - (x @ h) * h
+
+        f = geo.unit(perp(beyond(*other)))
+        nF = cands[cur, :3]
+        best, best_ang, best_other = -1, -np.inf, None
+        for g in np.flatnonzero(onS[:, a] & onO[:, b]):
+            if coplanar(g, cur):
+                continue
+            glo, ghi = _ray_hinges(S, O, np.flatnonzero(onS[g]), np.flatnonzero(onO[g]), cands[g, :3])
+            g_other = glo if (np.linalg.norm(perp(beyond(*glo))) > np.linalg.norm(perp(beyond(*ghi)))) \
+                else ghi
+            gv = perp(beyond(*g_other))
+            if np.linalg.norm(gv) <= tol:
+                continue
+            gv = geo.unit(gv)
+            ang = np.arctan2(gv @ (-nF), gv @ f)  # interior dihedral angle to the current face
+            if ang > best_ang + 1e-12:
+                best, best_ang, best_other = g, ang, g_other
+        if best < 0 or not (0.0 < best_ang <= np.pi + 1e-9):
+            raise ShadowError("penumbra gift-wrapping found no next face (degenerate light/occluder)")
+        if coplanar(best, F0):
+            break
+        faces.append(best)
+        cur, other = best, hinge
+        glo, ghi = _ray_hinges(S, O, np.flatnonzero(onS[best]), np.flatnonzero(onO[best]),
+                               cands[best, :3])
+        # the next hinge: the face's extreme ray that is not the one just crossed
+        same_lo = np.linalg.norm(perp(beyond(*glo))) <= tol and np.linalg.norm(perp(S[glo[0]])) <= tol
+        hinge = ghi if same_lo else glo
+        if np.linalg.norm(perp(beyond(*hinge))) <= tol:
+            hinge = ghi if hinge == glo else glo
+    else:
+        raise ShadowError("penumbra gift-wrapping did not close")
+    return faces
+
+
+def shadow_polyhedron(light, occluder, *, bounds=None, tol=1e-9):
+    """The umbra and penumbra polyhedra of a light and a convex occluder (3.3.1, Figs 3.6, 3.7).
+
+    Parameters
+    ----------
+    light : AreaLight, PointLight, ParallelLight, (3,) or (m, 3) float64
+        An area light must be convex and lie on one side of the
+        occluder's plane (the scene driver splits it when it does not).
+    occluder : Polygon or (n, 3) float64
+        Convex, planar.  A thin two-sided occluder is one polygon and gives
+        one pair (the polyhedra do not depend on its orientation).
+    bounds : (2, 3) float64, keyword-only, optional
+        The far cap: the box the polyhedra's vertices and edges are cut by.
+        Default: the light's and occluder's box, 10 times its size.
+    tol : float, keyword-only
+        Coplanarity tolerance relative to the size of light and occluder.
+
+    Returns
+    -------
+    ShadowPolyhedra
+
+    Notes
+    -----
+    Umbra (Fig. 3.6): for each occluder edge, of the planes through the
+    edge and one light vertex, the one with the smallest angle to the
+    occluder (angle between the occluder's inward direction at the edge
+    and the plane's half beyond the edge), plus the occluder's plane.
+    Penumbra (Fig. 3.7): all EV planes (light vertex, occluder edge) and
+    VE planes (light edge, occluder vertex); the EV plane with the
+    largest angle to the occluder is F0; from F_i, among the planes
+    sharing its light vertex and occluder vertex on one side, the one with
+    the largest angle to F_i; until F0 comes back.  Point and parallel
+    lights: the planes through the light (its direction) and each
+    occluder edge, umbra = penumbra.  A light in the occluder's plane casts
+    no shadow: both polyhedra are empty.
+
+    Raises
+    ------
+    ShadowError
+        A non-convex light or occluder, or an area light on both sides of
+        the occluder's plane; the message names it.
+    """
+    kind, S, dvec, lname = _light_arrays(light)
+    O, oname = _occluder_array(occluder)
+    pts = np.vstack([S, O])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    size = float(np.max(hi - lo)) or 1.0
+    if bounds is None:
+        c = 0.5 * (lo + hi)
+        bounds = np.stack([c - 10.0 * size, c + 10.0 * size])
+    bounds = np.asarray(bounds, dtype=np.float64)
+    if bounds.shape != (2, 3) or np.any(bounds[1] <= bounds[0]):
+        raise ShadowError(f"bounds: expected (2, 3) min/max corners, got {bounds.tolist()}")
+    atol = tol * max(size, float(np.max(bounds[1] - bounds[0])))
+    n_o = geo.unit(_newell(O))
+    d_o = float(n_o @ O.mean(axis=0))
+    if kind == "parallel":
+        side = np.array([-(n_o @ dvec)])
+        side_tol = 1e-12
+    else:
+        side = S @ n_o - d_o
+        side_tol = tol * size
+    if np.all(np.abs(side) <= side_tol):
+        return _empty_pair(kind, S, O, bounds)
+    if side.min() < -side_tol and side.max() > side_tol:
+        raise ShadowError(f"{lname}: lies on both sides of the plane of {oname}; split it by "
+                          "that plane first")
+    if side.sum() < 0:
+        n_o, d_o = -n_o, -d_o
+    if _newell(O) @ n_o < 0:  # counter-clockwise seen from the light
+        O = O[::-1].copy()
+    occ_plane = np.concatenate([n_o, [d_o]])  # beyond the occluder: n_o . x <= d_o
+    n = len(O)
+    e = geo.unit(np.roll(O, -1, axis=0) - O)   # edge i: O_i -> O_i+1
+    w = np.cross(n_o, e)                       # inward, in the occluder's plane
+    allO = tuple(range(n))
+    if kind in ("point", "parallel"):
+        planes, gens = [occ_plane], [((), allO)]
+        for i in range(n):
+            through = (S[0] - O[i]) if kind == "point" else -dvec
+            nv = np.cross(e[i], through)
+            if nv @ w[i] > 0:
+                nv = -nv
+            planes.append(geo.plane_through(nv, O[i]))
+            gens.append(((0,) if kind == "point" else (), (i, (i + 1) % n)))
+        P = _polyhedron(planes, gens, bounds, atol)
+        return ShadowPolyhedra(P, P, kind, S, O, candidate_planes=n)
+    m = len(S)
+    # EV planes: light vertex k, occluder edge i; theta = angle to the occluder (Fig. 3.6)
+    ev, ev_gen, theta = [], [], np.empty((n, m))
+    for i in range(n):
+        for k in range(m):
+            r = S[k] - O[i]
+            rp = r - (r @ e[i]) * e[i]
+            b = -geo.unit(rp)                  # the plane's half beyond the edge
+            theta[i, k] = np.arccos(np.clip(w[i] @ b, -1.0, 1.0))
+            nv = np.cross(e[i], b)
+            if nv @ w[i] > 0:
+                nv = -nv
+            ev.append(geo.plane_through(nv, O[i]))
+            ev_gen.append(((k,), (i, (i + 1) % n)))
+    umbra_planes, umbra_gen = [occ_plane], [((), allO)]
+    for i in range(n):
+        k = int(np.argmin(theta[i]))
+        umbra_planes.append(ev[i * m + k])
+        umbra_gen.append(ev_gen[i * m + k])
+    # VE planes: light edge (k, k+1), occluder vertex i; the occluder on the inner side
+    ve, ve_gen = [], []
+    oc = O.mean(axis=0)
+    for k in range(m):
+        for i in range(n):
+            nv = np.cross(S[(k + 1) % m] - S[k], O[i] - S[k])
+            if np.linalg.norm(nv) <= 1e-12 * size * size:
+                nv = np.cross(S[(k + 1) % m] - S[k], n_o)  # degenerate: light edge through O_i
+            pl = geo.plane_through(nv, O[i])
+            if pl[:3] @ oc > pl[3]:
+                pl = -pl
+            ve.append(pl)
+            ve_gen.append(((k, (k + 1) % m), (i,)))
+    cands = np.asarray(ev + ve)
+    F0 = int(np.argmax(theta.ravel()))
+    faces = _gift_wrap(S, O, cands, F0, n_o, atol)
+    pen_planes = [occ_plane] + [cands[f] for f in faces]
+    gens = ev_gen + ve_gen
+    pen_gen = [((), allO)] + [gens[f] for f in faces]
+    U = _polyhedron(umbra_planes, umbra_gen, bounds, atol)
+    Pn = _polyhedron(pen_planes, pen_gen, bounds, atol)
+    return ShadowPolyhedra(U, Pn, "area", S, O, candidate_planes=len(cands), wrap_steps=len(faces))
+
+
+# -- sections on a receiver ---------------------------------------------------------------------
+def polyhedron_section(polyhedron, receiver, box, *, tol=1e-9):
+    """A polyhedron cut by a receiver's plane: a convex polygon in the receiver's (u, v) frame.
+
+    Parameters
+    ----------
+    polyhedron : Polyhedron
+    receiver : Polygon
+    box : (2, 2) float64
+        The 2-D box (min, max corner in the receiver's frame) the section
+        is clipped to; stands for the unbounded rest of the plane.
+    tol : float, keyword-only
+        Relative to the box's size.
+
+    Returns
+    -------
+    (k, 2) float64
+        Counter-clockwise; (0, 2) when empty or of zero area.
+    """
+    box = np.asarray(box, dtype=np.float64)
+    size = float(np.max(box[1] - box[0]))
+    poly = np.array([[box[0, 0], box[0, 1]], [box[1, 0], box[0, 1]], [box[1, 0], box[1, 1]],
+                     [box[0, 0], box[1, 1]]])
+    if polyhedron.empty:
+        return np.zeros((0, 2))
+    N = polyhedron.planes[:, :3]
+    A = np.stack([N @ receiver.u, N @ receiver.v], axis=1)
+    C = polyhedron.planes[:, 3] - N @ receiver.origin
+    for a, c in zip(A, C):
+        na = float(np.hypot(*a))
+        if na <= 1e-12:  # a face parallel to the receiver: all of the plane or none of it
+            if c < -tol * size:
+                return np.zeros((0, 2))
+            continue
+        poly = geo.clip_polygon_2d(poly, a / na, c / na)
+        if len(poly) < 3:
+            return np.zeros((0, 2))
+    poly = geo.clean_ring(poly, tol * size)
+    if len(poly) and geo.area_2d(poly) < 0:
+        poly = poly[::-1].copy()
+    if len(poly) and geo.area_2d(poly) <= (tol * size) ** 2:
+        return np.zeros((0, 2))
+    return poly
+
+
+@dataclass(frozen=True, eq=False)
+class ShadowSection:
+    """The umbra and penumbra polyhedra of one (light, occluder) pair cut by one receiver's plane.
+
+    Attributes
+    ----------
+    light : int
+        Index of the light: ``0 .. A-1`` are the scene's area lights in
+        ``scene.area_lights`` order, then ``scene.lights`` (point and
+        parallel lights) in their order.
+    occluder : int
+        Index of the occluding polygon in ``scene.polygons``.
+    receiver : int
+        Index of the receiving polygon in ``scene.polygons``.
+    umbra : (k, 2) float64
+        Convex polygon, counter-clockwise in the receiver's (u, v) frame;
+        ``(0, 2)`` when the umbra polyhedron misses the receiver's plane.
+    penumbra : (k, 2) float64
+        Convex polygon, counter-clockwise, containing ``umbra``; both are
+        clipped to the receiver's 2-D bounding box enlarged by ``margin``
+        (so a boundary of either lying on that box is not a shadow edge).
+    side : int
+        +1 when the light reaches the receiver's front face, -1 its back
+        face (a two-sided receiver).
+    piece : int
+        Which convex piece of the occluder (``Polygon.convex_pieces``); 0
+        for a convex occluder.
+    kind : str
+        ``"area"`` (D1 boundaries), ``"point"`` or ``"parallel"`` (D0:
+        umbra and penumbra are the same polygon).
+    """
+
+    light: int
+    occluder: int
+    receiver: int
+    umbra: np.ndarray
+    penumbra: np.ndarray
+    side: int = 1
+    piece: int = 0
+    kind: str = "area"
+
+
+
+def scene_lights(scene):
+    """The scene's lights in :attr:`ShadowSection.light` order.
+
+    Returns
+    -------
+    list of (kind, light, polygon index or -1)
+        Area lights (``scene.area_lights``, emitting polygons) first, then
+        ``scene.lights``.
+    """
+    out = [("area", scene.polygons[k], k) for k in scene.area_lights]
+    for light in scene.lights:
+        out.append(("point" if isinstance(light, PointLight) else "parallel", light, -1))
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class SceneShadows:
+    """Every receiver's shadow sections, with the work counters and timings of the driver.
+
+    Attributes
+    ----------
+    sections : dict of int -> list of ShadowSection
+        Per receiver polygon index (receivers without sections absent).
+    counters : dict of str -> int
+        ``polyhedra`` (shadow-polyhedra pairs built, rebuilt ones
+        included), ``rebuilt`` (pairs rebuilt for a light or occluder
+        clipped by a receiver's plane), ``candidates`` (receiver-polyhedron
+        pairs the index returned), ``receiver_tests`` (pairs tested
+        exactly), ``node_tests`` (index nodes visited), ``sections``.
+    timings : dict of str -> float
+        Seconds: ``t_sdw`` (shadow polyhedra), ``t_isr`` (index queries,
+        receiver tests and sections), as Table 3.2's phases.
+    """
+
+    sections: dict
+    counters: dict
+    timings: dict = field(default_factory=dict)
+
+    def of(self, receiver):
+        """The sections on one receiver (a list, empty when none)."""
+        return list(self.sections.get(int(receiver), []))
+
+    @property
+    def n_sections(self):
+        return sum(len(v) for v in self.sections.values())
+
+
+def _area(poly3, n):
+    return 0.5 * abs(float(_newell(poly3) @ n)) if len(poly3) >= 3 else 0.0
+
+
+def _side_of(points, n, d, tol):
+    s = points @ n - d
+    return bool(np.any(s > tol)), bool(np.any(s < -tol))
+
+
+def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
+    """Shadow polyhedra of every (light, occluder) pair and their sections on every receiver.
+
+    The driver of Fig. 3.5: for each light and each convex piece of each
+    polygon, the shadow polyhedra; then the receivers the penumbra
+    polyhedron can reach, from a bounding-volume hierarchy over the
+    polygons' boxes (:class:`~polygen.discontinuity.scene_index.PolygonIndex`),
+    and for each the sections.
+
+    Parameters
+    ----------
+    scene : Scene
+    use_index : bool, keyword-only
+        False tests every polyhedron against every receiver (the thesis's
+        O(n^2) T_isr), for comparison.
+    margin : float, keyword-only
+        The sections are clipped to each receiver's 2-D box enlarged by
+        ``margin`` times its diameter.
+    tol : float, keyword-only
+        Relative to the scene's size: a vertex closer than this to a plane
+        is on it.
+
+    Returns
+    -------
+    SceneShadows
+
+    Notes
+    -----
+    Which pairs give sections, and how (each rule is a statement about
+    the rays from a receiver point to the light, which run in the open
+    half-space on the lit side of the receiver and in front of an area
+    light):
+
+    * a light lights a receiver's front face (both faces if two-sided)
+      when some of it is strictly in front of that face; an area light
+      partly behind it is clipped to the front, and a light behind it or
+      in its plane gives no section;
+    * an occluder acts only on the light's front side (an area light's
+      plane clips it) and on the receiver's lit side (clipped there:
+      an occluder touching the receiver is kept, one behind it dropped);
+    * an area light on both sides of an occluder's plane is split by that
+      plane: each part shadows the other side;
+    * a section is kept when the penumbra section overlaps the receiver
+      with positive area; the umbra section is emptied when it does not.
+    """
+    import shapely
+
+    from polygen.discontinuity.scene_index import PolygonIndex
+
+    polys = scene.polygons
+    lo, hi = scene.bounds
+    diam = float(np.linalg.norm(hi - lo))
+    atol = tol * diam
+    cap = np.stack([lo - 0.01 * diam, hi + 0.01 * diam])
+    t_sdw = t_isr = 0.0
+    cnt = dict(polyhedra=0, rebuilt=0, candidates=0, receiver_tests=0, node_tests=0, sections=0)
+    pieces = [[pc.vertices for pc in p.convex_pieces()] for p in polys]
+    rboxes = np.array([[p.vertices.min(axis=0) - atol, p.vertices.max(axis=0) + atol]
+                       for p in polys])
+    index = PolygonIndex(rboxes) if use_index else None
+    shapes = [shapely.Polygon(p.exterior_2d, p.holes_2d) for p in polys]
+    boxes2 = [np.stack([p.exterior_2d.min(axis=0) - margin * p.diameter,
+                        p.exterior_2d.max(axis=0) + margin * p.diameter]) for p in polys]
+    out = {}
+
+    def build(light_arr, O):
+        nonlocal t_sdw
+        t0 = time.perf_counter()
+        sp = shadow_polyhedron(light_arr, O, bounds=cap, tol=tol)
+        t_sdw += time.perf_counter() - t0
+        cnt["polyhedra"] += 1
+        return sp
+
+    for li, (kind, light, lpoly) in enumerate(scene_lights(scene)):
+        # the light as build() takes it, and its front half-space (area lights only)
+        if kind == "area":
+            L = light.vertices
+            nL, dL = light.normal, float(light.normal @ light.origin)
+        elif kind == "point":
+            L = light.position
+        else:
+            L = light
+        queries = []  # (polygon, piece, light part, occluder, polyhedra)
+        for k, p in enumerate(polys):
+            if k == lpoly:
+                continue
+            for j, O in enumerate(pieces[k]):
+                if kind == "area":
+                    O = geo.clip_polygon_3d(O, -nL, -dL)  # in front of the light's plane
+                    if _area(O, p.normal) <= atol * diam:
+                        continue
+                    n_o = geo.unit(_newell(O))
+                    d_o = float(n_o @ O.mean(axis=0))
+                    above, below = _side_of(L, n_o, d_o, atol)
+                    if not (above or below):
+                        continue  # light in the occluder's plane: no shadow
+                    parts = [L]
+                    if above and below:
+                        parts = [q for q in (geo.clip_polygon_3d(L, n_o, d_o),
+                                             geo.clip_polygon_3d(L, -n_o, -d_o))
+                                 if _area(q, nL) > atol * diam]
+                else:
+                    parts = [L]
+                for part in parts:
+                    sp = build(part, O)
+                    if not sp.penumbra.empty:
+                        queries.append((k, j, part, O, sp))
+        t0, sdw0 = time.perf_counter(), t_sdw
+        if use_index:
+            before = index.node_tests
+            pairs = index.query([q[4].penumbra.planes for q in queries],
+                                np.array([[q[4].penumbra.vertices.min(axis=0),
+                                           q[4].penumbra.vertices.max(axis=0)] for q in queries]
+                                         ).reshape(-1, 2, 3), tol=atol)
+            cnt["node_tests"] += index.node_tests - before
+        else:
+            pairs = np.array([(q, r) for q in range(len(queries)) for r in range(len(polys))],
+                             dtype=np.int64).reshape(-1, 2)
+        cnt["candidates"] += len(pairs)
+        for q, r in pairs:
+            k, j, part, O, sp = queries[q]
+            if r == k or r == lpoly:
+                continue
+            R = polys[r]
+            cnt["receiver_tests"] += 1
+            rv = R.vertices
+            pl = sp.penumbra.planes
+            if np.any(np.all(rv @ pl[:, :3].T > pl[:, 3] + atol, axis=0)):
+                continue  # a face of the penumbra polyhedron separates the receiver from it
+            for side in ((1, -1) if R.two_sided else (1,)):
+                n_r = side * R.normal
+                d_r = float(n_r @ R.origin)
+                # the light part that reaches this face, the occluder part on its lit side
+                if kind == "area":
+                    lit = geo.clip_polygon_3d(part, -n_r, -d_r - atol)
+                    if _area(lit, nL) <= atol * diam:
+                        continue
+                elif kind == "point":
+                    if float(n_r @ L) - d_r <= atol:
+                        continue
+                elif float(n_r @ light.direction) >= -1e-12:
+                    continue
+                front, back = _side_of(O, n_r, d_r, atol)
+                if not front:
+                    continue
+                this = sp
+                O2 = geo.clip_polygon_3d(O, -n_r, -d_r) if back else O
+                lit_changed = kind == "area" and (len(lit) != len(part) or
+                                                  np.abs(lit - part).max() > atol)
+                if back or lit_changed:
+                    this = build(lit if kind == "area" else part, O2)
+                    cnt["rebuilt"] += 1
+                    if this.penumbra.empty:
+                        continue
+                box = boxes2[r]
+                pen = polyhedron_section(this.penumbra, R, box, tol=tol)
+                if len(pen) == 0:
+                    continue
+                tiny = (1e-9 * R.diameter) ** 2
+                if shapes[r].intersection(shapely.Polygon(pen)).area <= tiny:
+                    continue
+                umb = polyhedron_section(this.umbra, R, box, tol=tol) if kind == "area" else pen
+                if len(umb) and shapes[r].intersection(shapely.Polygon(umb)).area <= tiny:
+                    umb = np.zeros((0, 2))
+                out.setdefault(int(r), []).append(ShadowSection(
+                    light=li, occluder=int(k), receiver=int(r), umbra=umb, penumbra=pen,
+                    side=side, piece=int(j), kind=kind))
+                cnt["sections"] += 1
+        t_isr += time.perf_counter() - t0 - (t_sdw - sdw0)  # rebuilt polyhedra count in t_sdw
+    return SceneShadows(sections=out, counters=cnt, timings=dict(t_sdw=t_sdw, t_isr=t_isr))
+
+
+def shadow_sections(scene, receiver_index, **kwargs):
+    """The :class:`ShadowSection` list of one receiver (all lights, all occluders).
+
+    Same keyword arguments as :func:`scene_sections` (which it runs on the
+    whole scene: call that once when several receivers are needed).
+    """
+    if not 0 <= int(receiver_index) < len(scene.polygons):
+        raise ShadowError(f"receiver_index {receiver_index} out of range (scene has "
+                          f"{len(scene.polygons)} polygons)")
+    return scene_sections(scene, **kwargs).of(receiver_index)

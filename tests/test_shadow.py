@@ -1,0 +1,283 @@
+"""Shadow polyhedra (thesis 3.3.1) and their sections, against independent constructions and ray casting."""
+
+import numpy as np
+import pytest
+import shapely
+from scipy.spatial import ConvexHull
+
+from naive import visible_fraction
+from polygen.discontinuity import ShadowError, scene_sections, shadow_polyhedron, shadow_sections
+from polygen.discontinuity.shadow import scene_lights
+from polygen.radiosity import scenes
+from polygen.radiosity.scene import AreaLight, ParallelLight, PointLight, Polygon, Scene, SceneError
+
+
+# -- random configurations ----------------------------------------------------------------------
+def _convex(rng, centre, radius, k, tilt):
+    """A random convex k-gon (points on an ellipse) in a plane tilted from horizontal."""
+    while True:  # no slivers: neighbouring vertices at least 0.4 rad apart
+        ang = np.sort(rng.uniform(0, 2 * np.pi, k))
+        if np.diff(np.r_[ang, ang[0] + 2 * np.pi]).min() > 0.4:
+            break
+    r = radius * np.array([1.0, rng.uniform(0.5, 1.0)])
+    pts = np.stack([r[0] * np.cos(ang), np.zeros(k), r[1] * np.sin(ang)], axis=1)
+    a, b = rng.uniform(-tilt, tilt, 2)
+    Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    Rz = np.array([[np.cos(b), -np.sin(b), 0], [np.sin(b), np.cos(b), 0], [0, 0, 1]])
+    return pts @ (Rz @ Rx).T + centre
+
+
+def _configs(n, seed=1):
+    rng = np.random.default_rng(seed)
+    out = []
+    while len(out) < n:
+        S = _convex(rng, [rng.uniform(-1, 1), 10.0, rng.uniform(-1, 1)], rng.uniform(0.5, 2.5),
+                    int(rng.integers(3, 7)), 0.3)
+        O = _convex(rng, [rng.uniform(-2, 2), rng.uniform(4, 7), rng.uniform(-2, 2)],
+                    rng.uniform(0.5, 3.0), int(rng.integers(3, 7)), 0.6)
+        n_o = np.cross(O[1] - O[0], O[2] - O[0])
+        s = (S - O[0]) @ n_o
+        if s.min() * s.max() <= 0:  # the light must lie on one side of the occluder's plane
+            continue
+        out.append((S, O))
+    return out
+
+
+def _light_seen_through_occluder_plane(P, S, O):
+    """From P (beyond the occluder's plane), the light projected centrally on the occluder's plane.
+
+    Every segment from P to a light point crosses that plane (they lie on its two sides), so
+    the map is a perspective on a half-space: convex in, convex out.  Returns (occluder 2D,
+    light 2D) in a frame of the occluder's plane.
+    """
+    c = O.mean(axis=0)
+    n = np.cross(O[1] - O[0], O[2] - O[0])
+    n /= np.linalg.norm(n)
+    u = (O[0] - c) / np.linalg.norm(O[0] - c)
+    v = np.cross(n, u)
+    t = ((c - P) @ n) / ((S - P) @ n)
+    Y = P + t[:, None] * (S - P)
+    return np.stack([(O - c) @ u, (O - c) @ v], 1), np.stack([(Y - c) @ u, (Y - c) @ v], 1)
+
+
+def _all_planes(S, O):
+    """Every EV and VE plane and the occluder's, as (n, d) rows (for the exclusion band)."""
+    rows = []
+    m, n = len(S), len(O)
+    for i in range(n):
+        for k in range(m):
+            rows.append((O[i], np.cross(O[(i + 1) % n] - O[i], S[k] - O[i])))
+    for k in range(m):
+        for i in range(n):
+            rows.append((O[i], np.cross(S[(k + 1) % m] - S[k], O[i] - S[k])))
+    rows.append((O[0], np.cross(O[1] - O[0], O[2] - O[0])))
+    out = []
+    for p, nv in rows:
+        nv = nv / np.linalg.norm(nv)
+        out.append(np.r_[nv, nv @ p])
+    return np.array(out)
+
+
+@pytest.mark.parametrize("config", range(12))
+def test_polyhedra_against_the_occluder_seen_from_each_point(config):
+    # the oracle: from P beyond the occluder, the light's central projection on the occluder's
+    # plane; P is in the umbra iff the occluder covers it, in the penumbra iff it meets it
+    S, O = _configs(12)[config]
+    sp = shadow_polyhedron(S, O)
+    rng = np.random.default_rng(config)
+    lo = np.r_[O.min(axis=0)[0] - 6, -6.0, O.min(axis=0)[2] - 6]
+    hi = np.r_[O.max(axis=0)[0] + 6, 9.0, O.max(axis=0)[2] + 6]
+    P = lo + rng.random((1500, 3)) * (hi - lo)
+    planes = _all_planes(S, O)
+    far = np.all(np.abs(P @ planes[:, :3].T - planes[:, 3]) > 1e-6, axis=1)
+    n_o = planes[-1, :3]
+    beyond = np.sign((P - O[0]) @ n_o) != np.sign((S.mean(axis=0) - O[0]) @ n_o)
+    want_u = np.zeros(len(P), bool)
+    want_p = np.zeros(len(P), bool)
+    for q in np.flatnonzero(beyond):
+        o2, s2 = _light_seen_through_occluder_plane(P[q], S, O)
+        occluder, light = shapely.Polygon(o2), shapely.Polygon(s2)
+        want_u[q] = occluder.contains(light)
+        want_p[q] = occluder.intersects(light)
+    got_u = sp.umbra.contains(P)
+    got_p = sp.penumbra.contains(P)
+    assert far.sum() > 1000
+    assert np.array_equal(got_u[far], want_u[far])
+    assert np.array_equal(got_p[far], want_p[far])
+    assert want_p[far].sum() > 50  # the sample reaches into the penumbra
+
+
+@pytest.mark.parametrize("config", range(12))
+def test_penumbra_planes_are_the_hull_of_the_extruded_occluder(config):
+    # an independent construction: the convex hull of the occluder's vertices and of each
+    # vertex pushed away from each light vertex; its facets through an occluder vertex and a
+    # light vertex are the penumbra's side planes (Fig. 3.7), its facet through all occluder
+    # vertices the occluder's plane
+    S, O = _configs(12)[config]
+    sp = shadow_polyhedron(S, O)
+    X = np.vstack([O] + [O + 5.0 * (O - s) for s in S])
+    hull = ConvexHull(X)
+    eq = hull.equations  # n . x + c <= 0 inside
+    scale = np.ptp(X, axis=0).max()
+    on_o = np.abs(eq[:, :3] @ O.T + eq[:, 3:4]) < 1e-9 * scale
+    on_s = np.abs(eq[:, :3] @ S.T + eq[:, 3:4]) < 1e-9 * scale
+    want = {tuple(np.round(np.r_[e[:3], -e[3]], 6)) for e, a, b in zip(eq, on_o, on_s)
+            if a.any() and b.any() and not a.all()}
+    got = {tuple(np.round(p, 6)) for p in sp.penumbra.planes[1:]}
+    assert got == want
+    occ = [e for e, a in zip(eq, on_o) if a.all()]
+    assert len(occ) >= 1 and np.allclose(np.r_[occ[0][:3], -occ[0][3]], sp.penumbra.planes[0])
+    assert sp.candidate_planes == 2 * len(S) * len(O)
+    assert not sp.penumbra.bounded
+
+
+def test_umbra_planes_are_the_smallest_angle_ones():
+    # Fig. 3.6: with a light larger than the occluder the umbra closes (a bounded polyhedron)
+    S = np.array([[-2.0, 10, -2], [2, 10, -2], [2, 10, 2], [-2, 10, 2]])
+    O = np.array([[-1.0, 6, -1], [1, 6, -1], [1, 6, 1], [-1, 6, 1]])
+    sp = shadow_polyhedron(S, O)
+    assert sp.umbra.bounded
+    # apex: lines from (2, 10) through (1, 6) and from (-2, 10) through (-1, 6) meet at y = 2
+    assert np.isclose(sp.umbra.vertices[:, 1].min(), 2.0)
+    assert len(sp.umbra.planes) == 1 + 4
+    # the penumbra of two parallel squares: the EV and VE planes of parallel edges coincide,
+    # so four side faces
+    assert len(sp.penumbra.planes) == 1 + 4
+    # at y = 0 the penumbra is |x|, |z| <= 1 + 6 * 3/4 (the line from (-2, 10) through (1, 6))
+    assert sp.penumbra.contains([[5.49, 0.0, 5.49]])[0] and not sp.penumbra.contains([[5.51, 0, 0]])[0]
+
+
+@pytest.mark.parametrize("kind", ["point", "parallel"])
+def test_point_and_parallel_lights_cast_one_volume(kind):
+    O = np.array([[-1.0, 6, -1], [1, 6, -1], [1, 6, 1], [-1, 6, 1]])
+    light = PointLight([0, 10, 0], 1.0) if kind == "point" else ParallelLight([0, -1, 0], 1.0)
+    sp = shadow_polyhedron(light, O)
+    assert sp.umbra is sp.penumbra and sp.kind == kind
+    assert len(sp.umbra.planes) == 5
+    # the shadow on y = 0: the square scaled by 10/4 from the point light, or the square itself
+    half = 2.5 if kind == "point" else 1.0
+    assert sp.umbra.contains([[half - 1e-6, 0, half - 1e-6]])[0]
+    assert not sp.umbra.contains([[half + 1e-6, 0, 0]])[0]
+    assert not sp.umbra.contains([[0, 7, 0]])[0]  # not on the light's side of the occluder
+
+
+def test_light_in_the_occluders_plane_casts_nothing():
+    S = np.array([[-2.0, 6, -2], [2, 6, -2], [2, 6, 2]])
+    O = np.array([[3.0, 6, 3], [4, 6, 3], [4, 6, 4]])
+    sp = shadow_polyhedron(S, O)
+    assert sp.umbra.empty and sp.penumbra.empty
+
+
+def test_bad_lights_and_occluders_are_named():
+    concave = Polygon([[0, 10, 0], [4, 10, 0], [4, 10, 4], [2, 10, 1], [0, 10, 4]], name="vee")
+    occ = np.array([[-1.0, 6, -1], [1, 6, -1], [1, 6, 1]])
+    with pytest.raises(ShadowError, match="vee"):
+        shadow_polyhedron(concave, occ)
+    with pytest.raises(ShadowError, match="vee"):
+        shadow_polyhedron(np.array([[0, 12.0, 0], [1, 12, 0], [1, 12, 1]]), concave)
+    with pytest.raises(SceneError, match="convex"):
+        AreaLight(concave.vertices, emission=1.0, name="vee_light")
+    # a light across the occluder's plane: the driver splits it, the function refuses
+    with pytest.raises(ShadowError, match="both sides"):
+        shadow_polyhedron(np.array([[0, 5.0, 0], [1, 7, 0], [1, 7, 1]]), occ)
+
+
+# -- sections on the thesis's scenes against ray casting ------------------------------------------
+def _lamps_room():
+    """The two-rectangles room lit by a point light and a parallel light (through the ceiling's
+    hole) instead of its area light: D0 shadows, and the ceiling's convex pieces as occluders."""
+    sc = scenes.two_rectangles_room()
+    polys = [p for p in sc.polygons if not p.is_emitter]
+    return Scene(polys, [PointLight([5.0, 9.0, 5.0], 10.0), ParallelLight([0.05, -1.0, 0.1], 1.0)],
+                 name="lamps_room")
+
+
+SCENES = {"two_rectangles_room": scenes.two_rectangles_room, "sphere_scene": scenes.sphere_scene,
+          "chair_scene": scenes.chair_scene, "lamps_room": _lamps_room}
+
+
+def _sample_in(poly, n, rng):
+    shp = shapely.Polygon(poly.exterior_2d, poly.holes_2d)
+    lo, hi = poly.exterior_2d.min(axis=0), poly.exterior_2d.max(axis=0)
+    out = np.zeros((0, 2))
+    while len(out) < n:
+        uv = lo + rng.random((2 * n, 2)) * (hi - lo)
+        out = np.vstack([out, uv[shapely.contains_xy(shp, uv[:, 0], uv[:, 1])]])
+    return out[:n]
+
+
+def _inside_convex(uv, ring):
+    if len(ring) < 3:
+        return np.zeros(len(uv), bool)
+    a, b = ring, np.roll(ring, -1, axis=0)
+    cross = ((b[:, 0] - a[:, 0]) * (uv[:, None, 1] - a[:, 1])
+             - (b[:, 1] - a[:, 1]) * (uv[:, None, 0] - a[:, 0]))
+    return np.all(cross > 0, axis=1)
+
+
+def _near_ring(uv, ring, band):
+    if len(ring) < 3:
+        return np.zeros(len(uv), bool)
+    a, b = ring, np.roll(ring, -1, axis=0)
+    d = b - a
+    t = np.clip(((uv[:, None, :] - a) * d).sum(-1) / (d * d).sum(-1), 0, 1)
+    dist = np.linalg.norm(uv[:, None, :] - (a + t[..., None] * d), axis=-1)
+    return dist.min(axis=1) <= band
+
+
+@pytest.fixture(scope="module")
+def scene_shadows():
+    cache = {}
+
+    def get(name):
+        if name not in cache:
+            sc = SCENES[name]()
+            cache[name] = (sc, scene_sections(sc))
+        return cache[name]
+    return get
+
+
+@pytest.mark.parametrize("name", list(SCENES))
+def test_sections_agree_with_ray_casting(name, scene_shadows):
+    # issue 14: on every receiver, 10^4 points; the light's visible fraction by ray casting is 0
+    # in an umbra section and 1 outside every penumbra section, except within 1e-6 x scene size
+    # of a section's boundary
+    sc, sh = scene_shadows(name)
+    rng = np.random.default_rng(14)
+    band = 1e-6 * float(np.linalg.norm(np.ptp(sc.bounds, axis=0)))
+    receivers = sorted(sh.sections)
+    others = [k for k in range(len(sc)) if k not in sh.sections]
+    if len(sc) > 40:  # the sphere: its floor and a sample of the 180 faces
+        others = list(rng.choice(others, 16, replace=False))
+    seen = dict(umbra=0, penumbra=0, bright=0)
+    for r in receivers + others:
+        R = sc.polygons[r]
+        uv = _sample_in(R, 10_000 if r in sh.sections else 1000, rng)
+        X = R.to_3d(uv)
+        for side in ((1, -1) if R.two_sided else (1,)):
+            for li, (kind, light, lpoly) in enumerate(scene_lights(sc)):
+                if r == lpoly:
+                    continue
+                secs = [s for s in sh.of(r) if s.light == li and s.side == side]
+                frac = visible_fraction(sc, light, X, normals=np.broadcast_to(side * R.normal, X.shape),
+                                        samples=4, skip=[r])
+                ok = ~np.isnan(frac)
+                near = np.zeros(len(uv), bool)
+                umbra = np.zeros(len(uv), bool)
+                pen = np.zeros(len(uv), bool)
+                for s in secs:
+                    near |= _near_ring(uv, s.penumbra, band) | _near_ring(uv, s.umbra, band)
+                    umbra |= _inside_convex(uv, s.umbra)
+                    pen |= _inside_convex(uv, s.penumbra)
+                sel = ok & ~near
+                bad_u = np.flatnonzero(sel & umbra & (frac != 0.0))
+                bad_b = np.flatnonzero(sel & ~pen & (frac != 1.0))
+                assert len(bad_u) == 0, (R.name, side, li, X[bad_u[:3]], frac[bad_u[:3]])
+                assert len(bad_b) == 0, (R.name, side, li, X[bad_b[:3]], frac[bad_b[:3]])
+                seen["umbra"] += int((sel & umbra).sum())
+                seen["penumbra"] += int((sel & pen & ~umbra).sum())
+                seen["bright"] += int((sel & ~pen).sum())
+    # the test reaches all three states (point and parallel lights: no penumbra)
+    if not sc.area_lights:
+        assert seen.pop("penumbra") == 0
+    assert min(seen.values()) > 100, seen
