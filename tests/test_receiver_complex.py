@@ -279,3 +279,69 @@ def test_near_degenerate_sections(name, noise, fallback):
     f = face_of(cx, p)
     assert np.all(f >= 0)
     np.testing.assert_array_equal(cx.face_states()[f], brute_state(p, sec, 2))
+
+
+# -- the three scenes of chapter 3: states against ray casting ------------------------------------
+@pytest.fixture(scope="module")
+def scene_discontinuity():
+    from polygen.discontinuity.simplified import simplified_discontinuity
+    from polygen.radiosity import scenes
+
+    cache = {}
+
+    def get(name):
+        if name not in cache:
+            sc = getattr(scenes, name)()
+            cache[name] = (sc, simplified_discontinuity(sc))
+        return cache[name]
+    return get
+
+
+@pytest.mark.parametrize("name", ["two_rectangles_room", "sphere_scene", "chair_scene"])
+def test_illumination_states_agree_with_ray_casting(name, scene_discontinuity):
+    """Issue 14, "Illumination states are right": on every receiver, 10^4 points; the light's
+    visible fraction by ray casting (4 x 4 light samples, tests/naive.py) is 0 where the region's
+    state is umbra and 1 where it is bright, except within 1e-6 x scene size of a discontinuity
+    line.  Penumbra regions are only counted: the per-occluder rule (3.3.5) calls penumbra a
+    region two occluders darken jointly, whatever its visible fraction."""
+    from naive import visible_fraction
+
+    from polygen.discontinuity.shadow import scene_lights
+
+    sc, sd = scene_discontinuity(name)
+    rng = np.random.default_rng(14)
+    band = 1e-6 * float(np.linalg.norm(np.ptp(sc.bounds, axis=0)))
+    lights = scene_lights(sc)
+    seen = dict(umbra=0, penumbra=0, bright=0, penumbra_dark=0, penumbra_lit=0)
+    assert sd.complexes
+    for r, cx in sd.complexes.items():
+        R = sc.polygons[r]
+        shp = shapely.Polygon(R.exterior_2d, R.holes_2d)
+        lo, hi = R.exterior_2d.min(axis=0), R.exterior_2d.max(axis=0)
+        uv = rng.uniform(lo, hi, (20_000, 2))
+        uv = uv[shapely.contains_xy(shp, uv[:, 0], uv[:, 1])][:10_000]
+        lines = [shapely.LinearRing(R.exterior_2d)] + [shapely.LinearRing(h) for h in R.holes_2d]
+        seg = discontinuity_segments(cx, min_length=0.0)
+        lines += list(shapely.linestrings(seg.ends))
+        far = ~shapely.dwithin(shapely.multilinestrings(lines), shapely.points(uv), band)
+        f = face_of(cx, uv)
+        assert np.all(f[far] >= 0)
+        st = cx.face_states()[np.maximum(f, 0)]
+        X = R.to_3d(uv)
+        for side in ((1, -1) if R.two_sided else (1,)):
+            for li, (kind, light, lpoly) in enumerate(lights):
+                frac = visible_fraction(sc, light, X, normals=np.broadcast_to(side * R.normal, X.shape),
+                                        samples=4, skip=[r])
+                s = st[:, li + (len(lights) if side < 0 else 0)]
+                sel = far & ~np.isnan(frac)
+                bad_u = np.flatnonzero(sel & (s == UMBRA) & (frac != 0.0))
+                bad_b = np.flatnonzero(sel & (s == BRIGHT) & (frac != 1.0))
+                assert not len(bad_u), (R.name, side, li, uv[bad_u[:3]], frac[bad_u[:3]])
+                assert not len(bad_b), (R.name, side, li, uv[bad_b[:3]], frac[bad_b[:3]])
+                seen["umbra"] += int((sel & (s == UMBRA)).sum())
+                seen["bright"] += int((sel & (s == BRIGHT)).sum())
+                pen = sel & (s == PENUMBRA)
+                seen["penumbra"] += int(pen.sum())
+                seen["penumbra_dark"] += int((pen & (frac == 0.0)).sum())
+                seen["penumbra_lit"] += int((pen & (frac == 1.0)).sum())
+    assert min(seen["umbra"], seen["penumbra"], seen["bright"]) > 100, seen

@@ -153,7 +153,10 @@ def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-9, c
     ReceiverComplex
         With ``timings`` (seconds: ``T_isr`` the walk less ``T_idd`` the
         segment-edge intersections inside it, ``T_lop`` loops, ``T_lit``
-        states) and ``counters``.
+        states, ``T_chk`` the final verification) and ``counters``
+        (``fallback`` 1 when the walk's complex failed its verification and
+        the receiver was rebuilt by :func:`~polygen.discontinuity.arrangement.
+        arrangement_complex`; ``fallback_reason`` then says why).
 
     Raises
     ------
@@ -204,11 +207,13 @@ def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-9, c
             timings["T_lop"] += t2 - t1
             timings["T_lit"] += t3 - t2
             cx.counters["sections"] += 1
+    t0 = time.perf_counter()
     if failed is None and not check:
         try:
             cx.check()
         except ComplexError as exc:
             failed = exc
+    timings["T_chk"] = time.perf_counter() - t0
     if failed is not None:
         # degenerate at the tolerance's scale: rebuild from all sections at once
         t0 = time.perf_counter()
