@@ -104,6 +104,7 @@ def _trace_all(cx, rec):
     from polygen.discontinuity.states import region_points
 
     holes = []
+    stars = {}
     for h0 in range(2 * cx.ne):
         if cx.hloop[h0] >= 0:
             continue
@@ -115,7 +116,7 @@ def _trace_all(cx, rec):
                 raise ComplexError(f"arrangement: half-edge {h} traced twice")
             cx.hloop[h] = lid
             hs.append(h)
-            h = _next_half(cx, h)
+            h = _next_half(cx, h, stars)
             if h == h0:
                 break
         cx._new_loop(hs, -1)

@@ -103,6 +103,7 @@ class ReceiverComplex:
         self.ekind = np.empty(64, np.int8)
         self.ne = 0
         self.hloop = []          # loop of each half-edge (-1: outside the receiver, or not yet traced)
+        self.stars = {}          # per vertex, its outgoing half-edges in angular order (loops.py)
         self.vedges = []         # incident edges per vertex
         self.boundary_edges = []  # ring edges (their outside half has no loop)
         # loops and faces
@@ -133,7 +134,7 @@ class ReceiverComplex:
     def _reset(self):
         """Drop every vertex, edge, loop and face (for a rebuild from scratch)."""
         self.nv = self.ne = self.nf = 0
-        self.hloop, self.vedges, self.boundary_edges = [], [], []
+        self.hloop, self.vedges, self.boundary_edges, self.stars = [], [], [], {}
         self.loops, self.loop_face, self.loop_area = [], [], []
         self.face_holes = []
 
@@ -153,6 +154,8 @@ class ReceiverComplex:
         self.hloop += [-1, -1]
         self.vedges[a].append(self.ne)
         self.vedges[b].append(self.ne)
+        self.stars.pop(a, None)
+        self.stars.pop(b, None)
         self.ne += 1
         return self.ne - 1
 
@@ -163,6 +166,7 @@ class ReceiverComplex:
         x = self.add_vertex(p) if vertex < 0 else vertex
         e2 = self.add_edge(x, b, int(self.ekind[e]))
         self.ev[e, 1] = x
+        self.stars.pop(a, None)
         self.vedges[b].remove(e)
         self.vedges[x].insert(0, e)
         fwd, rev = self.hloop[2 * e], self.hloop[2 * e + 1]

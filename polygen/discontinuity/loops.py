@@ -25,24 +25,30 @@ from polygen.discontinuity.walk import _in_ring, _ring
 __all__ = ["rebuild_loops"]
 
 
-def _next_half(cx, h):
-    """The half-edge after ``h`` in its loop: the smallest clockwise turn from the way back."""
+def _next_half(cx, h, stars=None):
+    """The half-edge after ``h`` in its loop: the smallest clockwise turn from the way back.
+
+    ``stars`` caches, per vertex, its outgoing half-edges in counter-clockwise
+    order (the complex drops a vertex's entry when an edge is added or split
+    there): the next half-edge is the one before the way back in that order.
+    """
     v = cx.dest_of(h)
-    u = cx.origin_of(h)
-    p = cx.xy[v]
-    back = math.atan2(cx.xy[u, 1] - p[1], cx.xy[u, 0] - p[0])
-    best, best_cw = h ^ 1, 2 * math.pi + 1
-    for e in cx.vedges[v]:
-        g = 2 * e if cx.ev[e, 0] == v else 2 * e + 1
-        if g == h ^ 1:
-            continue
-        w = cx.dest_of(g)
-        cw = (back - math.atan2(cx.xy[w, 1] - p[1], cx.xy[w, 0] - p[0])) % (2 * math.pi)
-        if cw <= 0.0:
-            cw = 2 * math.pi
-        if cw < best_cw:
-            best, best_cw = g, cw
-    return best
+    star = None if stars is None else stars.get(v)
+    if star is None:
+        px, py = cx.xy[v].tolist()
+        outs = []
+        for e in cx.vedges[v]:
+            a, b = cx.ev[e].tolist()
+            g, w = (2 * e, b) if a == v else (2 * e + 1, a)
+            wx, wy = cx.xy[w].tolist()
+            outs.append((math.atan2(wy - py, wx - px), g))
+        outs.sort()
+        order = [g for _, g in outs]
+        star = (order, {g: i for i, g in enumerate(order)})
+        if stars is not None:
+            stars[v] = star
+    order, pos = star
+    return order[pos[h ^ 1] - 1]
 
 
 def rebuild_loops(cx, new, edge_face, snapped=()):
@@ -72,6 +78,7 @@ def rebuild_loops(cx, new, edge_face, snapped=()):
     newset = set(new)
     table = {e: [-1, -1] for e in new}
     created, deleted, origin = [], set(), {}
+    stars = cx.stars
     limit = 2 * cx.ne + 4
     seeds = [2 * e + d for e in new for d in (0, 1)] + [2 * e + d for e in snapped for d in (0, 1)]
     for h0 in seeds:
@@ -97,7 +104,7 @@ def rebuild_loops(cx, new, edge_face, snapped=()):
                 table[h >> 1][h & 1] = lid
             cx.hloop[h] = lid
             hs.append(h)
-            h = _next_half(cx, h)
+            h = _next_half(cx, h, stars)
             if h == h0:
                 break
             if len(hs) > limit:
