@@ -23,7 +23,7 @@ import math
 import numpy as np
 import shapely
 
-from polygen.discontinuity.complex import BOUNDARY, D0, D1, ComplexError, ReceiverComplex
+from polygen.discontinuity.complex import BOUNDARY, BRIGHT, D0, D1, ComplexError, ReceiverComplex
 from polygen.discontinuity.loops import _next_half
 from polygen.discontinuity.walk import _in_ring, _ring
 
@@ -101,8 +101,6 @@ def _trace_all(cx, rec):
     """Trace every loop of the edge graph; CCW loops become faces, CW loops their holes; the
     faces outside the receiver (the unbounded one, those in its holes) are dropped and the
     edges along them become its ring edges."""
-    from polygen.discontinuity.states import region_points
-
     holes = []
     stars = {}
     for h0 in range(2 * cx.ne):
@@ -146,7 +144,7 @@ def _trace_all(cx, rec):
             continue
         cx.face_holes[best].append(lp)
         cx.loop_face[lp] = best
-    pts = region_points(cx) - cx.origin
+    pts = cx.interior_points() - cx.origin
     outside = ~shapely.contains_xy(rec, pts[:, 0], pts[:, 1])
     for f in faces[outside]:
         drop.append(int(cx.face_outer[f]))
@@ -176,10 +174,8 @@ def _trace_all(cx, rec):
 
 
 def _states(cx, held):
-    from polygen.discontinuity.states import BRIGHT, region_points
-
     fs = cx.alive_faces
-    p = shapely.points(region_points(cx) - cx.origin)
+    p = shapely.points(cx.interior_points() - cx.origin)
     st = np.full((len(fs), cx.n_lights), BRIGHT, np.int8)
     for light, value, r, _ in held:
         inside = shapely.contains(shapely.Polygon(r), p)

@@ -32,7 +32,11 @@ from polygen._jit import njit
 from polygen.mesh2d.domain import InvalidDomainError, validate_domain
 from polygen.mesh2d.pslg import BOUNDARY, D0, D1
 
-__all__ = ["ComplexError", "ReceiverComplex", "BOUNDARY", "D0", "D1"]
+__all__ = ["ComplexError", "ReceiverComplex", "BOUNDARY", "D0", "D1", "UNPROCESSED", "BRIGHT", "PENUMBRA",
+           "UMBRA"]
+
+# illumination states (3.3.5, Fig. 3.10)
+UNPROCESSED, BRIGHT, PENUMBRA, UMBRA = 0, 1, 2, 3
 
 
 class ComplexError(ValueError):
@@ -267,6 +271,19 @@ class ReceiverComplex:
         fs = self.alive_faces
         out[self.face_outer[fs]] = self.face_state[fs]
         return out
+
+    def interior_points(self):
+        """(F, 2) float64: a point inside each alive face (receiver frame), in ``alive_faces`` order."""
+        import shapely
+
+        out = []
+        for f in self.alive_faces:
+            outer, holes = self.face_rings(f)
+            poly = shapely.Polygon(outer, holes)
+            if not poly.is_valid:
+                poly = shapely.make_valid(poly)
+            out.append(shapely.get_coordinates(shapely.point_on_surface(poly))[0])
+        return np.array(out, dtype=np.float64).reshape(-1, 2)
 
     def euler(self):
         """``(V, E, F, L)`` counts of the alive complex (vertices with an edge)."""

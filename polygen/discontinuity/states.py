@@ -32,17 +32,16 @@ import math
 import time
 
 import numpy as np
-import shapely
 
 from polygen.discontinuity.arrangement import arrangement_complex
-from polygen.discontinuity.complex import BOUNDARY, D0, D1, ComplexError, ReceiverComplex
+from polygen.discontinuity.complex import (BOUNDARY, BRIGHT, D0, D1, PENUMBRA, UMBRA, UNPROCESSED, ComplexError,
+                                           ReceiverComplex)
 from polygen.discontinuity.loops import rebuild_loops
 from polygen.discontinuity.walk import clean_ring, insert_section
 
 __all__ = ["UNPROCESSED", "BRIGHT", "PENUMBRA", "UMBRA", "receiver_complex", "discontinuity_segments",
            "region_points", "region_size", "update_states"]
 
-UNPROCESSED, BRIGHT, PENUMBRA, UMBRA = 0, 1, 2, 3
 _D0_KINDS = ("point", "parallel")
 
 
@@ -266,15 +265,7 @@ def discontinuity_segments(cx, *, min_length=None):
 
 def region_points(cx):
     """(F, 2) float64: a point inside each alive face (receiver frame), in ``alive_faces`` order."""
-    out = []
-    for f in cx.alive_faces:
-        outer, holes = cx.face_rings(f)
-        poly = shapely.Polygon(outer, holes)
-        if not poly.is_valid:
-            poly = shapely.make_valid(poly)
-        p = shapely.point_on_surface(poly)
-        out.append(shapely.get_coordinates(p)[0])
-    return np.array(out, dtype=np.float64).reshape(-1, 2)
+    return cx.interior_points()
 
 
 def region_size(cx, size, penumbra_size):
