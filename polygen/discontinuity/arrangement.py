@@ -83,7 +83,7 @@ def arrangement_complex(outer, holes, rings, *, n_lights, tol):
             cx.add_vertex(p)
         for (a, b), k in zip(ev, kinds):
             cx.add_edge(int(a), int(b), int(k))
-        out = _trace_all(cx, rec)
+        out, inner = _trace_all(cx, rec)
         if not len(out):
             break
         # snap-rounded slivers or stubs outside the receiver: drop them, trace again
@@ -92,7 +92,7 @@ def arrangement_complex(outer, holes, rings, *, n_lights, tol):
         ev, kinds = ev[keep], kinds[keep]
     else:
         raise ComplexError("arrangement: edges outside the receiver remain")
-    _states(cx, held)
+    _states(cx, held, inner)
     cx.counters["fallback"] = 1
     return cx
 
@@ -146,6 +146,7 @@ def _trace_all(cx, rec):
         cx.loop_face[lp] = best
     pts = cx.interior_points() - cx.origin
     outside = ~shapely.contains_xy(rec, pts[:, 0], pts[:, 1])
+    inner = pts[~outside]
     for f in faces[outside]:
         drop.append(int(cx.face_outer[f]))
         drop.extend(cx.face_holes[f])
@@ -158,7 +159,7 @@ def _trace_all(cx, rec):
     # ring edges: the inside half forwards
     out = [e for e in range(cx.ne) if cx.hloop[2 * e] < 0 and cx.hloop[2 * e + 1] < 0]
     if out:
-        return out
+        return out, inner
     for e in range(cx.ne):
         fwd, rev = cx.hloop[2 * e], cx.hloop[2 * e + 1]
         if fwd >= 0 and rev >= 0:
@@ -170,14 +171,17 @@ def _trace_all(cx, rec):
             hs[hs.index(2 * e + 1)] = 2 * e
             cx.hloop[2 * e], cx.hloop[2 * e + 1] = rev, -1
             cx.ev[e] = cx.ev[e, ::-1].copy()
-    return []
+    return [], inner
 
 
-def _states(cx, held):
+def _states(cx, held, inner):
+    """Each face's states from a point inside it (``inner``, held coordinates) against every section."""
     fs = cx.alive_faces
-    p = shapely.points(cx.interior_points() - cx.origin)
     st = np.full((len(fs), cx.n_lights), BRIGHT, np.int8)
-    for light, value, r, _ in held:
-        inside = shapely.contains(shapely.Polygon(r), p)
-        st[inside, light] = np.maximum(st[inside, light], value)
+    if len(held) and len(fs):
+        polys = np.array([shapely.Polygon(r) for _, _, r, _ in held], dtype=object)
+        ri, pi = shapely.STRtree(shapely.points(inner)).query(polys, predicate="contains")
+        light = np.array([h[0] for h in held])[ri]
+        value = np.array([h[1] for h in held], dtype=np.int8)[ri]
+        np.maximum.at(st, (pi, light), value)
     cx.face_state[fs] = st
