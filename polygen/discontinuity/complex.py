@@ -75,7 +75,9 @@ class ReceiverComplex:
     n_receiver_holes : int
     counters : dict
         ``point_in_loop`` (point-in-loop tests), ``edge_tests`` (segment-edge
-        intersection tests), ``state_tests`` (region-in-section tests),
+        intersection tests), ``edge_tests_all`` (what testing every section
+        edge against every edge of the receiver would have cost: the
+        baseline the walk is measured against), ``state_tests`` (region-in-section tests),
         ``sections`` (sections inserted), ``splits`` (edges split),
         ``snaps`` (edges bent through a vertex closer than the tolerance),
         ``loops_traced``, ``loops_deleted``.
@@ -98,8 +100,8 @@ class ReceiverComplex:
         self.n_lights = int(n_lights)
         self.n_receiver_holes = len(dom.holes)
         self.t_idd = 0.0  # seconds spent intersecting section edges with existing edges (T_idd)
-        self.counters = dict(point_in_loop=0, edge_tests=0, state_tests=0, sections=0, splits=0,
-                             snaps=0, loops_traced=0, loops_deleted=0)
+        self.counters = dict(point_in_loop=0, edge_tests=0, edge_tests_all=0, state_tests=0, sections=0,
+                             splits=0, snaps=0, loops_traced=0, loops_deleted=0)
         # geometry (growing arrays)
         self.xy = np.empty((64, 2))
         self.nv = 0

@@ -360,6 +360,8 @@ def _draw(cx, a, b, kind, f, new, newset, edge_face):
 
 def _walk_segment(cx, cur_v, cur_f, cur_p, q, q_v, kind, new, newset, edge_face, snapped):
     eps = cx.eps
+    # what testing the section edge against every edge of the receiver would cost
+    cx.counters["edge_tests_all"] += cx.ne
     for _ in range(10 * cx.ne + 100):
         f = cur_f
         if cur_v >= 0:
