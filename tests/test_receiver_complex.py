@@ -103,6 +103,7 @@ def test_topology_and_states_on_random_sections(name, grid):
     scale = np.ptp(outer, axis=0).max()
     sec = [(l_, lo + scale * u if len(u) else u, lo + scale * p, k) for l_, u, p, k in sec]
     cx = receiver_complex(outer, holes, sec, n_lights=n_lights, tol=1e-11, check=True)
+    assert cx.counters.get("fallback", 0) == 0, cx.fallback_reason  # the walk itself is under test
     cx.check()
     V, E, F, L = cx.euler()
     assert F > 10 and E > 4 * len(outer)
@@ -123,6 +124,7 @@ def test_point_light_umbra_is_d0_and_one_polygon():
     """Point light: umbra = penumbra, one set of D0 edges, states umbra / bright only."""
     sh = rect(0.2, -0.5, 0.7, 0.6)  # crosses the bottom ring edge
     cx = receiver_complex(SQUARE, (), [(0, sh, sh, "point")], check=True)
+    assert "fallback" not in cx.counters
     seg = discontinuity_segments(cx)
     assert len(seg) == 3 and set(seg.kinds) == {"D0"}  # the three sides inside the square
     assert sorted(cx.face_states()[:, 0].tolist()) == [BRIGHT, UMBRA]
@@ -132,6 +134,7 @@ def test_d0_wins_over_d1_along_a_shared_line():
     area = (0, rect(0.4, 0.4, 0.6, 0.6), rect(0.2, 0.2, 0.8, 0.8), "area")
     point = (1, rect(0.2, 0.2, 0.8, 0.5), rect(0.2, 0.2, 0.8, 0.5), "point")
     cx = receiver_complex(SQUARE, (), [area, point], check=True)
+    assert "fallback" not in cx.counters
     seg = discontinuity_segments(cx)
     for e, k in zip(seg.ends, seg.kinds):
         horizontal_d0 = np.allclose(e[:, 1], 0.2) or np.allclose(e[:, 1], 0.5)
@@ -345,3 +348,29 @@ def test_illumination_states_agree_with_ray_casting(name, scene_discontinuity):
                 seen["penumbra_dark"] += int((pen & (frac == 0.0)).sum())
                 seen["penumbra_lit"] += int((pen & (frac == 1.0)).sum())
     assert min(seen["umbra"], seen["penumbra"], seen["bright"]) > 100, seen
+
+
+def test_scene_mesh_follows_the_lines_and_refines_penumbra(scene_discontinuity):
+    """3.3.6: mesh_scene takes the driver's segments and region sizes as they are; every patch
+    of a receiver lies in one region of its complex, and patches in penumbra regions are
+    smaller (penumbra size a third of the others) than the others on the same receiver."""
+    from polygen.radiosity import mesh_scene
+
+    sc, sd = scene_discontinuity("two_rectangles_room")
+    m = mesh_scene(sc, sd.region_sizes(1.0, 1.0 / 3), segments=sd.segments)
+    for r, cx in sd.complexes.items():
+        R = sc.polygons[r]
+        sel = np.flatnonzero(m.patch_polygon == r)
+        tri = m.nodes[m.patches[sel]]
+        uv = R.to_2d(tri.mean(axis=1))
+        f = face_of(cx, uv)
+        assert np.all(f >= 0)
+        # no patch straddles a discontinuity line: its corners lie in (or on) its centroid's face
+        polys = [shapely.Polygon(*cx.face_rings(g)) for g in cx.alive_faces]
+        corners = R.to_2d(tri.reshape(-1, 3)).reshape(-1, 3, 2)
+        for k in range(len(sel)):
+            assert shapely.dwithin(polys[f[k]], shapely.points(corners[k]), 1e-7 * R.diameter).all()
+        pen = np.any(cx.face_states() == PENUMBRA, axis=1)[f]
+        area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+        if pen.any() and (~pen).any():
+            assert area[pen].mean() < area[~pen].mean() / 3

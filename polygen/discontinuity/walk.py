@@ -305,7 +305,7 @@ def _sector(cx, v, q, new):
     return ("face", cx.loop_face[lp] if lp >= 0 else -1)
 
 
-def insert_section(cx, ring, kind, *, timer=None):
+def insert_section(cx, ring, kind):
     """Walk one convex section (held coordinates, counter-clockwise) into the complex.
 
     Parameters
