@@ -238,10 +238,10 @@ def discontinuity_segments(cx, *, min_length=None):
     ----------
     cx : ReceiverComplex
     min_length : float, keyword-only, optional
-        Edges shorter than this are left out: the mesh model merges vertices
-        closer than its own tolerance (:data:`polygen.radiosity.layout.LAYOUT_TOL`
-        times the polygon's extent) and rejects shorter segments, so the
-        default is twice that.
+        Edges this short or shorter are left out.  Default: the mesh model's
+        own tolerance (:data:`polygen.radiosity.layout.LAYOUT_TOL` times the
+        polygon's extent), below which it rejects a segment and merges its
+        end points anyway, so leaving it out changes nothing there.
 
     Returns
     -------
@@ -253,7 +253,7 @@ def discontinuity_segments(cx, *, min_length=None):
     from polygen.radiosity.layout import LAYOUT_TOL, Segments
 
     if min_length is None:
-        min_length = 2 * LAYOUT_TOL * cx.extent
+        min_length = LAYOUT_TOL * cx.extent
     k = cx.ekind[:cx.ne]
     ev = cx.ev[:cx.ne]
     xy = cx.vertices
