@@ -124,25 +124,31 @@ def visible_fraction(scene, light, points, *, normals, samples=4, skip=(), seed=
         P = points[s0:s0 + chunk]
         Nn = normals[s0:s0 + chunk]
         if isinstance(light, ParallelLight):
-            Q = P[:, None, :] - far * light.direction  # (n, 1, 3)
+            Q = (P - far * light.direction)[:, None, :]  # (n, 1, 3): one ray per point
         else:
-            Q = np.broadcast_to(S[None, :, :], (len(P), len(S), 3))
-        A = np.broadcast_to(P[:, None, :], Q.shape)
-        front = np.einsum("nsc,nc->ns", Q - A, Nn) > 0.0
+            Q = S[None, :, :]                            # (1, s, 3)
+        front = np.einsum("nsc,nc->ns", Q - P[:, None, :], Nn) > 0.0
         blocked = np.zeros(front.shape, bool)
         for p, shp in occ:
-            da = (A - p.origin) @ p.normal
-            db = (Q - p.origin) @ p.normal
+            d = float(p.normal @ p.origin)
+            da = (P @ p.normal - d)[:, None]             # (n, 1)
+            db = Q @ p.normal - d                        # (1, s) or (n, 1)
             cross = ((da > 0) & (db < 0)) | ((da < 0) & (db > 0))
             cross &= ~blocked & front
             if not cross.any():
                 continue
-            t = da[cross] / (da[cross] - db[cross])
-            X = A[cross] + t[:, None] * (Q[cross] - A[cross])
-            uv = p.to_2d(X)
-            hit = shapely.contains_xy(shp, uv[:, 0], uv[:, 1])
-            idx = np.flatnonzero(cross.ravel())[hit]
-            blocked.ravel()[idx] = True
+            i, j = np.nonzero(cross)
+            qa = np.broadcast_to(da, cross.shape)[i, j]
+            qb = np.broadcast_to(db, cross.shape)[i, j]
+            A = P[i]
+            B = Q[np.minimum(i, len(Q) - 1), np.minimum(j, Q.shape[1] - 1)]
+            X = A + (qa / (qa - qb))[:, None] * (B - A)
+            lo, hi = p.vertices.min(axis=0) - 1e-9, p.vertices.max(axis=0) + 1e-9
+            box = np.all((X >= lo) & (X <= hi), axis=1)  # only these can be inside the polygon
+            uv = p.to_2d(X[box])
+            hit = np.zeros(len(X), bool)
+            hit[box] = shapely.contains_xy(shp, uv[:, 0], uv[:, 1])
+            blocked[i[hit], j[hit]] = True
         nf = front.sum(axis=1)
         vis = (front & ~blocked).sum(axis=1)
         out[s0:s0 + chunk] = np.where(nf > 0, vis / np.maximum(nf, 1), np.nan)

@@ -207,22 +207,30 @@ def _sample_in(poly, n, rng):
 
 
 def _inside_convex(uv, ring):
+    out = np.zeros(len(uv), bool)
     if len(ring) < 3:
-        return np.zeros(len(uv), bool)
+        return out
+    box = np.all((uv >= ring.min(axis=0)) & (uv <= ring.max(axis=0)), axis=1)
+    q = uv[box]
     a, b = ring, np.roll(ring, -1, axis=0)
-    cross = ((b[:, 0] - a[:, 0]) * (uv[:, None, 1] - a[:, 1])
-             - (b[:, 1] - a[:, 1]) * (uv[:, None, 0] - a[:, 0]))
-    return np.all(cross > 0, axis=1)
+    cross = ((b[:, 0] - a[:, 0]) * (q[:, None, 1] - a[:, 1])
+             - (b[:, 1] - a[:, 1]) * (q[:, None, 0] - a[:, 0]))
+    out[box] = np.all(cross > 0, axis=1)
+    return out
 
 
 def _near_ring(uv, ring, band):
+    out = np.zeros(len(uv), bool)
     if len(ring) < 3:
-        return np.zeros(len(uv), bool)
+        return out
+    box = np.all((uv >= ring.min(axis=0) - band) & (uv <= ring.max(axis=0) + band), axis=1)
+    q = uv[box]
     a, b = ring, np.roll(ring, -1, axis=0)
     d = b - a
-    t = np.clip(((uv[:, None, :] - a) * d).sum(-1) / (d * d).sum(-1), 0, 1)
-    dist = np.linalg.norm(uv[:, None, :] - (a + t[..., None] * d), axis=-1)
-    return dist.min(axis=1) <= band
+    t = np.clip(((q[:, None, :] - a) * d).sum(-1) / (d * d).sum(-1), 0, 1)
+    dist = np.linalg.norm(q[:, None, :] - (a + t[..., None] * d), axis=-1)
+    out[box] = dist.min(axis=1) <= band
+    return out
 
 
 @pytest.fixture(scope="module")
@@ -237,22 +245,13 @@ def scene_shadows():
     return get
 
 
-@pytest.mark.parametrize("name", list(SCENES))
-def test_sections_agree_with_ray_casting(name, scene_shadows):
-    # issue 14: on every receiver, 10^4 points; the light's visible fraction by ray casting is 0
-    # in an umbra section and 1 outside every penumbra section, except within 1e-6 x scene size
-    # of a section's boundary
-    sc, sh = scene_shadows(name)
-    rng = np.random.default_rng(14)
+def _check_against_rays(sc, sh, receivers, rng, n_points):
+    """Visible fraction 0 in umbra sections and 1 outside penumbra sections; counts of each state."""
     band = 1e-6 * float(np.linalg.norm(np.ptp(sc.bounds, axis=0)))
-    receivers = sorted(sh.sections)
-    others = [k for k in range(len(sc)) if k not in sh.sections]
-    if len(sc) > 40:  # the sphere: its floor and a sample of the 180 faces
-        others = list(rng.choice(others, 16, replace=False))
     seen = dict(umbra=0, penumbra=0, bright=0)
-    for r in receivers + others:
+    for r in receivers:
         R = sc.polygons[r]
-        uv = _sample_in(R, 10_000 if r in sh.sections else 1000, rng)
+        uv = _sample_in(R, n_points(r), rng)
         X = R.to_3d(uv)
         for side in ((1, -1) if R.two_sided else (1,)):
             for li, (kind, light, lpoly) in enumerate(scene_lights(sc)):
@@ -261,7 +260,6 @@ def test_sections_agree_with_ray_casting(name, scene_shadows):
                 secs = [s for s in sh.of(r) if s.light == li and s.side == side]
                 frac = visible_fraction(sc, light, X, normals=np.broadcast_to(side * R.normal, X.shape),
                                         samples=4, skip=[r])
-                ok = ~np.isnan(frac)
                 near = np.zeros(len(uv), bool)
                 umbra = np.zeros(len(uv), bool)
                 pen = np.zeros(len(uv), bool)
@@ -269,7 +267,7 @@ def test_sections_agree_with_ray_casting(name, scene_shadows):
                     near |= _near_ring(uv, s.penumbra, band) | _near_ring(uv, s.umbra, band)
                     umbra |= _inside_convex(uv, s.umbra)
                     pen |= _inside_convex(uv, s.penumbra)
-                sel = ok & ~near
+                sel = ~np.isnan(frac) & ~near
                 bad_u = np.flatnonzero(sel & umbra & (frac != 0.0))
                 bad_b = np.flatnonzero(sel & ~pen & (frac != 1.0))
                 assert len(bad_u) == 0, (R.name, side, li, X[bad_u[:3]], frac[bad_u[:3]])
@@ -277,7 +275,125 @@ def test_sections_agree_with_ray_casting(name, scene_shadows):
                 seen["umbra"] += int((sel & umbra).sum())
                 seen["penumbra"] += int((sel & pen & ~umbra).sum())
                 seen["bright"] += int((sel & ~pen).sum())
+    return seen
+
+
+@pytest.mark.parametrize("name", list(SCENES))
+def test_sections_agree_with_ray_casting(name, scene_shadows):
+    # issue 14: on every receiver, 10^4 points; the light's visible fraction by ray casting is 0
+    # in an umbra section and 1 outside every penumbra section, except within 1e-6 x scene size
+    # of a section's boundary
+    sc, sh = scene_shadows(name)
+    rng = np.random.default_rng(14)
+    others = [k for k in range(len(sc)) if k not in sh.sections]
+    if len(sc) > 40:  # the sphere: its floor and a sample of the 180 faces
+        others = list(rng.choice(others, 16, replace=False))
+    seen = _check_against_rays(sc, sh, sorted(sh.sections) + others, rng,
+                               lambda r: 10_000 if r in sh.sections else 1000)
     # the test reaches all three states (point and parallel lights: no penumbra)
     if not sc.area_lights:
         assert seen.pop("penumbra") == 0
     assert min(seen.values()) > 100, seen
+
+
+# -- awkward input ------------------------------------------------------------------------------
+def _floor_scene(*extra, light_centre=(5.0, 10.0, 3.0), light_size=2.0):
+    floor = Polygon([[0, 0, 0], [0, 0, 10], [10, 0, 10], [10, 0, 0]], name="floor")
+    c = np.asarray(light_centre, float)
+    h = 0.5 * light_size
+    light = AreaLight(c + np.array([[-h, 0, -h], [h, 0, -h], [h, 0, h], [-h, 0, h]]), emission=1.0,
+                      name="light")
+    if light.normal[1] > 0:
+        light = light.flipped("light")
+    return Scene([floor, light, *extra], name="floor_scene")
+
+
+def test_occluder_touching_the_receiver():
+    # a wall standing on the floor: its umbra section reaches the contact line
+    wall = Polygon([[4, 0, 5], [6, 0, 5], [6, 4, 5], [4, 4, 5]], name="wall", two_sided=True)
+    sc = _floor_scene(wall, light_size=1.0)
+    sh = scene_sections(sc)
+    (s,) = sh.of(0)
+    floor = sc.polygons[0]
+    contact = floor.to_2d(np.array([[4.0, 0, 5], [6, 0, 5]]))
+    e = contact[1] - contact[0]
+    w = s.umbra - contact[0]
+    d = np.abs(w[:, 0] * e[1] - w[:, 1] * e[0]) / np.linalg.norm(e)
+    assert np.sum(d < 1e-9) == 2  # two umbra vertices on the contact line: the umbra meets it
+    assert np.isclose(sorted(np.linalg.norm(s.umbra - contact[0], axis=1))[0], 0.0, atol=1e-9)
+    seen = _check_against_rays(sc, sh, [0], np.random.default_rng(0), lambda r: 10_000)
+    assert min(seen.values()) > 100
+
+
+def test_coplanar_occluder_and_receiver_give_no_section():
+    rug = Polygon([[3, 0, 3], [3, 0, 6], [6, 0, 6], [6, 0, 3]], name="rug")
+    sc = _floor_scene(rug)
+    sh = scene_sections(sc)
+    assert sh.of(0) == [] and sh.of(2) == []
+
+
+def test_light_behind_the_receiver_gives_no_section():
+    # one-sided, facing down (away from the light): nothing; two-sided: only its upper face
+    down = Polygon([[3, 5, 3], [6, 5, 3], [6, 5, 6], [3, 5, 6]], name="down")
+    top = Polygon([[3.5, 7, 3.5], [5.5, 7, 3.5], [5.5, 7, 5.5], [3.5, 7, 5.5]], name="top")
+    assert down.normal[1] < 0
+    sc = _floor_scene(down, top, light_centre=(5.0, 10.0, 5.0))
+    sh = scene_sections(sc)
+    assert sh.of(2) == []
+    sc2 = _floor_scene(Polygon(down.vertices, name="down2", two_sided=True), top,
+                       light_centre=(5.0, 10.0, 5.0))
+    sides = {s.side for s in scene_sections(sc2).of(2)}
+    assert sides == {-1}
+
+
+def test_light_across_an_occluders_plane_is_split():
+    # a vertical occluder whose plane cuts the light in two: penumbra on both sides, no umbra
+    blade = Polygon([[5, 5, 3], [5, 5, 7], [5, 8, 7], [5, 8, 3]], name="blade", two_sided=True)
+    sc = _floor_scene(blade, light_centre=(5.0, 10.0, 5.0))
+    sh = scene_sections(sc)
+    secs = sh.of(0)
+    assert len(secs) == 2 and all(len(s.umbra) == 0 for s in secs)
+    seen = _check_against_rays(sc, sh, [0], np.random.default_rng(1), lambda r: 10_000)
+    assert seen["penumbra"] > 100 and seen["umbra"] == 0
+
+
+def test_shadow_sections_of_one_receiver_and_bad_index():
+    sc = _floor_scene(Polygon([[4, 3, 4], [6, 3, 4], [6, 3, 6], [4, 3, 6]], name="sq", two_sided=True))
+    (s,) = shadow_sections(sc, 0)
+    assert s.receiver == 0 and s.occluder == 2 and s.light == 0 and s.kind == "area"
+    assert len(s.umbra) >= 3 and len(s.penumbra) >= 3
+    # the polyhedra it was cut from hold its points
+    floor = sc.polygons[0]
+    assert s.polyhedra.umbra.contains(floor.to_3d(s.umbra.mean(axis=0)))[0]
+    assert s.polyhedra.penumbra.contains(floor.to_3d(s.penumbra), tol=1e-9).all()
+    with pytest.raises(ShadowError, match="receiver_index"):
+        shadow_sections(sc, 7)
+
+
+def test_index_finds_what_testing_every_pair_finds():
+    # the bounding-volume hierarchy only prunes: the same sections as every polyhedron against
+    # every receiver, with fewer receiver tests
+    sc = scenes.chair_scene()
+    a, b = scene_sections(sc), scene_sections(sc, use_index=False)
+    key = lambda s: (s.receiver, s.light, s.occluder, s.piece, s.side)  # noqa: E731
+    sa = sorted(((key(s), s) for v in a.sections.values() for s in v), key=lambda t: t[0])
+    sb = sorted(((key(s), s) for v in b.sections.values() for s in v), key=lambda t: t[0])
+    assert [k for k, _ in sa] == [k for k, _ in sb]
+    for (_, x), (_, y) in zip(sa, sb):
+        assert np.array_equal(x.penumbra, y.penumbra) and np.array_equal(x.umbra, y.umbra)
+    assert a.counters["receiver_tests"] < b.counters["receiver_tests"]
+
+
+def test_section_edges_name_their_faces():
+    # a wall standing on the floor: the umbra's edge along the contact line lies on the
+    # occluder's own plane (0), the others on side planes; none on the clipping box inside
+    wall = Polygon([[4, 0, 5], [6, 0, 5], [6, 4, 5], [4, 4, 5]], name="wall", two_sided=True)
+    sc = _floor_scene(wall, light_size=1.0)
+    (s,) = scene_sections(sc).of(0)
+    assert len(s.umbra_edges) == len(s.umbra) and len(s.penumbra_edges) == len(s.penumbra)
+    assert list(s.umbra_edges).count(0) == 1 and list(s.penumbra_edges).count(0) == 1
+    assert np.all(s.umbra_edges >= 0) and np.all(s.penumbra_edges >= 0)
+    # a floating square: no contact, all side planes
+    sq = Polygon([[4, 3, 4], [6, 3, 4], [6, 3, 6], [4, 3, 6]], name="sq", two_sided=True)
+    (s,) = scene_sections(_floor_scene(sq)).of(0)
+    assert np.all(s.umbra_edges >= 1) and np.all(s.penumbra_edges >= 1)

@@ -1,22 +1,42 @@
 """Chapter 3: simplified discontinuity meshing with shadow polyhedra.
 
-* :mod:`~polygen.discontinuity.shadow` -- shadow polyhedra (3.3.1) and
-  their sections on receivers (:class:`ShadowSection`).
+* :mod:`~polygen.discontinuity.shadow` -- shadow polyhedra (3.3.1, Defs
+  3.2-3.4: the umbra by the smallest-angle planes, the penumbra by
+  gift-wrapping) and their sections on receivers (:class:`ShadowSection`),
+  for a whole scene by :func:`scene_sections`;
+* :mod:`~polygen.discontinuity.scene_index` -- the bounding-volume
+  hierarchy that keeps the receiver tests sub-quadratic;
 * :mod:`~polygen.discontinuity.complex` -- the receiver complex (3.3.2);
   :mod:`~polygen.discontinuity.walk` -- the intersection walk (3.3.3);
   :mod:`~polygen.discontinuity.loops` -- loop rebuilding (3.3.4);
   :mod:`~polygen.discontinuity.states` -- illumination states (3.3.5) and
-  the output to the mesh model (3.3.6).
+  the output to the mesh model (3.3.6);
+  :mod:`~polygen.discontinuity.simplified` -- the whole method on a scene;
+* :mod:`~polygen.discontinuity.conventional` -- the baseline of 2.4.3:
+  all EV and VE critical surfaces on a receiver;
+* :mod:`~polygen.discontinuity.bsp` -- the 2-D BSP split of a receiver
+  (Figs 2.10, 3.4(b)).
 """
 
+from polygen.discontinuity.bsp import BSPRegions, bsp_split
 from polygen.discontinuity.complex import ComplexError, ReceiverComplex
+from polygen.discontinuity.conventional import (
+    CriticalSegments,
+    conventional_bsp,
+    conventional_segments,
+    critical_surfaces,
+    section_segments,
+)
 from polygen.discontinuity.shadow import (
     Polyhedron,
+    SceneShadows,
     ShadowError,
     ShadowPolyhedra,
     ShadowSection,
     polyhedron_section,
+    scene_lights,
     scene_sections,
+    section_edge_planes,
     shadow_polyhedron,
     shadow_sections,
 )
@@ -30,8 +50,37 @@ from polygen.discontinuity.states import (
     region_points,
     region_size,
 )
+from polygen.discontinuity.simplified import SimplifiedDiscontinuity, simplified_discontinuity
 
-__all__ = ["Polyhedron", "ShadowError", "ShadowPolyhedra", "ShadowSection", "polyhedron_section",
-           "scene_sections", "shadow_polyhedron", "shadow_sections",
-           "ComplexError", "ReceiverComplex", "receiver_complex", "discontinuity_segments",
-           "region_points", "region_size", "UNPROCESSED", "BRIGHT", "PENUMBRA", "UMBRA"]
+__all__ = [
+    "BRIGHT",
+    "BSPRegions",
+    "ComplexError",
+    "CriticalSegments",
+    "PENUMBRA",
+    "Polyhedron",
+    "ReceiverComplex",
+    "SceneShadows",
+    "ShadowError",
+    "ShadowPolyhedra",
+    "ShadowSection",
+    "SimplifiedDiscontinuity",
+    "UMBRA",
+    "UNPROCESSED",
+    "bsp_split",
+    "conventional_bsp",
+    "conventional_segments",
+    "critical_surfaces",
+    "discontinuity_segments",
+    "polyhedron_section",
+    "receiver_complex",
+    "region_points",
+    "region_size",
+    "scene_lights",
+    "scene_sections",
+    "section_edge_planes",
+    "section_segments",
+    "shadow_polyhedron",
+    "shadow_sections",
+    "simplified_discontinuity",
+]

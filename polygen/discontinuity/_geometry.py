@@ -8,13 +8,30 @@ half-space ``n . x <= d``.
 from __future__ import annotations
 
 from itertools import combinations
+from math import sqrt
 
 import numpy as np
 
 
 def unit(v):
     v = np.asarray(v, dtype=np.float64)
+    if v.ndim == 1:
+        return v / sqrt(float(v @ v))
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def norm(v):
+    """Length of one vector (faster than np.linalg.norm on 3 numbers)."""
+    return sqrt(float(v @ v))
+
+
+def cross(a, b):
+    """The cross product of two 3-vectors, or of rows (np.cross is slow on tiny inputs)."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+                     a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
 
 
 def plane_through(n, p):
@@ -44,6 +61,15 @@ def box_planes(lo, hi):
     return np.asarray(out)
 
 
+_TRIPLES = {}
+
+
+def _triples(P):
+    if P not in _TRIPLES:
+        _TRIPLES[P] = np.array(list(combinations(range(P), 3)), dtype=np.int64).reshape(-1, 3)
+    return _TRIPLES[P]
+
+
 def polytope_vertices(planes, tol):
     """Vertices and edges of the bounded polytope ``planes[:, :3] @ x <= planes[:, 3]``.
 
@@ -62,7 +88,7 @@ def polytope_vertices(planes, tol):
     P = len(planes)
     if P < 4:
         return np.zeros((0, 3)), np.zeros((0, 2), np.int64), np.zeros((0, P), bool)
-    tri = np.array(list(combinations(range(P), 3)), dtype=np.int64)
+    tri = _triples(P)
     A = planes[tri, :3]
     b = planes[tri, 3]
     det = np.linalg.det(A)
@@ -70,11 +96,9 @@ def polytope_vertices(planes, tol):
     x = np.linalg.solve(A[ok], b[ok][..., None])[..., 0]
     inside = np.all(x @ planes[:, :3].T <= planes[:, 3] + tol, axis=1)
     x = x[inside]
-    verts = []
-    for p in x:
-        if not any(np.abs(p - q).max() <= tol for q in verts):
-            verts.append(p)
-    V = np.asarray(verts, dtype=np.float64).reshape(-1, 3)
+    # merge solutions closer than tol (several planes through one vertex), the first kept
+    close = np.abs(x[:, None, :] - x[None, :, :]).max(axis=-1) <= tol
+    V = x[~np.triu(close, 1).any(axis=0)]
     on = np.abs(V @ planes[:, :3].T - planes[:, 3]) <= tol
     shared = on.astype(np.int64) @ on.T.astype(np.int64)
     i, j = np.nonzero(np.triu(shared >= 2, k=1))

@@ -38,9 +38,27 @@ def _box_outside(lo, hi, planes, nplanes, qlo, qhi):
 
 
 @njit
-def _query_kernel(node_lo, node_hi, child, start, count, order, planes, plane_start, qlo, qhi,
-                  tol, out_q, out_item, node_tests):
-    """All (query, item) pairs whose boxes survive the plane tests; returns how many."""
+def _points_outside(pts, planes, nplanes):
+    """Whether all points lie strictly outside one of the planes (a separating face)."""
+    for p in range(nplanes):
+        out = True
+        for i in range(len(pts)):
+            s = planes[p, 0] * pts[i, 0] + planes[p, 1] * pts[i, 1] + planes[p, 2] * pts[i, 2]
+            if s <= planes[p, 3]:
+                out = False
+                break
+        if out:
+            return True
+    return False
+
+
+@njit
+def _query_kernel(node_lo, node_hi, child, start, count, order, points, point_start, planes,
+                  plane_start, qlo, qhi, tol, out_q, out_item, counters):
+    """All (query, item) pairs whose boxes and points survive the plane tests; returns how many.
+
+    ``counters[0]``: node boxes tested; ``counters[1]``: items tested against the planes.
+    """
     k = 0
     nq = len(plane_start) - 1
     stack = np.empty(128, np.int64)
@@ -54,14 +72,18 @@ def _query_kernel(node_lo, node_hi, child, start, count, order, planes, plane_st
         while top > 0:
             top -= 1
             nd = stack[top]
-            node_tests[0] += 1
+            counters[0] += 1
             if _box_outside(node_lo[nd], node_hi[nd], pl, len(pl), qlo[q], qhi[q]):
                 continue
             if child[nd, 0] < 0:
                 for j in range(start[nd], start[nd] + count[nd]):
+                    it = order[j]
+                    counters[1] += 1
+                    if _points_outside(points[point_start[it]:point_start[it + 1]], pl, len(pl)):
+                        continue
                     if k < len(out_q):
                         out_q[k] = q
-                        out_item[k] = order[j]
+                        out_item[k] = it
                     k += 1
             else:
                 stack[top] = child[nd, 0]
@@ -77,6 +99,9 @@ class PolygonIndex:
     ----------
     boxes : (N, 2, 3) float64
         Min and max corner of each polygon.
+    points : list of (k_i, 3) float64, keyword-only, optional
+        Each polygon's vertices: a polygon whose vertices all lie outside
+        one face of a query is not returned (a separating plane).
     leaf_size : int, keyword-only
         Largest number of polygons in a leaf.
 
@@ -84,13 +109,24 @@ class PolygonIndex:
     ----------
     node_tests : int
         Node boxes tested by all queries so far (a work counter).
+    item_tests : int
+        Polygons tested against a query's faces so far.
     """
 
-    def __init__(self, boxes, *, leaf_size=4):
+    def __init__(self, boxes, *, points=None, leaf_size=4):
         boxes = np.asarray(boxes, dtype=np.float64)
         if boxes.ndim != 3 or boxes.shape[1:] != (2, 3):
             raise ValueError(f"PolygonIndex: boxes must be (N, 2, 3), got {boxes.shape}")
         self.boxes = boxes
+        if points is None:  # the box corners stand for the polygon
+            points = [np.array([[x, y, z] for x in b[:, 0] for y in b[:, 1] for z in b[:, 2]])
+                      for b in boxes.transpose(0, 2, 1)]
+        if len(points) != len(boxes):
+            raise ValueError(f"PolygonIndex: {len(points)} point sets for {len(boxes)} boxes")
+        self.point_start = np.zeros(len(points) + 1, np.int64)
+        self.point_start[1:] = np.cumsum([len(p) for p in points])
+        self.points = np.ascontiguousarray(np.vstack([np.asarray(p, float).reshape(-1, 3) for p in points])
+                                           if len(points) else np.zeros((0, 3)))
         centre = boxes.mean(axis=1)
         lo, hi, child, start, count = [], [], [], [], []
         order = np.arange(len(boxes))
@@ -122,6 +158,7 @@ class PolygonIndex:
         self.count = np.asarray(count, dtype=np.int64)
         self.order = order.astype(np.int64)
         self.node_tests = 0
+        self.item_tests = 0
 
     def query(self, planes, boxes, *, tol=0.0):
         """Polygons whose boxes may meet each convex query.
@@ -138,7 +175,8 @@ class PolygonIndex:
         Returns
         -------
         (K, 2) int64
-            Rows ``(query, polygon)``.
+            Rows ``(query, polygon)``: the box meets the query's box and no
+            face of the query separates the polygon's points from it.
         """
         Q = len(planes)
         if Q == 0 or len(self.boxes) == 0:
@@ -153,11 +191,13 @@ class PolygonIndex:
         while True:
             oq = np.empty(cap, np.int64)
             oi = np.empty(cap, np.int64)
-            nt = np.zeros(1, np.int64)
+            nt = np.zeros(2, np.int64)
             k = _query_kernel(self.node_lo, self.node_hi, self.child, self.start, self.count,
-                              self.order, P, ps, qlo, qhi, float(tol), oq, oi, nt)
+                              self.order, self.points, self.point_start, P, ps, qlo, qhi,
+                              float(tol), oq, oi, nt)
             if k <= cap:
                 break
             cap = k
         self.node_tests += int(nt[0])
+        self.item_tests += int(nt[1])
         return np.stack([oq[:k], oi[:k]], axis=1)

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from polygen.discontinuity import _geometry as geo
-from polygen.radiosity.scene import AreaLight, ParallelLight, PointLight, Polygon
+from polygen.radiosity.scene import ParallelLight, PointLight, Polygon
 
 __all__ = [
     "ShadowError",
@@ -29,6 +29,7 @@ __all__ = [
     "ShadowPolyhedra",
     "shadow_polyhedron",
     "polyhedron_section",
+    "section_edge_planes",
     "ShadowSection",
     "SceneShadows",
     "scene_lights",
@@ -153,7 +154,7 @@ def _occluder_array(occluder):
 
 
 def _newell(ring):
-    return np.cross(ring, np.roll(ring, -1, axis=0)).sum(axis=0)
+    return geo.cross(ring, np.roll(ring, -1, axis=0)).sum(axis=0)
 
 
 # -- the polyhedra ------------------------------------------------------------------------------
@@ -182,73 +183,112 @@ def _ray_hinges(S, O, Sf, Of, normal):
     pairs = [(a, b) for a in Sf for b in Of]
     d = geo.unit(np.array([O[b] - S[a] for a, b in pairs]))
     t1 = geo.unit(d.sum(axis=0))
-    t2 = np.cross(normal, t1)
+    t2 = geo.cross(normal, t1)
     ang = np.arctan2(d @ t2, d @ t1)
     return pairs[int(np.argmin(ang))], pairs[int(np.argmax(ang))]
 
 
-def _gift_wrap(S, O, cands, F0, n_o, tol):
+def _gift_wrap(S, O, cands, F0, n_o, tol, flat):
     """The penumbra's side planes by gift-wrapping over the EV/VE planes (Fig. 3.7).
 
-    ``cands`` are rows (n, d) oriented with the occluder inside.  From F0,
-    across the face's hinge ray (one light vertex, one occluder vertex),
-    the next face is the candidate through that ray with the largest
-    interior angle to the current face; it stops back at F0.
+    ``cands`` are rows (n, d) oriented with the occluder inside; ``flat``
+    marks those lying in the occluder's plane.  From F0, across the face's
+    hinge ray (one light vertex, one occluder vertex), the next face is the
+    candidate through that ray with the largest interior angle to the
+    current face; it stops back at F0.  A light touching the occluder's
+    plane leaves the band open at rays in that plane (the occluder's plane
+    closes it): then it wraps from F0 both ways.
     """
     m, n = len(S), len(O)
-    dS = cands[:, :3] @ S.T - cands[:, 3:4]   # (C, m)
-    dO = cands[:, :3] @ O.T - cands[:, 3:4]   # (C, n)
-    onS = np.abs(dS) <= tol
-    onO = np.abs(dO) <= tol
+    onS = np.abs(cands[:, :3] @ S.T - cands[:, 3:4]) <= tol   # (C, m)
+    onO = np.abs(cands[:, :3] @ O.T - cands[:, 3:4]) <= tol   # (C, n)
+    in_occ_plane = np.abs((S - O[0]) @ n_o) <= tol
 
     def coplanar(i, j):
         return np.abs(cands[i] - cands[j]).max() <= tol
 
-    def beyond(a, b):
-        return O[b] + (O[b] - S[a])  # a point on the ray S_a -> O_b past the occluder
+    # every candidate's two extreme rays (light vertex -> occluder vertex) at once
+    d = O[None, :, :] - S[:, None, :]
+    d = d / np.linalg.norm(d, axis=-1, keepdims=True)                      # (m, n, 3)
+    mask = onS[:, :, None] & onO[:, None, :]                               # (C, m, n)
+    t1 = np.einsum("cmn,mnk->ck", mask.astype(np.float64), d)
+    t1 /= np.maximum(np.linalg.norm(t1, axis=-1, keepdims=True), 1e-300)
+    t2 = geo.cross(cands[:, :3], t1)
+    ang = np.arctan2(np.einsum("mnk,ck->cmn", d, t2), np.einsum("mnk,ck->cmn", d, t1))
+    lo_i = np.argmin(np.where(mask, ang, np.inf).reshape(len(cands), -1), axis=1)
+    hi_i = np.argmax(np.where(mask, ang, -np.inf).reshape(len(cands), -1), axis=1)
+    lo_p = np.stack(np.unravel_index(lo_i, (m, n)), axis=1)
+    hi_p = np.stack(np.unravel_index(hi_i, (m, n)), axis=1)
 
-    faces = [F0]
-    lo, hi = _ray_hinges(S, O, np.flatnonzero(onS[F0]), np.flatnonzero(onO[F0]), cands[F0, :3])
-    cur, hinge, other = F0, hi, lo
-    for _ in range(2 * m * n + 2):
-        a, b = hinge
-        h = geo.unit(O[b] - S[a])
+    def hinges(g):
+        return (int(lo_p[g, 0]), int(lo_p[g, 1])), (int(hi_p[g, 0]), int(hi_p[g, 1]))
 
-        def perp(x):
-            x = x - O[b]
-            return x - (x @ h) * h
+    def wrap(hinge, other):
+        cur, faces = F0, []
+        for _ in range(2 * m * n + 2):
+            a, b = hinge
+            if in_occ_plane[a]:
+                return faces, False
+            h = geo.unit(O[b] - S[a])
 
-        f = geo.unit(perp(beyond(*other)))
-        nF = cands[cur, :3]
-        best, best_ang, best_other = -1, -np.inf, None
-        for g in np.flatnonzero(onS[:, a] & onO[:, b]):
-            if coplanar(g, cur):
-                continue
-            glo, ghi = _ray_hinges(S, O, np.flatnonzero(onS[g]), np.flatnonzero(onO[g]), cands[g, :3])
-            g_other = glo if (np.linalg.norm(perp(beyond(*glo))) > np.linalg.norm(perp(beyond(*ghi)))) \
-                else ghi
-            gv = perp(beyond(*g_other))
-            if np.linalg.norm(gv) <= tol:
-                continue
-            gv = geo.unit(gv)
-            ang = np.arctan2(gv @ (-nF), gv @ f)  # interior dihedral angle to the current face
-            if ang > best_ang + 1e-12:
-                best, best_ang, best_other = g, ang, g_other
-        if best < 0 or not (0.0 < best_ang <= np.pi + 1e-9):
-            raise ShadowError("penumbra gift-wrapping found no next face (degenerate light/occluder)")
-        if coplanar(best, F0):
-            break
-        faces.append(best)
-        cur, other = best, hinge
-        glo, ghi = _ray_hinges(S, O, np.flatnonzero(onS[best]), np.flatnonzero(onO[best]),
-                               cands[best, :3])
-        # the next hinge: the face's extreme ray that is not the one just crossed
-        same_lo = np.linalg.norm(perp(beyond(*glo))) <= tol and np.linalg.norm(perp(S[glo[0]])) <= tol
-        hinge = ghi if same_lo else glo
-        if np.linalg.norm(perp(beyond(*hinge))) <= tol:
-            hinge = ghi if hinge == glo else glo
-    else:
+            def perp(x, a=a, b=b, h=h):
+                x = x - O[b]
+                return x - (x @ h) * h
+
+            def off_line(hg):  # how far a hinge ray is from the current one
+                return max(geo.norm(perp(S[hg[0]])), geo.norm(perp(O[hg[1]])))
+
+            f = geo.unit(perp(O[other[1]] + (O[other[1]] - S[other[0]])))
+            nF = cands[cur, :3]
+            best, best_ang, best_next = -1, -np.inf, None
+            for g in np.flatnonzero(onS[:, a] & onO[:, b] & ~flat):
+                if coplanar(g, cur):
+                    continue
+                glo, ghi = hinges(g)
+                nxt = glo if off_line(glo) > off_line(ghi) else ghi
+                gv = perp(O[nxt[1]] + (O[nxt[1]] - S[nxt[0]]))
+                if geo.norm(gv) <= tol:
+                    continue
+                gv = geo.unit(gv)
+                ang = np.arctan2(gv @ (-nF), gv @ f)  # interior dihedral angle to the current face
+                if ang > best_ang + 1e-12:
+                    best, best_ang, best_next = g, ang, nxt
+            if best < 0 or not (0.0 < best_ang <= np.pi + 1e-9):
+                raise ShadowError("penumbra gift-wrapping found no next face (degenerate light or "
+                                  "occluder)")
+            if coplanar(best, F0):
+                return faces, True
+            faces.append(best)
+            cur, other, hinge = best, hinge, best_next
         raise ShadowError("penumbra gift-wrapping did not close")
+
+    lo, hi = hinges(F0)
+    faces, closed = wrap(hi, lo)
+    if not closed:
+        back, _ = wrap(lo, hi)
+        faces = back[::-1] + faces
+    return [F0] + faces
+
+
+def _hull_faces(S, O, cands, flat, tol):
+    """The candidate planes that are facets of the hull of the occluder pushed away from the light.
+
+    For a light touching the occluder's plane, where the band of penumbra
+    faces is open (the gift-wrapping's degenerate case): the convex hull
+    of the occluder's vertices and of each pushed away from each light
+    vertex has the penumbra's side planes as its facets through a light
+    vertex and an occluder vertex.
+    """
+    from scipy.spatial import ConvexHull
+
+    X = np.vstack([O] + [O + 4.0 * (O - s) for s in S])
+    eq = ConvexHull(X).equations
+    faces = []
+    for g in np.flatnonzero(~flat):
+        c = cands[g]
+        if any(np.abs(e[:3] - c[:3]).max() < 1e-9 and abs(-e[3] - c[3]) <= tol for e in eq):
+            if not any(np.abs(cands[f] - c).max() <= tol for f in faces):
+                faces.append(int(g))
     return faces
 
 
@@ -326,13 +366,13 @@ def shadow_polyhedron(light, occluder, *, bounds=None, tol=1e-9):
     occ_plane = np.concatenate([n_o, [d_o]])  # beyond the occluder: n_o . x <= d_o
     n = len(O)
     e = geo.unit(np.roll(O, -1, axis=0) - O)   # edge i: O_i -> O_i+1
-    w = np.cross(n_o, e)                       # inward, in the occluder's plane
+    w = geo.cross(n_o, e)                       # inward, in the occluder's plane
     allO = tuple(range(n))
     if kind in ("point", "parallel"):
         planes, gens = [occ_plane], [((), allO)]
         for i in range(n):
             through = (S[0] - O[i]) if kind == "point" else -dvec
-            nv = np.cross(e[i], through)
+            nv = geo.cross(e[i], through)
             if nv @ w[i] > 0:
                 nv = -nv
             planes.append(geo.plane_through(nv, O[i]))
@@ -340,44 +380,55 @@ def shadow_polyhedron(light, occluder, *, bounds=None, tol=1e-9):
         P = _polyhedron(planes, gens, bounds, atol)
         return ShadowPolyhedra(P, P, kind, S, O, candidate_planes=n)
     m = len(S)
-    # EV planes: light vertex k, occluder edge i; theta = angle to the occluder (Fig. 3.6)
-    ev, ev_gen, theta = [], [], np.empty((n, m))
-    for i in range(n):
-        for k in range(m):
-            r = S[k] - O[i]
-            rp = r - (r @ e[i]) * e[i]
-            b = -geo.unit(rp)                  # the plane's half beyond the edge
-            theta[i, k] = np.arccos(np.clip(w[i] @ b, -1.0, 1.0))
-            nv = np.cross(e[i], b)
-            if nv @ w[i] > 0:
-                nv = -nv
-            ev.append(geo.plane_through(nv, O[i]))
-            ev_gen.append(((k,), (i, (i + 1) % n)))
+    # EV planes: light vertex k, occluder edge i (row i * m + k); theta = angle to the occluder
+    # (Fig. 3.6): between the inward direction w_i and the plane's half beyond the edge, b
+    r = S[None, :, :] - O[:, None, :]                                  # (n, m, 3)
+    rp = r - (r * e[:, None, :]).sum(-1, keepdims=True) * e[:, None, :]
+    bvec = -rp / np.linalg.norm(rp, axis=-1, keepdims=True)
+    theta = np.arccos(np.clip((bvec * w[:, None, :]).sum(-1), -1.0, 1.0))   # (n, m)
+    nv = geo.cross(np.broadcast_to(e[:, None, :], bvec.shape), bvec)
+    nv *= np.where((nv * w[:, None, :]).sum(-1) > 0, -1.0, 1.0)[..., None]
+    nv /= np.linalg.norm(nv, axis=-1, keepdims=True)
+    ev = np.concatenate([nv, (nv * O[:, None, :]).sum(-1)[..., None]], axis=-1).reshape(-1, 4)
+    ev_gen = [((k,), (i, (i + 1) % n)) for i in range(n) for k in range(m)]
     umbra_planes, umbra_gen = [occ_plane], [((), allO)]
     for i in range(n):
         k = int(np.argmin(theta[i]))
         umbra_planes.append(ev[i * m + k])
         umbra_gen.append(ev_gen[i * m + k])
-    # VE planes: light edge (k, k+1), occluder vertex i; the occluder on the inner side
-    ve, ve_gen = [], []
-    oc = O.mean(axis=0)
-    for k in range(m):
-        for i in range(n):
-            nv = np.cross(S[(k + 1) % m] - S[k], O[i] - S[k])
-            if np.linalg.norm(nv) <= 1e-12 * size * size:
-                nv = np.cross(S[(k + 1) % m] - S[k], n_o)  # degenerate: light edge through O_i
-            pl = geo.plane_through(nv, O[i])
-            if pl[:3] @ oc > pl[3]:
-                pl = -pl
-            ve.append(pl)
-            ve_gen.append(((k, (k + 1) % m), (i,)))
-    cands = np.asarray(ev + ve)
-    F0 = int(np.argmax(theta.ravel()))
-    faces = _gift_wrap(S, O, cands, F0, n_o, atol)
+    # VE planes: light edge (k, k+1), occluder vertex i (row k * n + i); the occluder inside
+    se = np.roll(S, -1, axis=0) - S                                    # (m, 3)
+    nv = geo.cross(np.broadcast_to(se[:, None, :], (m, n, 3)), O[None, :, :] - S[:, None, :])
+    small = np.linalg.norm(nv, axis=-1) <= 1e-12 * size * size
+    if small.any():  # a light edge through O_i: the plane through it along the occluder's normal
+        nv[small] = geo.cross(np.broadcast_to(se[:, None, :], (m, n, 3))[small], n_o)
+    nv /= np.linalg.norm(nv, axis=-1, keepdims=True)
+    dv = (nv * O[None, :, :]).sum(-1)
+    flip = (nv @ O.mean(axis=0)) > dv
+    nv[flip] *= -1.0
+    dv[flip] *= -1.0
+    ve = np.concatenate([nv, dv[..., None]], axis=-1).reshape(-1, 4)
+    ve_gen = [((k, (k + 1) % m), (i,)) for k in range(m) for i in range(n)]
+    cands = np.vstack([ev, ve])
+    # planes through a light vertex or edge lying in the occluder's plane are that plane itself:
+    # not a side of the penumbra (a light touching the occluder's plane)
+    flat = np.abs(cands[:, :3] @ n_o) > 1.0 - 1e-12
+    th = np.where(flat[:m * n].reshape(n, m), -np.inf, theta)
+    if not np.isfinite(th).any():
+        return _empty_pair(kind, S, O, bounds)
+    if np.any(np.abs(side) <= side_tol):
+        faces = _hull_faces(S, O, cands, flat, atol)
+    else:
+        F0 = int(np.argmax(th.ravel()))
+        faces = _gift_wrap(S, O, cands, F0, n_o, atol, flat)
     pen_planes = [occ_plane] + [cands[f] for f in faces]
     gens = ev_gen + ve_gen
     pen_gen = [((), allO)] + [gens[f] for f in faces]
-    U = _polyhedron(umbra_planes, umbra_gen, bounds, atol)
+    if np.any(np.abs(side) <= side_tol):
+        # a light vertex in the occluder's plane is never hidden (its rays meet the plane there)
+        U = _empty_pair(kind, S, O, bounds).umbra
+    else:
+        U = _polyhedron(umbra_planes, umbra_gen, bounds, atol)
     Pn = _polyhedron(pen_planes, pen_gen, bounds, atol)
     return ShadowPolyhedra(U, Pn, "area", S, O, candidate_planes=len(cands), wrap_steps=len(faces))
 
@@ -427,6 +478,25 @@ def polyhedron_section(polyhedron, receiver, box, *, tol=1e-9):
     return poly
 
 
+def section_edge_planes(polyhedron, receiver, ring, *, tol=1e-9):
+    """Which face of the polyhedron each edge of its section ``ring (k, 2)`` lies on.
+
+    Returns
+    -------
+    (k,) int64
+        Row of ``polyhedron.planes`` holding both ends of edge ``i`` (the
+        first such), -1 when none (an edge on the clipping box).
+    """
+    if len(ring) == 0:
+        return np.zeros(0, np.int64)
+    X = receiver.to_3d(ring)
+    P = polyhedron.planes
+    size = float(np.max(np.ptp(X, axis=0))) or 1.0
+    on = np.abs(X @ P[:, :3].T - P[:, 3]) <= 1e3 * tol * max(size, receiver.diameter)
+    both = on & np.roll(on, -1, axis=0)
+    return np.where(both.any(axis=1), np.argmax(both, axis=1), -1).astype(np.int64)
+
+
 @dataclass(frozen=True, eq=False)
 class ShadowSection:
     """The umbra and penumbra polyhedra of one (light, occluder) pair cut by one receiver's plane.
@@ -457,6 +527,17 @@ class ShadowSection:
     kind : str
         ``"area"`` (D1 boundaries), ``"point"`` or ``"parallel"`` (D0:
         umbra and penumbra are the same polygon).
+    umbra_edges, penumbra_edges : (k,) int64
+        For edge ``i`` (vertex ``i`` to ``i + 1``) of each polygon, the
+        polyhedron face it lies on: 0 the occluder's own plane (a contact
+        line, where the occluder touches the receiver: D0), ``>= 1`` a side
+        plane (``polyhedron.planes`` row; D1 for an area light, D0 for a
+        point or parallel light), -1 the clipping box (not a shadow edge).
+    polyhedra : ShadowPolyhedra or None
+        The polyhedra the sections were cut from (their edges for the
+        intersection walk of 3.3.3, their faces for the in/out tests of
+        3.3.5); built from the light and occluder parts that act on this
+        receiver face.
     """
 
     light: int
@@ -467,6 +548,9 @@ class ShadowSection:
     side: int = 1
     piece: int = 0
     kind: str = "area"
+    umbra_edges: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    penumbra_edges: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    polyhedra: object = None
 
 
 
@@ -496,9 +580,10 @@ class SceneShadows:
     counters : dict of str -> int
         ``polyhedra`` (shadow-polyhedra pairs built, rebuilt ones
         included), ``rebuilt`` (pairs rebuilt for a light or occluder
-        clipped by a receiver's plane), ``candidates`` (receiver-polyhedron
-        pairs the index returned), ``receiver_tests`` (pairs tested
-        exactly), ``node_tests`` (index nodes visited), ``sections``.
+        clipped by a receiver's plane), ``receiver_tests``
+        (receiver-polyhedron pairs tested against the polyhedron's faces),
+        ``candidates`` (pairs the index returned, all pairs without it), ``node_tests`` (index
+        nodes visited), ``sections``.
     timings : dict of str -> float
         Seconds: ``t_sdw`` (shadow polyhedra), ``t_isr`` (index queries,
         receiver tests and sections), as Table 3.2's phases.
@@ -585,7 +670,7 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
     pieces = [[pc.vertices for pc in p.convex_pieces()] for p in polys]
     rboxes = np.array([[p.vertices.min(axis=0) - atol, p.vertices.max(axis=0) + atol]
                        for p in polys])
-    index = PolygonIndex(rboxes) if use_index else None
+    index = PolygonIndex(rboxes, points=[p.vertices for p in polys]) if use_index else None
     shapes = [shapely.Polygon(p.exterior_2d, p.holes_2d) for p in polys]
     boxes2 = [np.stack([p.exterior_2d.min(axis=0) - margin * p.diameter,
                         p.exterior_2d.max(axis=0) + margin * p.diameter]) for p in polys]
@@ -635,12 +720,13 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
                         queries.append((k, j, part, O, sp))
         t0, sdw0 = time.perf_counter(), t_sdw
         if use_index:
-            before = index.node_tests
+            before, before_items = index.node_tests, index.item_tests
             pairs = index.query([q[4].penumbra.planes for q in queries],
                                 np.array([[q[4].penumbra.vertices.min(axis=0),
                                            q[4].penumbra.vertices.max(axis=0)] for q in queries]
                                          ).reshape(-1, 2, 3), tol=atol)
             cnt["node_tests"] += index.node_tests - before
+            cnt["receiver_tests"] += index.item_tests - before_items
         else:
             pairs = np.array([(q, r) for q in range(len(queries)) for r in range(len(polys))],
                              dtype=np.int64).reshape(-1, 2)
@@ -650,11 +736,11 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
             if r == k or r == lpoly:
                 continue
             R = polys[r]
-            cnt["receiver_tests"] += 1
-            rv = R.vertices
-            pl = sp.penumbra.planes
-            if np.any(np.all(rv @ pl[:, :3].T > pl[:, 3] + atol, axis=0)):
-                continue  # a face of the penumbra polyhedron separates the receiver from it
+            if not use_index:  # the index made this test already
+                cnt["receiver_tests"] += 1
+                pl = sp.penumbra.planes
+                if np.any(np.all(R.vertices @ pl[:, :3].T > pl[:, 3] + atol, axis=0)):
+                    continue  # a face of the penumbra polyhedron separates the receiver from it
             for side in ((1, -1) if R.two_sided else (1,)):
                 n_r = side * R.normal
                 d_r = float(n_r @ R.origin)
@@ -684,15 +770,19 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
                 pen = polyhedron_section(this.penumbra, R, box, tol=tol)
                 if len(pen) == 0:
                     continue
-                tiny = (1e-9 * R.diameter) ** 2
+                tiny = 1e-12 * R.area  # touching, not overlapping (round-off of a contact)
                 if shapes[r].intersection(shapely.Polygon(pen)).area <= tiny:
                     continue
                 umb = polyhedron_section(this.umbra, R, box, tol=tol) if kind == "area" else pen
                 if len(umb) and shapes[r].intersection(shapely.Polygon(umb)).area <= tiny:
                     umb = np.zeros((0, 2))
+                pe = section_edge_planes(this.penumbra, R, pen, tol=tol)
+                ue = (section_edge_planes(this.umbra, R, umb, tol=tol) if kind == "area"
+                      else pe)
                 out.setdefault(int(r), []).append(ShadowSection(
                     light=li, occluder=int(k), receiver=int(r), umbra=umb, penumbra=pen,
-                    side=side, piece=int(j), kind=kind))
+                    side=side, piece=int(j), kind=kind, umbra_edges=ue, penumbra_edges=pe,
+                    polyhedra=this))
                 cnt["sections"] += 1
         t_isr += time.perf_counter() - t0 - (t_sdw - sdw0)  # rebuilt polyhedra count in t_sdw
     return SceneShadows(sections=out, counters=cnt, timings=dict(t_sdw=t_sdw, t_isr=t_isr))
