@@ -3,8 +3,8 @@
 Reading (:func:`read_arrays`, behind :meth:`UnstructuredVolume.read
 <polygen.volume.mesh.UnstructuredVolume.read>`): meshio first, then pyvista
 (VTK's readers) for whatever meshio cannot read -- VTU, legacy VTK, gmsh MSH
-(v2 and v4), XDMF (XML data; HDF5 data needs ``h5py``, else VTK's reader),
-Exodus II (meshio needs ``netCDF4``; VTK's reader otherwise), and the rest of
+(v2 and v4), XDMF (meshio needs ``h5py`` for it, even for XML data), Exodus II
+(meshio needs ``netCDF4``; VTK's reader reads it without), and the rest of
 either library's formats. What comes back is plain arrays: one block of
 tetrahedra or of hexahedra, the node fields, the names of the cell arrays.
 
@@ -265,6 +265,16 @@ def _tetrahedralized(grid):
     return out
 
 
+# meshio numbers a linear wedge as gmsh does (triangle 0-1-2 turned towards 3-4-5), VTK the other way
+# round; meshio's own VTK reader and writer swap them, pyvista.from_meshio does not
+_MESHIO_TO_VTK_ORDER = {"wedge": np.array([0, 2, 1, 3, 5, 4])}
+
+
+def _vtk_order(cell_type, data):
+    order = _MESHIO_TO_VTK_ORDER.get(cell_type)
+    return data if order is None else data[:, order]
+
+
 def meshio_arrays(mesh, *, cell_data=None, tetrahedralize=False) -> VolumeArrays:
     """The arrays of a ``meshio.Mesh``.
 
@@ -290,7 +300,8 @@ def meshio_arrays(mesh, *, cell_data=None, tetrahedralize=False) -> VolumeArrays
     if tetrahedralize and present and (other_3d or "hexahedron" in present):
         import pyvista as pv
 
-        sub = type(mesh)(mesh.points, [mesh.cells[i] for i in keep], point_data=mesh.point_data,
+        blocks = [(mesh.cells[i].type, _vtk_order(mesh.cells[i].type, np.asarray(mesh.cells[i].data))) for i in keep]
+        sub = type(mesh)(mesh.points, blocks, point_data=mesh.point_data,
                          cell_data={k: [v[i] for i in keep] for k, v in mesh.cell_data.items()})
         return pyvista_arrays(pv.from_meshio(sub), cell_data=cell_data, tetrahedralize=True)
     if len(present) != 1 or other_3d:
@@ -428,6 +439,8 @@ def _reader_message(exc, printed=""):
     if isinstance(exc, SystemExit):  # what meshio printed before sys.exit is the reason
         lines = [ln.strip() for ln in printed.splitlines() if ln.strip()]
         return lines[0].removeprefix("Error:").strip() if lines else "failed"
+    if isinstance(exc, ModuleNotFoundError) and exc.name:  # an optional library of the format (h5py, netCDF4)
+        return f"this format needs the {exc.name} package (pip install {exc.name})"
     text = re.sub(r"ERROR: In \S+, line \d+", " ", str(exc))
     text = re.sub(r"\w+ \(0x[0-9a-fA-F]+\): ", "", text)
     text = " ".join(text.split())
@@ -481,10 +494,13 @@ def write_surface(path, vertices, triangles, normals=None, *, binary=True):
                               "an empty surface (.vtp and .vtk can)")
     poly = pv.PolyData.from_regular_faces(vertices, triangles) if len(triangles) else pv.PolyData()
     if normals is not None and len(triangles) and ext != ".stl":
-        poly.point_data["Normals"] = np.asarray(normals, dtype=np.float64)
+        # VTK's PLY writer drops normals that are not float32 (with a warning)
+        poly.point_data["Normals"] = np.asarray(normals, dtype=np.float32 if ext == ".ply" else np.float64)
         poly.point_data.active_normals_name = "Normals"
     if ext == ".vtp":
         poly.save(path)
+    elif ext == ".ply":  # pyvista recomputes PLY normals from the faces unless told not to: ours are kept
+        poly.save(path, binary=binary, recompute_normals=normals is None)
     else:
         poly.save(path, binary=binary)
     return path
