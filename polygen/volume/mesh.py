@@ -102,8 +102,8 @@ class UnstructuredVolume:
         cells = np.asarray(cells)
         if points.ndim != 2 or points.shape[1] != 3:
             raise VolumeError(f"points must have shape (N, 3); got {points.shape}")
-        if not np.issubdtype(points.dtype, np.number):
-            raise VolumeError(f"points must be numeric; got dtype {points.dtype}")
+        if not np.issubdtype(points.dtype, np.number) or np.issubdtype(points.dtype, np.complexfloating):
+            raise VolumeError(f"points must be real numbers; got dtype {points.dtype}")
         if cells.ndim != 2 or cells.shape[1] not in _CELL_TYPES:
             raise VolumeError(
                 f"cells must have shape (M, 4) for tetrahedra or (M, 8) for hexahedra; got {cells.shape}"
