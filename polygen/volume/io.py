@@ -466,9 +466,9 @@ def write_surface(path, vertices, triangles, normals=None, *, binary=True):
         normal per facet, which VTK computes from the triangle's corners
         (right-hand order, as ours).
     binary : bool, keyword-only
-        Binary files where the format has both (VTK, PLY, STL); PLY and STL
-        then store coordinates as float32. OBJ is always text; VTP is
-        always XML with binary data.
+        Binary files where the format has both (VTK, PLY, STL). PLY and STL
+        store coordinates (and PLY its normals) as float32 either way; OBJ
+        is always text; VTP is always XML with binary data.
 
     Returns
     -------

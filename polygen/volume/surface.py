@@ -224,8 +224,8 @@ class IsoSurface:
         path : str or os.PathLike
             The format is chosen by the extension.
         binary : bool, keyword-only
-            Binary VTK/PLY/STL (coordinates as float32 in PLY and STL; PLY
-            normals are float32 always).
+            Binary VTK/PLY/STL (PLY and STL hold float32 coordinates, and PLY
+            float32 normals, either way).
 
         Returns
         -------
