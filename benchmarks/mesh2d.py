@@ -5,6 +5,16 @@ Run ``python benchmarks/mesh2d.py`` from the repository root; writes
 The first (warm-up) run compiles or loads the numba kernels and is timed
 separately; the reported times are the best of ``--repeat`` warm runs.
 Target from issue 7: a bubble mesh of 10k nodes in < 10 s.
+
+Issue 15 (chapter 4) adds two tables, written to ``benchmarks/results/mesh2d_graded.{json,md}``
+(``--graded-only`` runs just these):
+
+* initial placements on graded size grids of ratio 8 (33 x 33 GridSize on the unit
+  square): hexagonal lattice vs quadtree in the face, quantiles vs binary tree on
+  the edges; bubble counts against the ideal count, relaxation steps, insertions
+  and removals, mean q and minimum angle, time;
+* Theorem 4.1: ramps of ratio 8 and increasing gradient; edge-length ratio of the
+  triangles meeting the ramp against the vertex size ratio and the appendix's bounds.
 """
 
 import argparse
@@ -17,16 +27,24 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import best_of  # noqa: E402  (benchmarks/ is the script's directory)
+from _common import best_of, write_results  # noqa: E402  (benchmarks/ is the script's directory)
 from polygen.mesh2d import (
+    GridSize,
     adaptive_subdivision,
     bubble_mesh,
     bubble_subdivide_patches,
     is_t_vertex_free,
     quality_summary,
     subdivide_patches,
+    triangle_quality,
     triangulate_domain,
     validate_domain,
+)
+from polygen.mesh2d.theorem41 import (
+    edge_length_ratio,
+    packed_edge_ratio,
+    packed_edge_ratio_bounds,
+    vertex_size_ratio,
 )
 
 SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
@@ -38,12 +56,150 @@ def hole(h):
     return 0.5 + 0.25 * np.c_[np.cos(th), np.sin(th)]
 
 
+S_SMALL, S_LARGE = 0.0125, 0.1  # size ratio 8
+GRADED_FIELDS = {
+    "uniform 0.02": lambda xy: np.full(len(xy), 0.02),
+    "linear": lambda xy: S_SMALL + (S_LARGE - S_SMALL) * xy[:, 0],
+    "steep (tanh, width 0.05)": lambda xy: S_SMALL + (S_LARGE - S_SMALL) * 0.5 * (1 + np.tanh((xy[:, 0] - 0.5) / 0.05)),
+    "shadow (Gaussian dip)": lambda xy: S_LARGE - (S_LARGE - S_SMALL) * np.exp(
+        -((xy[:, 0] - 0.4) ** 2 + (xy[:, 1] - 0.55) ** 2) / (2 * 0.15**2)),
+}
+
+
+def ideal_counts(size, n=400):
+    """Nodes of an ideal packing of the unit square: the area term of the brief,
+    int dA / ((sqrt(3)/2) s^2), and with Euler's correction N = F/2 + B/2 + 1
+    (F = int dA / ((sqrt(3)/4) s^2) triangles, B = boundary integral of ds / s edges)."""
+    g = (np.arange(n) + 0.5) / n
+    X, Y = np.meshgrid(g, g)
+    s = size(np.c_[X.ravel(), Y.ravel()])
+    area = float(np.sum(1.0 / (s * s * math.sqrt(3.0) / 2.0)) / n / n)
+    z = np.zeros(n)
+    sides = [np.c_[g, z], np.c_[g, z + 1], np.c_[z, g], np.c_[z + 1, g]]
+    boundary = sum(float(np.sum(1.0 / size(p)) / n) for p in sides)
+    return area, area + 0.5 * boundary + 1.0
+
+
+# (face, edge, neighbours): the default first, the thesis's recipe (4.3.3) last
+PLACEMENTS = [("lattice", "quantile", "range"), ("lattice", "tree", "range"),
+              ("quadtree", "quantile", "range"), ("quadtree", "tree", "range"),
+              ("lattice", "quantile", "delaunay"), ("quadtree", "tree", "delaunay")]
+
+
+def graded_placements(repeat=1):
+    rows = []
+    for name, fn in GRADED_FIELDS.items():
+        grid = GridSize.from_function(fn, (0, 0, 1, 1), (33, 33))
+        area_ideal, ideal = ideal_counts(grid)
+        for init, edge_init, nb in PLACEMENTS:
+            t, bm = best_of(lambda: bubble_mesh(SQUARE, (), grid, init=init, edge_init=edge_init,
+                                                neighbours=nb, seed=0), repeat)
+            qs = quality_summary(bm.nodes, bm.triangles)
+            rows.append({
+                "field": name, "face": init, "edge": edge_init, "neighbours": nb,
+                "ideal_area": round(area_ideal), "ideal": round(ideal),
+                "initial": len(bm.initial), "final": len(bm.nodes),
+                "edge_bubbles_final": int((bm.kind == 1).sum()),
+                "edge_steps": sum(h[1] for h in bm.history if h[0] == "edges"),
+                "face_steps": sum(h[2] for h in bm.history if h[0] == "faces"),
+                "inserted": bm.n_inserted, "removed": bm.n_removed,
+                "q_mean": qs["q_mean"], "angle_min": qs["angle_min"], "seconds": t})
+    return rows
+
+
+THEOREM_SLOPES = (0.0, 0.15, 0.25, 0.4, 0.6, 1.0, 1.6)
+
+
+def theorem41_family(init="lattice", edge_init="quantile"):
+    """Ramps of ratio 8 (0.02 -> 0.16) across the middle of the unit square, |grad size| = slope."""
+    rows = []
+    for slope in THEOREM_SLOPES:
+        if slope == 0.0:
+            def size(xy):
+                return np.full(len(xy), 0.05)
+        else:
+            width = 0.14 / slope
+
+            def size(xy, slope=slope, width=width):
+                return np.clip(0.02 + slope * (xy[:, 0] - 0.5 + 0.5 * width), 0.02, 0.16)
+        grid = GridSize.from_function(size, (0, 0, 1, 1), (65, 65))
+        bm = bubble_mesh(SQUARE, (), grid, init=init, edge_init=edge_init, seed=0)
+        r = grid(bm.nodes)[bm.triangles]
+        ramp = (r.max(axis=1) > r.min(axis=1) * (1 + 1e-9)) if slope else np.ones(len(r), bool)
+        er = edge_length_ratio(bm.nodes, bm.triangles)[ramp]
+        t = vertex_size_ratio(r[ramp])
+        packed = packed_edge_ratio(r[ramp])
+        lo, hi = packed_edge_ratio_bounds(t)
+        ang, q = triangle_quality(bm.nodes, bm.triangles)
+        rows.append({"placement": f"{init}/{edge_init}", "slope": slope, "triangles": int(ramp.sum()),
+                     "_t": t, "_ratio": er,
+                     "t_median": float(np.median(t)), "t_max": float(t.max()),
+                     "ratio_median": float(np.median(er)), "ratio_p95": float(np.percentile(er, 95)),
+                     "ratio_max": float(er.max()), "packed_median": float(np.median(packed)),
+                     "upper_bound_median": float(np.median(hi)),
+                     "frac_within_bounds": float(np.mean((er >= lo) & (er <= hi))),
+                     "measured_over_packed_median": float(np.median(er / packed)),
+                     "q_mean_ramp": float(q[ramp].mean()), "angle_min_ramp": float(ang[ramp].min())})
+    return rows
+
+
+def graded_main():
+    from scipy.stats import spearmanr
+
+    rows = graded_placements()
+    cols = ["field", "face", "edge", "neighbours", "ideal_area", "ideal", "initial", "final", "edge_bubbles_final",
+            "edge_steps", "face_steps", "inserted", "removed", "q_mean", "angle_min", "seconds"]
+    thm = theorem41_family() + theorem41_family("quadtree", "tree")
+    tcols = ["placement", "slope", "triangles", "t_median", "t_max", "ratio_median", "ratio_p95", "ratio_max",
+             "packed_median", "upper_bound_median", "frac_within_bounds", "measured_over_packed_median",
+             "q_mean_ramp", "angle_min_ramp"]
+    notes = []
+    for pl in ("lattice/quantile", "quadtree/tree"):
+        sub = [r for r in thm if r["placement"] == pl and r["slope"] > 0]
+        rho = spearmanr([r["slope"] for r in sub], [r["ratio_median"] for r in sub]).statistic
+        rho_t = spearmanr(np.concatenate([r["_t"] for r in sub]), np.concatenate([r["_ratio"] for r in sub])).statistic
+        notes.append(f"Theorem 4.1, {pl}: Spearman rank correlation of slope vs median edge-length ratio "
+                     f"= {rho:.3f} over {len(sub)} ramps; of vertex size ratio t vs edge-length ratio, "
+                     f"triangle by triangle = {rho_t:.3f} ({sum(len(r['_t']) for r in sub)} triangles)")
+    for r in thm:
+        del r["_t"], r["_ratio"]
+    notes += [
+        "ideal_area = int dA / ((sqrt(3)/2) size^2); ideal adds Euler's boundary term: "
+        "+ (1/2) int ds / size + 1",
+        "edge_steps / face_steps: relaxation steps taken (each run stops when no bubble moves more than "
+        "1e-3 size in a step, or at the budget: 150 per cycle, 200 final)",
+        "Theorem 4.1 table: triangles meeting the ramp (vertex sizes not all equal); ratio = longest / "
+        "shortest edge; packed = (s + t) / (1 + s) from the vertex sizes (appendix); bounds "
+        "2t/(1+t) <= packed <= (1+t)/2",
+    ]
+    write_results("mesh2d_graded", rows, cols, title="mesh2d: initial placements on graded size grids (issue 15)",
+                  notes=notes)
+    text = (Path(__file__).parent / "results" / "mesh2d_graded.md").read_text()
+    lines = ["", "## Theorem 4.1: ramps of ratio 8, increasing gradient", "",
+             "| " + " | ".join(tcols) + " |", "|" + "---|" * len(tcols)]
+    for r in thm:
+        lines.append("| " + " | ".join(f"{r[c]:.4g}" if isinstance(r[c], float) else str(r[c]) for c in tcols) + " |")
+    (Path(__file__).parent / "results" / "mesh2d_graded.md").write_text(text + "\n".join(lines) + "\n")
+    import json
+
+    jpath = Path(__file__).parent / "results" / "mesh2d_graded.json"
+    data = json.loads(jpath.read_text())
+    data["theorem41"] = thm
+    data["notes"] = notes
+    jpath.write_text(json.dumps(data, indent=2) + "\n")
+    print(text + "\n".join(lines))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--nodes", type=int, default=10_000, help="target node count of the uniform bubble mesh")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--out", default=str(Path(__file__).parent / "results"))
+    ap.add_argument("--graded-only", action="store_true", help="only the issue-15 tables (mesh2d_graded)")
     args = ap.parse_args(argv)
+    if args.graded_only:
+        graded_main()
+        return
 
     # size h for ~N nodes: N ~ 2A/(sqrt(3) h^2) + P/(2h) on the square with a hole (r = 0.25)
     area = 1 - np.pi * 0.25**2
@@ -131,6 +287,7 @@ def main(argv=None):
               f"{rows['bubble_uniform']['seconds']:.2f} s (target < 10 s: {'met' if ok else 'NOT met'})."]
     (out / "mesh2d.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
+    graded_main()
 
 
 if __name__ == "__main__":

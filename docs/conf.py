@@ -99,7 +99,7 @@ extensions = [
     "sphinx.ext.napoleon",
 ]
 
-exclude_patterns = ["_build", "_templates", "**.ipynb_checkpoints", "execute_notebooks.py"]
+exclude_patterns = ["_build", "_templates", "**.ipynb_checkpoints", "execute_notebooks.py", "explorer_picture.py"]
 templates_path = ["_templates"]
 
 # -- notebooks: stored outputs only ---------------------------------------------------

@@ -24,8 +24,9 @@ KNOWN_CYCLES = []
 
 #: polygen/volume, bottom up: a module may import its own layer or lower ones (CONTRIBUTING.md)
 VOLUME_LAYERS = [
-    ("tables", ["_cells", "registry"]),
+    ("tables", ["_cells", "registry", "errors"]),
     ("kernels", ["_topology", "marching", "_edge_centred_kernels", "_extrema_kernels", "_thinning_kernels"]),
+    ("formats", ["io"]),
     ("mesh", ["mesh"]),
     ("data sets", ["datasets"]),
     ("result and validation", ["surface"]),
@@ -33,6 +34,7 @@ VOLUME_LAYERS = [
     ("constructions", ["propagate", "isosurface"]),
     ("methods", ["methods"]),
     ("chapter methods", ["homology", "extrema_graph", "thinning", "edge_centred"]),
+    ("applications", ["render"]),
 ]
 
 

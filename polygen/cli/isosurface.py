@@ -3,7 +3,7 @@
 With no argument it loads (or builds) data set 4, extracts 20 isosurfaces
 (``linspace(min, max, 22)[1:-1]``) with every registered method and with
 VTK's ``vtkContourFilter``, prints a table, and writes the surfaces
-(``.vtp``) and one PNG.
+(``.vtp``) and one PNG (six of the surfaces, one per panel).
 """
 
 from __future__ import annotations
@@ -24,6 +24,8 @@ EXAMPLES = """examples:
   polygen isosurface torus --values 4     a small data set (see 'polygen datasets')
   polygen isosurface part.vtu --field temperature --value 350 --method edge-centred
   polygen isosurface part.msh --orient    reorder the nodes of inverted cells instead of refusing them
+  polygen isosurface part.vtu --cell-data --field stress   a cell array, averaged onto the nodes
+  polygen isosurface mixed.vtu --tetrahedralize            wedges, pyramids, mixed cells: split into tetrahedra
   polygen isosurface part.vtu --no-compare-vtk --no-files --json times.json
   polygen isosurface torus --value 0.5 --method scan --components   the surface's connected parts
 """
@@ -50,6 +52,13 @@ def configure(parser):
     parser.add_argument("--orient", action="store_true",
                         help="reorder the nodes of inverted cells (negative volume in VTK node order) "
                              "instead of refusing the mesh")
+    parser.add_argument("--cell-data", action="store_true",
+                        help="also contour the file's cell arrays (floating point), each averaged onto the nodes "
+                             "weighted by cell volume")
+    parser.add_argument("--tetrahedralize", action="store_true",
+                        help="split cells other than tetrahedra (wedges, pyramids, hexahedra, quadratic or mixed "
+                             "cells) into tetrahedra instead of refusing a mesh that is not all tetrahedra or all "
+                             "hexahedra")
     parser.add_argument("--components", action="store_true",
                         help="print each surface's connected components (by the first method): triangles, area, "
                              "enclosed volume, bounds, closed, touching the boundary")
@@ -61,7 +70,7 @@ def _method_names():
     return methods.names()
 
 
-def _load(spec, progress, orient=False):
+def _load(spec, progress, orient=False, cell_data=False, tetrahedralize=False):
     from polygen.cli import CLIError
     from polygen.volume import UnstructuredVolume, VolumeError, datasets
 
@@ -71,9 +80,11 @@ def _load(spec, progress, orient=False):
     if not path.exists():
         raise CLIError(f"{spec!r} is neither a file nor a data set (data sets: {', '.join(datasets.names())})")
     try:
-        return path.name, UnstructuredVolume.read(path, orient=orient)
+        return path.name, UnstructuredVolume.read(path, orient=orient, cell_data="average" if cell_data else None,
+                                                  tetrahedralize=tetrahedralize)
     except VolumeError as e:  # the library's advice, in the CLI's words
-        raise CLIError(str(e).replace("pass orient=True", "pass --orient")) from e
+        said = str(e).replace("pass orient=True", "pass --orient")
+        raise CLIError(said.replace("tetrahedralize=True splits", "--tetrahedralize splits")) from e
 
 
 def _is_id_array(name, values):
@@ -92,13 +103,15 @@ def choose_field(vol, field=None):
     cell_data = getattr(vol, "cell_data_names", ())
     if not vol.fields:
         extra = f"; the file's cell data ({', '.join(cell_data)}) is one value per cell" if cell_data else ""
-        raise CLIError(f"the volume has no node field to contour{extra}")
+        raise CLIError(f"the volume has no node field to contour{extra}" + ("; --cell-data averages it onto the nodes"
+                                                                          if cell_data else ""))
     if field is not None:
         if field in vol.fields:
             return field, "--field"
         if field in cell_data:
             raise CLIError(f"{field!r} is cell data (one value per cell); isosurfaces need node data: "
-                           f"the node fields are {', '.join(vol.fields)}")
+                           f"the node fields are {', '.join(vol.fields)}; --cell-data averages cell arrays onto "
+                           f"the nodes")
         raise CLIError(f"no field {field!r}; the node fields are {', '.join(vol.fields)}")
     names = list(vol.fields)
     skipped = [n for n in names if _is_id_array(n, vol.fields[n])]
@@ -155,7 +168,8 @@ def run(args):
     if not args.value and args.values < 1:
         raise CLIError(f"--values needs at least 1; got {args.values}")
     progress = sys.stderr.isatty()
-    label, vol = _load(args.mesh, progress, orient=args.orient)
+    label, vol = _load(args.mesh, progress, orient=args.orient, cell_data=args.cell_data,
+                       tetrahedralize=args.tetrahedralize)
     args.field, how = choose_field(vol, args.field)
     s = vol.scalars(args.field)
     if args.value:
@@ -288,9 +302,11 @@ def _write_files(out, label, vol, surfaces, values, method):
         if not iso.is_empty:
             iso.to_pyvista().save(out / f"{label}-iso{i:02d}.vtp")
             written += 1
-    from polygen.plotting import plot_isosurfaces, setup_notebook
+    from polygen.plotting import setup_notebook
+    from polygen.plotting.volume import plot_isosurface_grid
 
     png = out / f"{label}-isosurfaces.png"
     setup_notebook()
-    plot_isosurfaces(vol, surfaces, values).screenshot(str(png))
+    # six of the surfaces, one per panel: twenty translucent ones stacked in one view hide each other
+    plot_isosurface_grid(vol, surfaces).screenshot(str(png))
     print(f"wrote {written} surfaces (by {method}) and {png.name} to {out}/")

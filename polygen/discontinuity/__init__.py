@@ -6,6 +6,12 @@
   for a whole scene by :func:`scene_sections`;
 * :mod:`~polygen.discontinuity.scene_index` -- the bounding-volume
   hierarchy that keeps the receiver tests sub-quadratic;
+* :mod:`~polygen.discontinuity.complex` -- the receiver complex (3.3.2);
+  :mod:`~polygen.discontinuity.walk` -- the intersection walk (3.3.3);
+  :mod:`~polygen.discontinuity.loops` -- loop rebuilding (3.3.4);
+  :mod:`~polygen.discontinuity.states` -- illumination states (3.3.5) and
+  the output to the mesh model (3.3.6);
+  :mod:`~polygen.discontinuity.simplified` -- the whole method on a scene;
 * :mod:`~polygen.discontinuity.conventional` -- the baseline of 2.4.3:
   all EV and VE critical surfaces on a receiver;
 * :mod:`~polygen.discontinuity.bsp` -- the 2-D BSP split of a receiver
@@ -13,6 +19,7 @@
 """
 
 from polygen.discontinuity.bsp import BSPRegions, bsp_split
+from polygen.discontinuity.complex import ComplexError, ReceiverComplex
 from polygen.discontinuity.conventional import (
     CriticalSegments,
     conventional_bsp,
@@ -33,24 +40,47 @@ from polygen.discontinuity.shadow import (
     shadow_polyhedron,
     shadow_sections,
 )
+from polygen.discontinuity.states import (
+    BRIGHT,
+    PENUMBRA,
+    UMBRA,
+    UNPROCESSED,
+    discontinuity_segments,
+    receiver_complex,
+    region_points,
+    region_size,
+)
+from polygen.discontinuity.simplified import SimplifiedDiscontinuity, simplified_discontinuity
 
 __all__ = [
+    "BRIGHT",
     "BSPRegions",
+    "ComplexError",
     "CriticalSegments",
+    "PENUMBRA",
     "Polyhedron",
+    "ReceiverComplex",
     "SceneShadows",
     "ShadowError",
     "ShadowPolyhedra",
     "ShadowSection",
+    "SimplifiedDiscontinuity",
+    "UMBRA",
+    "UNPROCESSED",
     "bsp_split",
     "conventional_bsp",
     "conventional_segments",
     "critical_surfaces",
+    "discontinuity_segments",
     "polyhedron_section",
+    "receiver_complex",
+    "region_points",
+    "region_size",
     "scene_lights",
     "scene_sections",
     "section_edge_planes",
     "section_segments",
     "shadow_polyhedron",
     "shadow_sections",
+    "simplified_discontinuity",
 ]

@@ -7,7 +7,12 @@ it with shapely.
 * :func:`triangulate_domain`, :func:`constrained_delaunay` -- constrained
   Delaunay (2.3.2) with ``pythoncdt``.
 * :func:`bubble_mesh` -- the bubble mesh (2.3.3), uniform or graded by a
-  size field (:mod:`polygen.mesh2d.sizing`).
+  size field (:mod:`polygen.mesh2d.sizing`); with ``edge_init="tree"``,
+  ``init="quadtree"``, ``neighbours="delaunay"`` the intensity-based bubble
+  mesh's placement and relaxation (4.3.3; :mod:`polygen.mesh2d.tree_placement`:
+  :func:`binary_tree_edge_bubbles`, :func:`quadtree_cells`, :func:`quadtree_face_bubbles`).
+* :mod:`polygen.mesh2d.theorem41` -- Theorem 4.1: :func:`edge_length_ratio`,
+  :func:`packed_edge_ratio` and its bounds.
 * :func:`planar_graph`, :func:`mesh_planar_graph` -- a polygon cut by
   constrained segments (D0/D1) into regions, meshed with conforming nodes
   on every edge; :func:`convex_partition` (Hertel-Mehlhorn).
@@ -63,6 +68,17 @@ from polygen.mesh2d.subdivision import (
     subdivide_patches,
     triangle_edges,
 )
+from polygen.mesh2d.theorem41 import (
+    edge_length_ratio,
+    packed_edge_ratio,
+    packed_edge_ratio_bounds,
+    vertex_size_ratio,
+)
+from polygen.mesh2d.tree_placement import (
+    binary_tree_edge_bubbles,
+    quadtree_cells,
+    quadtree_face_bubbles,
+)
 
 __all__ = [
     "D0",
@@ -85,6 +101,13 @@ __all__ = [
     "bubble_force",
     "bubble_mesh",
     "bubble_subdivide_patches",
+    "binary_tree_edge_bubbles",
+    "edge_length_ratio",
+    "packed_edge_ratio",
+    "packed_edge_ratio_bounds",
+    "quadtree_cells",
+    "quadtree_face_bubbles",
+    "vertex_size_ratio",
     "constrained_delaunay",
     "edge_bubbles",
     "find_t_vertices",

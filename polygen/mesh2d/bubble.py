@@ -38,6 +38,9 @@ Each bubble obeys ``m x'' + c x' = f`` (2.13), summed over the neighbours
 within ``1.5 r0``, found through a uniform grid of cells (of the smallest
 interaction range) rebuilt every step; each pair is visited once, from its
 larger bubble, so a graded field costs little more than a uniform one.
+With ``neighbours="delaunay"`` a face bubble feels only its neighbours in the
+Delaunay triangulation of the bubbles, made again after each population
+control, as the thesis describes for the intensity-based bubble mesh (4.3.3).
 Integration is semi-implicit Euler with the damping taken implicitly,
 ``v <- (v + dt f / m) / (1 + dt c / m)``, ``x <- x + dt v``, stable for any
 damping. The size field is re-read at the moving bubbles every
@@ -59,9 +62,17 @@ The same machinery splits patches into elements
 patch edges carry edge bubbles, and the final triangulation keeps every
 patch edge as a chain of constraints.
 
-Initial placement is a hexagonal lattice of spacing ``min size`` thinned
-with probability ``(min size / size)^2`` (seeded), or uniform random points
-(``init="random"``, as in the upper left of Fig. 2.7).
+Initial placement of the face bubbles is a hexagonal lattice of spacing
+``min size`` thinned with probability ``(min size / size)^2`` (seeded), or
+uniform random points (``init="random"``, as in the upper left of Fig. 2.7),
+or the centres of a size-driven quadtree's leaves (``init="quadtree"``, the
+intensity-based bubble mesh of 4.3.3, :mod:`polygen.mesh2d.tree_placement`).
+Edge bubbles start at equal quantiles of the integrated inverse size
+(``edge_init="quantile"``), or at the ends of a binary tree's leaves
+(``edge_init="tree"``, 4.3.3); the tree's start is then relaxed along the
+edges, thinned or filled (per segment, to the nearest count of the relaxed
+chain's ``sum of gap / r0``, re-spaced evenly in that measure where the count
+changes), and relaxed again until the count holds.
 
 Limitation: as in the thesis, every polygon vertex is a fixed bubble, so
 vertices closer together than the local size give small elements there
@@ -79,6 +90,7 @@ from polygen.mesh2d.delaunay import constrained_delaunay
 from polygen.mesh2d.domain import Domain, local_origin, validate_domain
 from polygen.mesh2d.sizing import as_size_function
 from polygen.mesh2d.subdivision import PatchElements, triangle_edges
+from polygen.mesh2d.tree_placement import _edge_bubbles_tree, _quadtree_bubbles
 
 __all__ = [
     "BubbleMesh",
@@ -428,6 +440,46 @@ def _forces(xy, size, group, first_movable, gx0, gy0, gcs, gnx, gny, starts, ord
 
 
 @njit
+def _forces_adjacent(xy, size, group, first_movable, adj_start, adj, force):
+    # forces between Delaunay neighbours only (4.3.3, faces step 2-3): the pair
+    # (i, j) is visited from its smaller index; beyond r1 the cubic is zero anyway
+    n = xy.shape[0]
+    for i in range(n):
+        force[i, 0] = 0.0
+        force[i, 1] = 0.0
+    for i in range(n):
+        for s in range(adj_start[i], adj_start[i + 1]):
+            j = adj[s]
+            if j <= i:
+                continue
+            if i < first_movable and j < first_movable:
+                continue
+            if group[i] >= 0 and group[j] >= 0 and group[i] != group[j]:
+                continue
+            dx = xy[i, 0] - xy[j, 0]
+            dy = xy[i, 1] - xy[j, 1]
+            r2 = dx * dx + dy * dy
+            r0 = 0.5 * (size[i] + size[j])  # (2.11)
+            if r2 >= (W_CUTOFF * r0) ** 2 or r2 == 0.0:
+                continue
+            r = math.sqrt(r2)
+            f = r0 * _force_w(r / r0) / r  # (2.12) with k0 = r0
+            force[i, 0] += f * dx
+            force[i, 1] += f * dy
+            force[j, 0] -= f * dx
+            force[j, 1] -= f * dy
+
+
+def _adjacency(n, tri):
+    """CSR neighbour lists ``(start (n+1,), adj)`` of the edges of triangles ``tri``."""
+    e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    e = np.concatenate([e, e[:, ::-1]])
+    e = np.unique(e, axis=0)
+    start = np.searchsorted(e[:, 0], np.arange(n + 1)).astype(np.int64)
+    return start, np.ascontiguousarray(e[:, 1], dtype=np.int64)
+
+
+@njit
 def _bin_points(xy, gx0, gy0, gcs, gnx, gny, starts, order, cell):
     n = xy.shape[0]
     nc = gnx * gny
@@ -449,8 +501,13 @@ def _bin_points(xy, gx0, gy0, gcs, gnx, gny, starts, order, cell):
 @njit
 def _relax_kernel(xy, vel, size, group, n_fixed, n_edge, eab, pts, seg, seg_prev, seg_next,
                   bx0, by0, bcs, bnx, bny, bstate, bstarts, bsegs,
-                  gx0, gy0, gcs, gnx, gny, n_steps, dt, mass, damping, tol, edge_margin):
-    """Relax bubbles ``n_fixed:`` for up to n_steps; returns (steps, last max |dx| / size)."""
+                  gx0, gy0, gcs, gnx, gny, n_steps, dt, mass, damping, tol, edge_margin,
+                  adj_start, adj):
+    """Relax bubbles ``n_fixed:`` for up to n_steps; returns (steps, last max |dx| / size).
+
+    Neighbours are the bubbles within r1 (a grid search every step), or, when
+    ``adj_start`` is not empty, the fixed lists ``adj`` (Delaunay neighbours).
+    """
     n = xy.shape[0]
     starts = np.empty(gnx * gny + 1, np.int64)
     order = np.empty(n, np.int64)
@@ -460,8 +517,11 @@ def _relax_kernel(xy, vel, size, group, n_fixed, n_edge, eab, pts, seg, seg_prev
     denom = 1.0 + dt * damping / mass
     step_max = 0.0
     for step in range(n_steps):
-        _bin_points(xy, gx0, gy0, gcs, gnx, gny, starts, order, cell)
-        _forces(xy, size, group, n_fixed, gx0, gy0, gcs, gnx, gny, starts, order, force)
+        if adj_start.shape[0] > 0:
+            _forces_adjacent(xy, size, group, n_fixed, adj_start, adj, force)
+        else:
+            _bin_points(xy, gx0, gy0, gcs, gnx, gny, starts, order, cell)
+            _forces(xy, size, group, n_fixed, gx0, gy0, gcs, gnx, gny, starts, order, force)
         step_max = 0.0
         # (2.13) m x'' + c x' = f, semi-implicit Euler with implicit damping
         for i in range(n_fixed, first_face):
@@ -546,6 +606,84 @@ def _place_edge_kernel(pts, seg, cum, counts, offsets, out_xy, out_seg):
             out_xy[o, 0] = ax + t * (bx - ax)
             out_xy[o, 1] = ay + t * (by - ay)
             out_seg[o] = k
+
+
+@njit
+def _edge_control_kernel(pts, seg, bare, vsize, exy, eseg, esz, out_xy, out_seg):
+    """Thinning/insertion of edge bubbles, segment by segment (4.3.3, edges step 3).
+
+    ``exy`` are sorted by segment and along it. A segment's chain (vertex a,
+    its bubbles, vertex b) has gaps ``g_i = d_i / r0_i`` (r0 from (2.11)) and
+    a normalised length ``lam = sum g_i ~ integral ds / size``; its gap count
+    goes to the nearest count ``n = max(1, round(lam))``. Where the count
+    changes, the new chain is spaced at equal steps ``lam / n`` of the old
+    chain's normalised length (interpolated along it): the fixed point of the
+    1-D relaxation (every gap at its r0, up to the rounding of lam). Thinning
+    or filling a chain locally instead leaves gaps beyond the force's cut-off
+    r1 = 1.5 r0 (removing one bubble of a chain at 0.78 r0 makes a 1.56 r0
+    gap), which the relaxation cannot close. Segments marked ``bare`` carry no
+    bubbles and get none. Returns (count, inserted, removed); ``out_*`` hold
+    ``2 M + S`` entries.
+    """
+    ns = seg.shape[0]
+    m = 0
+    n_ins = 0
+    n_rem = 0
+    first = 0
+    ne = eseg.shape[0]
+    for k in range(ns):
+        last = first
+        while last < ne and eseg[last] == k:
+            last += 1
+        nb = last - first
+        if bare[k]:
+            first = last
+            continue
+        # chain: vertex a, bubbles first..last-1, vertex b
+        cx = np.empty(nb + 2)
+        cy = np.empty(nb + 2)
+        cs = np.empty(nb + 2)
+        cx[0] = pts[seg[k, 0], 0]
+        cy[0] = pts[seg[k, 0], 1]
+        cs[0] = vsize[seg[k, 0]]
+        for i in range(nb):
+            cx[i + 1] = exy[first + i, 0]
+            cy[i + 1] = exy[first + i, 1]
+            cs[i + 1] = esz[first + i]
+        cx[nb + 1] = pts[seg[k, 1], 0]
+        cy[nb + 1] = pts[seg[k, 1], 1]
+        cs[nb + 1] = vsize[seg[k, 1]]
+        ng = nb + 1
+        cum = np.zeros(ng + 1)
+        for i in range(ng):
+            g = math.hypot(cx[i + 1] - cx[i], cy[i + 1] - cy[i]) / (0.5 * (cs[i] + cs[i + 1]))
+            cum[i + 1] = cum[i] + g
+        lam = cum[ng]
+        target = max(1, int(math.floor(lam + 0.5)))
+        if target == ng:
+            for i in range(1, nb + 1):
+                out_xy[m, 0] = cx[i]
+                out_xy[m, 1] = cy[i]
+                out_seg[m] = k
+                m += 1
+        else:
+            if target > ng:
+                n_ins += target - ng
+            else:
+                n_rem += ng - target
+            j = 0
+            for q in range(1, target):
+                want = lam * q / target
+                while j < ng - 1 and cum[j + 1] < want:
+                    j += 1
+                span = cum[j + 1] - cum[j]
+                u = (want - cum[j]) / span if span > 0 else 0.0
+                out_xy[m, 0] = cx[j] + u * (cx[j + 1] - cx[j])
+                out_xy[m, 1] = cy[j] + u * (cy[j + 1] - cy[j])
+                out_seg[m] = k
+                m += 1
+        first = last
+    return m, n_ins, n_rem
 
 
 def edge_bubbles(domain, size, *, samples=33):
@@ -711,7 +849,8 @@ def _boundary_edges(n_vertex, seg, eseg):
     return np.concatenate([head, inner, tail]).astype(np.int64)
 
 
-def bubble_mesh(outer, holes=(), size=None, *, init="lattice", n_cycles=4, steps_per_cycle=150,
+def bubble_mesh(outer, holes=(), size=None, *, init="lattice", edge_init="quantile", neighbours="range",
+                n_cycles=4, steps_per_cycle=150,
                 final_steps=200, dt=0.3, mass=1.0, damping=1.5, tol=1e-3, remove_below=0.6,
                 insert_above=0.85, resize_every=10, seed=0, progress=False):
     """Bubble mesh of a polygon with holes (thesis 2.3.3).
@@ -725,9 +864,19 @@ def bubble_mesh(outer, holes=(), size=None, *, init="lattice", n_cycles=4, steps
         Target element edge length: a number (uniform), or ``size(xy) -> (K,)``
         for a graded mesh. Bubble diameter = size at its centre, so two
         neighbours settle at ``r0 = 0.5 (d_i + d_j)`` (2.11).
-    init : {"lattice", "random"}
-        Initial face bubbles: thinned hexagonal lattice, or seeded uniform
-        random points with the same expected density.
+    init : {"lattice", "random", "quadtree"}
+        Initial face bubbles: thinned hexagonal lattice, seeded uniform
+        random points with the same expected density, or the (jittered)
+        centres of a size-driven quadtree's leaves (4.3.3, Fig. 4.7 (5)).
+    edge_init : {"quantile", "tree"}
+        Initial edge bubbles: equal quantiles of the integrated inverse size,
+        or the leaf ends of a binary-tree bisection (4.3.3, Fig. 4.7 (3)),
+        followed by relaxation and thinning/insertion along the edges.
+    neighbours : {"range", "delaunay"}
+        Face bubbles interact with every bubble within ``r1 = 1.5 r0`` (found
+        again every step), or only with their neighbours in the Delaunay
+        triangulation of the bubbles, made again after every population
+        control (4.3.3, faces steps 2-4).
     n_cycles : int
         Relaxation + population-control cycles for the face bubbles.
     steps_per_cycle, final_steps : int
@@ -760,7 +909,8 @@ def bubble_mesh(outer, holes=(), size=None, *, init="lattice", n_cycles=4, steps
     """
     dom = validate_domain(outer, holes)
     pts, seg, _ = dom.segments()
-    return _bubble_core(dom, pts, seg, size, False, init=init, n_cycles=n_cycles,
+    return _bubble_core(dom, pts, seg, size, False, init=init, edge_init=edge_init, neighbours=neighbours,
+                        n_cycles=n_cycles,
                         steps_per_cycle=steps_per_cycle, final_steps=final_steps, dt=dt,
                         mass=mass, damping=damping, tol=tol, remove_below=remove_below,
                         insert_above=insert_above, resize_every=resize_every, seed=seed,
@@ -790,7 +940,8 @@ def _bubble_core(dom, pts, seg, size, internal, *, regions=None, **kwargs):
                       bm.initial + origin, bm.n_steps, bm.n_inserted, bm.n_removed, bm.history)
 
 
-def _bubble_core_local(dom, pts, seg, size, internal, *, init, n_cycles, steps_per_cycle, final_steps,
+def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, neighbours, n_cycles,
+                       steps_per_cycle, final_steps,
                        dt, mass, damping, tol, remove_below, insert_above, resize_every, seed, progress,
                        near_segment=0.35, bare=False, fixed_size=None, regions=None):
     # pts: fixed vertex bubbles; seg: segments carrying edge bubbles (the domain
@@ -801,8 +952,12 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, n_cycles, steps_p
     # ignore each other (each region is packed against its own boundary)
     if size is None:
         raise ValueError("size: required (a number, a GridSize or a callable)")
-    if init not in ("lattice", "random"):
-        raise ValueError(f"init: expected 'lattice' or 'random', got {init!r}")
+    if init not in ("lattice", "random", "quadtree"):
+        raise ValueError(f"init: expected 'lattice', 'random' or 'quadtree', got {init!r}")
+    if edge_init not in ("quantile", "tree"):
+        raise ValueError(f"edge_init: expected 'quantile' or 'tree', got {edge_init!r}")
+    if neighbours not in ("range", "delaunay"):
+        raise ValueError(f"neighbours: expected 'range' or 'delaunay', got {neighbours!r}")
     for name, v in (("dt", dt), ("mass", mass), ("tol", tol)):
         if not (np.isfinite(v) and v > 0):
             raise ValueError(f"{name}: must be positive, got {v}")
@@ -844,36 +999,69 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, n_cycles, steps_p
     bare = np.broadcast_to(np.asarray(bare, dtype=np.bool_), (len(seg),))
     if bare.all():
         exy, eseg = np.zeros((0, 2)), np.zeros(0, np.int64)
+    elif edge_init == "tree":
+        exy, eseg = _edge_bubbles_tree(pts, seg, sizef, bare=bare)
     else:
         exy, eseg = _edge_bubbles(pts, seg, sizef, bare=bare)
     n_vertex = len(pts)
-    n_edge = len(exy)
-    bxy = np.concatenate([pts, exy])
-    bsz = sizes_of(bxy)
-    # the segment of each edge bubble, by its end points
-    eab = np.zeros((len(bxy), 4))
-    eab[n_vertex:, :2] = pts[seg[eseg, 0]]
-    eab[n_vertex:, 2:] = pts[seg[eseg, 1]]
-    vel = np.zeros((len(bxy), 2))
     total_steps = 0
     history = []
-    if n_edge:
+    n_ins = n_rem = 0
+    no_adj = (np.zeros(0, np.int64), np.zeros(0, np.int64))
+
+    def relax_edges(exy, eseg, n_steps):
         # 1-D relaxation (thesis 2.3.3): bubbles on an edge feel that edge's bubbles and the vertices
+        bxy = np.concatenate([pts, exy])
+        bsz = sizes_of(bxy)
+        eab = np.zeros((len(bxy), 4))
+        eab[n_vertex:, :2] = pts[seg[eseg, 0]]
+        eab[n_vertex:, 2:] = pts[seg[eseg, 1]]
+        vel = np.zeros((len(bxy), 2))
         group = np.concatenate([np.full(n_vertex, -1, np.int64), eseg])
-        steps, mx = _relax_kernel(bxy, vel, bsz, group, n_vertex, n_edge, eab, *largs,
-                                  *gargs, final_steps, dt, mass, damping, tol, 0.25)
-        total_steps += steps
+        steps, mx = _relax_kernel(bxy, vel, bsz, group, n_vertex, len(exy), eab, *largs,
+                                  *gargs, n_steps, dt, mass, damping, tol, 0.25, *no_adj)
         history.append(("edges", steps, float(mx)))
         # keep every segment's bubbles in order along it (for the constraint chains)
         a = pts[seg[eseg, 0]]
         s_along = np.einsum("ij,ij->i", bxy[n_vertex:] - a, pts[seg[eseg, 1]] - a)
         o = np.lexsort((s_along, eseg))
-        bxy[n_vertex:] = bxy[n_vertex:][o]
+        return steps, bxy[n_vertex:][o], eseg[o]
+
+    if len(exy) and edge_init == "tree":
+        # relaxation, then thinning/insertion until the counts hold (4.3.3, edges 2-3)
+        vsz = sizes_of(pts)
+        for cyc in range(n_cycles + 1):
+            steps, exy, eseg = relax_edges(exy, eseg, steps_per_cycle)
+            total_steps += steps
+            cap = 2 * len(exy) + 2 * int(np.ceil(np.sum(np.linalg.norm(
+                pts[seg[:, 1]] - pts[seg[:, 0]], axis=1)) / h_min)) + len(seg)
+            out_xy = np.empty((cap, 2))
+            out_seg = np.empty(cap, np.int64)
+            m, ni, nr = _edge_control_kernel(pts, seg, np.ascontiguousarray(bare), vsz, exy, eseg,
+                                             sizes_of(exy), out_xy, out_seg)
+            history.append(("edge_control", cyc, int(ni), int(nr)))
+            n_ins += int(ni)
+            n_rem += int(nr)
+            exy, eseg = out_xy[:m], out_seg[:m]
+            if ni == 0 and nr == 0:
+                break
+    if len(exy):
+        steps, exy, eseg = relax_edges(exy, eseg, final_steps)
+        total_steps += steps
+    n_edge = len(exy)
+    bxy = np.concatenate([pts, exy])
+    eab = np.zeros((len(bxy), 4))
+    eab[n_vertex:, :2] = pts[seg[eseg, 0]]
+    eab[n_vertex:, 2:] = pts[seg[eseg, 1]]
     n_fixed = n_vertex + n_edge
 
     # initial face bubbles
+    thin = True
     if init == "lattice":
         cand = _hex_lattice(lo - h_min, hi + h_min, h_min, rng.random(2) * h_min)
+    elif init == "quadtree":
+        cand, _ = _quadtree_bubbles(dom, sizef, seed=int(rng.integers(2**62)))
+        thin = False  # the tree already follows the size field
     else:
         area_box = float(np.prod(hi - lo))
         n_cand = int(rng.poisson(area_box * 2.0 / (math.sqrt(3.0) * h_min**2)))
@@ -884,26 +1072,35 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, n_cycles, steps_p
     if internal:
         dist = np.minimum(dist, seg_index.distance(cand))
     csz = sizef(cand)
-    keep = (dist > 0.5 * csz) & (rng.random(len(cand)) < (h_min / csz) ** 2)
+    keep = dist > 0.5 * csz
+    if thin:
+        keep &= rng.random(len(cand)) < (h_min / csz) ** 2
     fxy = cand[keep]
     initial = np.concatenate([bxy, fxy])
 
     xy = initial.copy()
-    n_ins = n_rem = 0
     cycles = range(n_cycles + 1)
     if progress:
         from tqdm.auto import tqdm
 
         cycles = tqdm(cycles, desc="bubble mesh")
     vel = np.zeros_like(xy)
+    cons = _boundary_edges(n_vertex, seg, eseg)
+    tri = None
     for cyc in cycles:
+        adjacency = no_adj
+        if neighbours == "delaunay":
+            # neighbours: the Delaunay edges, fixed for the cycle (4.3.3, faces 2 and 4)
+            if tri is None:
+                tri = constrained_delaunay(xy, cons, erase_outside=not internal).triangles
+            adjacency = _adjacency(len(xy), tri)
         budget = final_steps if cyc == n_cycles else steps_per_cycle
         done = 0
         while done < budget:
             sz = sizes_of(xy)
             chunk = min(resize_every, budget - done)
             steps, mx = _relax_kernel(xy, vel, sz, groups_of(xy, n_fixed), n_fixed, 0, eab,
-                                      *largs, *gargs, chunk, dt, mass, damping, tol, 0.25)
+                                      *largs, *gargs, chunk, dt, mass, damping, tol, 0.25, *adjacency)
             done += steps
             total_steps += steps
             if steps < chunk:
@@ -923,8 +1120,7 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, n_cycles, steps_p
             xy = xy[~near]
             break
         # population control on the Delaunay of the bubble centres
-        tri = constrained_delaunay(xy, _boundary_edges(n_vertex, seg, eseg),
-                                   erase_outside=not internal).triangles
+        tri = constrained_delaunay(xy, cons, erase_outside=not internal).triangles
         removed = near.copy()
         _removal_kernel(xy, sz, tri, n_fixed, remove_below, removed, groups_of(xy, n_fixed))
         gaps = np.empty((len(tri), 3))
@@ -944,8 +1140,8 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, n_cycles, steps_p
         n_ins += len(gaps)
         xy = np.concatenate([xy[~removed], gaps[:, :2]])
         vel = np.concatenate([vel[~removed], np.zeros((len(gaps), 2))])
+        tri = None  # the population changed: triangulate again
 
-    cons = _boundary_edges(n_vertex, seg, eseg)
     mesh = constrained_delaunay(xy, cons, erase_outside=not internal)
     if internal:
         # internal constraints defeat the parity rule: keep triangles by centroid.
@@ -1114,7 +1310,8 @@ def bubble_subdivide_patches(nodes, patches, element_size, *, seed=0, edge_nodes
 
 def _bubble_opts(kwargs):
     """The relaxation's keyword arguments with their defaults; unknown names raise TypeError."""
-    opts = dict(init="lattice", n_cycles=4, steps_per_cycle=150, final_steps=200, dt=0.3, mass=1.0,
+    opts = dict(init="lattice", edge_init="quantile", neighbours="range", n_cycles=4, steps_per_cycle=150,
+                final_steps=200, dt=0.3, mass=1.0,
                 damping=1.5, tol=1e-3, remove_below=0.6, insert_above=0.85, resize_every=10,
                 progress=False)
     unknown = set(kwargs) - set(opts)

@@ -18,6 +18,7 @@ __all__ = ["GridSize", "as_size_function", "uniform_size"]
 
 @njit(parallel=True)
 def _bilinear_kernel(x0, y0, dx, dy, values, xy, out):
+    # xy has no NaN (checked by the caller), so u, v are finite or +-inf, never NaN
     ny, nx = values.shape
     for k in prange(xy.shape[0]):
         u = (xy[k, 0] - x0) / dx
@@ -25,10 +26,15 @@ def _bilinear_kernel(x0, y0, dx, dy, values, xy, out):
         # points outside the grid take the nearest border value
         u = min(max(u, 0.0), nx - 1.0)
         v = min(max(v, 0.0), ny - 1.0)
-        i = min(int(u), nx - 2)
-        j = min(int(v), ny - 2)
-        s = u - i
-        t = v - j
+        # the cell C_ij holding the point: x_i <= x <= x_{i+1} (the last cell
+        # takes its right border); the index is clamped again, so round-off in
+        # u can never step outside the lattice
+        i = min(max(int(u), 0), nx - 2)
+        j = min(max(int(v), 0), ny - 2)
+        s = u - i  # (4.13) s = (x - x1) / (x2 - x1)
+        t = v - j  # (4.13) t = (y - y1) / (y2 - y1)
+        # (4.12) (1 - t)((1 - s) r11 + s r21) + t((1 - s) r12 + s r22), r_ab at (x_a, y_b),
+        # expanded (the form meshes made so far were computed with, to the last bit)
         out[k] = ((1 - s) * (1 - t) * values[j, i] + s * (1 - t) * values[j, i + 1]
                   + (1 - s) * t * values[j + 1, i] + s * t * values[j + 1, i + 1])
 
@@ -61,6 +67,8 @@ class GridSize:
             raise ValueError("GridSize.values: sizes must be finite and positive")
         if not np.all(np.isfinite(s)) or s.min() <= 0:
             raise ValueError(f"GridSize.spacing: must be positive, got {s}")
+        if not np.all(np.isfinite(o)):
+            raise ValueError(f"GridSize.origin: must be finite, got {o}")
         object.__setattr__(self, "origin", o)
         object.__setattr__(self, "spacing", s)
         object.__setattr__(self, "values", v)
@@ -69,15 +77,36 @@ class GridSize:
     def from_function(cls, fn, bounds, shape):
         """Sample a size function on a lattice covering ``bounds = (xmin, ymin, xmax, ymax)``."""
         xmin, ymin, xmax, ymax = map(float, bounds)
-        ny, nx = shape
+        if not (np.isfinite([xmin, ymin, xmax, ymax]).all() and xmax > xmin and ymax > ymin):
+            raise ValueError(f"bounds: expected finite (xmin, ymin, xmax, ymax) with xmin < xmax, "
+                             f"ymin < ymax, got {bounds}")
+        ny, nx = (int(k) for k in shape)
+        if ny < 2 or nx < 2:
+            raise ValueError(f"shape: expected (ny >= 2, nx >= 2), got {shape}")
         x = np.linspace(xmin, xmax, nx)
         y = np.linspace(ymin, ymax, ny)
         X, Y = np.meshgrid(x, y)
         v = np.asarray(fn(np.stack([X.ravel(), Y.ravel()], axis=1)), dtype=np.float64)
         return cls((xmin, ymin), (x[1] - x[0], y[1] - y[0]), v.reshape(ny, nx))
 
+    @property
+    def bounds(self):
+        """``(xmin, ymin, xmax, ymax)`` of the lattice."""
+        ny, nx = self.values.shape
+        hi = self.origin + self.spacing * np.array([nx - 1, ny - 1])
+        return (float(self.origin[0]), float(self.origin[1]), float(hi[0]), float(hi[1]))
+
     def __call__(self, xy):
+        """Sizes ``(K,) float64`` at ``xy : (K, 2)``: (4.12, 4.13) in the cell holding each point.
+
+        A point outside the lattice takes the value at the nearest lattice
+        point of the border (coordinates clamped to the lattice's bounds).
+        Infinite coordinates clamp like any other; NaN raises ``ValueError``
+        (it would survive the clamping and make the cell index undefined).
+        """
         xy = np.ascontiguousarray(xy, dtype=np.float64).reshape(-1, 2)
+        if np.isnan(xy).any():
+            raise ValueError("GridSize: points must not have NaN coordinates")
         out = np.empty(len(xy))
         _bilinear_kernel(self.origin[0], self.origin[1], self.spacing[0], self.spacing[1],
                          self.values, xy, out)

@@ -4,6 +4,7 @@
 ``plotting.volume``      chapter 5: volumes, marching cases, isosurfaces
 ``plotting.extrema``     chapter 6: the extrema graph
 ``plotting.thinning``    chapter 7: volume thinning
+``plotting.render``      chapter 7.8: volume rendering (Figs 7.8, 7.9), VTK's ray caster
 ``plotting.radiosity``   chapters 2-4: radiosity and 2D meshing
 =======================  ==============================================
 

@@ -20,6 +20,7 @@ __all__ = [
     "plot_isosurfaces",
     "plot_marching_cases",
     "plot_isosurface_strip",
+    "plot_isosurface_grid",
     "show_isosurface",
     "plot_propagation_order",
     "fifo_steps",
@@ -172,6 +173,56 @@ def plot_isosurface_strip(vol, surfaces, *, window_size=None):
         p.add_text(f"C = {iso.value:.3g}\n{iso.n_triangles} triangles", font_size=8)
         p.view_isometric()
     p.link_views()
+    return p
+
+
+def plot_isosurface_grid(vol, surfaces, *, panels=6, ncols=3, panel_size=(420, 360), cmap="viridis"):
+    """Small multiples: a few of ``surfaces``, evenly through the list, one opaque surface per panel.
+
+    Each panel shows the part's boundary (translucent, for context), one
+    surface coloured by its value on a colour map shared by all panels, and
+    a label with the value and the triangle count. Stacking many translucent
+    surfaces in one view hides them all; one per panel does not.
+
+    Parameters
+    ----------
+    vol : UnstructuredVolume
+    surfaces : sequence of IsoSurface
+        In increasing value, typically (the panels keep their order).
+    panels : int, keyword-only
+        At most this many panels (all surfaces when fewer).
+    ncols : int, keyword-only
+    panel_size : (int, int), keyword-only
+        Pixels per panel.
+
+    Returns
+    -------
+    pyvista.Plotter
+    """
+    import matplotlib
+
+    surfaces = list(surfaces)
+    k = min(panels, len(surfaces))
+    pick = np.unique(np.round(np.linspace(0, len(surfaces) - 1, k)).astype(int)) if k else np.array([], int)
+    ncols = max(1, min(ncols, len(pick)))
+    nrows = max(1, -(-len(pick) // ncols))
+    p = _plotter(shape=(nrows, ncols), window_size=(panel_size[0] * ncols, panel_size[1] * nrows))
+    outline = boundary_surface(vol)
+    values = [s.value for s in surfaces]
+    lo, hi = (min(values), max(values)) if values else (0.0, 1.0)
+    colours = matplotlib.colormaps[cmap]
+    for j, i in enumerate(pick):
+        iso = surfaces[i]
+        p.subplot(j // ncols, j % ncols)
+        p.add_mesh(outline, color="lightgray", opacity=0.15)
+        if not iso.is_empty:
+            t = 0.5 if hi == lo else (iso.value - lo) / (hi - lo)
+            p.add_mesh(iso.to_pyvista(), color=colours(0.1 + 0.8 * t)[:3], smooth_shading=True)
+        p.add_text(f"#{i + 1} of {len(surfaces)}: C = {iso.value:.4g}\n{iso.n_triangles:,} triangles",
+                   font_size=9)
+        p.view_isometric()
+    if len(pick):
+        p.link_views()
     return p
 
 

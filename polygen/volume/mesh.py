@@ -18,25 +18,17 @@ import warnings
 import numpy as np
 
 from polygen.volume import _topology as _k
+from polygen.volume import io as _io
 from polygen.volume import registry as _registry
 from polygen.volume._cells import HEX_CORNER_FRAMES, HEX_EDGES, HEX_FACES, TET_EDGES, TET_FACES
+from polygen.volume.errors import VolumeError, VolumeWarning
 
 __all__ = ["UnstructuredVolume", "VolumeError", "VolumeWarning", "TET_FACES", "HEX_FACES", "TET_EDGES", "HEX_EDGES"]
 
 _CELL_TYPES = {4: "tetra", 8: "hexa"}
-_VTK_TETRA, _VTK_VOXEL, _VTK_HEXAHEDRON = 10, 11, 12
-# VTK voxel node order -> hexahedron node order
-_VOXEL_TO_HEX = np.array([0, 1, 3, 2, 4, 5, 7, 6])
 # relative tolerance on |6V| / longest_edge**3 below which a cell is degenerate
 _DEGENERATE_RTOL = 1e-10
 
-
-class VolumeError(ValueError):
-    """A volume's input is malformed; the message names what and where."""
-
-
-class VolumeWarning(UserWarning):
-    """Something in a volume is suspicious but usable (e.g. unreferenced nodes)."""
 
 
 class _Fields(collections.abc.MutableMapping):
@@ -110,8 +102,8 @@ class UnstructuredVolume:
         cells = np.asarray(cells)
         if points.ndim != 2 or points.shape[1] != 3:
             raise VolumeError(f"points must have shape (N, 3); got {points.shape}")
-        if not np.issubdtype(points.dtype, np.number):
-            raise VolumeError(f"points must be numeric; got dtype {points.dtype}")
+        if not np.issubdtype(points.dtype, np.number) or np.issubdtype(points.dtype, np.complexfloating):
+            raise VolumeError(f"points must be real numbers; got dtype {points.dtype}")
         if cells.ndim != 2 or cells.shape[1] not in _CELL_TYPES:
             raise VolumeError(
                 f"cells must have shape (M, 4) for tetrahedra or (M, 8) for hexahedra; got {cells.shape}"
@@ -583,34 +575,14 @@ class UnstructuredVolume:
         return grid
 
     @classmethod
-    def from_pyvista(cls, grid, *, validate=True, orient=False):
-        """From a pyvista/VTK data set of tetrahedra, hexahedra or voxels only.
+    def from_pyvista(cls, grid, *, validate=True, orient=False, cell_data=None, tetrahedralize=False):
+        """From a pyvista/VTK data set (or ``MultiBlock``) of tetrahedra, hexahedra or voxels only.
 
         Single-component point arrays become fields; others are skipped.
+        ``cell_data`` and ``tetrahedralize`` as for :meth:`read`.
         """
-        import pyvista as pv
-
-        if not isinstance(grid, pv.UnstructuredGrid):
-            if not hasattr(grid, "cast_to_unstructured_grid"):
-                raise VolumeError(f"cannot read a volume from {type(grid).__name__}")
-            grid = grid.cast_to_unstructured_grid()
-        types = np.asarray(grid.celltypes)
-        if types.size == 0:
-            raise VolumeError("the grid has no cells")
-        kinds, counts = np.unique(types, return_counts=True)
-        if kinds.size != 1 or kinds[0] not in (_VTK_TETRA, _VTK_HEXAHEDRON, _VTK_VOXEL):
-            desc = ", ".join(f"{c} {pv.CellType(t).name.lower()}" for t, c in zip(kinds, counts))
-            raise VolumeError(f"a volume must be only tetrahedra or only hexahedra; this grid has {desc}")
-        k = 4 if kinds[0] == _VTK_TETRA else 8
-        cells = np.asarray(grid.cell_connectivity).reshape(-1, k)
-        if kinds[0] == _VTK_VOXEL:
-            cells = cells[:, _VOXEL_TO_HEX]
-        fields = {}
-        for name in grid.point_data.keys():
-            arr = np.asarray(grid.point_data[name])
-            if arr.ndim == 1 and np.issubdtype(arr.dtype, np.number):
-                fields[name] = arr
-        return cls(np.asarray(grid.points), cells, fields, validate=validate, orient=orient)
+        return cls._from_arrays(_io.pyvista_arrays(grid, cell_data=cell_data, tetrahedralize=tetrahedralize),
+                                validate=validate, orient=orient)
 
     def to_meshio(self):
         """A ``meshio.Mesh`` with one cell block and the fields as point data."""
@@ -620,46 +592,35 @@ class UnstructuredVolume:
         return meshio.Mesh(self.points, [(block, self.cells)], point_data=dict(self.fields))
 
     @classmethod
-    def from_meshio(cls, mesh, *, validate=True, orient=False):
+    def from_meshio(cls, mesh, *, validate=True, orient=False, cell_data=None, tetrahedralize=False):
         """From a ``meshio.Mesh``.
 
         Cell blocks of dimension 0-2 (vertices, lines, triangles, quads: the
         boundary and physical-group elements that meshers write beside the
         volume cells) are ignored; the 3D blocks must all be ``tetra`` or all
-        ``hexahedron``.
+        ``hexahedron`` (or ``tetrahedralize``). ``cell_data`` and
+        ``tetrahedralize`` as for :meth:`read`.
         """
-        volume_blocks = {"tetra": [], "hexahedron": []}
-        other_3d = {}
-        lower = {"vertex", "line", "line3", "triangle", "triangle6", "quad", "quad8", "quad9", "polygon"}
-        for block in mesh.cells:
-            if block.type in volume_blocks:
-                volume_blocks[block.type].append(np.asarray(block.data))
-            elif block.type not in lower:
-                other_3d[block.type] = other_3d.get(block.type, 0) + len(block.data)
-        present = {t: sum(len(b) for b in bs) for t, bs in volume_blocks.items() if bs}
-        present.update(other_3d)
-        if len(present) != 1 or other_3d:
-            desc = ", ".join(f"{n} {t}" for t, n in present.items()) or "no 3D cells"
-            raise VolumeError(f"a volume must be only tetrahedra or only hexahedra; this mesh has {desc}")
-        ctype = next(iter(present))
-        cells = np.concatenate(volume_blocks[ctype])
-        fields = {}
-        for name, arr in mesh.point_data.items():
-            arr = np.asarray(arr)
-            if arr.ndim == 2 and arr.shape[1] == 1:
-                arr = arr[:, 0]
-            if arr.ndim == 1 and np.issubdtype(arr.dtype, np.number):
-                fields[name] = arr
-        return cls(np.asarray(mesh.points, dtype=np.float64)[:, :3] if mesh.points.shape[1] >= 3
-                   else mesh.points, cells, fields, validate=validate, orient=orient)
+        return cls._from_arrays(_io.meshio_arrays(mesh, cell_data=cell_data, tetrahedralize=tetrahedralize),
+                                validate=validate, orient=orient)
 
     @classmethod
-    def read(cls, path, *, validate=True, orient=False):
+    def _from_arrays(cls, arrays, *, validate, orient):
+        vol = cls(arrays.points, arrays.cells, arrays.fields, validate=validate, orient=orient)
+        # what was not kept: a caller asking for one of these is told it is cell data
+        vol.cell_data_names = arrays.cell_data_names
+        vol.cell_data_converted = arrays.converted
+        return vol
+
+    @classmethod
+    def read(cls, path, *, validate=True, orient=False, cell_data=None, tetrahedralize=False):
         """Read a volume from any file meshio reads (VTU, MSH, XDMF, ...), or else pyvista reads.
 
         meshio is tried first; whatever it cannot read (any failure, including
-        the ``SystemExit`` meshio raises on a corrupt file, or a legacy VTK file
-        it misparses) is handed to pyvista. Neither reader prints anything.
+        the ``SystemExit`` meshio raises on a corrupt file, a legacy VTK file
+        it misparses, or Exodus without ``netCDF4``) is handed to pyvista.
+        Neither reader prints anything. The formats and conversions live in
+        :mod:`polygen.volume.io`.
 
         Parameters
         ----------
@@ -667,13 +628,25 @@ class UnstructuredVolume:
             The mesh file.
         validate, orient : bool, keyword-only
             As for the constructor.
+        cell_data : {None, 'average'}, keyword-only
+            ``None``: cell arrays are not read (their names are kept).
+            ``'average'``: each floating-point cell array becomes a node
+            field of the same name (``"NAME (cell average)"`` when a node
+            field has that name): the volume-weighted average of the cells
+            around each node (:func:`polygen.volume.io.cell_to_node`).
+            Integer cell arrays (ids, material tags) are never converted.
+        tetrahedralize : bool, keyword-only
+            Split the 3D cells into tetrahedra (VTK's ordered triangulation,
+            conforming across shared faces) -- for meshes of wedges,
+            pyramids, quadratic or mixed cells, which are refused otherwise.
 
         Returns
         -------
         UnstructuredVolume
-            Its fields are the file's node (point) arrays of one component;
-            ``cell_data_names`` (tuple of str) names the cell arrays, which
-            are not read.
+            Its fields are the file's one-component node arrays (then the
+            converted cell arrays); ``cell_data_names`` (tuple of str) names
+            the file's cell arrays and ``cell_data_converted`` those that
+            became fields.
 
         Raises
         ------
@@ -681,110 +654,8 @@ class UnstructuredVolume:
             Naming the file: it is missing, a directory, unreadable by both
             readers (with each reader's reason), or holds no valid volume.
         """
-        import contextlib
-        import io
-        import pathlib
-
-        path = pathlib.Path(path)
-        if not path.exists():
-            raise VolumeError(f"{str(path)!r}: no such file")
-        if path.is_dir():
-            raise VolumeError(f"{str(path)!r} is a directory, not a mesh file")
-        said = io.StringIO()  # meshio prints its reasons before it gives up
+        arrays = _io.read_arrays(path, cell_data=cell_data, tetrahedralize=tetrahedralize)
         try:
-            import meshio
-
-            with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
-                mesh = meshio.read(path)
-            convert, data = cls.from_meshio, mesh
-        except (Exception, SystemExit) as e:  # meshio ends a failed read with sys.exit(1)
-            why_meshio = _reader_message(e, said.getvalue())
-            try:
-                convert, data = cls.from_pyvista, _read_pyvista(path)
-            except (Exception, SystemExit) as e2:
-                raise VolumeError(f"cannot read {str(path)!r} as a volume mesh: meshio: {why_meshio}; "
-                                  f"pyvista: {_reader_message(e2)}") from e2
-        try:
-            vol = convert(data, validate=validate, orient=orient)
+            return cls._from_arrays(arrays, validate=validate, orient=orient)
         except VolumeError as e:
             raise VolumeError(f"{str(path)!r}: {e}") from e
-        # what was not kept: a caller asking for one of these is told it is cell data
-        vol.cell_data_names = tuple(str(k) for k in data.cell_data.keys())
-        return vol
-
-
-def _read_pyvista(path):
-    """pyvista's reader for ``path``: VTK's complaints become an exception, not printed nor logged."""
-    import gc
-    import logging
-    import warnings
-
-    import pyvista as pv
-
-    failure = data = None
-    # pyvista's readers log VTK's errors with logging.error on the root logger (which installs a
-    # stderr handler when the root has none): a handler of our own, and logging off, meanwhile
-    quiet, was_disabled = logging.NullHandler(), logging.root.manager.disable
-    logging.root.addHandler(quiet)
-    logging.disable(logging.CRITICAL)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # pyvista repeats VTK's errors as warnings: the exception says it
-            # the outer catcher keeps VTK quiet until a failed reader is freed (it complains again then)
-            with _stderr_fd_silenced(), pv.vtk_verbosity("off"), pv.VtkErrorCatcher(send_to_logging=False):
-                try:
-                    with pv.VtkErrorCatcher(raise_errors=True, send_to_logging=False):
-                        data = pv.get_reader(str(path)).read()
-                except Exception as e:
-                    failure = RuntimeError(_reader_message(e))  # no traceback holding the VTK reader
-                    data = None
-                gc.collect()
-    finally:
-        logging.disable(was_disabled)
-        logging.root.removeHandler(quiet)
-    if failure is not None:
-        raise failure
-    return data
-
-
-class _stderr_fd_silenced:
-    """Send file descriptor 2 to the null device meanwhile: C libraries VTK links (libxml2) print there."""
-
-    def __enter__(self):
-        import os
-        import sys
-
-        try:
-            sys.stderr.flush()
-            self._saved = os.dup(2)
-        except (OSError, ValueError, AttributeError):
-            self._saved = None  # no real descriptor 2 (an embedding host): nothing to silence
-            return self
-        null = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(null, 2)
-        os.close(null)
-        return self
-
-    def __exit__(self, *exc):
-        import os
-
-        if self._saved is not None:
-            os.dup2(self._saved, 2)
-            os.close(self._saved)
-        return False
-
-
-def _reader_message(exc, printed=""):
-    """One line saying why a reader failed: VTK's source locations and object addresses dropped."""
-    import re
-
-    if isinstance(exc, SystemExit):  # what meshio printed before sys.exit is the reason
-        lines = [ln.strip() for ln in printed.splitlines() if ln.strip()]
-        return lines[0].removeprefix("Error:").strip() if lines else "failed"
-    text = re.sub(r"ERROR: In \S+, line \d+", " ", str(exc))
-    text = re.sub(r"\w+ \(0x[0-9a-fA-F]+\): ", "", text)
-    text = " ".join(text.split())
-    text = text if len(text) <= 160 else text[:157] + "..."
-    if isinstance(exc, RuntimeError) and type(exc) is RuntimeError:  # already said by _read_pyvista
-        return text
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__

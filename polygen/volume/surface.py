@@ -17,7 +17,9 @@ import time
 
 import numpy as np
 
+from polygen.volume import io as _io
 from polygen.volume import marching as _m
+from polygen.volume.errors import IsoSurfaceError
 
 __all__ = [
     "IsoSurface",
@@ -37,10 +39,6 @@ __all__ = [
 
 #: the ``normals`` choices of every extractor
 NORMALS = ("mean", "gradient", None)
-
-
-class IsoSurfaceError(ValueError):
-    """Bad arguments to an isosurface extraction (the message says which)."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -213,6 +211,32 @@ class IsoSurface:
             poly.point_data["Normals"] = self.normals
             poly.point_data.active_normals_name = "Normals"
         return poly
+
+    def save(self, path, *, binary=True):
+        """Write the surface to ``path``: ``.vtp``, ``.vtk``, ``.ply``, ``.obj`` or ``.stl``.
+
+        Vertex normals are written where the format has them (all but STL,
+        whose facet normals follow the triangles' right-hand order, towards
+        increasing scalar). See :func:`polygen.volume.io.write_surface`.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The format is chosen by the extension.
+        binary : bool, keyword-only
+            Binary VTK/PLY/STL (PLY and STL hold float32 coordinates, and PLY
+            float32 normals, either way).
+
+        Returns
+        -------
+        pathlib.Path
+
+        Raises
+        ------
+        IsoSurfaceError
+            An unknown extension, or an empty surface for PLY/OBJ/STL.
+        """
+        return _io.write_surface(path, self.vertices, self.triangles, self.normals, binary=binary)
 
     def __repr__(self):
         return (

@@ -1,0 +1,96 @@
+"""``polygen.widgets``: the isosurface explorer (issue 19, Deliver 4), driven without a kernel."""
+
+import base64
+import io
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from polygen.volume import VolumeError, methods
+from polygen.volume.isosurface import extract
+from polygen.volume.surface import same_surface
+from polygen.widgets import isosurface_explorer
+from tests._surfaces import grid_volume
+
+SIZE = (320, 240)
+
+
+@pytest.fixture(scope="module")
+def vol():
+    v = grid_volume((8, 8, 8), jitter=0.1, seed=7)
+    v.add_field("r", np.linalg.norm(v.points - 3.5, axis=1))
+    v.add_field("x", v.points[:, 0])
+    return v
+
+
+def _image(png):
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+
+
+def _gold(img):
+    """Pixels of the surface's colour (goldenrod, shaded): red well above blue, unlike grey and white."""
+    return int(((img[..., 0] - img[..., 2]) > 60).sum())
+
+
+@pytest.fixture
+def explorer(vol):
+    ex = isosurface_explorer(vol, field="r", window_size=SIZE)
+    yield ex
+    ex.close()
+
+
+def test_first_state_is_the_median_surface(vol, explorer):
+    s = vol.fields["r"]
+    assert explorer.value == pytest.approx(float(np.median(s)))
+    assert explorer.method == methods.names()[0]
+    assert same_surface(explorer.surface, extract(vol, explorer.value, field="r", method="scan"))
+    img = _image(explorer.png)
+    assert img.shape[:2] == (SIZE[1], SIZE[0]) and _gold(img) > 100
+    # the picture is in the Output widget, where the static fallback finds it
+    (out,) = explorer._picture.outputs
+    assert base64.b64decode(out["data"]["image/png"]) == explorer.png
+    assert f"{explorer.surface.n_triangles:,} triangles" in explorer._counters.value
+    assert "cells tested" in explorer._counters.value and " ms" in explorer._counters.value
+
+
+def test_slider_extracts_and_draws(vol, explorer):
+    first = explorer.png
+    for v in (1.0, 2.5, 4.0):
+        explorer._slider.value = v
+        assert explorer.value == v
+        assert same_surface(explorer.surface, extract(vol, v, field="r", method="scan"))
+        assert f"C = {v:.6g}:" in explorer._counters.value
+    assert explorer.png != first
+
+
+def test_method_and_field_pickers(vol, explorer):
+    explorer._method.value = "scan"
+    assert explorer.surface.method == "scan" and explorer.method == "scan"
+    explorer._field.value = "x"
+    x = vol.fields["x"]
+    assert (explorer._slider.min, explorer._slider.max) == (x.min(), x.max())
+    assert explorer.field == "x" and explorer.value == pytest.approx(float(np.median(x)), abs=explorer._slider.step)
+    assert same_surface(explorer.surface, extract(vol, explorer.value, field="x", method="scan"))
+    explorer.update(field="r")  # the API moves the pickers too
+    assert explorer._field.value == "r" and explorer._slider.max == vol.fields["r"].max()
+
+
+def test_empty_surface_draws_no_surface(vol, explorer):
+    explorer._slider.value = explorer._slider.min  # the field's minimum: a point, no triangles
+    assert explorer.surface.is_empty
+    assert _gold(_image(explorer.png)) == 0
+    explorer._slider.value = 2.0
+    assert _gold(_image(explorer.png)) > 100
+
+
+def test_bad_arguments(vol):
+    from polygen.volume import UnstructuredVolume
+
+    bare = UnstructuredVolume(vol.points, vol.cells)
+    with pytest.raises(VolumeError, match="no node field"):
+        isosurface_explorer(bare)
+    with pytest.raises(VolumeError, match="no field 'nope'"):
+        isosurface_explorer(vol, field="nope")
+    with pytest.raises(VolumeError, match="unknown isosurface method 'nope'"):
+        isosurface_explorer(vol, method="nope")
