@@ -73,6 +73,7 @@ def main(argv=None):
     brute = {tuple(int(v) for v in s.split("x")) for s in args.brute.split(",") if s}
     scene_sections(scenes.sphere_scene())  # JIT
     out = {"machine": machine(), "family": "sphere_scene(n_lat, n_lon)", "rows": [], "scenes": {}}
+    RESULTS.mkdir(parents=True, exist_ok=True)
     for n_lat, n_lon in parse:
         sc = scenes.sphere_scene(n_lat=n_lat, n_lon=n_lon)
         row = {"n_lat": n_lat, "n_lon": n_lon, "polygons": len(sc), "index": timed(sc, True, args.repeat)}
@@ -112,11 +113,13 @@ def main(argv=None):
               f"{out['slope_t_isr_index']:.2f}, receiver tests {out['slope_receiver_tests_index']:.2f}, "
               f"T_sdw {out['slope_t_sdw']:.2f}"]
     if "slope_t_isr_brute" in out:
-        lines.append(f"; without it: T_isr {out['slope_t_isr_brute']:.2f}, receiver tests "
-                     f"{out['slope_receiver_tests_brute']:.2f}")
+        lines[-1] += (f"; without it (every polyhedron against every receiver): T_isr "
+                      f"{out['slope_t_isr_brute']:.2f}, receiver tests "
+                      f"{out['slope_receiver_tests_brute']:.2f}")
     lines += ["", "## Counts per scene", "",
               "| scene | polygons | polyhedra | sections | simplified segments | conventional segments "
-              "| BSP regions (simplified) | BSP regions (conventional) |", "|---|---|---|---|---|---|---|---|"]
+              "| BSP regions (simplified) | BSP regions (conventional) |",
+              "|---|---|---|---|---|---|---|---|"]
     for name, c in out["scenes"].items():
         lines.append(f"| {name} | {c['polygons']} | {c['polyhedra']} | {c['sections']} | "
                      f"{c['simplified_segments']} | {c['conventional_segments']} | "

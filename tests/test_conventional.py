@@ -141,7 +141,7 @@ def test_bsp_regions_partition_the_receiver(fig34, which):
 def test_figure_3_4_counts(fig34):
     # Fig. 3.4: the simplified edges split the receiver into 6 regions by loops, 29 by BSP in the
     # thesis; the loop count follows from the configuration the text describes, the BSP count
-    # from insertion order and geometry the text does not give (ours: printed in notebook 03)
+    # from insertion order and geometry the text does not give (ours, 36: benchmarks/results/shadow.md)
     sc, sh = fig34
     floor = sc.polygons[0]
     ss, _ = section_segments(floor, sh.of(0))

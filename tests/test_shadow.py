@@ -397,3 +397,19 @@ def test_section_edges_name_their_faces():
     sq = Polygon([[4, 3, 4], [6, 3, 4], [6, 3, 6], [4, 3, 6]], name="sq", two_sided=True)
     (s,) = scene_sections(_floor_scene(sq)).of(0)
     assert np.all(s.umbra_edges >= 1) and np.all(s.penumbra_edges >= 1)
+
+
+def test_light_across_the_receivers_plane_is_clipped():
+    # a one-sided wall whose plane cuts the light: only the light's part in front of the wall
+    # lights it, and the sections are those of that part
+    wall = Polygon([[5, 0, 2], [5, 0, 8], [5, 6, 8], [5, 6, 2]], name="wall")
+    if wall.normal[0] < 0:
+        wall = wall.flipped("wall")
+    tile = Polygon([[5.2, 7, 4.5], [6.2, 7, 4.5], [6.2, 7, 5.5], [5.2, 7, 5.5]], name="tile",
+                   two_sided=True)
+    sc = _floor_scene(wall, tile, light_centre=(5.0, 10.0, 5.0))
+    sh = scene_sections(sc)
+    secs = [s for s in sh.of(2) if s.occluder == 3]
+    assert len(secs) == 1 and sh.counters["rebuilt"] >= 1
+    seen = _check_against_rays(sc, sh, [2], np.random.default_rng(2), lambda r: 10_000)
+    assert seen["penumbra"] > 100 and seen["bright"] > 100

@@ -7,8 +7,10 @@ polyhedron visits only the nodes whose box it may meet: a box entirely
 outside one of its planes, or outside its own capped bounding box, is
 skipped with its subtree.
 
-The tree is built once per scene and only read afterwards, so one
-:class:`PolygonIndex` may be queried from several threads.
+The tree is built once per scene from copies of the boxes and vertices
+and only read afterwards: one :class:`PolygonIndex` may be queried from
+several threads (only its work counters, ``node_tests`` and
+``item_tests``, are then not exact).  A moved polygon needs a new index.
 """
 
 from __future__ import annotations
@@ -117,7 +119,7 @@ class PolygonIndex:
         boxes = np.asarray(boxes, dtype=np.float64)
         if boxes.ndim != 3 or boxes.shape[1:] != (2, 3):
             raise ValueError(f"PolygonIndex: boxes must be (N, 2, 3), got {boxes.shape}")
-        self.boxes = boxes
+        self.boxes = boxes.copy()
         if points is None:  # the box corners stand for the polygon
             points = [np.array([[x, y, z] for x in b[:, 0] for y in b[:, 1] for z in b[:, 2]])
                       for b in boxes.transpose(0, 2, 1)]
