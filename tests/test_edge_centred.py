@@ -368,6 +368,34 @@ def test_walk_grows_its_buffers_on_node_crossings():
     assert_same_surface(extract(vol, 2.0, field=s), again)
 
 
+# ------------------------------------------------------------------ the baselines: propagation with a vertex search
+@pytest.mark.parametrize("tets", [True, False])
+def test_propagation_hash_and_array_search(tets):
+    """Both searches give the scan's surface with one counted look-up per polygon vertex per cell."""
+    vol = grid_volume((9, 8, 7), tets=tets, jitter=0.15 if tets else 0.0, seed=6)
+    s = np.random.default_rng(2).random(vol.n_points)
+    hashed = Propagator(vol, s, vertex_search="hash", hash_capacity=4)
+    arrayed = Propagator(vol, s, vertex_search="array")
+    for value in (0.3, 0.5, 0.7):
+        scan = extract(vol, value, field=s)
+        seeds = np.unique(scan.triangle_cells)  # a random field: many small parts, a seed in each
+        a, b = hashed.extract(value, seeds), arrayed.extract(value, seeds)
+        assert_same_surface(scan, a, lookups=True)
+        assert_same_surface(scan, b, lookups=True)
+        # scan's count: the distinct polygon vertices of each cell, summed over the cells
+        per_cell = sum(len(np.unique(scan.triangles[scan.triangle_cells == c])) for c in np.unique(scan.triangle_cells))
+        assert a.vertex_lookups == b.vertex_lookups == per_cell == hashed.stats["lookups"]
+        assert hashed.stats["probes"] >= a.vertex_lookups and arrayed.stats["probes"] == 0
+    assert hashed._hkeys.shape[0] >= 2 * a.n_vertices  # grown from 4 slots
+    table = hashed._hkeys
+    again = hashed.extract(0.5, np.unique(extract(vol, 0.5, field=s).triangle_cells))
+    assert hashed.stats["hash_grows"] == 0 and hashed._hkeys is table  # sized once: reused, emptied by stamps
+    assert again.vertex_lookups > 0
+    assert "edge_table" in arrayed.memory_bytes() and "edge_table" not in hashed.memory_bytes()
+    with pytest.raises(IsoSurfaceError, match="vertex_search"):
+        Propagator(vol, s, vertex_search="tree")
+
+
 # ------------------------------------------------------------------ the plain kernels behind the intrinsics
 def test_intrinsics_in_use_here():
     # on the numba/llvmlite this suite runs with, the probe must succeed: a fallback taken silently

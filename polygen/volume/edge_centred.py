@@ -71,6 +71,7 @@ from polygen.volume import marching as _m
 from polygen.volume import registry as _registry
 from polygen.volume._topology import csr_from_keys
 from polygen.volume.methods import IsosurfaceMethod, register
+from polygen.volume.propagate import EdgeLabels, pair_stage3
 from polygen.volume.seeds.source import SeedSource, seed_source
 from polygen.volume.surface import (
     IsoSurface,
@@ -84,7 +85,7 @@ from polygen.volume.surface import (
 )
 
 __all__ = ["EdgeCentredWalk", "EdgeCentredTable", "EdgeCentred", "edge_centred", "SeedSource", "seed_source",
-           "SEED_SOURCES", "EdgeCentredMethod", "EdgeCentredTableMethod", "pair_stage3"]
+           "SEED_SOURCES", "EdgeCentredMethod", "EdgeCentredTableMethod"]
 
 _INT32_MAX = np.iinfo(np.int32).max
 
@@ -426,7 +427,7 @@ class EdgeCentredWalk:
         _w.fill_records(self.rec, np.ascontiguousarray(cells), np.ascontiguousarray(nbrs))
         self.generation = 0
         self._node_grad = None
-        self._edge_order = None
+        self._labels = EdgeLabels(vol)
         cap = max(1024, m // 64)
         self._queue = np.empty(cap, np.int32)
         self._tris = np.empty((2 * cap + _m.MAX_TRIANGLES, 3), np.int64)
@@ -471,22 +472,7 @@ class EdgeCentredWalk:
 
     def edge_ids(self, pair_keys):
         """The volume's edge ids (``n_edges + node`` for a node) of vertices known by their pair keys."""
-        edges = self.vol.edges
-        n = self.n_points
-        if self._edge_order is None:
-            codes = edges[:, 0].astype(np.int64) * n + edges[:, 1]
-            order = np.argsort(codes, kind="stable")
-            self._edge_order = (codes[order], order)
-        codes, order = self._edge_order
-        pair_keys = np.asarray(pair_keys, np.int64)
-        out = np.empty(pair_keys.shape, np.int64)
-        node = pair_keys >= np.int64(n) * n
-        out[node] = edges.shape[0] + (pair_keys[node] - np.int64(n) * n)
-        at = np.searchsorted(codes, pair_keys[~node])
-        if at.size and (at.max() >= codes.size or not np.array_equal(codes[at], pair_keys[~node])):
-            raise IsoSurfaceError("a vertex lies on a pair of nodes that is no cell edge of the volume")
-        out[~node] = order[at]
-        return out
+        return self._labels(pair_keys)
 
     def extract(self, value, seeds, *, normals="mean"):
         """The isosurface reached from ``seeds``, the cells around each edge found by walking.
@@ -606,35 +592,9 @@ class EdgeCentredWalk:
                 "_queue", "_tris", "_tri_cell", "_vkey", "_vend", "_around", "_around_local", "_hkeys", "_hvals",
                 "_hstamp"))),
         }
-        if self._edge_order is not None:
-            out["label_edge_list"] = int(self.vol.edges.nbytes + self._edge_order[0].nbytes
-                                         + self._edge_order[1].nbytes)
+        if self._labels.nbytes:
+            out["label_edge_list"] = self._labels.nbytes
         return out
-
-
-def pair_stage3(vend, tri, points, s, value, normals, node_grad):
-    """Stage 3 for vertices known by their edge's end nodes ``vend`` (V, 2) (a node twice for a node).
-
-    The positions (5.2) and the normals exactly as
-    :func:`~polygen.volume.surface.vertex_normals` makes them for edge-id
-    keys, with the vertices' own edges standing in for the volume's edge
-    list. Returns ``(vertices (V, 3), normals (V, 3) or None)``.
-    """
-    n_v = vend.shape[0]
-    vertices = np.empty((n_v, 3))
-    if n_v:
-        _k.positions(vend, n_v, points, s, value, vertices)
-    if normals is None:
-        return vertices, None
-    on_node = vend[:, 0] == vend[:, 1]
-    on_edge = np.flatnonzero(~on_node)
-    local_edges = vend[on_edge].astype(np.int64)
-    local_keys = np.empty(n_v, np.int64)
-    local_keys[on_edge] = np.arange(on_edge.size)
-    local_keys[on_node] = on_edge.size + vend[on_node, 0]
-    nrm = vertex_normals(normals, vertices, tri, local_keys, edges=local_edges, s=s, value=value,
-                         node_grad=node_grad, points=points)
-    return vertices, nrm
 
 
 #: the table variant's name before the paper's own variant (:class:`EdgeCentredWalk`) existed
