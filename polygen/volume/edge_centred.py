@@ -124,7 +124,8 @@ class EdgeCentredTable:
         ``touched`` (cells for-loop (3) saw first in this query),
         ``constructed`` (polygons constructed), ``node_tests`` (cells around
         an exact-node vertex tested), ``node_vertices``, ``seeds_tested``,
-        ``seeds_crossed``, ``restarts`` (queries redone after a buffer grew).
+        ``seeds_crossed``, ``lookups`` (vertex look-ups counted by the
+        kernel: it makes none), ``restarts`` (queries redone after a buffer grew).
     preprocess_s : float
         Seconds to build the incidence tables.
 
@@ -310,6 +311,7 @@ class EdgeCentredTable:
             "node_vertices": int(counters[_k.C_NODE_VERTICES]),
             "seeds_tested": int(tested),
             "seeds_crossed": int(n_queued),
+            "lookups": int(counters[_k.C_LOOKUPS]),
             "restarts": restarts,
         }
         return IsoSurface(
