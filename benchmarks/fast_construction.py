@@ -33,8 +33,10 @@ everywhere:
 
 Preprocessing (the volume's topology, the thinning skeleton, the builders'
 records) is reported separately; numba kernels are compiled before any clock
-starts; every method makes one untimed call first (allocations, and the hash
-table grows to its size). Query times are the best of a few sweeps.
+starts; every method makes two untimed calls first (allocations, and the hash
+table grows to its size). Each value is extracted a few times and every
+stage time kept at its minimum over those repeats (a shared machine
+deschedules calls part-way); the totals are sums over the twenty values.
 
     python benchmarks/fast_construction.py                  # data1..data5, 2M, 10M
     python benchmarks/fast_construction.py data1 2M         # a subset
@@ -84,28 +86,28 @@ def repeats(n_cells):
 
 
 def sweep(method, values, repeat):
-    """Best-of-``repeat`` sweeps: (total wall s, per-value best s, surfaces of the best sweep, stats per value)."""
-    best = float("inf")
-    per = np.full(len(values), np.inf)
-    out = stats = None
+    """Each value extracted ``repeat`` times; every time kept at its minimum over the repeats, per value.
+
+    On a shared machine a call is often descheduled part-way; the minimum
+    per value (and per stage) is the time of a run that was not. Returns
+    ``(times, surfaces, stats)``: ``times`` (V, 5) [t1, t2, t3, wall of the
+    call, CPU time of the calling thread], the surfaces and the method's
+    stats of the last repeat.
+    """
+    times = np.full((len(values), 5), np.inf)
+    isos = stats = None
     for _ in range(repeat):
-        isos, st = [], []
-        t_all = time.perf_counter()
+        isos, stats = [], []
         for i, v in enumerate(values):
+            c0 = time.thread_time()
             t0 = time.perf_counter()
             iso = method.extract(v)
-            per[i] = min(per[i], time.perf_counter() - t0)
+            wall = time.perf_counter() - t0
+            cpu = time.thread_time() - c0
+            times[i] = np.minimum(times[i], [iso.t1, iso.t2, iso.t3, wall, cpu])
             isos.append(iso)
-            st.append(dict(getattr(method, "stats", {})))
-        total = time.perf_counter() - t_all
-        if total < best:
-            best, out, stats = total, isos, st
-    return best, per, out, stats
-
-
-def stage_sums(isos):
-    t = np.array([[i.t1, i.t2, i.t3] for i in isos]).sum(axis=0)
-    return float(t[0]), float(t[1]), float(t[2])
+            stats.append(dict(getattr(method, "stats", {})))
+    return times, isos, stats
 
 
 def vtk_times(vol, field, values, repeat):
@@ -181,10 +183,10 @@ def run_one(name, with_vtk):
         m = prepare(label, vol, field)
         m.extract(values[len(values) // 2])  # first call: allocations, not timed
         m.extract(values[-1])
-        q, per, isos, stats = sweep(m, values, rep)
-        t1, t2, t3 = stage_sums(isos)
-        r = dict(preprocess_s=m.preprocess_s, query_s=q, t1=t1, t2=t2, t3=t3,
-                 per_value_s=per.tolist(), triangles=int(sum(i.n_triangles for i in isos)),
+        times, isos, stats = sweep(m, values, rep)
+        t1, t2, t3, q, cpu = (float(x) for x in times.sum(axis=0))
+        r = dict(preprocess_s=m.preprocess_s, query_s=q, query_cpu_s=cpu, t1=t1, t2=t2, t3=t3,
+                 per_value_s=times[:, 3].tolist(), triangles=int(sum(i.n_triangles for i in isos)),
                  vertices=int(sum(i.n_vertices for i in isos)),
                  per_value_triangles=[i.n_triangles for i in isos],
                  cells_tested=int(sum(i.cells_tested for i in isos)),
@@ -249,7 +251,7 @@ def mb(x):
 def markdown(rows):
     lines = ["# Polygon construction without vertex search (Itoh et al. 2001): Tables 1, 2, fair baselines, VTK", ""]
     lines += ["Twenty isovalues `linspace(min, max, 22)[1:-1]` per volume, mean vertex normals, merged vertices; "
-              "times in seconds, best of the sweeps; the paper's numbers (IBM RS/6000 560, 2001) in brackets.", ""]
+              "times in seconds, each stage's minimum over the repeats of each value, summed over the values; the paper's numbers (IBM RS/6000 560, 2001) in brackets.", ""]
     lines += ["## Table 1: all-cell scan vs volume thinning (hash-based propagation), stage by stage", "",
               "| data | cells | triangles | vertices | scan t1 | scan t2 | scan t3 | scan total | thinning t1 | "
               "thinning t2 | thinning t3 | thinning total | cells tested scan / thinning |", "|" + "---|" * 13]

@@ -325,11 +325,12 @@ class EdgeCentredTable:
         """Bytes this builder holds beyond the volume's points, cells and field, by array.
 
         ``records`` (stamp, state, node copies, vertex slots, edge-list
-        starts, edge ids per cell), ``edge_cells`` and ``node_cells`` (the
-        packed incidence lists), ``node_cells_offsets``, ``edge_table``
-        (the volume's ``cell_edges`` and ``edges`` it is built from: the
-        stored edges), ``buffers`` (queue, triangles, vertex keys and ends
-        at their current sizes).
+        starts and edge ids per cell: 128 bytes per tetrahedron),
+        ``edge_cells`` and ``node_cells`` (the packed incidence lists),
+        ``node_cells_offsets``, ``edge_list`` (the volume's ``edges``, read
+        by stage 3; its ``cell_edges`` serve the preparation only),
+        ``buffers`` (queue, triangles, vertex keys and ends at their
+        current sizes).
         """
         vol = self.vol
         return {
@@ -337,7 +338,7 @@ class EdgeCentredTable:
             "edge_cells": int(self.ec.nbytes),
             "node_cells": int(self.nc.nbytes),
             "node_cells_offsets": int(self.nc_off.nbytes),
-            "edge_table": int(vol.cell_edges.nbytes + vol.edges.nbytes),
+            "edge_list": int(vol.edges.nbytes),
             "buffers": int(self._queue.nbytes + self._tris.nbytes + self._tri_cell.nbytes + self._vkey.nbytes
                            + self._vend.nbytes),
         }
@@ -580,16 +581,17 @@ class EdgeCentredWalk:
         """Bytes this builder holds beyond the volume's points, cells and field, by array.
 
         ``records`` (stamp, state, node copies, face neighbours, vertex
-        slots per cell), ``face_neighbors`` (the volume's, from which the
-        records are copied), ``buffers`` (queue, triangles, vertex keys and
-        ends, the node walk's list, and the hash table of ``search``, at
-        their current sizes). No edge table: the labelling by edge id
-        (``vertex_keys="edge-ids"``) uses the volume's edge list after the
-        construction, ``label_edge_list`` here when it has been built.
+        slots per cell: 80 bytes per tetrahedron, 144 per hexahedron; the
+        volume's own ``face_neighbors``, from which they are copied, are
+        not needed after preparation), ``buffers`` (queue, triangles,
+        vertex keys and ends, the node walk's list, and the hash table of
+        ``search``, at their current sizes). No edge table: the labelling
+        by edge id (``vertex_keys="edge-ids"``) uses the volume's edge list
+        after the construction, ``label_edge_list`` here once it has been
+        built.
         """
         out = {
             "records": int(self.rec.nbytes),
-            "face_neighbors": int(self.vol.face_neighbors.nbytes),
             "buffers": int(sum(getattr(self, n).nbytes for n in (
                 "_queue", "_tris", "_tri_cell", "_vkey", "_vend", "_around", "_around_local", "_hkeys", "_hvals",
                 "_hstamp"))),
