@@ -363,7 +363,7 @@ def test_walk_grows_its_buffers_on_node_crossings():
     assert ec.stats["node_vertices"] > 0
     ec._around = ec._around[:1].copy()
     ec._around_local = ec._around_local[:1].copy()
-    ec._hkeys, ec._hvals, ec._hstamp = ec._hkeys[:2].copy(), ec._hvals[:2].copy(), np.zeros(2, np.int32)
+    ec._htable = np.zeros((2, 2), np.int64)
     again = ec.extract(2.0, np.arange(vol.n_cells))
     assert ec.stats["restarts"] > 0
     assert_same_surface(first, again)
@@ -388,10 +388,10 @@ def test_propagation_hash_and_array_search(tets):
         per_cell = sum(len(np.unique(scan.triangles[scan.triangle_cells == c])) for c in np.unique(scan.triangle_cells))
         assert a.vertex_lookups == b.vertex_lookups == per_cell == hashed.stats["lookups"]
         assert hashed.stats["probes"] >= a.vertex_lookups and arrayed.stats["probes"] == 0
-    assert hashed._hkeys.shape[0] >= 2 * a.n_vertices  # grown from 4 slots
-    table = hashed._hkeys
+    assert hashed._htable.shape[0] >= 2 * a.n_vertices  # grown from 4 slots
+    table = hashed._htable
     again = hashed.extract(0.5, np.unique(extract(vol, 0.5, field=s).triangle_cells))
-    assert hashed.stats["hash_grows"] == 0 and hashed._hkeys is table  # sized once: reused, emptied by stamps
+    assert hashed.stats["hash_grows"] == 0 and hashed._htable is table  # sized once: reused, emptied by stamps
     assert again.vertex_lookups > 0
     assert "edge_table" in arrayed.memory_bytes() and "edge_table" not in hashed.memory_bytes()
     with pytest.raises(IsoSurfaceError, match="vertex_search"):

@@ -58,7 +58,7 @@ from polygen.volume._edge_centred_kernels import (
     _node_values,
     _polygon_codes,
 )
-from polygen.volume._vertex_hash import get, get_or_add, pair_key
+from polygen.volume._vertex_hash import get, get_or_add, pair_key, shift_of
 
 #: kernel status codes: 0 done, 1-3 a buffer overflowed, 4 the hash table is full, 5 the mesh is not conforming
 OK, FULL_QUEUE, FULL_TRIANGLES, FULL_VERTICES, FULL_HASH, FULL_AROUND, BAD_MESH = 0, 1, 2, 3, 4, 5, 6
@@ -219,14 +219,14 @@ def _node_vertex(rec, nn, on, os_, n_slots, ne, s, value, faces, node_faces, c, 
 @njit
 def construct(rec, nn, nf, n_points, s, value, faces, tri_table, tri_count, case_mask, local_edges, edge_faces,
               edge_of, node_faces, gen, queue, n_queued, lifo, tris, tri_cell, vkey, vend, around, around_local,
-              search, hkeys, hvals, hstamp, counters):
+              search, htable, counters):
     """t2: the cell-edge-centred construction, the cells around an edge found by walking (Fig. 5).
 
     As :func:`._edge_centred_kernels.construct`, with the records of this
     module and no edge table: ``vkey[v]`` is the vertex's
     :func:`._vertex_hash.pair_key`. With ``search`` every vertex of a
-    polygon is looked up in the hash table ``hkeys/hvals/hstamp`` (stamp
-    ``gen``) when its triangles are written, instead of being read from
+    polygon is looked up in the hash table ``htable`` (stamp ``gen``, see
+    :func:`._vertex_hash.get_or_add`) when its triangles are written, instead of being read from
     its slot; the look-ups and the slots probed are counted
     (``counters[C_LOOKUPS]``, ``counters[C_PROBES]``). Without it the
     kernel makes no look-up and counts none.
@@ -244,7 +244,8 @@ def construct(rec, nn, nf, n_points, s, value, faces, tri_table, tri_count, case
     os_ = on + nf
     cap_t = tris.shape[0] - _m.MAX_TRIANGLES
     cap_v = vkey.shape[0]
-    cap_h = hkeys.shape[0]
+    cap_h = htable.shape[0]
+    shift = shift_of(cap_h)
     vals = np.empty(8, np.float64)
     codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
     n_p = 0
@@ -357,7 +358,7 @@ def construct(rec, nn, nf, n_points, s, value, faces, tri_table, tri_count, case
                 touched += tested
                 n_p += made
             if search:  # the searching variant: remember the vertex by its key
-                r, p = get_or_add(hkeys, hvals, hstamp, gen, vkey[v], v)
+                r, p = get_or_add(htable, gen, vkey[v], v, shift)
         # every vertex of P_i is registered: its triangles, as vertex ids
         if n_t > cap_t:
             return FULL_TRIANGLES, n_p, n_t, n_v, node_vertices > 0
@@ -370,7 +371,7 @@ def construct(rec, nn, nf, n_points, s, value, faces, tri_table, tri_count, case
                                        n_points)
                     else:
                         key = pair_key(rec[c, R_NODES + w - ne], rec[c, R_NODES + w - ne], n_points)
-                    vid, p = get(hkeys, hvals, hstamp, gen, key)
+                    vid, p = get(htable, gen, key, shift)
                     lookups += 1
                     probes += p
                     tris[n_t, jj] = vid

@@ -31,12 +31,8 @@ def pair_key(a, b, n_points):
 
 
 @njit(inline="always")
-def _slot(key, shift):
-    return np.int64((np.uint64(key) * _GOLDEN) >> np.uint64(shift))
-
-
-@njit(inline="always")
-def _shift(cap):
+def shift_of(cap):
+    """``64 - log2(cap)``: the shift of Fibonacci hashing for a table of ``cap`` slots (a power of two)."""
     bits = 0
     while (1 << bits) < cap:
         bits += 1
@@ -44,34 +40,36 @@ def _shift(cap):
 
 
 @njit(inline="always")
-def get_or_add(hkeys, hvals, hstamp, gen, key, new_val):
+def get_or_add(table, gen, key, new_val, shift):
     """``(value, probes)``: the value under ``key``, or ``-1 - new_val`` after storing ``new_val`` there.
 
-    The table (a power of two long) must have a free slot.
+    ``table`` (cap, 2) int64, cap a power of two with a free slot: per slot
+    the key and ``stamp << 32 | value``, side by side so that a probe reads
+    one cache line; the slot is occupied in this query when its stamp is
+    ``gen``. ``shift`` is :func:`shift_of` ``(cap)``.
     """
-    mask = hkeys.shape[0] - 1
-    i = _slot(key, _shift(hkeys.shape[0]))
+    mask = table.shape[0] - 1
+    i = np.int64((np.uint64(key) * _GOLDEN) >> np.uint64(shift))
     probes = 1
-    while hstamp[i] == gen:
-        if hkeys[i] == key:
-            return np.int64(hvals[i]), probes
+    while (table[i, 1] >> 32) == gen:
+        if table[i, 0] == key:
+            return table[i, 1] & 0xFFFFFFFF, probes
         i = (i + 1) & mask
         probes += 1
-    hstamp[i] = gen
-    hkeys[i] = key
-    hvals[i] = new_val
+    table[i, 0] = key
+    table[i, 1] = (np.int64(gen) << 32) | new_val
     return -1 - np.int64(new_val), probes
 
 
 @njit(inline="always")
-def get(hkeys, hvals, hstamp, gen, key):
+def get(table, gen, key, shift):
     """``(value, probes)``: the value under ``key``, or ``(-1, probes)`` if it is not there."""
-    mask = hkeys.shape[0] - 1
-    i = _slot(key, _shift(hkeys.shape[0]))
+    mask = table.shape[0] - 1
+    i = np.int64((np.uint64(key) * _GOLDEN) >> np.uint64(shift))
     probes = 1
-    while hstamp[i] == gen:
-        if hkeys[i] == key:
-            return np.int64(hvals[i]), probes
+    while (table[i, 1] >> 32) == gen:
+        if table[i, 0] == key:
+            return table[i, 1] & 0xFFFFFFFF, probes
         i = (i + 1) & mask
         probes += 1
     return np.int64(-1), probes
@@ -80,9 +78,8 @@ def get(hkeys, hvals, hstamp, gen, key):
 @njit
 def rehash(keys, n, cap, gen):
     """A table of ``cap`` slots (a power of two) holding ``keys[v] -> v`` for ``v < n``, stamped ``gen``."""
-    hkeys = np.empty(cap, np.int64)
-    hvals = np.empty(cap, np.int32)
-    hstamp = np.zeros(cap, np.int32)
+    table = np.zeros((cap, 2), np.int64)
+    shift = shift_of(cap)
     for v in range(n):
-        get_or_add(hkeys, hvals, hstamp, gen, keys[v], v)
-    return hkeys, hvals, hstamp
+        get_or_add(table, gen, keys[v], v, shift)
+    return table

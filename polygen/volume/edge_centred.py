@@ -439,10 +439,7 @@ class EdgeCentredWalk:
         self._vend = np.empty((cap, 2), np.int32)
         self._around = np.empty(256, np.int32)
         self._around_local = np.empty(256, np.int32)
-        hcap = 2 * cap if self.search else 1
-        self._hkeys = np.empty(hcap, np.int64)
-        self._hvals = np.empty(hcap, np.int32)
-        self._hstamp = np.zeros(hcap, np.int32)
+        self._htable = np.zeros((2 * cap if self.search else 1, 2), np.int64)
         self.stats = {}
         self.preprocess_s = time.perf_counter() - t0
 
@@ -450,10 +447,9 @@ class EdgeCentredWalk:
         """A builder with its own records and buffers (for a query in another thread)."""
         new = copy.copy(self)
         new.rec = self.rec.copy()
-        for name in ("_queue", "_tris", "_tri_cell", "_vkey", "_vend", "_around", "_around_local", "_hkeys",
-                     "_hvals"):
+        for name in ("_queue", "_tris", "_tri_cell", "_vkey", "_vend", "_around", "_around_local"):
             setattr(new, name, np.empty_like(getattr(self, name)))
-        new._hstamp = np.zeros_like(self._hstamp)
+        new._htable = np.zeros_like(self._htable)
         new.stats = {}
         return new
 
@@ -468,7 +464,7 @@ class EdgeCentredWalk:
     def _next_generation(self):
         if self.generation == _INT32_MAX:  # once in 2**31 queries: really clear the stamps
             self.rec[:, _k.R_GEN] = 0
-            self._hstamp[:] = 0
+            self._htable[:] = 0
             self.generation = 0
         self.generation += 1
         return self.generation
@@ -516,7 +512,7 @@ class EdgeCentredWalk:
                 self.rec, self.nn, self.nf, self.n_points, self.s, value, self.faces, self.table, self.count,
                 self.case_mask, self.local_edges, self.edge_faces, self.edge_of, self.node_faces, gen,
                 self._queue, n_queued, lifo, self._tris, self._tri_cell, self._vkey, self._vend, self._around,
-                self._around_local, self.search, self._hkeys, self._hvals, self._hstamp, counters)
+                self._around_local, self.search, self._htable, counters)
             if status == _w.OK:
                 break
             if status == _w.BAD_MESH:
@@ -535,10 +531,7 @@ class EdgeCentredWalk:
                 self._vkey = np.empty(cap, np.int64)
                 self._vend = np.empty((cap, 2), np.int32)
             elif status == _w.FULL_HASH:
-                cap = 2 * self._hkeys.shape[0]
-                self._hkeys = np.empty(cap, np.int64)
-                self._hvals = np.empty(cap, np.int32)
-                self._hstamp = np.zeros(cap, np.int32)
+                self._htable = np.zeros((2 * self._htable.shape[0], 2), np.int64)
             else:
                 self._around = np.empty(2 * self._around.shape[0], np.int32)
                 self._around_local = np.empty(2 * self._around.shape[0], np.int32)
@@ -593,8 +586,7 @@ class EdgeCentredWalk:
         out = {
             "records": int(self.rec.nbytes),
             "buffers": int(sum(getattr(self, n).nbytes for n in (
-                "_queue", "_tris", "_tri_cell", "_vkey", "_vend", "_around", "_around_local", "_hkeys", "_hvals",
-                "_hstamp"))),
+                "_queue", "_tris", "_tri_cell", "_vkey", "_vend", "_around", "_around_local", "_htable"))),
         }
         if self._labels.nbytes:
             out["label_edge_list"] = self._labels.nbytes

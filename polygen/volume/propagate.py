@@ -112,7 +112,7 @@ def _enqueue(queue, qcase, tail, c, case):
 
 @njit
 def _propagate(rec, nn, nf, s, value, faces, n_edges, n_points, tri_table, tri_count, local_edges,
-               visited, generation, queue, qcase, n_queued, cand, use_hash, hkeys, hvals, hstamp, vid, vstamp,
+               visited, generation, queue, qcase, n_queued, cand, use_hash, htable, vtable,
                keys, vend, tris, tri_cell, counters):
     """t2: breadth-first propagation.
 
@@ -124,15 +124,15 @@ def _propagate(rec, nn, nf, s, value, faces, n_edges, n_points, tri_table, tri_c
     a candidate that an earlier propagation reached is never tested); the
     crossed ones are written over the front of ``cand``.
 
-    Vertex search: with ``use_hash``, the stamped hash table
-    ``hkeys/hvals/hstamp`` keyed by :func:`._vertex_hash.pair_key` (the
-    edge ids of the records are not read); otherwise ``vid[key]``, valid
-    where ``vstamp[key] == generation``, indexed by the edge id (or
-    ``n_edges + node``). ``keys[v]`` gets the vertex's key, ``vend[v]`` its
+    Vertex search: with ``use_hash``, the stamped hash table ``htable``
+    (:func:`._vertex_hash.get_or_add`) keyed by
+    :func:`._vertex_hash.pair_key` (the edge ids of the records are not
+    read); otherwise ``vtable[key] = (stamp, vertex id)``, valid where the
+    stamp is ``generation``, indexed by the edge id (or ``n_edges + node``). ``keys[v]`` gets the vertex's key, ``vend[v]`` its
     edge's end nodes. Each buffer that fills up is replaced by one twice as
     large, so the caller gets them all back to reuse: returns (n_vertices,
     n_triangles, n_cells, tested, cand_tested, cand_crossed, queue, qcase,
-    hkeys, hvals, hstamp, keys, vend, tris, tri_cell); ``counters`` gets
+    htable, keys, vend, tris, tri_cell); ``counters`` gets
     the look-ups, the hash probes and the times the hash table grew.
     """
     n_v = 0
@@ -145,6 +145,7 @@ def _propagate(rec, nn, nf, s, value, faces, n_edges, n_points, tri_table, tri_c
     lookups = 0
     probes = 0
     grows = 0
+    shift = _h.shift_of(htable.shape[0])
     head = 0
     tail = n_queued
     nxt = 0  # next candidate
@@ -186,15 +187,15 @@ def _propagate(rec, nn, nf, s, value, faces, n_edges, n_points, tri_table, tri_c
                     lookups += 1
                     if use_hash:  # reference [12]: the edge's two nodes are the key
                         key = _h.pair_key(x, y, n_points)
-                        v, p = _h.get_or_add(hkeys, hvals, hstamp, generation, key, n_v)
+                        v, p = _h.get_or_add(htable, generation, key, n_v, shift)
                         probes += p
                     else:  # the stored edges: the vertex id sits at the edge id
                         key = np.int64(rec[c, ed0 + code]) if code < 16 else n_edges + np.int64(x)
-                        if vstamp[key] == generation:
-                            v = np.int64(vid[key])
+                        if vtable[key, 0] == generation:
+                            v = np.int64(vtable[key, 1])
                         else:
-                            vstamp[key] = generation
-                            vid[key] = n_v
+                            vtable[key, 0] = generation
+                            vtable[key, 1] = n_v
                             v = -1 - np.int64(n_v)
                     if v < 0:  # a new vertex
                         v = -1 - v
@@ -205,9 +206,10 @@ def _propagate(rec, nn, nf, s, value, faces, n_edges, n_points, tri_table, tri_c
                         vend[n_v, 0] = min(x, y)
                         vend[n_v, 1] = max(x, y)
                         n_v += 1
-                        if use_hash and 2 * n_v > hkeys.shape[0]:  # keep the load factor under 1/2
+                        if use_hash and 2 * n_v > htable.shape[0]:  # keep the load factor under 1/2
                             grows += 1
-                            hkeys, hvals, hstamp = _h.rehash(keys, n_v, 2 * hkeys.shape[0], generation)
+                            htable = _h.rehash(keys, n_v, 2 * htable.shape[0], generation)
+                            shift = _h.shift_of(htable.shape[0])
                     vids[code] = v
                 tris[n_t, j] = vids[code]
             tri_cell[n_t] = c
@@ -224,8 +226,7 @@ def _propagate(rec, nn, nf, s, value, faces, n_edges, n_points, tri_table, tri_c
     counters[0] = lookups
     counters[1] = probes
     counters[2] = grows
-    return (n_v, n_t, tail, tested, cand_tested, cand_crossed, queue, qcase, hkeys, hvals, hstamp, keys, vend,
-            tris, tri_cell)
+    return n_v, n_t, tail, tested, cand_tested, cand_crossed, queue, qcase, htable, keys, vend, tris, tri_cell
 
 
 def pair_stage3(vend, tri, points, s, value, normals, node_grad):
@@ -369,18 +370,13 @@ class Propagator:
             if isinstance(cap, bool) or not isinstance(cap, (int, np.integer)) or cap < 2:
                 raise IsoSurfaceError(f"hash_capacity must be a whole number >= 2; got {hash_capacity!r}")
             cap = 1 << int(cap - 1).bit_length()
-            self._hkeys = np.empty(cap, np.int64)
-            self._hvals = np.empty(cap, np.int32)
-            self._hstamp = np.zeros(cap, np.int32)
-            self._vid = self._vstamp = np.zeros(0, np.int32)
+            self._htable = np.zeros((cap, 2), np.int64)   # key, stamp << 32 | vertex id
+            self._vtable = np.zeros((0, 2), np.int32)
             self._labels = EdgeLabels(vol)
         else:
             self.edges = np.ascontiguousarray(vol.edges, np.int64)
-            self._hkeys = np.zeros(0, np.int64)
-            self._hvals = self._hstamp = np.zeros(0, np.int32)
-            n = self.edges.shape[0] + self.n_points
-            self._vid = np.empty(n, np.int32)
-            self._vstamp = np.zeros(n, np.int32)
+            self._htable = np.zeros((1, 2), np.int64)
+            self._vtable = np.zeros((self.edges.shape[0] + self.n_points, 2), np.int32)  # stamp, vertex id
         self._keys = np.empty(512, np.int64)
         self._vend = np.empty((512, 2), np.int64)
         self._tris = np.empty((1024, 3), np.int64)
@@ -420,8 +416,7 @@ class Propagator:
             "face_neighbors": m * self._nf * isz,
             "node_copies": m * self._nn * isz,
             "visited": int(self.visited.nbytes),
-            "vertex_table": int(self._hkeys.nbytes + self._hvals.nbytes + self._hstamp.nbytes + self._vid.nbytes
-                                + self._vstamp.nbytes),
+            "vertex_table": int(self._htable.nbytes + self._vtable.nbytes),
             "buffers": int(sum(a.nbytes for a in (self._queue, self._qcase, self._keys, self._vend, self._tris,
                                                    self._tri_cell))),
         }
@@ -473,8 +468,8 @@ class Propagator:
         node_grad = self.node_gradients if normals == "gradient" else None
         if self.generation == np.iinfo(np.int32).max:  # once in 2**31 queries: really clear the marks
             self.visited[:] = 0
-            self._hstamp[:] = 0
-            self._vstamp[:] = 0
+            self._htable[:] = 0
+            self._vtable[:] = 0
             self.generation = 0
         self.generation += 1  # also empties the vertex table: no slot carries this stamp yet
 
@@ -493,12 +488,11 @@ class Propagator:
         use_hash = self.vertex_search == "hash"
         counters = np.zeros(3, np.int64)
         n_edges = 0 if use_hash else self.edges.shape[0]
-        (n_v, n_t, n_cells, tested, cand_tested, cand_crossed, self._queue, self._qcase, self._hkeys, self._hvals,
-         self._hstamp, self._keys, self._vend, self._tris, self._tri_cell) = _propagate(
+        (n_v, n_t, n_cells, tested, cand_tested, cand_crossed, self._queue, self._qcase, self._htable, self._keys,
+         self._vend, self._tris, self._tri_cell) = _propagate(
             self.rec, nn, nf, self.s, value, self.faces, n_edges, self.n_points, self.table, self.count,
             self.local_edges, self.visited, self.generation, self._queue, self._qcase, n_queued, cand, use_hash,
-            self._hkeys, self._hvals, self._hstamp, self._vid, self._vstamp, self._keys, self._vend, self._tris,
-            self._tri_cell, counters)
+            self._htable, self._vtable, self._keys, self._vend, self._tris, self._tri_cell, counters)
         self.last_seeds_tested = int(tested_seeds)
         self.last_seeds_crossed = int(n_queued)
         self.last_then_tested = int(cand_tested)
