@@ -1,17 +1,18 @@
 """Polygon construction without vertex search: cell-edge-centred propagation (Itoh et al. 2001).
 
 Most isosurface vertices are shared by several polygons, so a propagation
-that builds one cell's polygon at a time must look every vertex up again
+that builds one cell's polygon at a time must find every vertex again
 when the next cell around the same cell edge is built; the thesis's
 propagation (:mod:`polygen.volume.propagate`) does that with a hash table
-keyed by the cell edge (the paper's section 2.1, Fig. 1). The 2001 paper
-(3.1, Fig. 4) turns the loop inside out: when a polygon vertex is created
-on a cell edge, *every* cell sharing that edge is visited at once, its
-polygon is constructed if it is missing (and the cell is put into the FIFO),
-and the vertex is registered in all of them. A vertex is therefore never
-needed again and never looked up (``vertex_lookups == 0``).
+keyed by the edge's two end nodes (the paper's section 2.1, Fig. 1, its
+reference [12]), because volume data store nodes and cells but not cell
+edges. The 2001 paper (3.1, Fig. 4) turns the loop inside out: when a
+polygon vertex is created on a cell edge, *every* cell sharing that edge is
+visited at once, its polygon is constructed if it is missing (and the cell
+is put into the FIFO), and the vertex is registered in all of them. A
+vertex is therefore never needed again and never searched for.
 
-Pseudo-code of the paper (Fig. 5), as implemented by :meth:`EdgeCentred.extract`:
+Pseudo-code of the paper (Fig. 5), as implemented by both builders here:
 
 * seeds: the skeleton cells (or other seed cells) the surface crosses go
   into the FIFO (t1);
@@ -24,18 +25,32 @@ Pseudo-code of the paper (Fig. 5), as implemented by :meth:`EdgeCentred.extract`
   into ``P_j``;
 * finally the positions (5.2) and normals of all vertices (t3).
 
+Two builders differ only in how for-loop (3) finds the cells sharing
+``E_n``:
+
+:class:`EdgeCentredWalk` (method ``edge-centred``) — the paper's setting
+    no edge is numbered or stored: the cells round the edge are found by
+    walking from face neighbour to face neighbour round it
+    (:mod:`._edge_walk_kernels`); the vertex is known by its edge's nodes.
+:class:`EdgeCentredTable` (method ``edge-centred-table``, the default of
+    ``vol.isosurface``) — with stored edges: an edge table and, per edge, the
+    list of its cells with the edge's local index in each
+    (:mod:`._edge_centred_kernels`); faster, for about 2.3 times the
+    memory (``benchmarks/results/fast_construction.md``).
+
 Every cell around a crossed edge is itself crossed, so for-loop (3) needs
 no intersection test. The one exception is the degenerate crossing exactly
 on a node (``S == C``, see :mod:`polygen.volume.marching`): that vertex is
 the node, shared by every cell around the *node*, so for-loop (3) then
-walks the node's cells and tests each (a cell around the node may lie
+visits the node's cells and tests each (a cell around the node may lie
 wholly above ``C``).
 
 Registration is one store: a polygon keeps one vertex slot per local edge
-and per node of its cell, and the cells around an edge are stored with the
-local index of the edge in each of them. Visited cells carry a generation
-stamp, so a query starts in O(1), and all buffers are reused from query to
-query.
+and per node of its cell. Visited cells carry a generation stamp, so a
+query starts in O(1), and all buffers are reused from query to query. The
+kernels count the vertex look-ups they make (``vertex_lookups``): none;
+``EdgeCentredWalk(..., search=True)`` is a deliberately searching variant
+that counts them.
 
 The hexahedral version, which the paper names as future work, is the same
 loop: twelve local edges, eight nodes, marching-hexahedra polygons (with
@@ -47,11 +62,9 @@ propagation, triangle for triangle and vertex for vertex, whenever the seeds
 reach every connected part of the surface, which the volume-thinning
 skeleton guarantees (thesis chapter 7). Cells visited differ: the paper
 notes that a cell is visited several times by for-loop (3) before it is
-taken from the FIFO once; :attr:`EdgeCentred.stats` counts both.
+taken from the FIFO once; the builders' ``stats`` count both.
 
-The method is registered as ``edge-centred`` in :mod:`polygen.volume.methods`::
-
-    m = methods.get("edge-centred")(vol)           # seeds from volume thinning
+    m = methods.get("edge-centred")(vol)           # seeds from volume thinning, no stored edges
     iso = m.extract(0.5)
     iso.vertex_lookups, m.stats["visits"]          # 0, cells visited by for-loop (3)
 """
