@@ -306,11 +306,11 @@ for r in rows_t2:   # the paper's claim on each of its volumes: the new method a
 # The paper's reason for not storing edges is memory; the last columns say what each costs here.
 #
 # In the benchmark (data 1–5 and 2M, CPU time, `benchmarks/results/fast_construction.md`) the
-# paper's speed-up is the removal of the search: `walk` takes 0.42–0.57 of `hash`'s t2, better
+# paper's speed-up is the removal of the search: `walk` takes 0.44–0.56 of `hash`'s t2, better
 # than the paper's 0.68–0.74. Storing the edges does little for a search (`array` / `hash`
-# 0.78–0.99: a stamped hash keyed by node pairs costs about what an array read at the edge id
+# 0.81–0.98: a stamped hash keyed by node pairs costs about what an array read at the edge id
 # costs, once neither is cleared in the timed step) but much for the edge-centred loop
-# (`table` / `walk` 0.54–0.75: reading the cells round an edge from a list instead of walking
+# (`table` / `walk` 0.51–0.67: reading the cells round an edge from a list instead of walking
 # to them), for 2.2–2.3 times the memory. That is why `vol.isosurface` uses `edge-centred-table`
 # by default, and `edge-centred` is the paper's method as the paper states it.
 
