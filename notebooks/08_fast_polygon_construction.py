@@ -172,7 +172,7 @@ assert len(set(labels[np.isin(scan.triangle_cells, seeds)])) == n_parts   # a se
 
 # %%
 def timed_sweep(m, values):
-    """Surfaces of the last repeat; (V, 3) t1, t2, t3 at their minimum over REPEATS; total look-ups and probes."""
+    """Surfaces of the last repeat; (V, 3) t1, t2, t3 at their minimum over REPEATS; the last repeat's hash probes."""
     times = np.full((len(values), 3), np.inf)
     for _ in range(REPEATS):
         isos, probes = [], 0

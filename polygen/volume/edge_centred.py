@@ -426,7 +426,7 @@ class EdgeCentredWalk:
         self.vol = vol
         points, cells, s, cell_type = volume_arrays(vol, field)
         m, nn = cells.shape
-        if m > _INT32_MAX or vol.n_points > _INT32_MAX or vol.n_points > 3_000_000_000:
+        if m > _INT32_MAX or vol.n_points > _INT32_MAX:
             raise IsoSurfaceError("edge-centred construction needs fewer than 2**31 cells and nodes")
         self.n_points = int(vol.n_points)
         self.points = np.ascontiguousarray(points, np.float64)
