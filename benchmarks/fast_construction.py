@@ -1,7 +1,7 @@
-"""Polygon construction without vertex search (Itoh et al. 2001): Tables 1 and 2, and polygen vs VTK.
+"""Polygon construction without vertex search (Itoh et al. 2001): Tables 1 and 2, fair baselines, VTK.
 
 For each volume (data 1-5 and 2M with the FEM field ``fem``; 10M with the
-analytic field ``gaussians``, the only fields it has), twenty isovalues
+analytic field ``gaussians``, the only field it has), twenty isovalues
 ``linspace(min, max, 22)[1:-1]``, mean vertex normals and merged vertices
 everywhere:
 
@@ -9,23 +9,36 @@ everywhere:
   thinning with the hash-based propagation (``thinning``), stage by stage:
   t1 find the intersected cells (for thinning: the skeleton search and the
   seed tests), t2 build the triangle topology, t3 positions and normals;
-* **Table 2**: hash-based (``thinning``) against cell-edge-centred
-  (``edge-centred``, the same skeleton seeds) construction, ``t_p`` = t2
-  (polygon construction) and the total, with the counters the claim rests
-  on (vertex look-ups, cells visited by for-loop (3));
+* **Table 2 and the four constructions**, all from the same thinning
+  skeleton seeds:
+  (a) ``hash``: propagation, vertices found again in a hash table keyed by
+  the edge's two nodes (the paper's reference [12]; table allocated once,
+  emptied by stamps, never cleared inside the timed step);
+  (b) ``array``: the same propagation, the vertex id in an array indexed by
+  the stored edge id (section 2.1's "if the edges were stored");
+  (c) ``walk``: the paper's cell-edge-centred construction, no stored edges,
+  the cells around an edge found by walking face neighbours
+  (``edge-centred``);
+  (d) ``table``: the cell-edge-centred construction with the edge table and
+  an edge -> cells index (``edge-centred-table``);
+  (c) and (d) in the paper's FIFO order and in LIFO. For each: t1/t2/t3,
+  the vertex look-ups *counted by the kernels* (and hash probes), the cells
+  visited by for-loop (3), and the memory it needs beyond the cells, nodes
+  and field (``memory_bytes()`` of the builder: bytes of the arrays it
+  holds, by name);
 * **against VTK**: ``vtkContourFilter`` (merged points, normals on) with and
   without ``vtkSpanSpace`` (``VTK_SMP_BACKEND_IN_USE=STDThread`` on the two
-  cores), and the total query time of ``edge-centred`` for the twenty values
-  (wall clock, Python and seed search included), FIFO (the paper's order)
-  and LIFO;
-* **scaling**: the mean time per isovalue against the number of cells, the
-  slope of the log-log fit;
-* **interactive**: every one of the twenty isovalues on the 2M volume timed
-  on its own (best of the repeats), median and maximum.
+  cores);
+* **scaling**: the mean time per isovalue against the number of cells.
 
-Preprocessing (the volume's topology, the thinning skeleton, the edge-centred
-incidence records) is reported separately; numba kernels are compiled before
-any clock starts. Query times are the best of a few sweeps.
+Preprocessing (the volume's topology, the thinning skeleton, the builders'
+records) is reported separately; numba kernels are compiled before any clock
+starts; every method makes two untimed calls first (allocations, and the hash
+table grows to its size). Query and stage times are CPU seconds of the
+process (:func:`cpu_clock`; every polygen kernel on one thread), because the
+machine is shared; each value is extracted a few times and every time kept
+at its minimum over those repeats; the totals are sums over the twenty
+values. VTK's times are wall clock (it runs two threads).
 
     python benchmarks/fast_construction.py                  # data1..data5, 2M, 10M
     python benchmarks/fast_construction.py data1 2M         # a subset
@@ -35,8 +48,11 @@ any clock starts. Query times are the best of a few sweeps.
 import os
 
 os.environ["VTK_SMP_BACKEND_IN_USE"] = "STDThread"  # before anything imports vtk
-os.environ.setdefault("NUMBA_NUM_THREADS", "2")
+# one thread for every polygen kernel: the constructions compared are serial, and the scan's parallel
+# kernels on a shared machine wait for their slowest thread (the paper's machine had one CPU)
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
+import contextlib  # noqa: E402
 import gc  # noqa: E402
 import json  # noqa: E402
 import sys  # noqa: E402
@@ -46,6 +62,8 @@ import numpy as np  # noqa: E402
 
 from _common import RESULTS, machine  # noqa: E402
 from polygen.volume import datasets, isovalues, methods  # noqa: E402
+from polygen.volume.propagate import Propagator  # noqa: E402
+from polygen.volume.surface import same_surface  # noqa: E402
 
 DATA = ["data1", "data2", "data3", "data4", "data5", "2M", "10M"]
 FIELD = {"10M": "gaussians"}
@@ -72,29 +90,47 @@ def repeats(n_cells):
     return 7 if n_cells < 100_000 else 5 if n_cells < 1_000_000 else 3 if n_cells < 5_000_000 else 2
 
 
+_WALL = time.perf_counter
+
+
+@contextlib.contextmanager
+def cpu_clock():
+    """Inside: polygen's stage clocks (``time.perf_counter``) read this process's CPU time instead.
+
+    On a machine shared with other jobs a call spends much of its wall time
+    waiting for a core (measured here at a load of 14 on 2 cores: 0.13 s
+    wall for 0.018 s of CPU); the CPU time it used does not depend on that.
+    Every polygen kernel runs in the calling thread (NUMBA_NUM_THREADS=1).
+    """
+    time.perf_counter = time.process_time
+    try:
+        yield
+    finally:
+        time.perf_counter = _WALL
+
+
 def sweep(method, values, repeat):
-    """Best-of-``repeat`` sweeps: (total wall s, per-value best s, surfaces of the best sweep, stats per value)."""
-    best = float("inf")
-    per = np.full(len(values), np.inf)
-    out = stats = None
-    for _ in range(repeat):
-        isos, st = [], []
-        t_all = time.perf_counter()
-        for i, v in enumerate(values):
-            t0 = time.perf_counter()
-            iso = method.extract(v)
-            per[i] = min(per[i], time.perf_counter() - t0)
-            isos.append(iso)
-            st.append(dict(getattr(method, "stats", {})))
-        total = time.perf_counter() - t_all
-        if total < best:
-            best, out, stats = total, isos, st
-    return best, per, out, stats
+    """Each value extracted ``repeat`` times; every time kept at its minimum over the repeats, per value.
 
-
-def stage_sums(isos):
-    t = np.array([[i.t1, i.t2, i.t3] for i in isos]).sum(axis=0)
-    return float(t[0]), float(t[1]), float(t[2])
+    Returns ``(times, surfaces, stats)``: ``times`` (V, 5) [t1, t2, t3 (CPU
+    seconds, see :func:`cpu_clock`), CPU seconds of the call, wall seconds
+    of the call], the surfaces and the method's stats of the last repeat.
+    """
+    times = np.full((len(values), 5), np.inf)
+    isos = stats = None
+    with cpu_clock():
+        for _ in range(repeat):
+            isos, stats = [], []
+            for i, v in enumerate(values):
+                w0 = _WALL()
+                c0 = time.process_time()
+                iso = method.extract(v)
+                cpu = time.process_time() - c0
+                wall = _WALL() - w0
+                times[i] = np.minimum(times[i], [iso.t1, iso.t2, iso.t3, cpu, wall])
+                isos.append(iso)
+                stats.append(dict(getattr(method, "stats", {})))
+    return times, isos, stats
 
 
 def vtk_times(vol, field, values, repeat):
@@ -111,19 +147,43 @@ def vtk_times(vol, field, values, repeat):
     return out
 
 
+#: the constructions compared, all from the thinning skeleton's seeds: label -> (method, params, propagator search)
+CONSTRUCTIONS = {
+    "hash": ("thinning", {}, "hash"),                                   # (a) reference [12]
+    "array": ("thinning", {}, "array"),                                 # (b) if edges were stored
+    "walk-fifo": ("edge-centred", {"order": "fifo"}, None),             # (c) the paper, no stored edges
+    "walk-lifo": ("edge-centred", {"order": "lifo"}, None),
+    "table-fifo": ("edge-centred-table", {"order": "fifo"}, None),      # (d) with the edge table
+    "table-lifo": ("edge-centred-table", {"order": "lifo"}, None),
+}
+
+
+def prepare(label, vol, field):
+    """The method of ``label`` prepared on ``vol`` (for ``array`` its propagator searches an edge-id array)."""
+    if label == "scan":
+        return methods.get("scan")(vol, field=field)
+    name, params, search = CONSTRUCTIONS[label]
+    m = methods.get(name)(vol, field=field, **params)
+    if search == "array":
+        t0 = time.perf_counter()
+        m.propagator = Propagator(vol, field, vertex_search="array")
+        m.preprocess_s += time.perf_counter() - t0
+    return m
+
+
+def builder_of(m):
+    return getattr(m, "builder", None) or getattr(m, "propagator", None)
+
+
 def warm_up():
     """Compile every kernel used below once, so no timing includes JIT."""
-    vol = datasets.load("data1")
-    values = sweep_values(vol.scalars("fem"))[:2]
-    for name in ("scan", "thinning", "edge-centred"):
-        m = methods.get(name)(vol, field="fem")
-        for v in values:
-            m.extract(v)
-    m = methods.get("edge-centred")(vol, field="fem", order="fifo")
-    m.extract(values[0])
-    vol = datasets.load("hexa1")
-    m = methods.get("edge-centred")(vol, field="fem")
-    m.extract(float(np.median(vol.scalars("fem"))))
+    for name in ("data1", "hexa1"):
+        vol = datasets.load(name)
+        values = sweep_values(vol.scalars("fem"))[:2]
+        for label in ["scan", *CONSTRUCTIONS]:
+            m = prepare(label, vol, "fem")
+            for v in values:
+                m.extract(v)
 
 
 def run_one(name, with_vtk):
@@ -137,81 +197,90 @@ def run_one(name, with_vtk):
     values = sweep_values(vol.scalars(field))
     rep = repeats(vol.n_cells)
     row = dict(data=name, field=field, cells=vol.n_cells, nodes=vol.n_points, load_s=load_s, topology_s=topo_s,
-               repeat=rep, load_before=os.getloadavg()[0])
-
+               repeat=rep, load_before=os.getloadavg()[0],
+               input_bytes=dict(points=int(vol.points.nbytes), cells=int(vol.cells.nbytes),
+                                field=int(vol.scalars(field).nbytes)))
     res = {}
-    for label, name_, params in [("scan", "scan", {}), ("thinning", "thinning", {}),
-                                 ("edge-centred-fifo", "edge-centred", {"order": "fifo"}),
-                                 ("edge-centred-lifo", "edge-centred", {"order": "lifo"})]:
-        m = methods.get(name_)(vol, field=field, **params)
+    ref = None
+    for label in ["scan", *CONSTRUCTIONS]:
+        m = prepare(label, vol, field)
         m.extract(values[len(values) // 2])  # first call: allocations, not timed
-        q, per, isos, stats = sweep(m, values, rep)
-        t1, t2, t3 = stage_sums(isos)
-        r = dict(preprocess_s=m.preprocess_s, query_s=q, t1=t1, t2=t2, t3=t3,
-                 per_value_s=per.tolist(), triangles=int(sum(i.n_triangles for i in isos)),
+        m.extract(values[-1])
+        times, isos, stats = sweep(m, values, rep)
+        t1, t2, t3, q, wall = (float(x) for x in times.sum(axis=0))
+        r = dict(preprocess_s=m.preprocess_s, query_s=q, query_wall_s=wall, t1=t1, t2=t2, t3=t3,
+                 per_value_s=times[:, 3].tolist(), triangles=int(sum(i.n_triangles for i in isos)),
                  vertices=int(sum(i.n_vertices for i in isos)),
                  per_value_triangles=[i.n_triangles for i in isos],
                  cells_tested=int(sum(i.cells_tested for i in isos)),
                  cells_intersected=int(sum(i.cells_intersected for i in isos)),
                  vertex_lookups=int(sum(i.vertex_lookups for i in isos)))
-        if name_ == "edge-centred":
-            r["seed_preprocess_s"] = m.seed_preprocess_s
-            r["construct_preprocess_s"] = m.construct_preprocess_s
+        if label == "scan":
+            ref = isos
+        else:
+            r["same_as_scan"] = all(same_surface(a, b, geometry=False) for a, b in zip(ref, isos))
+            b = builder_of(m)
+            per_stats = stats
+            r["memory"] = b.memory_bytes()
+            r["memory_total"] = int(sum(r["memory"].values()) - r["memory"].get("label_edge_list", 0))
             r["seed_source"] = m.source.name
-            r["order"] = params["order"]
-            for k in ("visits", "pops", "touched", "constructed", "node_vertices", "restarts"):
-                r[k] = int(sum(st[k] for st in stats))
-            r["seed_search_s"] = float(sum(st["T_search"] for st in stats))
-        if name_ == "thinning":
-            r["skeleton_cells"] = m.skeleton.n_cells
-            r["thinning_s"] = m.skeleton.stats["T_total"]
+            r["seed_preprocess_s"] = m.source.preprocess_s
+            r["seed_search_s"] = float(sum(st.get("T_search", st.get("T_mg", 0.0)) for st in per_stats))
+            if label in ("hash", "array"):
+                # the propagator's own counters of the best sweep are gone; run the sweep's values once more
+                probes = grows = 0
+                t_label = 0.0
+                with cpu_clock():
+                    for v in values:
+                        m.extract(v)
+                        probes += b.stats["probes"]
+                        grows += b.stats["hash_grows"]
+                        t_label += b.stats["t_label"]
+                r.update(probes=probes, hash_grows=grows, t_label=t_label)
+                r["skeleton_cells"] = m.skeleton.n_cells
+            else:
+                r["construct_preprocess_s"] = m.construct_preprocess_s
+                r["order"] = CONSTRUCTIONS[label][1]["order"]
+                for k in ("visits", "pops", "touched", "constructed", "node_vertices", "restarts", "lookups"):
+                    r[k] = int(sum(st[k] for st in per_stats))
+                if label.startswith("walk"):
+                    r["walk_steps"] = int(sum(st["walk_steps"] for st in per_stats))
+                    r["probes"] = int(sum(st["probes"] for st in per_stats))
+                    r["t_label"] = float(sum(st["t_label"] for st in per_stats))
         res[label] = r
-        print(f"{name:6s} {label:18s} pre {m.preprocess_s:7.3f} s  query {q:7.3f} s  t1 {t1:.3f} t2 {t2:.3f} "
-              f"t3 {t3:.3f}  {r['triangles']} triangles  lookups {r['vertex_lookups']}", file=sys.stderr)
-        if label == "edge-centred-lifo":  # the same method, two values at a time on the two cores
-            m.extract_many(values[:2], threads=2)  # the second builder's records: allocated once, not timed
-            best, isos2 = float("inf"), None
-            for _ in range(rep):
-                t0 = time.perf_counter()
-                got = m.extract_many(values, threads=2)
-                dt = time.perf_counter() - t0
-                if dt < best:
-                    best, isos2 = dt, got
-            res["edge-centred-2x"] = dict(query_s=best, threads=2, triangles=int(sum(i.n_triangles for i in isos2)),
-                                          vertices=int(sum(i.n_vertices for i in isos2)),
-                                          per_value_triangles=[i.n_triangles for i in isos2],
-                                          vertex_lookups=int(sum(i.vertex_lookups for i in isos2)))
-            print(f"{name:6s} {'edge-centred-2x':18s} query {best:7.3f} s (extract_many, 2 threads)",
-                  file=sys.stderr)
-            del isos2, got
+        print(f"{name:6s} {label:11s} pre {m.preprocess_s:7.3f} s  query {q:7.3f} s  t1 {t1:.4f} t2 {t2:.4f} "
+              f"t3 {t3:.4f}  {r['triangles']} triangles  lookups {r['vertex_lookups']}  "
+              f"memory {r.get('memory_total', 0) / 1e6:.1f} MB  same {r.get('same_as_scan')}", file=sys.stderr)
         del m, isos
         gc.collect()
-    ref = res["scan"]["per_value_triangles"]
-    for r in res.values():
-        r["same_as_scan"] = r["per_value_triangles"] == ref
+    ref_t = res["scan"]["per_value_triangles"]
     if with_vtk:
         vt = vtk_times(vol, field, values, rep)
         for k, r in vt.items():
-            r["same_as_scan"] = r["per_value_triangles"] == ref
-            print(f"{name:6s} {k:18s} pre {r['preprocess_s']:7.3f} s  query {r['query_s']:7.3f} s  "
+            r["same_as_scan"] = r["per_value_triangles"] == ref_t
+            print(f"{name:6s} {k:11s} pre {r['preprocess_s']:7.3f} s  query {r['query_s']:7.3f} s  "
                   f"{r['triangles']} triangles", file=sys.stderr)
         res.update(vt)
     row["methods"] = res
     row["load_after"] = os.getloadavg()[0]
-    del vol
+    del vol, ref
     gc.collect()
     return row
 
 
+def mb(x):
+    return f"{x / 1e6:.1f}"
+
+
 def markdown(rows):
-    lines = ["# Polygon construction without vertex search (Itoh et al. 2001): Tables 1, 2 and VTK", ""]
+    lines = ["# Polygon construction without vertex search (Itoh et al. 2001): Tables 1, 2, fair baselines, VTK", ""]
     lines += ["Twenty isovalues `linspace(min, max, 22)[1:-1]` per volume, mean vertex normals, merged vertices; "
-              "times in seconds, best of the sweeps; the paper's numbers (IBM RS/6000 560, 2001) in brackets.", ""]
+              "polygen's times in CPU seconds of the process (the machine is shared; one thread), each stage's minimum over the repeats of each value, summed over the values; VTK's in wall seconds (two threads); the paper's numbers (IBM RS/6000 560, 2001) in brackets.", ""]
     lines += ["## Table 1: all-cell scan vs volume thinning (hash-based propagation), stage by stage", "",
               "| data | cells | triangles | vertices | scan t1 | scan t2 | scan t3 | scan total | thinning t1 | "
-              "thinning t2 | thinning t3 | thinning total |", "|" + "---|" * 12]
+              "thinning t2 | thinning t3 | thinning total | cells tested scan / thinning |", "|" + "---|" * 13]
     for r in rows:
-        sc, th = r["methods"]["scan"], r["methods"]["thinning"]
+        sc, th = r["methods"]["scan"], r["methods"]["hash"]
         p = PAPER_T1.get(r["data"])
 
         def cell(x, k, i):
@@ -223,85 +292,102 @@ def markdown(rows):
                      " | ".join(cell(sc[k], "scan", i) for i, k in enumerate(("t1", "t2", "t3"))) +
                      f" | {sc['query_s']:.4f}" + (f" [{p['scan'][3]}]" if p else "") + " | " +
                      " | ".join(cell(th[k], "thinning", i) for i, k in enumerate(("t1", "t2", "t3"))) +
-                     f" | {th['query_s']:.4f}" + (f" [{p['thinning'][3]}]" if p else "") + " |")
-    lines += ["", "## Table 2: hash-based vs cell-edge-centred construction (both from the thinning skeleton)", "",
-              "| data | cells | t_p hash | t_p edge | t_p faster by | total hash | total edge | total faster by | "
-              "t_p edge LIFO | vertex look-ups hash / edge | cells visited by for-loop (3) | cells constructed | "
-              "cells tested hash / edge |", "|" + "---|" * 13]
+                     f" | {th['query_s']:.4f}" + (f" [{p['thinning'][3]}]" if p else "") +
+                     f" | {sc['cells_tested']} / {th['cells_tested']} |")
+    lines += ["", "## The four constructions side by side (all from the thinning skeleton's seeds)", "",
+              "(a) hash: propagation + hash keyed by the edge's two nodes (reference [12]); (b) array: propagation + "
+              "vertex id in an array indexed by the stored edge id; (c) walk: the paper's edge-centred "
+              "construction, no stored edges; (d) table: edge-centred with the edge table and edge -> cells "
+              "index. t2 = polygon construction (the paper's t_p); look-ups as counted by the kernels; memory = "
+              "bytes of the arrays each holds beyond points, cells and field (MB; the propagations' face "
+              "neighbours and node copies are those columns of the volume's shared cell records).", "",
+              "| data | cells | construction | t1 | t2 | t3 | total | labels by edge id | vertex look-ups | "
+              "hash probes | cells visited by for-loop (3) | walk steps | memory MB | memory by array (MB) | "
+              "same as scan |", "|" + "---|" * 15]
     for r in rows:
-        th, ec = r["methods"]["thinning"], r["methods"]["edge-centred-fifo"]
-        lifo = r["methods"]["edge-centred-lifo"]
-        p = PAPER_T2.get(r["data"])
-        fp = 1 - ec["t2"] / th["t2"]
-        ft = 1 - ec["query_s"] / th["query_s"]
-        pp = f" [{1 - p[2] / p[1]:.0%}]" if p else ""
-        pt = f" [{1 - p[4] / p[3]:.0%}]" if p else ""
-        lines.append(
-            f"| {r['data']} | {r['cells']}" + (f" [{p[0]}]" if p else "") +
-            f" | {th['t2']:.4f}" + (f" [{p[1]}]" if p else "") + f" | {ec['t2']:.4f}" + (f" [{p[2]}]" if p else "") +
-            f" | {fp:.0%}{pp} | {th['query_s']:.4f}" + (f" [{p[3]}]" if p else "") +
-            f" | {ec['query_s']:.4f}" + (f" [{p[4]}]" if p else "") + f" | {ft:.0%}{pt} | {lifo['t2']:.4f}"
-            f" | {th['vertex_lookups']} / {ec['vertex_lookups']} | {ec['visits']} | {ec['constructed']}"
-            f" | {th['cells_tested']} / {ec['cells_tested']} |")
-    have_vtk = all("vtk" in r["methods"] for r in rows)
-    lines += ["", "## Against VTK: total query time for the twenty values", "",
-              "| data | cells | field | vtk | vtk+spanspace | scan | thinning (hash) | edge-centred FIFO | "
-              "edge-centred LIFO | edge-centred, 2 values at a time | edge / (vtk+spanspace), one at a time | "
-              "edge 2 at a time / (vtk+spanspace) | same triangles as scan: polygen / vtk / vtk+spanspace | "
-              "load before / after |", "|" + "---|" * 14]
+        for label in CONSTRUCTIONS:
+            x = r["methods"][label]
+            mem = ", ".join(f"{k} {mb(v)}" for k, v in x["memory"].items() if k != "label_edge_list")
+            lines.append(f"| {r['data']} | {r['cells']} | {label} | {x['t1']:.4f} | {x['t2']:.4f} | {x['t3']:.4f} | "
+                         f"{x['query_s']:.4f} | {x.get('t_label', 0.0):.4f} | {x['vertex_lookups']} | "
+                         f"{x.get('probes', 0)} | {x.get('visits', '-')} | {x.get('walk_steps', '-')} | "
+                         f"{mb(x['memory_total'])} | {mem} | {x['same_as_scan']} |")
+    lines += ["", "## What each comparison isolates (t2, FIFO for the edge-centred ones)", "",
+              "| data | cells | removing the search, edges stored: table / array | removing the search, no edges: "
+              "walk / hash | storing edges, search kept: array / hash | storing edges, no search: table / walk | "
+              "the paper's claim, edge-centred / old: walk / hash [paper] | memory walk / hash | "
+              "memory table / walk | memory array / hash |", "|" + "---|" * 10]
     for r in rows:
         m = r["methods"]
-        vt = m.get("vtk", {}).get("query_s", float("nan"))
-        vs = m.get("vtk+spanspace", {}).get("query_s", float("nan"))
-        best = min(m["edge-centred-fifo"]["query_s"], m["edge-centred-lifo"]["query_s"])
-        two = m["edge-centred-2x"]["query_s"]
-        same = all(x["same_as_scan"] for k, x in m.items() if not k.startswith("vtk"))
-        same_vtk = " / ".join(str(m[k]["same_as_scan"]) if k in m else "-" for k in ("vtk", "vtk+spanspace"))
-        lines.append(f"| {r['data']} | {r['cells']} | {r['field']} | {vt:.4f} | {vs:.4f} | {m['scan']['query_s']:.4f}"
-                     f" | {m['thinning']['query_s']:.4f} | {m['edge-centred-fifo']['query_s']:.4f}"
-                     f" | {m['edge-centred-lifo']['query_s']:.4f} | {two:.4f} | {best / vs:.3f} | {two / vs:.3f}"
-                     f" | {same} / {same_vtk} | {r['load_before']:.2f} / {r['load_after']:.2f} |")
+        h, a, w, tb = (m[k] for k in ("hash", "array", "walk-fifo", "table-fifo"))
+        p = PAPER_T2.get(r["data"])
+        pp = f" [{p[2] / p[1]:.2f}]" if p else ""
+        lines.append(f"| {r['data']} | {r['cells']} | {tb['t2'] / a['t2']:.2f} | {w['t2'] / h['t2']:.2f} | "
+                     f"{a['t2'] / h['t2']:.2f} | {tb['t2'] / w['t2']:.2f} | {w['t2'] / h['t2']:.2f}{pp} | "
+                     f"{w['memory_total'] / h['memory_total']:.2f} | {tb['memory_total'] / w['memory_total']:.2f} | "
+                     f"{a['memory_total'] / h['memory_total']:.2f} |")
+    lines += ["", "## Table 2: the paper's old (hash) and new (edge-centred, FIFO) construction", "",
+              "| data | cells | t_p old (hash) | t_p new (walk) | t_p new / old | total old | total new | "
+              "total new / old |", "|" + "---|" * 8]
+    for r in rows:
+        h, w = r["methods"]["hash"], r["methods"]["walk-fifo"]
+        p = PAPER_T2.get(r["data"])
+        b = (lambda i: f" [{p[i]}]") if p else (lambda i: "")
+        lines.append(f"| {r['data']} | {r['cells']}{b(0)} | {h['t2']:.4f}{b(1)} | {w['t2']:.4f}{b(2)} | "
+                     f"{w['t2'] / h['t2']:.2f}" + (f" [{p[2] / p[1]:.2f}]" if p else "") +
+                     f" | {h['query_s']:.4f}{b(3)} | {w['query_s']:.4f}{b(4)} | {w['query_s'] / h['query_s']:.2f}"
+                     + (f" [{p[4] / p[3]:.2f}]" if p else "") + " |")
+    have_vtk = all("vtk" in r["methods"] for r in rows)
+    if have_vtk:
+        lines += ["", "## Against VTK: total query time for the twenty values", "",
+                  "VTK in wall seconds on two threads, polygen in CPU seconds on one: not the same clock.", "",
+                  "| data | cells | field | vtk | vtk+spanspace | scan | hash | array | walk LIFO | table LIFO | "
+                  "same triangles as scan: vtk / vtk+spanspace | load before / after |", "|" + "---|" * 12]
+        for r in rows:
+            m = r["methods"]
+            lines.append(f"| {r['data']} | {r['cells']} | {r['field']} | {m['vtk']['query_s']:.4f} | "
+                         f"{m['vtk+spanspace']['query_s']:.4f} | {m['scan']['query_s']:.4f} | "
+                         f"{m['hash']['query_s']:.4f} | {m['array']['query_s']:.4f} | "
+                         f"{m['walk-lifo']['query_s']:.4f} | {m['table-lifo']['query_s']:.4f} | "
+                         f"{m['vtk']['same_as_scan']} / {m['vtk+spanspace']['same_as_scan']} | "
+                         f"{r['load_before']:.2f} / {r['load_after']:.2f} |")
     lines += ["", "## Preprocessing (s), reported apart from the queries", "",
-              "| data | cells | load | topology | thinning skeleton (cells) | edge-centred records | "
-              "seed search, 20 values |", "|" + "---|" * 7]
+              "| data | cells | load | topology | thinning skeleton (cells) | walk records | table records | "
+              "array propagator | seed search, 20 values |", "|" + "---|" * 9]
     for r in rows:
-        ec = r["methods"]["edge-centred-lifo"]
+        m = r["methods"]
         lines.append(f"| {r['data']} | {r['cells']} | {r['load_s']:.3f} | {r['topology_s']:.3f} | "
-                     f"{ec['seed_preprocess_s']:.3f} ({r['methods']['thinning']['skeleton_cells']}) | "
-                     f"{ec['construct_preprocess_s']:.3f} | {ec['seed_search_s']:.4f} |")
+                     f"{m['walk-lifo']['seed_preprocess_s']:.3f} ({m['hash']['skeleton_cells']}) | "
+                     f"{m['walk-lifo']['construct_preprocess_s']:.3f} | {m['table-lifo']['construct_preprocess_s']:.3f}"
+                     f" | {m['array']['preprocess_s'] - m['array']['seed_preprocess_s']:.3f} | "
+                     f"{m['walk-lifo']['seed_search_s']:.4f} |")
     slope = scaling(rows)
-    lines += ["", "## Scaling and the interactive case", ""]
     if slope is not None:
-        lines.append(f"- mean time per isovalue (edge-centred) against cells, log-log slope over "
-                     f"{', '.join(r['data'] for r in rows)}: **{slope['lifo']:.3f}** LIFO, {slope['fifo']:.3f} FIFO "
-                     f"(triangles per isovalue against cells: {slope['triangles']:.3f})")
-        if "lifo_fem" in slope:
-            lines.append(f"- the same over the FEM-field volumes only (without 10M, whose field differs): "
-                         f"**{slope['lifo_fem']:.3f}** LIFO, {slope['fifo_fem']:.3f} FIFO (triangles: "
-                         f"{slope['triangles_fem']:.3f})")
-    for r in rows:
-        if r["data"] == "2M":
-            for label in ("edge-centred-fifo", "edge-centred-lifo"):
-                per = np.array(r["methods"][label]["per_value_s"]) * 1e3
-                lines.append(f"- 2M, {label}: one isosurface in {np.median(per):.2f} ms median, "
-                             f"{per.max():.2f} ms at most (each of the 20 values timed alone, best of the sweeps)")
+        lines += ["", "## Scaling", "",
+                  f"- mean time per isovalue against cells, log-log slope over {', '.join(r['data'] for r in rows)}: "
+                  + ", ".join(f"{k} **{v:.3f}**" for k, v in slope.items())]
     lines += ["", "## Notes", "",
-              "- t1 / t2 / t3 as in Table 1 of the paper: find the intersected cells (for the skeleton methods "
-              "the skeleton search plus the seed tests) / build the triangle topology / vertex positions and "
-              "normals; total = wall clock of the 20 calls, Python included",
-              "- edge-centred: Fig. 5 of the paper, seeds from the volume-thinning skeleton (the `thinning` "
-              "method's), FIFO as in the paper (Table 2) or LIFO (the method's default; the same surface); "
-              "vertex look-ups are zero by construction",
-              "- cells visited by for-loop (3): for every vertex, the cells around its edge (or node), summed "
-              "over the 20 values; cells constructed = cells intersected",
-              "- vtk: vtkContourFilter, merged points, ComputeNormalsOn, VTK_SMP_BACKEND_IN_USE=STDThread; "
-              "vtk+spanspace adds SetScalarTree(vtkSpanSpace()) (its build is preprocessing); VTK uses both "
-              "cores inside each contour, polygen's `edge-centred` one core per value: one value at a time "
-              "(the interactive case) or two values at a time on the two cores (`extract_many`, the same "
-              "surfaces); vtk+spanspace drops a few triangles on 2M and 10M (the last column)",
-              "- 10M has analytic fields only (no FEM solve at that size): field `gaussians`",
+              "- t1 / t2 / t3 as in Table 1 of the paper: find the intersected cells (the skeleton search plus the "
+              "seed tests) / build the triangle topology / vertex positions and normals; total = CPU time of the "
+              "20 calls, Python included (for hash and walk it includes naming the vertices by the volume's edge "
+              "ids after t3, the `labels` column, which the IsoSurface convention needs and the construction "
+              "does not)",
+              "- vertex look-ups: counted in the kernels; hash: one search per polygon vertex per cell (probes: "
+              "slots inspected); array: one read of the vertex-id array per polygon vertex per cell; walk and "
+              "table: none counted because they make none (a searching variant of the walk counts them: "
+              "tests/test_edge_centred.py::test_lookup_counter_is_live)",
+              "- memory: from `memory_bytes()` of each builder, after the sweep (buffers at their grown sizes); "
+              "the volume's own points, cells and field are not counted; the labelling's edge list is not "
+              "counted for hash and walk (it serves the output convention, not the construction)",
+              "- one thread for every polygen kernel (NUMBA_NUM_THREADS=1; the scan too); vtk: vtkContourFilter, "
+              "merged points, ComputeNormalsOn, VTK_SMP_BACKEND_IN_USE=STDThread (both cores); vtk+spanspace adds "
+              "SetScalarTree(vtkSpanSpace())",
+              "- 10M has analytic fields only (no FEM solve at that size): field `gaussians`; "
+              + ("" if any(r["data"] == "10M" for r in rows) else
+                 "not in this run: building it did not finish within 29 minutes of wall time here (1 min 43 s "
+                 "of CPU, the machine at a load of about 14), past the 10 minutes allowed for it"),
               "- a 2-core machine shared with other jobs: the load average before/after each volume is listed; "
-              "times are indicative, counts are exact",
+              "times are indicative, counts and bytes are exact",
               f"- machine: {machine()}"]
     return "\n".join(lines) + "\n"
 
@@ -311,16 +397,11 @@ def scaling(rows):
         return None
     n = np.log([r["cells"] for r in rows])
     out = {}
-    fem = np.array([r["field"] == "fem" for r in rows])
-    for key, label in (("fifo", "edge-centred-fifo"), ("lifo", "edge-centred-lifo")):
+    for label in ("hash", "array", "walk-lifo", "table-lifo"):
         t = np.log([r["methods"][label]["query_s"] / 20 for r in rows])
-        out[key] = float(np.polyfit(n, t, 1)[0])
-        if fem.sum() >= 2 and not fem.all():
-            out[key + "_fem"] = float(np.polyfit(n[fem], t[fem], 1)[0])
-    tri = np.log([r["methods"]["edge-centred-lifo"]["triangles"] / 20 for r in rows])
+        out[label] = float(np.polyfit(n, t, 1)[0])
+    tri = np.log([r["methods"]["scan"]["triangles"] / 20 for r in rows])
     out["triangles"] = float(np.polyfit(n, tri, 1)[0])
-    if fem.sum() >= 2 and not fem.all():
-        out["triangles_fem"] = float(np.polyfit(n[fem], tri[fem], 1)[0])
     return out
 
 

@@ -1,11 +1,23 @@
-"""Cell-edge-centred construction (Itoh et al. 2001) against the full scan and the hash-based propagation."""
+"""Cell-edge-centred construction (Itoh et al. 2001) against the full scan and the hash-based propagation.
+
+Both variants: the paper's, without stored edges (``EdgeCentredWalk``, method ``edge-centred``), and the one
+with an edge table and an edge -> cells index (``EdgeCentredTable``, method ``edge-centred-table``).
+"""
 
 import numpy as np
 import pytest
 
 from polygen.volume import UnstructuredVolume, datasets, methods
-from polygen.volume.edge_centred import EdgeCentred, EdgeCentredMethod, edge_centred, seed_source
-from polygen.volume.isosurface import IsoSurfaceError, extract
+from polygen.volume.edge_centred import (
+    EdgeCentred,
+    EdgeCentredMethod,
+    EdgeCentredTable,
+    EdgeCentredTableMethod,
+    EdgeCentredWalk,
+    edge_centred,
+    seed_source,
+)
+from polygen.volume.isosurface import IsoSurfaceError, extract, same_surface
 from polygen.volume.propagate import Propagator
 
 from _surfaces import assert_same_surface, grid_volume  # noqa: E402
@@ -29,18 +41,23 @@ def expected_visits(vol, iso):
     return int(np.sum(np.diff(e_off)[k[on_edge]]) + np.sum(np.diff(n_off)[k[~on_edge] - ne]))
 
 
+BUILDERS = [EdgeCentredWalk, EdgeCentredTable]
+METHODS = ["edge-centred", "edge-centred-table"]
+
+
+@pytest.mark.parametrize("builder", BUILDERS)
 @pytest.mark.parametrize("tets", [True, False])
-def test_same_as_scan_and_hash_propagation(tets):
+def test_same_as_scan_and_hash_propagation(tets, builder):
     vol = grid_volume((9, 8, 7), spacing=(0.3, 0.5, 0.7), tets=tets, jitter=0.15 if tets else 0.0, seed=1)
     s = np.random.default_rng(7).random(vol.n_points)
-    ec = EdgeCentred(vol, s)
+    ec = builder(vol, s)
     prop = Propagator(vol, s)
     for value in np.linspace(0.05, 0.95, 7):
         scan = extract(vol, value, field=s)
         seeds = np.unique(scan.triangle_cells)
         iso = ec.extract(value, seeds)
         hashed = prop.extract(value, seeds)
-        assert iso.method == "edge-centred"
+        assert iso.method == builder.method
         assert_same_surface(scan, iso)
         assert_same_surface(hashed, iso)
         # the paper's point: no vertex is ever looked up again
@@ -52,13 +69,14 @@ def test_same_as_scan_and_hash_propagation(tets):
         assert iso.cells_tested == seeds.size  # every seed tested once; nothing else needs a test
 
 
+@pytest.mark.parametrize("builder", BUILDERS)
 @pytest.mark.parametrize("tets", [True, False])
 @pytest.mark.parametrize("order", ["fifo", "lifo"])
-def test_one_seed_per_surface_part(tets, order):
+def test_one_seed_per_surface_part(tets, order, builder):
     vol = grid_volume((16, 14, 12), spacing=(0.1, 0.1, 0.1), tets=tets)
     x = vol.points
     s = np.sin(9 * x[:, 0]) * np.cos(8 * x[:, 1]) * np.sin(7 * x[:, 2] + 0.3) + 0.2 * x[:, 0]
-    ec = EdgeCentred(vol, s, order=order)
+    ec = builder(vol, s, order=order)
     for value in (-0.5, -0.1, 0.2, 0.6):
         scan = extract(vol, value, field=s)
         seeds = one_seed_per_component(scan)
@@ -68,13 +86,14 @@ def test_one_seed_per_surface_part(tets, order):
         assert iso.cells_tested < vol.n_cells
 
 
+@pytest.mark.parametrize("builder", BUILDERS)
 @pytest.mark.parametrize("tets", [True, False])
-def test_values_exactly_on_nodes(tets):
+def test_values_exactly_on_nodes(tets, builder):
     """Crossings on nodes: the vertex is the node, shared by every cell around the node."""
     vol = grid_volume((8, 7, 6), tets=tets)
     rng = np.random.default_rng(3)
     s = rng.integers(0, 5, vol.n_points).astype(float)  # many nodes exactly at each value
-    ec = EdgeCentred(vol, s)
+    ec = builder(vol, s)
     every = np.arange(vol.n_cells)
     n_node_vertices = 0
     for value in (1.0, 2.0, 3.0, 4.0, 2.5):
@@ -90,37 +109,41 @@ def test_values_exactly_on_nodes(tets):
     assert n_node_vertices > 0
 
 
-def test_face_exactly_at_the_value_kept_once():
+@pytest.mark.parametrize("builder", BUILDERS)
+def test_face_exactly_at_the_value_kept_once(builder):
     vol = datasets.load("two_tets")
     ab = vol.cells[0][np.isin(vol.cells[0], vol.cells[1])]  # the shared face
     s = np.zeros(vol.n_points)
     s[ab] = 1.0
     scan = extract(vol, 1.0, field=s)
-    iso = EdgeCentred(vol, s).extract(1.0, [1])
+    iso = builder(vol, s).extract(1.0, [1])
     assert scan.n_triangles == 1
     assert_same_surface(scan, iso)
 
 
+@pytest.mark.parametrize("builder", BUILDERS)
 @pytest.mark.parametrize("name", ["torus", "hollow_cube", "genus3", "torus_hex", "hollow_cube_hex", "genus3_hex"])
-def test_tiny_volumes_all_fields(name):
+def test_tiny_volumes_all_fields(name, builder):
     vol = datasets.load(name)
     for field in vol.fields:
         s = vol.scalars(field)
-        ec = EdgeCentred(vol, field)
+        ec = builder(vol, field)
         for value in np.unique(np.concatenate([np.linspace(s.min(), s.max(), 7), s[:5]])):
             scan = extract(vol, value, field=field)
             assert_same_surface(scan, ec.extract(value, np.arange(vol.n_cells)))
 
 
+@pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("name", ["data1", "data2", "hexa1"])
-def test_thinning_seeds_on_data(name):
-    """The registered method (volume-thinning seeds) against the full scan and the hash-based thinning method."""
+def test_thinning_seeds_on_data(name, method):
+    """The registered methods (volume-thinning seeds) against the full scan and the hash-based thinning method,
+    on the twenty values of the paper's tables."""
     vol = datasets.load(name)
     s = vol.scalars("fem")
-    ours = methods.get("edge-centred")(vol, field="fem")
+    ours = methods.get(method)(vol, field="fem")
     hashed = methods.get("thinning")(vol, field="fem")
     assert ours.source.name == "thinning"
-    for value in np.linspace(s.min(), s.max(), 22)[1:-1][::4]:
+    for value in np.linspace(s.min(), s.max(), 22)[1:-1]:
         scan = extract(vol, value, field="fem")
         iso = ours.extract(value)
         old = hashed.extract(value)
@@ -132,30 +155,48 @@ def test_thinning_seeds_on_data(name):
         assert iso.cells_tested < scan.cells_tested
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["data3", "data4"])
+def test_large_data_same_as_scan(name):
+    """Both variants from the thinning seeds give the scan's surfaces on the paper's volumes 2 and 4, twenty values."""
+    vol = datasets.load(name)
+    s = vol.scalars("fem")
+    ours = [methods.get(m)(vol, field="fem") for m in METHODS]
+    for value in np.linspace(s.min(), s.max(), 22)[1:-1]:
+        scan = extract(vol, value, field="fem")
+        for m in ours:
+            iso = m.extract(value)
+            assert same_surface(scan, iso), (m.name, value)
+            assert iso.vertex_lookups == 0 and m.stats["visits"] == expected_visits(vol, iso)
+
+
+@pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("source", ["extrema-graph", "span-filter", "interval-tree"])
-def test_other_seed_sources(source):
+def test_other_seed_sources(source, method):
     vol = datasets.load("data1")
     s = vol.scalars("fem")
-    m = methods.get("edge-centred")(vol, field="fem", seeds=source)
+    m = methods.get(method)(vol, field="fem", seeds=source)
     assert m.source.name == source and m.seed_preprocess_s >= 0
     for value in np.linspace(s.min(), s.max(), 6)[1:-1]:
         assert_same_surface(extract(vol, value, field="fem"), m.extract(value))
 
 
-def test_gradient_and_no_normals():
+@pytest.mark.parametrize("table", [False, True])
+def test_gradient_and_no_normals(table):
     vol = grid_volume((10, 10, 10), spacing=(0.1, 0.1, 0.1))
     s = np.linalg.norm(vol.points - 0.45, axis=1)
     scan = extract(vol, 0.3, field=s, normals="gradient")
-    iso = edge_centred(vol, 0.3, np.unique(scan.triangle_cells)[:1], field=s, normals="gradient")
+    iso = edge_centred(vol, 0.3, np.unique(scan.triangle_cells)[:1], field=s, normals="gradient", table=table)
     assert_same_surface(scan, iso)
-    bare = edge_centred(vol, 0.3, np.unique(scan.triangle_cells)[:1], field=s, normals=None)
+    bare = edge_centred(vol, 0.3, np.unique(scan.triangle_cells)[:1], field=s, normals=None, table=table)
     assert bare.normals is None and bare.n_triangles == scan.n_triangles
 
 
-def test_buffers_grow_and_queries_repeat():
+@pytest.mark.parametrize("builder", BUILDERS)
+def test_buffers_grow_and_queries_repeat(builder):
     vol = grid_volume((12, 12, 12), tets=True)
     s = np.linalg.norm(vol.points - 5.5, axis=1)
-    ec = EdgeCentred(vol, s)
+    ec = builder(vol, s)
     seed = np.unique(extract(vol, 4.0, field=s).triangle_cells)[:1]
     first = ec.extract(4.0, seed)
     # shrink every buffer: the query is redone until they fit, the surface is the same
@@ -173,10 +214,11 @@ def test_buffers_grow_and_queries_repeat():
     assert ec.stats["restarts"] == 0
 
 
-def test_empty_surfaces_and_missing_seeds():
+@pytest.mark.parametrize("builder", BUILDERS)
+def test_empty_surfaces_and_missing_seeds(builder):
     vol = grid_volume((6, 6, 6))
     s = vol.points[:, 0].copy()
-    ec = EdgeCentred(vol, s)
+    ec = builder(vol, s)
     far = np.flatnonzero(vol.points[vol.cells].mean(axis=1)[:, 0] > 4)[:5]
     iso = ec.extract(0.5, far)  # the plane x = 0.5 does not cross these cells
     assert iso.is_empty and iso.cells_tested == far.size and iso.vertex_lookups == 0
@@ -186,10 +228,11 @@ def test_empty_surfaces_and_missing_seeds():
     assert m.extract(-3.0).is_empty
 
 
-def test_bad_input():
+@pytest.mark.parametrize("builder", BUILDERS)
+def test_bad_input(builder):
     vol = grid_volume((4, 4, 4))
     s = vol.points[:, 0].copy()
-    ec = EdgeCentred(vol, s)
+    ec = builder(vol, s)
     with pytest.raises(IsoSurfaceError, match="seed cells must be in"):
         ec.extract(0.5, [vol.n_cells])
     with pytest.raises(IsoSurfaceError, match="seed cells must be in"):
@@ -203,35 +246,40 @@ def test_bad_input():
     with pytest.raises(IsoSurfaceError, match="normals"):
         ec.extract(0.5, [0], normals="flat")
     with pytest.raises(IsoSurfaceError, match="order"):
-        EdgeCentred(vol, s, order="random")
+        builder(vol, s, order="random")
     with pytest.raises(IsoSurfaceError, match="unknown seed source"):
         seed_source(vol, s, "nope")
     with pytest.raises(IsoSurfaceError, match="UnstructuredVolume"):
-        EdgeCentred(np.zeros((3, 3)))
+        builder(np.zeros((3, 3)))
     with pytest.raises(IsoSurfaceError, match="field values"):
-        EdgeCentred(vol, np.zeros(3))
+        builder(vol, np.zeros(3))
+    if builder is EdgeCentredWalk:
+        with pytest.raises(IsoSurfaceError, match="vertex_keys"):
+            builder(vol, s, vertex_keys="ids")
 
 
 def test_registered():
-    assert "edge-centred" in methods.names()
+    assert "edge-centred" in methods.names() and "edge-centred-table" in methods.names()
     assert methods.get("edge-centred") is EdgeCentredMethod
+    assert methods.get("edge-centred-table") is EdgeCentredTableMethod
+    assert EdgeCentred is EdgeCentredTable  # the table variant's old name still works
 
 
 def test_volume_isosurface_uses_the_default_method_prepared_once():
     vol = grid_volume((7, 6, 5), tets=True, jitter=0.2, seed=3)
     vol.add_field("r", np.linalg.norm(vol.points - vol.points.mean(axis=0), axis=1))
     vol.add_field("x", vol.points[:, 0].copy())
-    assert methods.default() == "edge-centred" == methods.names()[0]
+    assert methods.default() == "edge-centred-table" == methods.names()[0]
     iso = vol.isosurface(1.7)
     assert iso.vertex_lookups == 0 and iso.n_triangles > 0
     assert_same_surface(extract(vol, 1.7), iso)
-    first = vol._iso_methods[("r", "edge-centred")]
+    first = vol._iso_methods[("r", "edge-centred-table")]
     vol.isosurface(2.1)
-    assert vol._iso_methods[("r", "edge-centred")] is first  # prepared once per field
+    assert vol._iso_methods[("r", "edge-centred-table")] is first  # prepared once per field
     assert_same_surface(extract(vol, 2.5, field="x"), vol.isosurface(2.5, field="x"))
     assert_same_surface(extract(vol, 2.5, field="x"), vol.isosurface(2.5, field="x", method="scan"))
     vol.add_field("r", -vol.fields["r"])  # replacing a field drops what was prepared on it
-    assert ("r", "edge-centred") not in vol._iso_methods
+    assert ("r", "edge-centred-table") not in vol._iso_methods
     assert_same_surface(extract(vol, -1.7), vol.isosurface(-1.7))
     with pytest.raises(Exception, match="no field 'nope'"):
         vol.isosurface(0.5, field="nope")
@@ -239,14 +287,15 @@ def test_volume_isosurface_uses_the_default_method_prepared_once():
         vol.isosurface(0.5, method="nope")
 
 
+@pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("tets", [True, False])
-def test_extract_many_two_at_a_time_gives_the_same_surfaces(tets):
+def test_extract_many_two_at_a_time_gives_the_same_surfaces(tets, method):
     vol = grid_volume((9, 8, 7), tets=tets, jitter=0.15, seed=5)
     c = vol.points.mean(axis=0)
     vol.add_field("f", np.sin(vol.points[:, 0]) + np.cos(1.3 * vol.points[:, 1]) + 0.2 * (vol.points[:, 2] - c[2]))
     s = vol.scalars()
     values = np.linspace(s.min(), s.max(), 13)[1:-1]
-    m = methods.get("edge-centred")(vol)
+    m = methods.get(method)(vol)
     one = [m.extract(v) for v in values]
     stats_one = [m.extract(v) and dict(m.stats) for v in values]  # counters of each query
     many = m.extract_many(values, threads=2)
@@ -254,13 +303,114 @@ def test_extract_many_two_at_a_time_gives_the_same_surfaces(tets):
     for a, b, st_a, st_b in zip(one, many, stats_one, m.stats_many):
         assert_same_surface(a, b)
         np.testing.assert_array_equal(a.triangles, b.triangles)  # the same order, too
-        st_a.pop("T_search"), st_b.pop("T_search")  # seconds
+        for k in ("T_search", "t_label"):  # seconds
+            st_a.pop(k, None), st_b.pop(k, None)
         assert st_a == st_b and b.vertex_lookups == 0
     assert_same_surface(extract(vol, values[4]), many[4])
     assert [i.n_triangles for i in m.extract_many(values[::-1], threads=3)] == [i.n_triangles for i in one[::-1]]
     assert m.extract_many([], threads=2) == []
     with pytest.raises(IsoSurfaceError):
         m.extract_many([0.5, np.nan])
+
+
+# ------------------------------------------------------------------ the paper's variant: no stored edges
+@pytest.mark.parametrize("tets", [True, False])
+def test_walk_stores_no_edges(tets):
+    """Built and queried with node-pair keys, the walk never makes the volume number its edges."""
+    vol = grid_volume((8, 7, 6), tets=tets, jitter=0.1 if tets else 0.0, seed=2)
+    s = np.sin(vol.points[:, 0]) + np.cos(vol.points[:, 1]) * vol.points[:, 2]
+    value = float(np.median(s))
+    ec = EdgeCentredWalk(vol, s, vertex_keys="node-pairs")
+    iso = ec.extract(value, np.arange(vol.n_cells))
+    assert "_edge_table" not in vol.__dict__  # the lazily built edge list was never asked for
+    mem = ec.memory_bytes()
+    assert set(mem) == {"records", "buffers"}
+    nn, nf, ne = (4, 4, 6) if tets else (8, 6, 12)
+    assert mem["records"] == vol.n_cells * (2 + nn + nf + ne + nn) * 4
+    # the node-pair keys name the scan's edges (crossings on nodes: none for this field)
+    scan = extract(vol, value, field=s)
+    e = vol.edges[scan.vertex_keys]
+    assert np.array_equal(np.sort(iso.vertex_keys), np.sort(e[:, 0] * vol.n_points + e[:, 1]))
+    assert np.array_equal(np.sort(ec.edge_ids(iso.vertex_keys)), np.sort(scan.vertex_keys))
+    assert "label_edge_list" in ec.memory_bytes()
+    # the table variant holds the stored edges
+    table = EdgeCentredTable(vol, s)
+    assert table.memory_bytes()["edge_list"] == vol.edges.nbytes
+    assert table.memory_bytes()["edge_cells"] == vol.n_cells * (6 if tets else 12) * 4
+
+
+@pytest.mark.parametrize("tets", [True, False])
+def test_walk_counts_its_steps(tets):
+    """Each vertex on an edge: one walk round the edge, one face crossing per cell after the first."""
+    vol = grid_volume((9, 8, 7), tets=tets, jitter=0.15 if tets else 0.0, seed=4)
+    s = np.random.default_rng(1).random(vol.n_points)
+    ec = EdgeCentredWalk(vol, s)
+    for value in (0.3, 0.5, 0.7):
+        iso = ec.extract(value, np.arange(vol.n_cells))
+        on_edge = int(np.sum(iso.vertex_keys < vol.edges.shape[0]))
+        assert ec.stats["node_vertices"] == iso.n_vertices - on_edge == 0
+        assert ec.stats["visits"] == expected_visits(vol, iso)
+        assert ec.stats["walk_steps"] == ec.stats["visits"] - on_edge
+
+
+@pytest.mark.parametrize("name", ["data1", "hexa1"])
+def test_lookup_counter_is_live(name):
+    """The look-ups are counted by the kernel: none without search, one per triangle corner with it."""
+    vol = datasets.load(name)
+    s = vol.scalars("fem")
+    plain = EdgeCentredWalk(vol, "fem")
+    searching = EdgeCentredWalk(vol, "fem", search=True)
+    for value in np.linspace(s.min(), s.max(), 7)[1:-1]:
+        a = plain.extract(value, np.arange(vol.n_cells))
+        b = searching.extract(value, np.arange(vol.n_cells))
+        for attr in ("triangles", "vertex_keys", "vertices", "normals", "triangle_cells"):
+            np.testing.assert_array_equal(getattr(a, attr), getattr(b, attr))
+        assert a.vertex_lookups == plain.stats["lookups"] == plain.stats["probes"] == 0
+        assert b.vertex_lookups == searching.stats["lookups"] == 3 * b.n_triangles > 0
+        assert searching.stats["probes"] >= b.vertex_lookups
+
+
+def test_walk_grows_its_buffers_on_node_crossings():
+    vol = grid_volume((8, 7, 6), tets=True)
+    s = np.random.default_rng(3).integers(0, 5, vol.n_points).astype(float)
+    ec = EdgeCentredWalk(vol, s, search=True)
+    first = ec.extract(2.0, np.arange(vol.n_cells))
+    assert ec.stats["node_vertices"] > 0
+    ec._around = ec._around[:1].copy()
+    ec._around_local = ec._around_local[:1].copy()
+    ec._htable = np.zeros((2, 2), np.int64)
+    again = ec.extract(2.0, np.arange(vol.n_cells))
+    assert ec.stats["restarts"] > 0
+    assert_same_surface(first, again)
+    assert_same_surface(extract(vol, 2.0, field=s), again)
+
+
+# ------------------------------------------------------------------ the baselines: propagation with a vertex search
+@pytest.mark.parametrize("tets", [True, False])
+def test_propagation_hash_and_array_search(tets):
+    """Both searches give the scan's surface with one counted look-up per polygon vertex per cell."""
+    vol = grid_volume((9, 8, 7), tets=tets, jitter=0.15 if tets else 0.0, seed=6)
+    s = np.random.default_rng(2).random(vol.n_points)
+    hashed = Propagator(vol, s, vertex_search="hash", hash_capacity=4)
+    arrayed = Propagator(vol, s, vertex_search="array")
+    for value in (0.3, 0.5, 0.7):
+        scan = extract(vol, value, field=s)
+        seeds = np.unique(scan.triangle_cells)  # a random field: many small parts, a seed in each
+        a, b = hashed.extract(value, seeds), arrayed.extract(value, seeds)
+        assert_same_surface(scan, a, lookups=True)
+        assert_same_surface(scan, b, lookups=True)
+        # scan's count: the distinct polygon vertices of each cell, summed over the cells
+        per_cell = sum(len(np.unique(scan.triangles[scan.triangle_cells == c])) for c in np.unique(scan.triangle_cells))
+        assert a.vertex_lookups == b.vertex_lookups == per_cell == hashed.stats["lookups"]
+        assert hashed.stats["probes"] >= a.vertex_lookups and arrayed.stats["probes"] == 0
+    assert hashed._htable.shape[0] >= 2 * a.n_vertices  # grown from 4 slots
+    table = hashed._htable
+    again = hashed.extract(0.5, np.unique(extract(vol, 0.5, field=s).triangle_cells))
+    assert hashed.stats["hash_grows"] == 0 and hashed._htable is table  # sized once: reused, emptied by stamps
+    assert again.vertex_lookups > 0
+    assert "edge_table" in arrayed.memory_bytes() and "edge_table" not in hashed.memory_bytes()
+    with pytest.raises(IsoSurfaceError, match="vertex_search"):
+        Propagator(vol, s, vertex_search="tree")
 
 
 # ------------------------------------------------------------------ the plain kernels behind the intrinsics
@@ -302,7 +452,7 @@ assert not k.PREFETCH, "POLYGEN_PREFETCH=0 did not select the plain kernels"
 out = {}
 for name in sys.argv[2:]:
     vol = datasets.load(name)
-    m = methods.get("edge-centred")(vol)
+    m = methods.get("edge-centred-table")(vol)
     s = vol.scalars()
     for i, v in enumerate(np.linspace(s.min(), s.max(), 7)[1:-1]):
         iso = m.extract(v)
@@ -331,7 +481,7 @@ def test_fallback_kernels_give_the_same_surfaces(tmp_path):
     n = 0
     for name in names:
         vol = datasets.load(name)
-        m = methods.get("edge-centred")(vol)
+        m = methods.get("edge-centred-table")(vol)
         s = vol.scalars()
         for i, v in enumerate(np.linspace(s.min(), s.max(), 7)[1:-1]):
             iso = m.extract(v)

@@ -56,8 +56,8 @@ QUEUED = -2
 #: kernel status codes: 0 done, else the buffer that overflowed
 OK, FULL_QUEUE, FULL_TRIANGLES, FULL_VERTICES = 0, 1, 2, 3
 #: counters written by :func:`construct` (indices into ``counters``)
-C_POPS, C_VISITS, C_TOUCHED, C_CONSTRUCTED, C_NODE_TESTS, C_NODE_VERTICES = 0, 1, 2, 3, 4, 5
-N_COUNTERS = 6
+C_POPS, C_VISITS, C_TOUCHED, C_CONSTRUCTED, C_NODE_TESTS, C_NODE_VERTICES, C_LOOKUPS = 0, 1, 2, 3, 4, 5, 6
+N_COUNTERS = 7
 #: how far ahead in a FIFO the next cells' records are fetched
 LOOKAHEAD = 16
 #: record fields
@@ -397,6 +397,7 @@ def construct(rec, nn, s, value, faces, tri_table, tri_count, case_mask, local_e
     touched = 0
     node_tests = 0
     node_vertices = 0
+    lookups = 0  # vertex look-ups: this kernel has none to count (a vertex is only ever read from its slot)
     while head < tail:  # for-loop (1): cells taken from the FIFO
         if lifo:
             tail -= 1
@@ -509,6 +510,7 @@ def construct(rec, nn, s, value, faces, tri_table, tri_count, case_mask, local_e
     counters[C_CONSTRUCTED] = n_p
     counters[C_NODE_TESTS] = node_tests
     counters[C_NODE_VERTICES] = node_vertices
+    counters[C_LOOKUPS] = lookups
     return OK, n_p, n_t, n_v, node_vertices > 0
 
 

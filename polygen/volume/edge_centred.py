@@ -1,17 +1,18 @@
 """Polygon construction without vertex search: cell-edge-centred propagation (Itoh et al. 2001).
 
 Most isosurface vertices are shared by several polygons, so a propagation
-that builds one cell's polygon at a time must look every vertex up again
+that builds one cell's polygon at a time must find every vertex again
 when the next cell around the same cell edge is built; the thesis's
 propagation (:mod:`polygen.volume.propagate`) does that with a hash table
-keyed by the cell edge (the paper's section 2.1, Fig. 1). The 2001 paper
-(3.1, Fig. 4) turns the loop inside out: when a polygon vertex is created
-on a cell edge, *every* cell sharing that edge is visited at once, its
-polygon is constructed if it is missing (and the cell is put into the FIFO),
-and the vertex is registered in all of them. A vertex is therefore never
-needed again and never looked up (``vertex_lookups == 0``).
+keyed by the edge's two end nodes (the paper's section 2.1, Fig. 1, its
+reference [12]), because volume data store nodes and cells but not cell
+edges. The 2001 paper (3.1, Fig. 4) turns the loop inside out: when a
+polygon vertex is created on a cell edge, *every* cell sharing that edge is
+visited at once, its polygon is constructed if it is missing (and the cell
+is put into the FIFO), and the vertex is registered in all of them. A
+vertex is therefore never needed again and never searched for.
 
-Pseudo-code of the paper (Fig. 5), as implemented by :meth:`EdgeCentred.extract`:
+Pseudo-code of the paper (Fig. 5), as implemented by both builders here:
 
 * seeds: the skeleton cells (or other seed cells) the surface crosses go
   into the FIFO (t1);
@@ -24,18 +25,32 @@ Pseudo-code of the paper (Fig. 5), as implemented by :meth:`EdgeCentred.extract`
   into ``P_j``;
 * finally the positions (5.2) and normals of all vertices (t3).
 
+Two builders differ only in how for-loop (3) finds the cells sharing
+``E_n``:
+
+:class:`EdgeCentredWalk` (method ``edge-centred``) — the paper's setting
+    no edge is numbered or stored: the cells round the edge are found by
+    walking from face neighbour to face neighbour round it
+    (:mod:`._edge_walk_kernels`); the vertex is known by its edge's nodes.
+:class:`EdgeCentredTable` (method ``edge-centred-table``, the default of
+    ``vol.isosurface``) — with stored edges: an edge table and, per edge, the
+    list of its cells with the edge's local index in each
+    (:mod:`._edge_centred_kernels`); faster, for about 2.3 times the
+    memory (``benchmarks/results/fast_construction.md``).
+
 Every cell around a crossed edge is itself crossed, so for-loop (3) needs
 no intersection test. The one exception is the degenerate crossing exactly
 on a node (``S == C``, see :mod:`polygen.volume.marching`): that vertex is
 the node, shared by every cell around the *node*, so for-loop (3) then
-walks the node's cells and tests each (a cell around the node may lie
+visits the node's cells and tests each (a cell around the node may lie
 wholly above ``C``).
 
 Registration is one store: a polygon keeps one vertex slot per local edge
-and per node of its cell, and the cells around an edge are stored with the
-local index of the edge in each of them. Visited cells carry a generation
-stamp, so a query starts in O(1), and all buffers are reused from query to
-query.
+and per node of its cell. Visited cells carry a generation stamp, so a
+query starts in O(1), and all buffers are reused from query to query. The
+kernels count the vertex look-ups they make (``vertex_lookups``): none;
+``EdgeCentredWalk(..., search=True)`` is a deliberately searching variant
+that counts them.
 
 The hexahedral version, which the paper names as future work, is the same
 loop: twelve local edges, eight nodes, marching-hexahedra polygons (with
@@ -47,11 +62,9 @@ propagation, triangle for triangle and vertex for vertex, whenever the seeds
 reach every connected part of the surface, which the volume-thinning
 skeleton guarantees (thesis chapter 7). Cells visited differ: the paper
 notes that a cell is visited several times by for-loop (3) before it is
-taken from the FIFO once; :attr:`EdgeCentred.stats` counts both.
+taken from the FIFO once; the builders' ``stats`` count both.
 
-The method is registered as ``edge-centred`` in :mod:`polygen.volume.methods`::
-
-    m = methods.get("edge-centred")(vol)           # seeds from volume thinning
+    m = methods.get("edge-centred")(vol)           # seeds from volume thinning, no stored edges
     iso = m.extract(0.5)
     iso.vertex_lookups, m.stats["visits"]          # 0, cells visited by for-loop (3)
 """
@@ -66,10 +79,12 @@ import time
 import numpy as np
 
 from polygen.volume import _edge_centred_kernels as _k
+from polygen.volume import _edge_walk_kernels as _w
 from polygen.volume import marching as _m
 from polygen.volume import registry as _registry
 from polygen.volume._topology import csr_from_keys
 from polygen.volume.methods import IsosurfaceMethod, register
+from polygen.volume.propagate import EdgeLabels, pair_stage3
 from polygen.volume.seeds.source import SeedSource, seed_source
 from polygen.volume.surface import (
     IsoSurface,
@@ -82,13 +97,19 @@ from polygen.volume.surface import (
     volume_arrays,
 )
 
-__all__ = ["EdgeCentred", "edge_centred", "SeedSource", "seed_source", "SEED_SOURCES", "EdgeCentredMethod"]
+__all__ = ["EdgeCentredWalk", "EdgeCentredTable", "EdgeCentred", "edge_centred", "SeedSource", "seed_source",
+           "SEED_SOURCES", "EdgeCentredMethod", "EdgeCentredTableMethod"]
 
 _INT32_MAX = np.iinfo(np.int32).max
 
 
-class EdgeCentred:
-    """Cell-edge-centred polygon construction on one volume and field, reused across queries.
+class EdgeCentredTable:
+    """Cell-edge-centred construction with a stored edge table, on one volume and field, reused across queries.
+
+    Not the paper's setting: this variant numbers the cell edges and keeps
+    the cells around each edge (an edge -> cells index), which the paper's
+    method needs not (:class:`EdgeCentredWalk` is the paper's). It is what
+    the construction becomes when cell edges are stored.
 
     Preparing builds the cells around each edge and around each node, each
     with its local index in the cell (O(n)); every query reuses the stamps
@@ -116,17 +137,20 @@ class EdgeCentred:
         ``touched`` (cells for-loop (3) saw first in this query),
         ``constructed`` (polygons constructed), ``node_tests`` (cells around
         an exact-node vertex tested), ``node_vertices``, ``seeds_tested``,
-        ``seeds_crossed``, ``restarts`` (queries redone after a buffer grew).
+        ``seeds_crossed``, ``lookups`` (vertex look-ups counted by the
+        kernel: it makes none), ``restarts`` (queries redone after a buffer grew).
     preprocess_s : float
         Seconds to build the incidence tables.
 
     Examples
     --------
-    >>> ec = EdgeCentred(vol)                      # doctest: +SKIP
+    >>> ec = EdgeCentredTable(vol)                 # doctest: +SKIP
     >>> iso = ec.extract(0.5, seeds=[10, 99])      # doctest: +SKIP
     >>> iso.vertex_lookups                         # doctest: +SKIP
     0
     """
+
+    method = "edge-centred-table"
 
     def __init__(self, vol, field=None, *, order="lifo"):
         t0 = time.perf_counter()
@@ -237,7 +261,8 @@ class EdgeCentred:
         Returns
         -------
         IsoSurface
-            ``method == "edge-centred"``, ``vertex_lookups == 0``;
+            ``method == "edge-centred-table"``; ``vertex_lookups`` as the
+            kernel counted them (it makes none);
             ``cells_tested`` counts the seeds tested and the cells whose
             case was computed by the construction; ``t1`` the seed tests,
             ``t2`` the construction (for-loops (1)-(3) with the triangle
@@ -299,18 +324,300 @@ class EdgeCentred:
             "node_vertices": int(counters[_k.C_NODE_VERTICES]),
             "seeds_tested": int(tested),
             "seeds_crossed": int(n_queued),
+            "lookups": int(counters[_k.C_LOOKUPS]),
             "restarts": restarts,
         }
         return IsoSurface(
             value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell,
             cells_tested=int(tested + counters[_k.C_TOUCHED]),
-            cells_intersected=int(n_p), vertex_lookups=0, t1=t1, t2=t2, t3=t3, method="edge-centred",
+            cells_intersected=int(n_p), vertex_lookups=int(counters[_k.C_LOOKUPS]), t1=t1, t2=t2, t3=t3,
+            method=self.method,
         )
 
+    def memory_bytes(self):
+        """Bytes this builder holds beyond the volume's points, cells and field, by array.
 
-def edge_centred(vol, value, seeds, *, field=None, normals="mean"):
-    """One isosurface by cell-edge-centred construction from ``seeds`` (a one-off :class:`EdgeCentred`)."""
-    return EdgeCentred(vol, field).extract(value, seeds, normals=normals)
+        ``records`` (stamp, state, node copies, vertex slots, edge-list
+        starts and edge ids per cell: 128 bytes per tetrahedron),
+        ``edge_cells`` and ``node_cells`` (the packed incidence lists),
+        ``node_cells_offsets``, ``edge_list`` (the volume's ``edges``, read
+        by stage 3; its ``cell_edges`` serve the preparation only),
+        ``buffers`` (queue, triangles, vertex keys and ends at their
+        current sizes).
+        """
+        vol = self.vol
+        return {
+            "records": int(self.rec.nbytes),
+            "edge_cells": int(self.ec.nbytes),
+            "node_cells": int(self.nc.nbytes),
+            "node_cells_offsets": int(self.nc_off.nbytes),
+            "edge_list": int(vol.edges.nbytes),
+            "buffers": int(self._queue.nbytes + self._tris.nbytes + self._tri_cell.nbytes + self._vkey.nbytes
+                           + self._vend.nbytes),
+        }
+
+
+class EdgeCentredWalk:
+    """The paper's cell-edge-centred construction: no stored cell edges, on one volume and field.
+
+    As the paper states it (2.1, 3.1, Fig. 5): the volume keeps its nodes,
+    its cells and their face neighbours; cell edges are neither numbered
+    nor stored, and there is no edge -> cells index. When a vertex is
+    created on an edge of the cell taken from the FIFO, for-loop (3) finds
+    the cells around that edge by walking from face neighbour to face
+    neighbour around it (:mod:`._edge_walk_kernels`), constructs the
+    missing polygons, queues their cells and registers the vertex into
+    each; nothing is looked up later.
+
+    Preparing copies each cell's nodes and face neighbours into one record
+    with its stamp, state and vertex slots (O(n)); every query reuses the
+    stamps and buffers, so one builder serves one thread at a time
+    (:meth:`copy` gives a builder for another thread).
+
+    Parameters
+    ----------
+    vol : UnstructuredVolume
+        Tetrahedra or hexahedra (conforming: the cells around an edge or a
+        node are connected through faces; see :mod:`._edge_walk_kernels`).
+    field : str or (N,) float64, optional
+        Field name or node values (the volume's first field by default).
+    order : {"fifo", "lifo"}, keyword-only
+        Which queued cell for-loop (1) takes next (the paper's FIFO, or the
+        newest); the same surface either way.
+    vertex_keys : {"edge-ids", "node-pairs"}, keyword-only
+        What the result's ``vertex_keys`` are. The construction knows a
+        vertex by its edge's two nodes; ``"edge-ids"`` (the
+        :class:`~polygen.volume.surface.IsoSurface` convention every other
+        method follows) then names each vertex by the volume's edge id, a
+        labelling step after t3, timed apart as ``stats["t_label"]``, that
+        uses the volume's edge list (built by the volume on first use).
+        ``"node-pairs"`` keeps ``a * n_points + b`` (``a < b``; ``n_points**2
+        + node`` for a node) and never touches an edge list.
+    search : bool, keyword-only
+        A deliberately searching variant, for checking the look-up counter:
+        every polygon vertex is looked up by its edge's nodes in a hash
+        table (stamped, reference [12]'s way) instead of read from its slot.
+        The same surface, ``vertex_lookups > 0``.
+
+    Attributes
+    ----------
+    stats : dict
+        Counters of the last query: ``pops``, ``visits`` (cells visited by
+        for-loop (3)), ``walk_steps`` (face crossings of the walks round
+        the edges), ``touched``, ``constructed``, ``node_tests``,
+        ``node_vertices``, ``seeds_tested``, ``seeds_crossed``, ``lookups``
+        and ``probes`` (hash slots inspected; both 0 unless ``search``),
+        ``restarts``, ``t_label`` (s).
+    preprocess_s : float
+        Seconds to build the records.
+    """
+
+    method = "edge-centred"
+
+    def __init__(self, vol, field=None, *, order="lifo", vertex_keys="edge-ids", search=False):
+        t0 = time.perf_counter()
+        if order not in ("fifo", "lifo"):
+            raise IsoSurfaceError(f"order must be 'fifo' or 'lifo'; got {order!r}")
+        if vertex_keys not in ("edge-ids", "node-pairs"):
+            raise IsoSurfaceError(f"vertex_keys must be 'edge-ids' or 'node-pairs'; got {vertex_keys!r}")
+        self.order = order
+        self.vertex_keys = vertex_keys
+        self.search = bool(search)
+        self.vol = vol
+        points, cells, s, cell_type = volume_arrays(vol, field)
+        m, nn = cells.shape
+        if m > _INT32_MAX or vol.n_points > _INT32_MAX:
+            raise IsoSurfaceError("edge-centred construction needs fewer than 2**31 cells and nodes")
+        self.n_points = int(vol.n_points)
+        self.points = np.ascontiguousarray(points, np.float64)
+        self.s = s
+        self.cell_type = cell_type
+        self.nn = nn
+        self.table, self.count, self.local_edges, self.faces = _m.local_tables(cell_type)
+        self.case_mask = _k.case_masks(self.table, self.count)
+        local_faces = np.ascontiguousarray(vol.local_faces, np.int64)
+        self.edge_faces, self.edge_of, self.node_faces = _w.walk_tables(self.local_edges, local_faces)
+        nbrs = vol.face_neighbors
+        self.nf = nbrs.shape[1]
+        self.rec = np.empty((m, _w.record_width(nn, self.nf, self.local_edges.shape[0])), np.int32)
+        _w.fill_records(self.rec, np.ascontiguousarray(cells), np.ascontiguousarray(nbrs))
+        self.generation = 0
+        self._node_grad = None
+        self._labels = EdgeLabels(vol)
+        cap = max(1024, m // 64)
+        self._queue = np.empty(cap, np.int32)
+        self._tris = np.empty((2 * cap + _m.MAX_TRIANGLES, 3), np.int64)
+        self._tri_cell = np.empty(2 * cap + _m.MAX_TRIANGLES, np.int64)
+        self._vkey = np.empty(cap, np.int64)
+        self._vend = np.empty((cap, 2), np.int32)
+        self._around = np.empty(256, np.int32)
+        self._around_local = np.empty(256, np.int32)
+        self._htable = np.zeros((2 * cap if self.search else 1, 2), np.int64)
+        self.stats = {}
+        self.preprocess_s = time.perf_counter() - t0
+
+    def copy(self):
+        """A builder with its own records and buffers (for a query in another thread)."""
+        new = copy.copy(self)
+        new.rec = self.rec.copy()
+        for name in ("_queue", "_tris", "_tri_cell", "_vkey", "_vend", "_around", "_around_local"):
+            setattr(new, name, np.empty_like(getattr(self, name)))
+        new._htable = np.zeros_like(self._htable)
+        new.stats = {}
+        return new
+
+    @property
+    def node_gradients(self):
+        if self._node_grad is None:
+            self._node_grad = node_gradients(self.vol, self.s)
+        return self._node_grad
+
+    _check_seeds = EdgeCentredTable._check_seeds
+
+    def _next_generation(self):
+        if self.generation == _INT32_MAX:  # once in 2**31 queries: really clear the stamps
+            self.rec[:, _k.R_GEN] = 0
+            self._htable[:] = 0
+            self.generation = 0
+        self.generation += 1
+        return self.generation
+
+    def edge_ids(self, pair_keys):
+        """The volume's edge ids (``n_edges + node`` for a node) of vertices known by their pair keys."""
+        return self._labels(pair_keys)
+
+    def extract(self, value, seeds, *, normals="mean"):
+        """The isosurface reached from ``seeds``, the cells around each edge found by walking.
+
+        Parameters
+        ----------
+        value : float
+            The isovalue ``C`` (nodes with ``S >= C`` are above).
+        seeds : (K,) int
+            Cells to start from; the ones the surface does not cross are skipped.
+        normals : {"mean", "gradient", None}, keyword-only
+
+        Returns
+        -------
+        IsoSurface
+            ``method == "edge-centred"``; ``vertex_lookups`` as the kernel
+            counted them (none unless ``search``); ``t1`` the seed tests,
+            ``t2`` for-loops (1)-(3) with the triangle list, ``t3``
+            positions and normals (the labelling by edge id is not in
+            them: ``stats["t_label"]``).
+        """
+        value = check_value(value)
+        check_normals(normals)
+        seeds = self._check_seeds(seeds)
+        node_grad = self.node_gradients if normals == "gradient" else None
+        restarts = 0
+        counters = np.zeros(_w.N_COUNTERS, np.int64)
+        lifo = self.order == "lifo"
+        while True:
+            gen = self._next_generation()
+            t0 = time.perf_counter()
+            if self._queue.shape[0] < seeds.shape[0]:
+                self._queue = np.empty(2 * seeds.shape[0], np.int32)
+            tested, n_queued = _k.test_seeds(self.rec, self.nn, self.s, value, self.faces, seeds, gen, self._queue)
+            t1 = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            status, n_p, n_t, n_v, any_node = _w.construct(
+                self.rec, self.nn, self.nf, self.n_points, self.s, value, self.faces, self.table, self.count,
+                self.case_mask, self.local_edges, self.edge_faces, self.edge_of, self.node_faces, gen,
+                self._queue, n_queued, lifo, self._tris, self._tri_cell, self._vkey, self._vend, self._around,
+                self._around_local, self.search, self._htable, counters)
+            if status == _w.OK:
+                break
+            if status == _w.BAD_MESH:
+                raise IsoSurfaceError(
+                    f"walking round an edge or node of cell {int(counters[_w.C_BAD_CELL])} met a face neighbour "
+                    "without it: the volume is not a conforming mesh")
+            restarts += 1  # a buffer was too small: grow it and do the query again
+            if status == _w.FULL_QUEUE:
+                self._queue = np.empty(2 * self._queue.shape[0], np.int32)
+            elif status == _w.FULL_TRIANGLES:
+                cap = 2 * self._tris.shape[0]
+                self._tris = np.empty((cap, 3), np.int64)
+                self._tri_cell = np.empty(cap, np.int64)
+            elif status == _w.FULL_VERTICES:
+                cap = 2 * self._vkey.shape[0]
+                self._vkey = np.empty(cap, np.int64)
+                self._vend = np.empty((cap, 2), np.int32)
+            elif status == _w.FULL_HASH:
+                self._htable = np.zeros((2 * self._htable.shape[0], 2), np.int64)
+            else:
+                self._around = np.empty(2 * self._around.shape[0], np.int32)
+                self._around_local = np.empty(2 * self._around.shape[0], np.int32)
+        tri = self._tris[:n_t].copy()
+        tri_cell = self._tri_cell[:n_t].copy()
+        pkeys = self._vkey[:n_v].copy()
+        if any_node:  # a face exactly at C between two cells: keep it once (as every method does)
+            tri, tri_cell = drop_double_faces(pkeys, tri, tri_cell, np.int64(self.n_points) * self.n_points)
+        t2 = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        vertices, nrm = pair_stage3(self._vend[:n_v], tri, self.points, self.s, value, normals, node_grad)
+        t3 = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        keys = self.edge_ids(pkeys) if self.vertex_keys == "edge-ids" else pkeys
+        t_label = time.perf_counter() - t0
+        self.stats = {
+            "pops": int(counters[_w.C_POPS]),
+            "visits": int(counters[_w.C_VISITS]),
+            "walk_steps": int(counters[_w.C_WALK_STEPS]),
+            "touched": int(counters[_w.C_TOUCHED]),
+            "constructed": int(counters[_w.C_CONSTRUCTED]),
+            "node_tests": int(counters[_w.C_NODE_TESTS]),
+            "node_vertices": int(counters[_w.C_NODE_VERTICES]),
+            "seeds_tested": int(tested),
+            "seeds_crossed": int(n_queued),
+            "lookups": int(counters[_w.C_LOOKUPS]),
+            "probes": int(counters[_w.C_PROBES]),
+            "restarts": restarts,
+            "t_label": t_label,
+        }
+        return IsoSurface(
+            value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell,
+            cells_tested=int(tested + counters[_w.C_TOUCHED]), cells_intersected=int(n_p),
+            vertex_lookups=int(counters[_w.C_LOOKUPS]), t1=t1, t2=t2, t3=t3, method=self.method,
+        )
+
+    def memory_bytes(self):
+        """Bytes this builder holds beyond the volume's points, cells and field, by array.
+
+        ``records`` (stamp, state, node copies, face neighbours, vertex
+        slots per cell: 80 bytes per tetrahedron, 144 per hexahedron; the
+        volume's own ``face_neighbors``, from which they are copied, are
+        not needed after preparation), ``buffers`` (queue, triangles,
+        vertex keys and ends, the node walk's list, and the hash table of
+        ``search``, at their current sizes). No edge table: the labelling
+        by edge id (``vertex_keys="edge-ids"``) uses the volume's edge list
+        after the construction, ``label_edge_list`` here once it has been
+        built.
+        """
+        out = {
+            "records": int(self.rec.nbytes),
+            "buffers": int(sum(getattr(self, n).nbytes for n in (
+                "_queue", "_tris", "_tri_cell", "_vkey", "_vend", "_around", "_around_local", "_htable"))),
+        }
+        if self._labels.nbytes:
+            out["label_edge_list"] = self._labels.nbytes
+        return out
+
+
+#: the table variant's name before the paper's own variant (:class:`EdgeCentredWalk`) existed
+EdgeCentred = EdgeCentredTable
+
+
+def edge_centred(vol, value, seeds, *, field=None, normals="mean", table=False):
+    """One isosurface by cell-edge-centred construction from ``seeds``.
+
+    A one-off :class:`EdgeCentredWalk` (the paper's: no stored edges), or
+    :class:`EdgeCentredTable` with ``table=True``.
+    """
+    builder = EdgeCentredTable(vol, field) if table else EdgeCentredWalk(vol, field)
+    return builder.extract(value, seeds, normals=normals)
 
 
 # ------------------------------------------------------------------ seed sources
@@ -321,8 +628,7 @@ SEED_SOURCES = _registry.SEED_SOURCES
 
 
 # ------------------------------------------------------------------ the method
-@register
-class EdgeCentredMethod(IsosurfaceMethod):
+class _EdgeCentredMethods(IsosurfaceMethod):
     """Seeds from a skeleton (volume thinning by default), then cell-edge-centred construction.
 
     The keyword-only parameters after ``vol`` and ``field`` are these.
@@ -333,27 +639,26 @@ class EdgeCentredMethod(IsosurfaceMethod):
         Seed source (:func:`seed_source`): ``"auto"`` (thinning), ``"thinning"``,
         ``"extrema-graph"``, ``"span-filter"``, ...
     order : {"fifo", "lifo"}
-        Queue discipline of :class:`EdgeCentred`.
+        Queue discipline of the builder.
     **params
         Passed to the seed source.
 
     Notes
     -----
     After each :meth:`extract`, ``stats`` holds the construction counters
-    of :attr:`EdgeCentred.stats` plus ``T_search`` (seed search, s) and
+    of the builder's ``stats`` plus ``T_search`` (seed search, s) and
     ``N_cg`` (cells the seed search tested). ``seed_preprocess_s`` is the
-    seed source's build time and ``construct_preprocess_s`` the incidence
-    tables'; ``preprocess_s`` is both.
+    seed source's build time and ``construct_preprocess_s`` the builder's;
+    ``preprocess_s`` is both.
     """
 
-    name = "edge-centred"
-    description = "cell-edge-centred construction without vertex search (Itoh et al. 2001) from thinning seeds"
     seeds = "thinning"  # the default; ``seeds=`` names any registered source
     construction = "edge-centred"
+    builder_class = None
 
     def _prepare(self, seeds="auto", order="lifo", **params):
         self.source = seed_source(self.vol, self.field, seeds, **params)
-        self.builder = EdgeCentred(self.vol, self.field, order=order)
+        self.builder = self.builder_class(self.vol, self.field, order=order)
         self.seed_preprocess_s = self.source.preprocess_s
         self.construct_preprocess_s = self.builder.preprocess_s
         self.stats = {}
@@ -372,8 +677,8 @@ class EdgeCentredMethod(IsosurfaceMethod):
 
         The seed search runs first for every value (it is tiny); then each
         thread takes the next value and builds it with its own copy of the
-        cell records (:meth:`EdgeCentred.copy`, made once and kept: about
-        128 bytes per tetrahedron, 256 per hexahedron). Every surface is the
+        cell records (the builder's ``copy``, made once and kept: 80 bytes
+        per tetrahedron without the edge table, 128 with it). Every surface is the
         one :meth:`extract` gives; only the wall clock changes. One query is
         a chain of dependent memory reads, so two running side by side on two
         cores take little longer than one.
@@ -448,3 +753,25 @@ class EdgeCentredMethod(IsosurfaceMethod):
         self.stats = stats[-1]
         self.seed_cells_tested = int(found[-1].n_tested)
         return out
+
+
+@register
+class EdgeCentredMethod(_EdgeCentredMethods):
+    """The paper's method: thinning seeds, then the construction without stored edges (:class:`EdgeCentredWalk`)."""
+
+    name = "edge-centred"
+    description = ("cell-edge-centred construction without vertex search and without stored cell edges "
+                   "(Itoh et al. 2001) from thinning seeds")
+    builder_class = EdgeCentredWalk
+
+
+@register
+class EdgeCentredTableMethod(_EdgeCentredMethods):
+    """Thinning seeds, then the construction with a stored edge table and edge -> cells index
+    (:class:`EdgeCentredTable`)."""
+
+    name = "edge-centred-table"
+    description = ("cell-edge-centred construction without vertex search, cells around an edge from a stored "
+                   "edge table, from thinning seeds")
+    builder_class = EdgeCentredTable
+    construction = "edge-centred-table"

@@ -337,7 +337,7 @@ class UnstructuredVolume:
             Field name (the first field by default).
         method : str, optional, keyword-only
             A registered method (:func:`polygen.volume.registry.method_names`;
-            default :data:`~polygen.volume.registry.DEFAULT_METHOD`, ``"edge-centred"``).
+            default :data:`~polygen.volume.registry.DEFAULT_METHOD`, ``"edge-centred-table"``).
         normals : {"mean", "gradient", None}, keyword-only
 
         Returns

@@ -16,10 +16,24 @@ Marks are generation stamps: ``visited[c] == generation`` means "processed
 in this query", so starting a new query costs O(1) (the generation counter
 is kept across queries by :class:`Propagator`). Every neighbour that is
 tested is marked, crossed or not, so no cell is tested twice in one query.
-The hash table is open addressing with linear probing over the global
-vertex keys of :mod:`polygen.volume.marching` (an edge id, or
-``n_edges + node`` for a crossing exactly on a node); its look-ups are
-counted.
+
+Two ways to find a vertex again (``vertex_search``), both counted by the
+kernel (``vertex_lookups``: one per polygon vertex of every cell built):
+
+``"hash"`` (the default; the thesis's and the 2001 paper's reference [12])
+    a hash table keyed by the edge's two end nodes (:mod:`._vertex_hash`:
+    open addressing, linear probing; ``stats["probes"]`` counts the slots
+    inspected), so the volume's edges need not be numbered or stored. The
+    table is allocated once and grows only when a surface larger than any
+    before needs it (``stats["hash_grows"]``); it is emptied by taking the
+    next generation stamp, not by clearing it. The vertices get the
+    volume's edge ids (the :class:`~polygen.volume.surface.IsoSurface`
+    convention) after stage 3, timed apart (``stats["t_label"]``).
+``"array"``
+    the vertex id in an array indexed by edge id (and ``n_edges + node``),
+    stamped the same way: what the paper's section 2.1 says becomes
+    possible *if the cell edges were stored*, which they are here
+    (:attr:`UnstructuredVolume.cell_edges`).
 """
 
 from __future__ import annotations
@@ -29,51 +43,27 @@ import time
 import numpy as np
 
 from polygen._jit import njit
+from polygen.volume import _vertex_hash as _h
 from polygen.volume import marching as _m
 from polygen.volume.surface import (
+    IsoSurface,
     IsoSurfaceError,
     check_normals,
     check_value,
+    drop_double_faces,
     finish,
     node_gradients,
+    vertex_normals,
     volume_arrays,
 )
 
-__all__ = ["Propagator", "propagate"]
+__all__ = ["Propagator", "propagate", "VERTEX_SEARCHES", "pair_stage3", "EdgeLabels"]
+
+#: the ways :class:`Propagator` finds a vertex again
+VERTEX_SEARCHES = ("hash", "array")
 
 _EMPTY = -1
 _GOLDEN = np.uint64(11400714819323198485)  # 2**64 / golden ratio: Fibonacci hashing
-
-
-@njit
-def _slot(key, shift):
-    return np.int64((np.uint64(key) * _GOLDEN) >> np.uint64(shift))
-
-
-@njit
-def _hash_insert(hkeys, hvals, key, val, shift):
-    mask = hkeys.shape[0] - 1
-    i = _slot(key, shift)
-    while hkeys[i] != _EMPTY:
-        i = (i + 1) & mask
-    hkeys[i] = key
-    hvals[i] = val
-
-
-@njit
-def _hash_get_or_add(hkeys, hvals, key, new_val, shift):
-    """The value stored under ``key``, or ``new_val`` after storing it (then -1 - new_val)."""
-    mask = hkeys.shape[0] - 1
-    i = _slot(key, shift)
-    while True:
-        k = hkeys[i]
-        if k == key:
-            return hvals[i]
-        if k == _EMPTY:
-            hkeys[i] = key
-            hvals[i] = new_val
-            return -1 - new_val
-        i = (i + 1) & mask
 
 
 @njit
@@ -121,8 +111,9 @@ def _enqueue(queue, qcase, tail, c, case):
 
 
 @njit
-def _propagate(rec, nn, nf, s, value, faces, n_edges, tri_table, tri_count, local_edges,
-               visited, generation, queue, qcase, n_queued, cand, hkeys, hvals, keys, tris, tri_cell):
+def _propagate(rec, nn, nf, s, value, faces, n_edges, n_points, tri_table, tri_count, local_edges,
+               visited, generation, queue, qcase, n_queued, cand, use_hash, htable, vtable,
+               keys, vend, tris, tri_cell, counters):
     """t2: breadth-first propagation.
 
     ``rec`` are the cell records (:attr:`UnstructuredVolume.cell_records`: ``nn`` nodes, ``nf`` face
@@ -131,19 +122,19 @@ def _propagate(rec, nn, nf, s, value, faces, n_edges, tri_table, tri_count, loca
     tested lazily, in order: whenever the FIFO runs empty, the next
     candidate not marked yet is tested and, if crossed, propagated from (so
     a candidate that an earlier propagation reached is never tested); the
-    crossed ones are written over the front of ``cand``. ``hkeys`` (a
-    power of two long) must be all ``_EMPTY``; ``keys``, ``tris``,
-    ``tri_cell`` and ``qcase`` are scratch buffers. Each buffer that fills
-    up is replaced by one twice as large, so the caller gets them all back
-    to reuse: returns (n_vertices, n_triangles, n_cells, tested,
-    cand_tested, cand_crossed, lookups, queue, qcase, hkeys, hvals, keys,
-    tris, tri_cell).
+    crossed ones are written over the front of ``cand``.
+
+    Vertex search: with ``use_hash``, the stamped hash table ``htable``
+    (:func:`._vertex_hash.get_or_add`) keyed by
+    :func:`._vertex_hash.pair_key` (the edge ids of the records are not
+    read); otherwise ``vtable[key] = (stamp, vertex id)``, valid where the
+    stamp is ``generation``, indexed by the edge id (or ``n_edges + node``). ``keys[v]`` gets the vertex's key, ``vend[v]`` its
+    edge's end nodes. Each buffer that fills up is replaced by one twice as
+    large, so the caller gets them all back to reuse: returns (n_vertices,
+    n_triangles, n_cells, tested, cand_tested, cand_crossed, queue, qcase,
+    htable, keys, vend, tris, tri_cell); ``counters`` gets
+    the look-ups, the hash probes and the times the hash table grew.
     """
-    cap = hkeys.shape[0]
-    hash_bits = 0
-    while (1 << hash_bits) < cap:
-        hash_bits += 1
-    shift = 64 - hash_bits
     n_v = 0
     n_t = 0
     local = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
@@ -152,6 +143,9 @@ def _propagate(rec, nn, nf, s, value, faces, n_edges, tri_table, tri_count, loca
     cand_tested = 0
     cand_crossed = 0
     lookups = 0
+    probes = 0
+    grows = 0
+    shift = _h.shift_of(htable.shape[0])
     head = 0
     tail = n_queued
     nxt = 0  # next candidate
@@ -184,23 +178,38 @@ def _propagate(rec, nn, nf, s, value, faces, n_edges, tri_table, tri_count, loca
             for j in range(3):
                 code = local[t, j]
                 if vids[code] < 0:
-                    key = np.int64(rec[c, ed0 + code]) if code < 16 else n_edges + rec[c, code - 16]
+                    if code < 16:
+                        x = rec[c, local_edges[code, 0]]
+                        y = rec[c, local_edges[code, 1]]
+                    else:
+                        x = rec[c, code - 16]
+                        y = x
                     lookups += 1
-                    v = _hash_get_or_add(hkeys, hvals, key, n_v, shift)
+                    if use_hash:  # reference [12]: the edge's two nodes are the key
+                        key = _h.pair_key(x, y, n_points)
+                        v, p = _h.get_or_add(htable, generation, key, n_v, shift)
+                        probes += p
+                    else:  # the stored edges: the vertex id sits at the edge id
+                        key = np.int64(rec[c, ed0 + code]) if code < 16 else n_edges + np.int64(x)
+                        if vtable[key, 0] == generation:
+                            v = np.int64(vtable[key, 1])
+                        else:
+                            vtable[key, 0] = generation
+                            vtable[key, 1] = n_v
+                            v = -1 - np.int64(n_v)
                     if v < 0:  # a new vertex
                         v = -1 - v
                         if n_v == keys.shape[0]:
                             keys = _grow(keys)
+                            vend = _grow2(vend)
                         keys[n_v] = key
+                        vend[n_v, 0] = min(x, y)
+                        vend[n_v, 1] = max(x, y)
                         n_v += 1
-                        if 2 * n_v > cap:  # keep the load factor under 1/2
-                            hash_bits += 1
-                            cap = 1 << hash_bits
-                            shift = 64 - hash_bits
-                            hkeys = np.full(cap, _EMPTY, np.int64)
-                            hvals = np.empty(cap, np.int64)
-                            for q in range(n_v):
-                                _hash_insert(hkeys, hvals, keys[q], q, shift)
+                        if use_hash and 2 * n_v > htable.shape[0]:  # keep the load factor under 1/2
+                            grows += 1
+                            htable = _h.rehash(keys, n_v, 2 * htable.shape[0], generation)
+                            shift = _h.shift_of(htable.shape[0])
                     vids[code] = v
                 tris[n_t, j] = vids[code]
             tri_cell[n_t] = c
@@ -214,23 +223,124 @@ def _propagate(rec, nn, nf, s, value, faces, n_edges, tri_table, tri_count, loca
             nb_case = _m._cell_case_n(rec, nb, nn, s, value, faces)
             if nb_case >= 0:
                 queue, qcase, tail = _enqueue(queue, qcase, tail, nb, nb_case)
-    return n_v, n_t, tail, tested, cand_tested, cand_crossed, lookups, queue, qcase, hkeys, hvals, keys, tris, tri_cell
+    counters[0] = lookups
+    counters[1] = probes
+    counters[2] = grows
+    return n_v, n_t, tail, tested, cand_tested, cand_crossed, queue, qcase, htable, keys, vend, tris, tri_cell
+
+
+def pair_stage3(vend, tri, points, s, value, normals, node_grad):
+    """Stage 3 for vertices known by their edge's end nodes ``vend`` (V, 2) (a node twice for a node).
+
+    The positions (5.2) and the normals exactly as
+    :func:`~polygen.volume.surface.vertex_normals` makes them for edge-id
+    keys, with the vertices' own edges standing in for the volume's edge
+    list. Returns ``(vertices (V, 3), normals (V, 3) or None)``.
+    """
+    n_v = vend.shape[0]
+    vertices = np.empty((n_v, 3))
+    if n_v:
+        _pair_positions(vend, points, s, value, vertices)
+    if normals is None:
+        return vertices, None
+    on_node = vend[:, 0] == vend[:, 1]
+    on_edge = np.flatnonzero(~on_node)
+    local_edges = np.ascontiguousarray(vend[on_edge], np.int64)
+    local_keys = np.empty(n_v, np.int64)
+    local_keys[on_edge] = np.arange(on_edge.size)
+    local_keys[on_node] = on_edge.size + vend[on_node, 0]
+    nrm = vertex_normals(normals, vertices, tri, local_keys, edges=local_edges, s=s, value=value,
+                         node_grad=node_grad, points=points)
+    return vertices, nrm
+
+
+@njit
+def _pair_positions(vend, points, s, value, out):
+    """(5.2) crossing points from the edge ends (the smaller node id first, as in ``mesh.edges``)."""
+    for v in range(vend.shape[0]):
+        a = vend[v, 0]
+        b = vend[v, 1]
+        if a == b:
+            for d in range(3):
+                out[v, d] = points[a, d]
+        else:
+            c1 = s[a]
+            c2 = s[b]
+            # (5.2) P_c = ((C - C1) P2 - (C - C2) P1) / (C2 - C1)
+            for d in range(3):
+                out[v, d] = ((value - c1) * points[b, d] - (value - c2) * points[a, d]) / (c2 - c1)
+
+
+class EdgeLabels:
+    """The volume's edge ids of vertices known by their pair keys (:func:`._vertex_hash.pair_key`).
+
+    Built on first use from the volume's edge list (which the volume builds
+    then, if nothing has yet); a labelling step for the
+    :class:`~polygen.volume.surface.IsoSurface` convention, after a
+    construction that never used edge ids.
+    """
+
+    def __init__(self, vol):
+        self.vol = vol
+        self._sorted = None
+
+    @property
+    def nbytes(self):
+        """Bytes of the edge list and of this index (0 before the first use)."""
+        if self._sorted is None:
+            return 0
+        return int(self.vol.edges.nbytes + self._sorted[0].nbytes + self._sorted[1].nbytes)
+
+    def __call__(self, pair_keys):
+        edges = self.vol.edges
+        n = np.int64(self.vol.n_points)
+        if self._sorted is None:
+            codes = edges[:, 0].astype(np.int64) * n + edges[:, 1]
+            order = np.argsort(codes, kind="stable")
+            self._sorted = (codes[order], order)
+        codes, order = self._sorted
+        pair_keys = np.asarray(pair_keys, np.int64)
+        out = np.empty(pair_keys.shape, np.int64)
+        node = pair_keys >= n * n
+        out[node] = edges.shape[0] + (pair_keys[node] - n * n)
+        want = pair_keys[~node]
+        at = np.searchsorted(codes, want)
+        if at.size and (at.max() >= codes.size or not np.array_equal(codes[at], want)):
+            raise IsoSurfaceError("a vertex lies on a pair of nodes that is no cell edge of the volume")
+        out[~node] = order[at]
+        return out
 
 
 class Propagator:
     """Propagation from seeds on one volume and field, reused across queries.
 
     Keeps the ``visited`` generation stamps (so each query starts in O(1)),
-    the field, the face neighbours and, once asked for, the node gradients.
-    The stamps and buffers are shared by its queries, so one propagator
-    serves one thread at a time (the methods of :mod:`polygen.volume.methods`
-    hold a lock around it; use one propagator per thread otherwise).
+    the field, the face neighbours, the vertex search's table and, once
+    asked for, the node gradients. The stamps and buffers are shared by its
+    queries, so one propagator serves one thread at a time (the methods of
+    :mod:`polygen.volume.methods` hold a lock around it; use one propagator
+    per thread otherwise).
 
     Parameters
     ----------
     vol : UnstructuredVolume
     field : str or (N,) float64, optional
         Field name or node values (the first field by default).
+    vertex_search : {"hash", "array"}, keyword-only
+        How a vertex is found again (see the module): a hash table keyed by
+        the edge's two nodes, allocated once (``hash_capacity`` slots to
+        begin with, doubled when a surface needs more) and emptied by
+        stamps; or an array indexed by the stored edge ids.
+    hash_capacity : int, keyword-only
+        Initial slots of the hash table (rounded up to a power of two;
+        default: twice the larger of 1024 and 1/16 of the cells).
+
+    Attributes
+    ----------
+    stats : dict
+        The last query's ``lookups``, ``probes`` (hash slots inspected),
+        ``hash_grows`` and ``t_label`` (s, labelling the vertices by edge
+        id after a hash search).
 
     Examples
     --------
@@ -238,24 +348,40 @@ class Propagator:
     >>> iso = prop.extract(0.5, seeds=[10, 99])  # doctest: +SKIP
     """
 
-    def __init__(self, vol, field=None):
+    def __init__(self, vol, field=None, *, vertex_search="hash", hash_capacity=None):
+        if vertex_search not in VERTEX_SEARCHES:
+            raise IsoSurfaceError(f"vertex_search must be one of {VERTEX_SEARCHES}; got {vertex_search!r}")
         self.vol = vol
+        self.vertex_search = vertex_search
         self.points, self.cells, self.s, self.cell_type = volume_arrays(vol, field)
         self.table, self.count, self.local_edges, self.faces = _m.local_tables(self.cell_type)
         self.rec = vol.cell_records  # nodes, face neighbours and edge ids of a cell side by side
         self._nn, self._nf = self.cells.shape[1], vol.face_neighbors.shape[1]
-        self.edges = np.ascontiguousarray(vol.edges, np.int64)
+        self.n_points = int(vol.n_points)
         self.visited = np.zeros(self.cells.shape[0], np.int32)
         self.generation = 0
         self._node_grad = None
         # scratch buffers reused across queries; the kernel doubles the ones that fill up
         self._queue = np.empty(1024, np.int64)
         self._qcase = np.empty(1024, np.int64)
-        self._hkeys = np.full(1 << 10, _EMPTY, np.int64)
-        self._hvals = np.empty(1 << 10, np.int64)
+        if vertex_search == "hash":
+            self.edges = None
+            cap = hash_capacity if hash_capacity is not None else 2 * max(1024, self.cells.shape[0] // 16)
+            if isinstance(cap, bool) or not isinstance(cap, (int, np.integer)) or cap < 2:
+                raise IsoSurfaceError(f"hash_capacity must be a whole number >= 2; got {hash_capacity!r}")
+            cap = 1 << int(cap - 1).bit_length()
+            self._htable = np.zeros((cap, 2), np.int64)   # key, stamp << 32 | vertex id
+            self._vtable = np.zeros((0, 2), np.int32)
+            self._labels = EdgeLabels(vol)
+        else:
+            self.edges = np.ascontiguousarray(vol.edges, np.int64)
+            self._htable = np.zeros((1, 2), np.int64)
+            self._vtable = np.zeros((self.edges.shape[0] + self.n_points, 2), np.int32)  # stamp, vertex id
         self._keys = np.empty(512, np.int64)
+        self._vend = np.empty((512, 2), np.int64)
         self._tris = np.empty((1024, 3), np.int64)
         self._tri_cell = np.empty(1024, np.int64)
+        self.stats = {}
         #: FIFO order of the last query: the cells in the order they were registered
         self.last_order = np.zeros(0, np.int64)
         #: the last query's seeds: how many were tested and crossed (the crossed ones open ``last_order``)
@@ -271,6 +397,34 @@ class Propagator:
         if self._node_grad is None:
             self._node_grad = node_gradients(self.vol, self.s)
         return self._node_grad
+
+    def memory_bytes(self):
+        """Bytes the propagation holds beyond the volume's points, cells and field, by array.
+
+        ``face_neighbors`` (read from the shared cell records), ``visited``
+        (stamps), ``vertex_table`` (the hash table, or the vertex-id array
+        and its stamps), ``edge_table`` (``"array"`` only: the stored edge
+        ids of the cells, and the edge list stage 3 reads), ``node_copies``
+        (the cell records' copy of the cells' nodes), ``buffers`` (queue,
+        keys, triangles at their current sizes), and for ``"hash"``
+        ``label_edge_list`` once the vertices have been labelled by edge id
+        (after the construction).
+        """
+        m = self.cells.shape[0]
+        isz = self.rec.dtype.itemsize
+        out = {
+            "face_neighbors": m * self._nf * isz,
+            "node_copies": m * self._nn * isz,
+            "visited": int(self.visited.nbytes),
+            "vertex_table": int(self._htable.nbytes + self._vtable.nbytes),
+            "buffers": int(sum(a.nbytes for a in (self._queue, self._qcase, self._keys, self._vend, self._tris,
+                                                   self._tri_cell))),
+        }
+        if self.vertex_search == "array":
+            out["edge_table"] = int(m * self.local_edges.shape[0] * isz + self.edges.nbytes)
+        elif self._labels.nbytes:
+            out["label_edge_list"] = self._labels.nbytes
+        return out
 
     def _seeds(self, seeds):
         seeds = np.atleast_1d(np.asarray(seeds))
@@ -305,7 +459,8 @@ class Propagator:
         -------
         IsoSurface
             ``method == "propagate"``; ``cells_tested`` counts the seeds and
-            the neighbours tested, each once.
+            the neighbours tested, each once; ``vertex_lookups`` the
+            searches the kernel made (one per polygon vertex per cell).
         """
         value = check_value(value)
         check_normals(normals)
@@ -313,8 +468,10 @@ class Propagator:
         node_grad = self.node_gradients if normals == "gradient" else None
         if self.generation == np.iinfo(np.int32).max:  # once in 2**31 queries: really clear the marks
             self.visited[:] = 0
+            self._htable[:] = 0
+            self._vtable[:] = 0
             self.generation = 0
-        self.generation += 1
+        self.generation += 1  # also empties the vertex table: no slot carries this stamp yet
 
         cand = self._no_cand if then is None else self._seeds(then)  # a copy: the kernel writes over it
 
@@ -328,12 +485,14 @@ class Propagator:
         t1 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
-        self._hkeys.fill(_EMPTY)
-        (n_v, n_t, n_cells, tested, cand_tested, cand_crossed, lookups, self._queue, self._qcase, self._hkeys,
-         self._hvals, self._keys, self._tris, self._tri_cell) = _propagate(
-            self.rec, nn, nf, self.s, value, self.faces, self.edges.shape[0], self.table, self.count,
-            self.local_edges, self.visited, self.generation, self._queue, self._qcase, n_queued, cand,
-            self._hkeys, self._hvals, self._keys, self._tris, self._tri_cell)
+        use_hash = self.vertex_search == "hash"
+        counters = np.zeros(3, np.int64)
+        n_edges = 0 if use_hash else self.edges.shape[0]
+        (n_v, n_t, n_cells, tested, cand_tested, cand_crossed, self._queue, self._qcase, self._htable, self._keys,
+         self._vend, self._tris, self._tri_cell) = _propagate(
+            self.rec, nn, nf, self.s, value, self.faces, n_edges, self.n_points, self.table, self.count,
+            self.local_edges, self.visited, self.generation, self._queue, self._qcase, n_queued, cand, use_hash,
+            self._htable, self._vtable, self._keys, self._vend, self._tris, self._tri_cell, counters)
         self.last_seeds_tested = int(tested_seeds)
         self.last_seeds_crossed = int(n_queued)
         self.last_then_tested = int(cand_tested)
@@ -344,11 +503,26 @@ class Propagator:
         tri_cell = self._tri_cell[:n_t].copy()
         t2 = time.perf_counter() - t0
         self.last_order = self._queue[:n_cells].copy()
-
-        return finish(value, keys, tri, tri_cell, points=self.points, edges=self.edges, s=self.s,
-                      normals=normals, node_grad=node_grad, method="propagate",
-                      cells_tested=tested_seeds + tested, cells_intersected=n_cells, vertex_lookups=lookups,
-                      t1=t1, t2=t2)
+        self.stats = {"lookups": int(counters[0]), "probes": int(counters[1]), "hash_grows": int(counters[2]),
+                      "t_label": 0.0}
+        if not use_hash:
+            return finish(value, keys, tri, tri_cell, points=self.points, edges=self.edges, s=self.s,
+                          normals=normals, node_grad=node_grad, method="propagate",
+                          cells_tested=tested_seeds + tested, cells_intersected=n_cells,
+                          vertex_lookups=counters[0], t1=t1, t2=t2)
+        t0 = time.perf_counter()
+        tri, tri_cell = drop_double_faces(keys, tri, tri_cell, np.int64(self.n_points) * self.n_points)
+        t2 += time.perf_counter() - t0
+        t0 = time.perf_counter()
+        vertices, nrm = pair_stage3(self._vend[:n_v], tri, self.points, self.s, value, normals, node_grad)
+        t3 = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        keys = self._labels(keys)
+        self.stats["t_label"] = time.perf_counter() - t0
+        return IsoSurface(
+            value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell,
+            cells_tested=int(tested_seeds + tested), cells_intersected=int(n_cells),
+            vertex_lookups=int(counters[0]), t1=t1, t2=t2, t3=t3, method="propagate")
 
 
 def propagate(vol, value, seeds, *, field=None, normals="mean"):

@@ -37,8 +37,9 @@ SEED_SOURCES: dict = {}
 
 #: the method ``UnstructuredVolume.isosurface`` and the CLI use first: the fastest one measured
 #: (benchmarks/results/fast_construction.md: cell-edge-centred construction from the thinning
-#: skeleton beats the scan, the hash-based propagation and VTK on every data set)
-DEFAULT_METHOD = "edge-centred"
+#: skeleton with the edge table, t2 0.51-0.67 of the paper's variant without stored edges
+#: (``edge-centred``, both FIFO) on data 1-5 and 2M, for 2.2-2.3 times its memory beyond the cells and nodes)
+DEFAULT_METHOD = "edge-centred-table"
 #: the seed source of the edge-centred method when none is named (chapter 7's skeleton)
 DEFAULT_SEED_SOURCE = "thinning"
 
