@@ -211,8 +211,12 @@ def test_seeds_are_intersected_and_cover_every_component(name):
         assert hit[found.cells].all()
         assert np.unique(found.cells).size == found.cells.size
         assert set(np.unique(lab[hit]).tolist()) == set(lab[found.cells].tolist())
-        # the near side of the range: never more boundary tests than half of the list (plus ties)
-        assert found.tested_boundary <= g.blist_min.size
+        # 6.3.3: the shorter of the prefix S_min < C and the suffix S_max >= C is scanned, so never more
+        # boundary tests than half of the list plus the cells whose range holds C (the two sides overlap there)
+        lo, hi = s[vol.cells[vol.boundary_cells]].min(axis=1), s[vol.cells[vol.boundary_cells]].max(axis=1)
+        below, above, holds = np.sum(lo < v), np.sum(hi >= v), np.sum((lo < v) & (hi >= v))
+        assert below + above == lo.size + holds
+        assert found.tested_boundary <= min(below, above) <= (lo.size + holds) / 2
         comps_on_arcs = set(lab[found.cells[:found.n_from_arcs]].tolist())
         boundary_only += len(set(lab[found.cells].tolist()) - comps_on_arcs)
         assert found.n_tested == found.tested_arcs + found.tested_boundary

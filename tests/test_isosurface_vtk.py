@@ -14,7 +14,15 @@ Oracles:
   the same field's surfaces on the tetrahedralised mesh
   (``marching.hex_to_tets``; we check first that this split is conforming
   on hexa1, i.e. neighbours cut their shared quad along the same diagonal),
-  each within 5 % of it, and each within 1 % of VTK's own hexahedron contour.
+  each within 5 % of it, and each within 1 % of VTK's own hexahedron contour;
+* hexahedral data 1-3 against VTK's ``vtkContourFilter``, triangle counts per
+  value: VTK's marching-cubes table decides every ambiguous face one way
+  (the above corners cut off), which is our face-centre rule with the centre
+  below C. So on the cells without an ambiguous face, and on those whose
+  ambiguous faces all have their centre below C, VTK's contour of those
+  cells alone has exactly our triangles' count; on the cells with a centre
+  above C (we join the above corners there) VTK's count is its table's, ours
+  is ours, and VTK's whole surface is ours less exactly that difference.
 """
 
 import functools
