@@ -168,7 +168,7 @@ def plot_closed_and_open(vol, iso, *, plotter=None, title=None):
     p.add_mesh(boundary_mesh(vol), color="lightgray", opacity=0.12)
     comp = iso.components()
     poly = iso.to_pyvista()
-    closed = comp["closed"][comp["component"]]
+    closed = comp["closed"][iso.triangle_components()]
     poly.cell_data["closed"] = closed.astype(np.int64)
     p.add_mesh(poly, scalars="closed", cmap=["darkorange", "royalblue"], clim=(0, 1), show_scalar_bar=False,
                smooth_shading=True)
@@ -220,7 +220,7 @@ def plot_boundary_lists(graph, value, *, ax=None):
     ax.axvspan(kb - k_hi, kb, color="crimson", alpha=0.3 if used_max else 0.12, lw=0)
     ax.set_xlabel("position in the list")
     ax.set_ylabel("S")
-    ax.set_title(f"C = {value:.3g}: S_min < C in {k_lo}, S_max >= C in {k_hi} of {kb}; "
+    ax.set_title(f"C = {value:.3g}: S_min < C in {k_lo}, S_max >= C in {k_hi} of {kb} boundary cells\n"
                  f"the list by {'S_max' if used_max else 'S_min'} is scanned ({cand.size} cells)", fontsize=9)
     ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()

@@ -283,7 +283,7 @@ def plot_parts_and_arcs(panels, *, window_size=None):
 
         p.add_mesh(boundary_mesh(vol), color="lightgray", opacity=0.12)
         seeds = graph.seeds(iso.value)
-        comp = iso.components()["component"]
+        comp = iso.triangle_components()
         crossed = np.zeros(comp.max() + 1 if comp.size else 0, bool)
         on_arcs = np.isin(iso.triangle_cells, seeds.cells[:seeds.n_from_arcs])
         crossed[comp[on_arcs]] = True
