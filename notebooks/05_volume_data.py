@@ -130,6 +130,6 @@ print(plotting.table(rows, list(rows[0])))
 # %%
 for r in rows:
     assert abs(r["N_e"] / r["N_e thesis"] - 1) <= 0.05, r          # same sizes as the thesis
-# as in the thesis, the boundary fraction falls as the volumes grow
-frac, frac_thesis = [r["N_b/N_e"] for r in rows], [r["N_b/N_e thesis"] for r in rows]
-assert all(a > b for a, b in zip(frac, frac[1:])) and all(a > b for a, b in zip(frac_thesis, frac_thesis[1:]))
+# as in the thesis, the boundary fraction falls as the volumes grow: checked on the volumes loaded above
+frac = [r["N_b"] / r["N_e"] for r in rows]
+assert all(a > b for a, b in zip(frac, frac[1:])), frac

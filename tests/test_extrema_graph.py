@@ -211,8 +211,12 @@ def test_seeds_are_intersected_and_cover_every_component(name):
         assert hit[found.cells].all()
         assert np.unique(found.cells).size == found.cells.size
         assert set(np.unique(lab[hit]).tolist()) == set(lab[found.cells].tolist())
-        # the near side of the range: never more boundary tests than half of the list (plus ties)
-        assert found.tested_boundary <= g.blist_min.size
+        # 6.3.3: the shorter of the prefix S_min < C and the suffix S_max >= C is scanned, so never more
+        # boundary tests than half of the list plus the cells whose range holds C (the two sides overlap there)
+        lo, hi = s[vol.cells[vol.boundary_cells]].min(axis=1), s[vol.cells[vol.boundary_cells]].max(axis=1)
+        below, above, holds = np.sum(lo < v), np.sum(hi >= v), np.sum((lo < v) & (hi >= v))
+        assert below + above == lo.size + holds
+        assert found.tested_boundary <= min(below, above) <= (lo.size + holds) / 2
         comps_on_arcs = set(lab[found.cells[:found.n_from_arcs]].tolist())
         boundary_only += len(set(lab[found.cells].tolist()) - comps_on_arcs)
         assert found.n_tested == found.tested_arcs + found.tested_boundary
@@ -347,3 +351,41 @@ def test_2d_illustration():
     n_comp, _ = connected_components(coo_matrix((np.ones(len(idx)), (idx[:, 0], idx[:, 1])),
                                                 shape=(ext.n, ext.n)), directed=False)
     assert n_comp == 1
+
+
+# ------------------------------------------------------------------ the record of the construction (Figs 6.6-6.10)
+@pytest.mark.parametrize("name", ["data1", "torus", "hollow_cube_hex", "genus3"])
+def test_record_is_the_construction(name):
+    vol = datasets.load(name)
+    g = build_extrema_graph(vol, record=True)
+    plain = build_extrema_graph(vol)
+    assert plain.record is None
+    np.testing.assert_array_equal(g.arc_cells, plain.arc_cells)      # recording changes nothing
+    r = g.record
+    reached = np.flatnonzero(r.ok)
+    assert reached.size == g.n_arcs
+    for a, k in enumerate(reached):                                  # the arcs are the tries that reached
+        np.testing.assert_array_equal(r.try_cells(k), g.arc(a))
+        np.testing.assert_array_equal(g.extrema.nodes[[r.start[k], r.goal[k]]], g.arc_ends[a])
+        assert r.kind[k] == g.arc_kind[a]
+    assert np.sum(~r.ok & (r.kind == 0)) == g.stats["straight_failures"]
+    assert np.sum(~r.ok & (r.kind == 1)) == g.stats["polyline_failures"]
+    # each start tries its candidates nearest first, and stops at the first it reaches
+    for i in np.unique(r.start):
+        k = np.flatnonzero(r.start == i)
+        assert r.ok[k].sum() <= 1 and (not r.ok[k].any() or r.ok[k[-1]])
+    # Fig. 6.6 replayed: each arc joins two numbers into one, ending in the kernel's numbers
+    numbers = r.components(g.extrema.n)
+    np.testing.assert_array_equal(numbers[-1], g.component)
+    assert [np.unique(n).size for n in numbers] == list(range(g.extrema.n, g.extrema.n - g.n_arcs - 1, -1))
+
+
+def test_record_of_a_polyline():
+    vol = datasets.load("hollow_cube")
+    p = vol.points
+    s = np.exp(-((p - [0, 1, 1]) ** 2).sum(1)) - np.exp(-((p - [3, 2, 2]) ** 2).sum(1))
+    r = build_extrema_graph(vol, s, record=True).record
+    # the straight segment runs into the void (Fig. 6.8), the polyline walks around it (Fig. 6.9)
+    assert r.kind.tolist() == [0, 1] and r.ok.tolist() == [False, True]
+    first = r.try_cells(0)
+    assert (vol.face_neighbors[first[-1]] < 0).any()                 # it stopped at a boundary face

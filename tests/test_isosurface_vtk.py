@@ -14,8 +14,18 @@ Oracles:
   the same field's surfaces on the tetrahedralised mesh
   (``marching.hex_to_tets``; we check first that this split is conforming
   on hexa1, i.e. neighbours cut their shared quad along the same diagonal),
-  each within 5 % of it, and each within 1 % of VTK's own hexahedron contour.
+  each within 5 % of it, and each within 1 % of VTK's own hexahedron contour;
+* hexahedral data 1-3 against VTK's ``vtkContourFilter``, triangle counts per
+  value: VTK's marching-cubes table decides every ambiguous face one way
+  (the above corners cut off), which is our face-centre rule with the centre
+  below C. So on the cells without an ambiguous face, and on those whose
+  ambiguous faces all have their centre below C, VTK's contour of those
+  cells alone has exactly our triangles' count; on the cells with a centre
+  above C (we join the above corners there) VTK's count is its table's, ours
+  is ours, and VTK's whole surface is ours less exactly that difference.
 """
+
+import functools
 
 import numpy as np
 import pytest
@@ -166,3 +176,106 @@ def test_hexa1_area_close_to_the_tetrahedralised_mesh_and_vtk(hexa1):
         ref_vtk = grid.contour([value], scalars="fem")
         assert ours[-1] == pytest.approx(ref_vtk.area, rel=0.01), value
     assert sum(ours) == pytest.approx(sum(split), rel=0.01)
+
+
+# ------------------------------------------------- hexa: triangle counts against VTK
+@functools.cache
+def vtk_hex_case_counts():
+    """(256,) VTK's triangles for each node case of one unit hexahedron (vtkHexahedron's case table)."""
+    import pyvista as pv
+
+    corners = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
+    cube = pv.UnstructuredGrid(np.array([8, *range(8)]), np.array([pv.CellType.HEXAHEDRON]), corners)
+    out = np.zeros(256, np.int64)
+    for case in range(256):
+        cube.point_data["s"] = 0.1 + 0.8 * ((case >> np.arange(8)) & 1)
+        out[case] = cube.contour([0.5], scalars="s").n_cells
+    return out
+
+
+def vtk_triangles_on(grid, cells, value, field):
+    """Triangles of VTK's contour of ``S = value`` over the given cells of ``grid`` alone."""
+    if cells.size == 0:
+        return 0
+    return grid.extract_cells(cells).contour([value], scalars=field).n_cells
+
+
+def compare_hex_with_vtk(name, values, field="fem"):
+    """Triangle counts of ours and VTK's, per value, split by how the cells' ambiguous faces are decided.
+
+    Returns the counts summed over the values: crossed cells, cells with an
+    ambiguous face, those decided by a face centre above C (ours joins the
+    above corners there), those whose triangle count differs from VTK's, and
+    the triangles ours and VTK's make on those cells.
+    """
+    vol = datasets.load(name)
+    assert vol.cell_type == "hexa"
+    grid = vol.to_pyvista()
+    s = vol.scalars(field)
+    _, ours_table = marching.hex_case_table()
+    vtk_table = vtk_hex_case_counts()
+    tally = dict.fromkeys(["crossed", "ambiguous", "centre above", "differ", "ours", "vtk"], 0)
+    for value in values:
+        iso = extract(vol, value, field=field)
+        ours = np.bincount(iso.triangle_cells, minlength=vol.n_cells)
+        node_case, n_amb, n_up, code = marching.hex_cell_cases(vol.cells, s, value)
+        crossed = (node_case != 0) & (node_case != 255)
+        assert not ours[~crossed].any(), (name, value)
+        # our kernel made, cell by cell, the triangles of the case hex_cell_cases gives
+        np.testing.assert_array_equal(ours[crossed], ours_table[code[crossed]], err_msg=f"{name} {value}")
+        where = (name, value)
+        # cells without an ambiguous face: the same triangles as VTK's, cell set by cell set
+        plain = np.flatnonzero(crossed & (n_amb == 0))
+        assert vtk_triangles_on(grid, plain, value, field) == ours[plain].sum(), where
+        # ambiguous faces whose centre is below C: our rule cuts the above corners off, as VTK's table does
+        below = np.flatnonzero(crossed & (n_amb > 0) & (n_up == 0))
+        assert vtk_triangles_on(grid, below, value, field) == ours[below].sum(), where
+        # a centre above C: we join the above corners, VTK's table still cuts them off
+        up = np.flatnonzero(crossed & (n_up > 0))
+        n_vtk = vtk_triangles_on(grid, up, value, field)
+        assert n_vtk == vtk_table[node_case[up]].sum(), where
+        assert ours[up].sum() == ours_table[code[up]].sum(), where
+        # and so the whole of VTK's surface is ours less exactly those differences
+        assert grid.contour([value], scalars=field).n_cells == iso.n_triangles - ours[up].sum() + n_vtk, where
+        tally["crossed"] += int(crossed.sum())
+        tally["ambiguous"] += int(np.count_nonzero(crossed & (n_amb > 0)))
+        tally["centre above"] += int(up.size)
+        tally["differ"] += int(np.count_nonzero(ours_table[code[up]] != vtk_table[node_case[up]]))
+        tally["ours"] += int(ours[up].sum())
+        tally["vtk"] += n_vtk
+    return tally
+
+
+def test_vtk_hex_table_is_ours_with_every_face_centre_below():
+    """VTK's marching-cubes table decides every ambiguous face one way: the above corners cut off.
+
+    That is our face-centre rule with every centre below C, so on the 136
+    node cases without an ambiguous face and on every ambiguous one decided
+    that way the triangle counts are equal; deciding a face the other way
+    changes the count on 88 of the 120 ambiguous cases.
+    """
+    _, ours = marching.hex_case_table()
+    vtk = vtk_hex_case_counts()
+    cases = np.arange(256)
+    amb = np.array([len(marching.hex_ambiguous_faces(c)) for c in cases])
+    assert (amb == 0).sum() == 136
+    np.testing.assert_array_equal(ours[cases], vtk)  # face bits 0: every centre below
+    joined = np.array([ours[c | sum(1 << (8 + f) for f in marching.hex_ambiguous_faces(c))] for c in cases])
+    assert np.array_equal(joined[amb == 0], vtk[amb == 0])
+    assert np.count_nonzero(joined[amb > 0] != vtk[amb > 0]) == 88
+
+
+@pytest.mark.parametrize("field", ["fem", "gaussians"])  # the distance field has no ambiguous face
+def test_hexa1_triangle_counts_match_vtk(field):
+    vol = datasets.load("hexa1")
+    tally = compare_hex_with_vtk("hexa1", isovalues(vol.scalars(field), 40), field)
+    # the comparison was exercised on both kinds of cells
+    assert tally["crossed"] > tally["ambiguous"] > 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["hexa2", "hexa3"])
+def test_large_hexa_triangle_counts_match_vtk(name):
+    vol = datasets.load(name)
+    tally = compare_hex_with_vtk(name, isovalues(vol.scalars("fem"), N_VALUES))
+    assert tally["crossed"] > tally["ambiguous"] > 0

@@ -21,6 +21,8 @@ __all__ = [
     "plot_skeleton_isosurfaces",
     "plot_fig_7_1",
     "plot_time_per_cell",
+    "plot_removal_tests",
+    "plot_parts_and_arcs",
 ]
 
 
@@ -211,3 +213,88 @@ def plot_time_per_cell(rows, *, ax=None, band=0.2):
     ax.legend(fontsize=8)
     ax.set_title("volume thinning is O(n): time per cell against n")
     return fig
+
+
+def plot_removal_tests(panels, *, context=2.5, window_size=None):
+    """Figs 7.4, 7.6, 7.12, 7.13: cells taken from a FIFO and what the removal tests looked at.
+
+    Parameters
+    ----------
+    panels : sequence of (vol, test, title)
+        ``test`` a :class:`~polygen.volume.thinning.RemovalTest`. Drawn: E (red when
+        removed, orange when kept), its non-removed neighbours (gold), the
+        other non-removed cells around each triple-shared edge (cyan) and the
+        edge (blue), the quadruple-shared nodes (purple on the boundary of the
+        non-removed cells, n_B != 0; green inside), and the non-removed cells
+        within ``context`` cell sizes of E (grey).
+    """
+    import pyvista as pv
+
+    k = len(panels)
+    p = _plotter(shape=(1, k), window_size=window_size or (420 * k, 420))
+    for i, (vol, test, title) in enumerate(panels):
+        p.subplot(0, i)
+        grid = vol.to_pyvista()
+        centres = vol.points[vol.cells].mean(axis=1)
+        c = test.cell
+        size = float(np.linalg.norm(vol.points[vol.cells[c]] - centres[c], axis=1).max())
+        near = np.flatnonzero(test.remaining & (np.linalg.norm(centres - centres[c], axis=1) < context * 2 * size))
+        shown = {c, *test.neighbours.tolist()}
+        ring = set()
+        for e in (test.shared_edges if not test.quad_nodes.size else []):  # the walks of C2 (and hexahedral C3)
+            ring |= set(test.edge_ring(vol, e).tolist()) - shown
+            p.add_mesh(pv.Line(vol.points[e[0]], vol.points[e[1]]), color="blue", line_width=7)
+        rest = np.setdiff1d(near, list(shown | ring))
+        if rest.size:
+            p.add_mesh(grid.extract_cells(rest), color="lightgray", opacity=0.15, show_edges=True)
+        if ring:
+            p.add_mesh(grid.extract_cells(sorted(ring)), color="cyan", opacity=0.35, show_edges=True)
+        if test.neighbours.size:
+            p.add_mesh(grid.extract_cells(test.neighbours), color="gold", opacity=0.45, show_edges=True)
+        p.add_mesh(grid.extract_cells([c]), color="red" if test.removed else "darkorange", opacity=0.9,
+                   show_edges=True)
+        q = test.quad_nodes
+        if q.size:
+            col = np.where(test.on_boundary[q], 1, 0)
+            pts = pv.PolyData(vol.points[q])
+            pts.point_data["n_B != 0"] = col
+            p.add_mesh(pts, scalars="n_B != 0", cmap=["green", _EXTREMUM_COLOR], clim=(0, 1), point_size=16,
+                       render_points_as_spheres=True, show_scalar_bar=False)
+        p.add_text(title, font_size=9)
+        p.camera_position = "iso"
+        p.reset_camera(bounds=grid.extract_cells([c, *test.neighbours.tolist()]).bounds)
+    return p
+
+
+def plot_parts_and_arcs(panels, *, window_size=None):
+    """Figs 7.10 / 7.11: the parts of an isosurface crossed by an arc of the extrema graph (green) or not (red).
+
+    Parameters
+    ----------
+    panels : sequence of (vol, graph, iso, title)
+        The parts are :meth:`IsoSurface.components`; a part is crossed when one
+        of its cells is a seed the graph found on its arcs (``graph.seeds``).
+    """
+    k = len(panels)
+    p = _plotter(shape=(1, k), window_size=window_size or (520 * k, 440))
+    for i, (vol, graph, iso, title) in enumerate(panels):
+        p.subplot(0, i)
+        from polygen.plotting.extrema import _arc_lines
+
+        p.add_mesh(boundary_mesh(vol), color="lightgray", opacity=0.12)
+        seeds = graph.seeds(iso.value)
+        comp = iso.triangle_components()
+        crossed = np.zeros(comp.max() + 1 if comp.size else 0, bool)
+        on_arcs = np.isin(iso.triangle_cells, seeds.cells[:seeds.n_from_arcs])
+        crossed[comp[on_arcs]] = True
+        if not iso.is_empty:
+            poly = iso.to_pyvista()
+            poly.cell_data["crossed"] = crossed[comp].astype(np.int64)
+            p.add_mesh(poly, scalars="crossed", cmap=["crimson", "seagreen"], clim=(0, 1), show_scalar_bar=False,
+                       smooth_shading=True, opacity=0.8)
+        lines = _arc_lines(vol, graph)
+        if lines.n_points:
+            p.add_mesh(lines, color="k", line_width=4)
+        p.add_text(title, font_size=9)
+        p.view_isometric()
+    return p

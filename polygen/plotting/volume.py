@@ -24,6 +24,8 @@ __all__ = [
     "show_isosurface",
     "plot_propagation_order",
     "fifo_steps",
+    "plot_two_approaches",
+    "plot_span_space",
     "loglog_slope",
     "plot_loglog",
 ]
@@ -313,3 +315,122 @@ def plot_loglog(rows, ys, *, x="n", group="method", n_from=0, titles=None):
         ax.legend(fontsize=7)
     fig.tight_layout()
     return fig, slopes
+
+
+def plot_two_approaches(vol, surfaces, *, field=None, resolution=64, window_size=(1200, 440)):
+    """Fig. 5.3: the two ways to show a volume -- polygons fitted to isosurfaces, and direct volume rendering.
+
+    Left, the isosurfaces (triangles, drawn by ordinary surface rendering);
+    right, the same field sampled onto a regular grid inside the volume and
+    ray-cast by VTK (no polygons; points outside the volume are transparent).
+
+    Parameters
+    ----------
+    vol : UnstructuredVolume
+    surfaces : sequence of IsoSurface
+    field : str, optional
+    resolution : int
+        Samples along the longest side of the bounding box for the ray-cast panel.
+    """
+    import pyvista as pv
+
+    name = field or next(iter(vol.fields))
+    grid = vol.to_pyvista()
+    lo, hi = vol.points.min(axis=0), vol.points.max(axis=0)
+    h = float((hi - lo).max()) / (resolution - 1)
+    dims = np.maximum(2, np.ceil((hi - lo) / h).astype(int) + 1)
+    img = pv.ImageData(dimensions=tuple(int(d) for d in dims), spacing=(h, h, h), origin=tuple(lo))
+    sampled = img.sample(grid)
+    s = np.asarray(sampled.point_data[name], float)
+    smin, smax = float(vol.scalars(name).min()), float(vol.scalars(name).max())
+    s[np.asarray(sampled.point_data["vtkValidPointMask"]) == 0] = smin  # outside: fully transparent
+    sampled.point_data["S"] = s
+    p = _plotter(shape=(1, 2), window_size=window_size)
+    p.subplot(0, 0)
+    p.add_mesh(boundary_surface(vol), color="lightgray", opacity=0.1)
+    for iso in surfaces:
+        if not iso.is_empty:
+            poly = iso.to_pyvista()
+            poly.point_data["S"] = np.full(poly.n_points, iso.value)
+            p.add_mesh(poly, scalars="S", clim=(smin, smax), cmap="jet", smooth_shading=True, show_scalar_bar=False)
+    n_tri = sum(iso.n_triangles for iso in surfaces)
+    p.add_text(f"surface fitting: {len(surfaces)} isosurfaces, {n_tri} triangles", font_size=9)
+    p.view_isometric()
+    p.subplot(0, 1)
+    p.add_volume(sampled, scalars="S", clim=(smin, smax), cmap="jet", opacity="sigmoid", show_scalar_bar=False)
+    p.add_text(f"direct volume rendering: ray casting over {sampled.n_points} samples", font_size=9)
+    p.view_isometric()
+    p.link_views()
+    return p
+
+
+def _kd_lines(pts, lo, hi, depth, box, out):
+    """Split lines of the pointerless k-d tree of :class:`~polygen.volume.seeds.span_space.SpanSpace`."""
+    if hi - lo < 1 or depth < 0:
+        return
+    mid = (lo + hi) // 2
+    dim = box[4]
+    key = pts[mid, dim]
+    x0, x1, y0, y1 = box[:4]
+    if dim == 0:
+        out.append(((key, key), (y0, y1)))
+        _kd_lines(pts, lo, mid, depth - 1, (x0, key, y0, y1, 1), out)
+        _kd_lines(pts, mid + 1, hi, depth - 1, (key, x1, y0, y1, 1), out)
+    else:
+        out.append(((x0, x1), (key, key)))
+        _kd_lines(pts, lo, mid, depth - 1, (x0, x1, y0, key, 0), out)
+        _kd_lines(pts, mid + 1, hi, depth - 1, (x0, x1, key, y1, 0), out)
+
+
+def plot_span_space(cmin, cmax, value, span_space, lattice, *, kd_depth=5, max_points=6000, seed=0):
+    """Fig. 5.6: the cells as points (S_min, S_max); the active ones; the k-d tree; the ISSUE lattice.
+
+    Parameters
+    ----------
+    cmin, cmax : (M,) float64
+        Each cell's smallest and largest node value.
+    value : float
+        The isovalue C: the active cells are the quadrant S_min <= C <= S_max.
+    span_space : SpanSpace
+        Built over ``cmin, cmax``; its split keys are drawn to ``kd_depth`` levels (panel b).
+    lattice : IssueLattice
+        Built over ``cmin, cmax``; its class boundaries are drawn (panel c).
+    max_points : int
+        Points drawn (a seeded random subset when there are more cells).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib.pyplot as plt
+
+    cmin, cmax = np.asarray(cmin, float), np.asarray(cmax, float)
+    pick = np.arange(cmin.size)
+    if cmin.size > max_points:
+        pick = np.sort(np.random.default_rng(seed).choice(cmin.size, max_points, replace=False))
+    active = (cmin[pick] <= value) & (value <= cmax[pick])
+    lo, hi = float(cmin.min()), float(cmax.max())
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.8), sharex=True, sharey=True)
+    for ax in axes:
+        ax.plot(cmin[pick][~active], cmax[pick][~active], ".", ms=1.5, color="0.6")
+        ax.plot(cmin[pick][active], cmax[pick][active], ".", ms=2, color="crimson")
+        ax.plot([lo, value, value], [value, value, hi], "k--", lw=1)
+        ax.set_xlabel("S_min")
+        ax.set_aspect("equal")
+    axes[0].set_ylabel("S_max")
+    n_act = int(np.count_nonzero((cmin <= value) & (value <= cmax)))
+    axes[0].set_title(f"(a) span space: {n_act} of {cmin.size} cells active at C = {value:.3g}", fontsize=9)
+    segs = []
+    _kd_lines(span_space.pts, 0, span_space.pts.shape[0], kd_depth, (lo, hi, lo, hi, 0), segs)
+    for xs, ys in segs:
+        axes[1].plot(xs, ys, color="steelblue", lw=0.8)
+    axes[1].set_title(f"(b) k-d tree: the first {kd_depth + 1} levels of splits", fontsize=9)
+    for x in lattice.msplit:
+        axes[2].axvline(x, color="seagreen", lw=0.6)
+    for y in lattice.xsplit:
+        axes[2].axhline(y, color="seagreen", lw=0.6)
+    axes[2].set_title(f"(c) ISSUE lattice: {lattice.L} x {lattice.L} classes", fontsize=9)
+    axes[0].set_xlim(lo, hi)
+    axes[0].set_ylim(lo, hi)
+    fig.tight_layout()
+    return fig

@@ -429,7 +429,27 @@ def _walk_search(cells, face_nb, node_off, node_cells, x1, ext_index, comp, comp
 
 
 @njit
-def _build_graph(points, cells, s, faces, face_nb, node_off, node_cells, ext_nodes, use_polyline):
+def _log_try(tries, n_tries, tcells, n_tc, i, j, kind, ok, buf, start, count):
+    """Recorder of :func:`_build_graph`: one row (start, goal, kind, ok, cells, first cell) and its cells."""
+    if n_tries == tries.shape[0]:
+        grown = np.empty((2 * tries.shape[0], tries.shape[1]), np.int64)
+        grown[:n_tries] = tries[:n_tries]
+        tries = grown
+    while tcells.shape[0] < n_tc + count:
+        tcells = _grow(tcells)
+    tries[n_tries, 0] = i
+    tries[n_tries, 1] = j
+    tries[n_tries, 2] = kind
+    tries[n_tries, 3] = ok
+    tries[n_tries, 4] = count
+    tries[n_tries, 5] = n_tc
+    for q in range(count):
+        tcells[n_tc + q] = buf[start + q]
+    return tries, n_tries + 1, tcells, n_tc + count
+
+
+@njit
+def _build_graph(points, cells, s, faces, face_nb, node_off, node_cells, ext_nodes, use_polyline, record):
     """Fig. 6.10: join every extremum to the nearest differently numbered one it can reach.
 
     For each extremum in turn (the start point) the differently numbered
@@ -440,9 +460,13 @@ def _build_graph(points, cells, s, faces, face_nb, node_off, node_cells, ext_nod
     of the two sides are merged by the smaller one (Fig. 6.6).
 
     Returns ``(arc_ends (A, 2) extremum indices, arc_off (A+1,), arc_cells,
-    arc_kind (A,), comp (m,), counters (4,))`` with counters = straight
-    tries that left the volume, polyline tries that dead-ended, cells
-    walked in failed tries, sorts done.
+    arc_kind (A,), comp (m,), counters (4,), tries (T, 6), try_cells)`` with
+    counters = straight tries that left the volume, polyline tries that
+    dead-ended, cells walked in failed tries, sorts done. With ``record``,
+    every try in order is a row of ``tries`` (start extremum, goal extremum
+    or -1, kind, 1 if it reached the goal, cells walked, offset of those
+    cells in ``try_cells``); a failed breadth-first search logs no cells.
+    Without it both are empty.
     """
     m = ext_nodes.shape[0]
     n_nodes = s.shape[0]
@@ -462,6 +486,10 @@ def _build_graph(points, cells, s, faces, face_nb, node_off, node_cells, ext_nod
     n_buf = 0
     n_arcs = 0
     counters = np.zeros(4, np.int64)
+    tries = np.empty((64 if record else 0, 6), np.int64)
+    tcells = np.empty(1024 if record else 0, np.int64)
+    n_tries = 0
+    n_tc = 0
     d2 = np.empty(m)
     cand = np.empty(m, np.int64)
     for i in range(m):
@@ -486,6 +514,9 @@ def _build_graph(points, cells, s, faces, face_nb, node_off, node_cells, ext_nod
             stamp += 1
             buf, n_new, ok, walked = _walk_straight(points, cells, faces, face_nb, node_off, node_cells, x1,
                                                      ext_nodes[j], mark, stamp, buf, n_buf)
+            if record:  # a failed walk's cells are still in buf from n_buf
+                tries, n_tries, tcells, n_tc = _log_try(tries, n_tries, tcells, n_tc, i, j, ARC_STRAIGHT, int(ok),
+                                                        buf, n_buf, walked)
             if ok:
                 goal = j
                 kind = ARC_STRAIGHT
@@ -499,6 +530,9 @@ def _build_graph(points, cells, s, faces, face_nb, node_off, node_cells, ext_nod
                 stamp += 1
                 buf, n_new, ok, walked = _walk_polyline(points, cells, faces, face_nb, node_off, node_cells, x1,
                                                          ext_nodes[j], mark, stamp, buf, n_buf)
+                if record:
+                    tries, n_tries, tcells, n_tc = _log_try(tries, n_tries, tcells, n_tc, i, j, ARC_POLYLINE,
+                                                            int(ok), buf, n_buf, walked)
                 if ok:
                     goal = j
                     kind = ARC_POLYLINE
@@ -510,6 +544,9 @@ def _build_graph(points, cells, s, faces, face_nb, node_off, node_cells, ext_nod
             stamp += 1
             buf, n_new, j, walked = _walk_search(cells, face_nb, node_off, node_cells, x1, ext_index, comp, comp[i],
                                                  mark, stamp, parent, queue, buf, n_buf)
+            if record:
+                tries, n_tries, tcells, n_tc = _log_try(tries, n_tries, tcells, n_tc, i, j, ARC_SEARCH, int(j >= 0),
+                                                        buf, n_buf, n_new - n_buf)
             if j < 0:
                 counters[2] += walked
                 continue  # nothing reachable: another part of a disconnected volume
@@ -528,7 +565,7 @@ def _build_graph(points, cells, s, faces, face_nb, node_off, node_cells, ext_nod
             if comp[j] == hi:
                 comp[j] = lo
     return (arc_ends[:n_arcs].copy(), arc_off[: n_arcs + 1].copy(), buf[:n_buf].copy(), arc_kind[:n_arcs].copy(),
-            comp, counters)
+            comp, counters, tries[:n_tries].copy(), tcells[:n_tc].copy())
 
 
 @njit

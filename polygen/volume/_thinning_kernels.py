@@ -309,7 +309,7 @@ def _find_prick(cells, face_nb, local_faces, cls, nb_node, root, is_void, g, pic
 
 
 @njit
-def thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, prick, order, prick_log, stats):
+def thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, prick, order, prick_log, stats, decisions):
     """Volume thinning (Fig. 7.5) in place on ``cls`` (classes) and ``nb_node`` (n_B).
 
     Parameters
@@ -323,11 +323,14 @@ def thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, prick,
     order : (M,) int64 or (0,); removed cells in removal order are written here (the recorder)
     prick_log : (G+1, 3) int64; per prick: removals before it, the void's group, cells removed
     stats : (N_STATS,) int64 counters
+    decisions : (D, 4) int64 or (0, 4); with ``order``, every cell taken from a FIFO is a row here:
+        cell, its class, 1 if removed, removals before it (the recorder of Figs 7.4, 7.6, 7.13)
 
     Returns
     -------
     n_removed : int
     n_pricks : int
+    n_decisions : int
     """
     m = cells.shape[0]
     nf = face_nb.shape[1]
@@ -344,6 +347,7 @@ def thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, prick,
     tried = np.zeros(is_void.shape[0], np.bool_)
     picked = np.empty(3, np.int64)
     fa = np.empty(6, np.int64)
+    n_dec = 0
     while True:
         q = 1
         c = -1
@@ -360,7 +364,14 @@ def thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, prick,
             q += 1
         if c >= 0:
             stats[ST_PROCESSED + q] += 1
-            if _removable(c, cells, face_nb, fmask, cls, nb_node, stats, fa):
+            ok = _removable(c, cells, face_nb, fmask, cls, nb_node, stats, fa)
+            if n_dec < decisions.shape[0]:
+                decisions[n_dec, 0] = c
+                decisions[n_dec, 1] = q
+                decisions[n_dec, 2] = ok
+                decisions[n_dec, 3] = n_removed
+                n_dec += 1
+            if ok:
                 stats[ST_REMOVED + q] += 1
                 stats[ST_IMPLICIT] += _remove(c, cells, face_nb, cls, nb_node, queue, head, tail, order, n_removed)
                 n_removed += 1
@@ -397,7 +408,7 @@ def thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, prick,
         root[g] = out_lab
         stats[ST_PRICKS] += 1
         stats[ST_PRICK_CELLS] += k
-    return n_removed, n_pricks
+    return n_removed, n_pricks, n_dec
 
 
 @njit

@@ -71,6 +71,7 @@ __all__ = [
     "ExtremaGraphError",
     "Extrema",
     "ExtremaGraph",
+    "GraphRecord",
     "GraphSeeds",
     "ExtremaGraphMethod",
     "find_extrema",
@@ -231,6 +232,54 @@ class GraphSeeds:
         return self.tested_arcs + self.tested_boundary
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class GraphRecord:
+    """Every try of the graph construction in order (Fig. 6.10), for Figs 6.6-6.9.
+
+    Attributes
+    ----------
+    start, goal : (T,) int64
+        Extremum indices (into ``Extrema.nodes``) of the start point and the
+        point tried as goal (-1 for a breadth-first search that found none).
+    kind : (T,) int64
+        :data:`ARC_KINDS` index of the walk tried.
+    ok : (T,) bool
+        Whether the walk reached the goal (then it is the next arc).
+    offsets : (T+1,) int64, cells : (L,) int64
+        CSR: the cells each try walked through, in order (a failed straight
+        walk: up to where the segment left the volume).
+    """
+
+    start: np.ndarray
+    goal: np.ndarray
+    kind: np.ndarray
+    ok: np.ndarray
+    offsets: np.ndarray
+    cells: np.ndarray
+
+    @property
+    def n_tries(self) -> int:
+        return int(self.start.shape[0])
+
+    def try_cells(self, k):
+        """(n,) int64: the cells walked in try ``k``."""
+        return self.cells[self.offsets[k]:self.offsets[k + 1]]
+
+    def components(self, m):
+        """(A+1, m) int64: the number C_i of each extremum before the first arc and after each (Fig. 6.6).
+
+        Replays the numbering of the arcs in the order they were made: both
+        ends take the smaller number, and so do all extrema that had the larger.
+        """
+        comp = np.arange(m)
+        out = [comp.copy()]
+        for i, j in zip(self.start[self.ok], self.goal[self.ok]):
+            lo, hi = min(comp[i], comp[j]), max(comp[i], comp[j])
+            comp[comp == hi] = lo
+            out.append(comp.copy())
+        return np.array(out)
+
+
 @dataclasses.dataclass(eq=False)
 class ExtremaGraph:
     """The extrema graph and the boundary cell lists of one volume and field (Defs 6.6-6.9).
@@ -259,6 +308,8 @@ class ExtremaGraph:
         With ``boundary="loops"``: the boundary's homology generators.
     loop_smin, loop_smax : (L,) float64
         Smallest / largest node value along each loop.
+    record : GraphRecord or None
+        With ``record=True``: every try of the construction.
     stats : dict
         Table 6.3: ``T_pe``, ``T_pc``, ``T_pb`` (s), ``extrema``, ``graph_cells``
         (sum of arc lengths), ``graph_cells_unique``, ``polyline_arcs``,
@@ -287,6 +338,7 @@ class ExtremaGraph:
     loops: BoundaryLoops | None = None
     loop_smin: np.ndarray = None
     loop_smax: np.ndarray = None
+    record: GraphRecord | None = None
     _max_by_min: np.ndarray = dataclasses.field(repr=False, default=None)
     _min_by_max: np.ndarray = dataclasses.field(repr=False, default=None)
     _mark: np.ndarray = dataclasses.field(repr=False, default=None)
@@ -401,7 +453,7 @@ def _admitted(offsets, cells, smin, smax, value):
 BOUNDARY = ("lists", "loops")
 
 
-def build_extrema_graph(vol, field=None, *, polyline=True, boundary="lists"):
+def build_extrema_graph(vol, field=None, *, polyline=True, boundary="lists", record=False):
     """Extrema, extrema graph and boundary cell lists of ``vol`` (thesis 6.3.1-6.3.3).
 
     Parameters
@@ -420,6 +472,8 @@ def build_extrema_graph(vol, field=None, *, polyline=True, boundary="lists"):
         then times the loops and their ranges. A non-manifold boundary
         (cells that touch only along an edge or at a node) falls back to the
         lists and says so in ``stats["loops_fallback"]``.
+    record : bool, keyword-only
+        Keep every try of the construction (:class:`GraphRecord`, Figs 6.6-6.9).
 
     Returns
     -------
@@ -444,8 +498,8 @@ def build_extrema_graph(vol, field=None, *, polyline=True, boundary="lists"):
     t0 = time.perf_counter()
     ext = _extrema_from_arrays(cells, s, off, nc)
     t1 = time.perf_counter()
-    arc_ext, arc_off, arc_cells, arc_kind, comp, counters = _k._build_graph(points, cells, s, faces, face_nb, off,
-                                                                            nc, ext.nodes, bool(polyline))
+    arc_ext, arc_off, arc_cells, arc_kind, comp, counters, tries, tcells = _k._build_graph(
+        points, cells, s, faces, face_nb, off, nc, ext.nodes, bool(polyline), bool(record))
     smin = np.empty(arc_ext.shape[0])
     smax = np.empty(arc_ext.shape[0])
     _k._arc_ranges(cells, s, arc_off, arc_cells, smin, smax)
@@ -502,6 +556,9 @@ def build_extrema_graph(vol, field=None, *, polyline=True, boundary="lists"):
         arc_cells=arc_cells, arc_smin=smin, arc_smax=smax, arc_kind=arc_kind, component=comp,
         blist_min=bcells[o_min], blist_min_values=lo[o_min], blist_max=bcells[o_max], blist_max_values=hi[o_max],
         stats=stats, boundary=boundary, loops=loops, loop_smin=loop_smin, loop_smax=loop_smax,
+        record=GraphRecord(start=tries[:, 0].copy(), goal=tries[:, 1].copy(), kind=tries[:, 2].copy(),
+                           ok=tries[:, 3].astype(bool), offsets=np.append(tries[:, 5], tcells.shape[0]), cells=tcells)
+        if record else None,
         _max_by_min=hi[o_min], _min_by_max=lo[o_max], _mark=np.zeros(cells.shape[0], np.int64),
     )
 

@@ -63,6 +63,7 @@ __all__ = [
     "HEX_FACES",
     "tet_case_table",
     "hex_case_table",
+    "hex_cell_cases",
     "case_table",
     "hex_to_tets",
     "HEX_TO_6_TETS",
@@ -270,6 +271,46 @@ def hex_case_table():
                 tris += _fan(poly)
             out[key] = out[case] = tris
     return _pack(out, 1 << 14, MAX_TRIANGLES)
+
+
+def hex_cell_cases(cells, s, value):
+    """Per hexahedron: its node case, its ambiguous faces and how each is decided at ``S = value``.
+
+    The same classification as the marching kernel (a node is above when
+    ``S >= C``; an ambiguous face's centre is the mean of its four corners,
+    summed in sorted order), in numpy, for comparisons and figures.
+
+    Parameters
+    ----------
+    cells : (M, 8) int64
+    s : (N,) float64
+    value : float
+
+    Returns
+    -------
+    node_case : (M,) int64
+        8 node bits; 0 and 255 are cells the surface does not cross.
+    n_ambiguous : (M,) int64
+        Faces whose above corners are diagonal to each other.
+    n_centre_above : (M,) int64
+        Of those, faces whose centre is above: there the above corners are joined.
+    code : (M,) int64
+        The index into :func:`hex_case_table` (node bits | centre bits << 8).
+    """
+    cells = np.asarray(cells)
+    if cells.ndim != 2 or cells.shape[1] != 8:
+        raise ValueError(f"cells must have shape (M, 8); got {cells.shape}")
+    sv = np.asarray(s, np.float64)[cells]
+    above = sv >= value
+    node_case = (above.astype(np.int64) << np.arange(8)).sum(axis=1)
+    q = np.asarray(HEX_FACES)
+    a = above[:, q]  # (M, 6, 4) corners of each face, in cyclic order
+    amb = (a[..., 0] == a[..., 2]) & (a[..., 1] == a[..., 3]) & (a[..., 0] != a[..., 1])
+    v = np.sort(sv[:, q], axis=2)
+    centre = (((v[..., 0] + v[..., 1]) + v[..., 2]) + v[..., 3]) * 0.25 >= value
+    up = amb & centre
+    code = node_case | ((up.astype(np.int64) << np.arange(6)).sum(axis=1) << 8)
+    return node_case, amb.sum(axis=1), up.sum(axis=1), code
 
 
 def case_table(cell_type):

@@ -78,6 +78,8 @@ __all__ = [
     "ThinningWarning",
     "boundary_defects",
     "ThinningRecord",
+    "RemovalTest",
+    "removal_test",
     "Skeleton",
     "SkeletonSeeds",
     "ThinningMethod",
@@ -107,11 +109,22 @@ class ThinningRecord:
     pricks : (P, 3) int64
         Per pricked void: removals before it, the void's boundary group, cells it removed.
     n_cells : int
+    decided_cell, decided_class : (D,) int64
+        Every cell taken from a FIFO, in order, and the class it was taken at
+        (Figs 7.4, 7.6, 7.13: the removal tests).
+    decided_removed : (D,) bool
+        Whether the tests of 7.5.2 let it go.
+    decided_after : (D,) int64
+        Removals before the test: ``remaining(decided_after[k])`` is the state it saw.
     """
 
     removal_order: np.ndarray
     pricks: np.ndarray
     n_cells: int
+    decided_cell: np.ndarray = None
+    decided_class: np.ndarray = None
+    decided_removed: np.ndarray = None
+    decided_after: np.ndarray = None
 
     @property
     def n_removed(self) -> int:
@@ -129,6 +142,84 @@ class ThinningRecord:
     def steps(self, n):
         """``n`` removal counts from 0 to the end, evenly spaced (for a strip of figures)."""
         return np.unique(np.linspace(0, self.n_removed, int(n)).round().astype(np.int64))
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class RemovalTest:
+    """One cell taken from a FIFO and what the tests of 7.5.2 looked at (Figs 7.4, 7.6, 7.12, 7.13).
+
+    Attributes
+    ----------
+    cell, cls : int
+        The cell E and the class it was taken at.
+    removed : bool
+        The kernel's decision (from the record).
+    remaining : (M,) bool
+        The cells not removed when E was tested.
+    neighbours : (q,) int64
+        E's non-removed face neighbours (E_a, E_b, ...).
+    shared_edges : (k, 2) int64
+        Node pairs of E shared by two of those neighbours' faces (triple-shared edges, Def. 7.3).
+    quad_nodes : (j,) int64
+        Nodes of E on three or more of those faces (quadruple-shared nodes, Def. 7.4).
+    on_boundary : (N,) bool
+        Nodes with ``n_B != 0`` at that moment: on the volume's boundary or on a removed cell.
+    """
+
+    cell: int
+    cls: int
+    removed: bool
+    remaining: np.ndarray
+    neighbours: np.ndarray
+    shared_edges: np.ndarray
+    quad_nodes: np.ndarray
+    on_boundary: np.ndarray
+
+    def edge_ring(self, vol, edge):
+        """(r,) int64: the non-removed cells around ``edge`` (both its nodes), E included."""
+        off, nc = vol.node_cells
+        a, b = int(edge[0]), int(edge[1])
+        ring = np.intersect1d(nc[off[a]:off[a + 1]], nc[off[b]:off[b + 1]])
+        return ring[self.remaining[ring]]
+
+
+def removal_test(vol, record, k):
+    """The situation of the ``k``-th FIFO decision of a recorded thinning, rebuilt from the record.
+
+    Parameters
+    ----------
+    vol : UnstructuredVolume
+        The volume that was thinned.
+    record : ThinningRecord
+        From ``thin_volume(..., record=True)``.
+    k : int
+        Index into ``record.decided_cell``.
+
+    Returns
+    -------
+    RemovalTest
+    """
+    if record.decided_cell is None:
+        raise ThinningError("this record has no decisions; thin with record=True")
+    k = int(k)
+    if not 0 <= k < record.decided_cell.shape[0]:
+        raise ThinningError(f"k must be in 0..{record.decided_cell.shape[0] - 1}; got {k}")
+    c = int(record.decided_cell[k])
+    after = int(record.decided_after[k])
+    remaining = record.remaining(after)
+    on_b = np.zeros(vol.n_points, bool)
+    on_b[vol.boundary_face_nodes.ravel()] = True
+    on_b[vol.cells[record.removal_order[:after]].ravel()] = True
+    nb = vol.face_neighbors[c]
+    open_faces = [f for f in range(nb.shape[0]) if nb[f] >= 0 and remaining[nb[f]]]
+    faces = [set(vol.cells[c, vol.local_faces[f]].tolist()) for f in open_faces]
+    edges = [sorted(faces[i] & faces[j]) for i in range(len(faces)) for j in range(i + 1, len(faces))
+             if len(faces[i] & faces[j]) == 2]
+    quad = [int(x) for x in vol.cells[c] if sum(x in f for f in faces) >= 3]
+    return RemovalTest(cell=c, cls=int(record.decided_class[k]), removed=bool(record.decided_removed[k]),
+                       remaining=remaining, neighbours=nb[open_faces].astype(np.int64),
+                       shared_edges=np.array(edges, np.int64).reshape(-1, 2), quad_nodes=np.array(quad, np.int64),
+                       on_boundary=on_b)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -346,8 +437,10 @@ def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=No
     order = np.empty(m if record else 0, np.int64)
     prick_log = np.zeros((n_groups + 1, 3), np.int64)
     counters = np.zeros(_k.N_STATS, np.int64)
-    n_removed, n_pricks = _k.thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void,
-                                  bool(prick_voids), order, prick_log, counters)
+    # every FIFO entry is taken once: the initial ones and up to F per removal
+    decisions = np.empty((m * (fmask.shape[0] + 1) if record else 0, 4), np.int64)
+    n_removed, n_pricks, n_dec = _k.thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void,
+                                         bool(prick_voids), order, prick_log, counters, decisions)
     t2 = time.perf_counter()
 
     # 7.5.4: the skeleton and its value classes
@@ -392,7 +485,10 @@ def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=No
         stats[f"C{q}"] = int(np.sum(counts == q))
     rec = None
     if record:
-        rec = ThinningRecord(removal_order=order[:n_removed].copy(), pricks=prick_log[:n_pricks].copy(), n_cells=m)
+        d = decisions[:n_dec]
+        rec = ThinningRecord(removal_order=order[:n_removed].copy(), pricks=prick_log[:n_pricks].copy(), n_cells=m,
+                             decided_cell=d[:, 0].copy(), decided_class=d[:, 1].copy(), decided_removed=d[:, 2] == 1,
+                             decided_after=d[:, 3].copy())
     return Skeleton(vol=vol, s=s, extrema=ext, marked=marked, classes=cls, cells=skel, neighbour_counts=counts,
                     node_groups=nb_node, group_root=root, unpricked_voids=unpricked, record=rec, stats=stats,
                     _cmin=cmin, _cmax=cmax, _buckets=buckets, _hits=np.empty(skel.shape[0], np.int64))
