@@ -58,7 +58,10 @@ def grid_lattice(bounds, grid):
     if not (np.isfinite(w) and np.isfinite(h) and w > 0 and h > 0):
         raise ValueError(f"bounds: need xmin < xmax and ymin < ymax, got {bounds}")
     if np.ndim(grid) == 0:
-        step = float(grid)
+        try:
+            step = float(grid)
+        except (TypeError, ValueError):
+            raise ValueError(f"grid: expected a step or (m, n), got {grid!r}") from None
         if not (np.isfinite(step) and step > 0):
             raise ValueError(f"grid: a step must be finite and > 0, got {grid}")
         nx, ny = max(2, int(np.ceil(w / step - 1e-9)) + 1), max(2, int(np.ceil(h / step - 1e-9)) + 1)
