@@ -280,11 +280,12 @@ def solve_plate(shape, spacing, *, fixed_dofs, fixed_values=0.0, load=0.0, nu=0.
     if not np.isfinite(load):
         raise PlateError(f"load: must be finite, got {load}")
     hx, hy = _check_spacing(*np.asarray(spacing, dtype=np.float64).reshape(2))
-    k = assemble_plate((ny, nx), (hx, hy), nu=nu, rigidity=rigidity)
+    ke = plate_element_stiffness(hx, hy, nu=nu, rigidity=rigidity)
+    cells = _cell_dofs(nx, ny)
     f = np.zeros(n)
     if load:
-        np.add.at(f, _cell_dofs(nx, ny).ravel(), np.tile(load * plate_element_load(hx, hy),
-                                                          (nx - 1) * (ny - 1)))
+        f += np.bincount(cells.ravel(), weights=np.tile(load * plate_element_load(hx, hy),
+                                                        len(cells)), minlength=n)
     u = np.zeros(n)
     u[fixed] = vals
     free = np.ones(n, dtype=bool)
@@ -296,9 +297,24 @@ def solve_plate(shape, spacing, *, fixed_dofs, fixed_values=0.0, load=0.0, nu=0.
     order = order.ravel()[free[order.ravel()]]
     if len(order) == 0:
         return u.reshape(ny, nx, 3)
-    kr = k[order]
-    kff = kr[:, order].tocsc()
-    rhs = f[order] - kr[:, fixed] @ vals
+    # assemble straight into the free DOFs' new numbering (no slicing of a global matrix);
+    # held DOFs move to the right-hand side
+    new = np.full(n, -1, dtype=np.int32)
+    new[order] = np.arange(len(order), dtype=np.int32)
+    nc = new[cells]  # (cells, 12)
+    nf = len(order)
+    # free x free entries of every cell's 12 x 12 block, broadcast (no per-element loop)
+    r = np.broadcast_to(nc[:, :, None], (len(cells), 12, 12))
+    c = np.broadcast_to(nc[:, None, :], (len(cells), 12, 12))
+    data = np.broadcast_to(ke, (len(cells), 12, 12))
+    ff = (r >= 0) & (c >= 0)
+    kff = sp.csc_matrix((data[ff], (r[ff], c[ff])), shape=(nf, nf))
+    rhs = f[order]
+    if len(fixed):
+        # free x held entries move the held values to the right-hand side
+        uc = np.broadcast_to(u[cells][:, None, :], (len(cells), 12, 12))
+        fc = (r >= 0) & (c < 0)
+        rhs = rhs - np.bincount(r[fc], weights=data[fc] * uc[fc], minlength=nf)
     try:
         # symmetric positive definite: no pivoting, keep the order
         lu = spla.splu(kff, permc_spec="NATURAL", diag_pivot_thresh=0.0,
