@@ -41,7 +41,10 @@ def plot_size_function(variation, sizes, *, ax=None, title="size function f(D) (
 
 
 def plot_size_grid(grid, polygon=None, *, nodes=None, ax=None, title=None, vmin=None, vmax=None):
-    """A size grid as an image; grid points that (4.5) assigned dotted, the polygon outlined.
+    """A size grid as an image, the polygon outlined.
+
+    White dots mark the grid points filled by the plate, or those assigned by
+    (4.5) when they are the fewer.
 
     Parameters
     ----------
@@ -61,9 +64,11 @@ def plot_size_grid(grid, polygon=None, *, nodes=None, ax=None, title=None, vmin=
     fig.colorbar(im, ax=ax, shrink=0.75, label="size")
     a = getattr(grid, "assigned", None)
     if a is not None and (~a).any():
-        j, i = np.nonzero(~a)
+        # mark the rarer kind of grid point, so that neither floods the image
+        mark, label = ((~a, "from the plate") if (~a).sum() <= a.sum() else (a, "by (4.5)"))
+        j, i = np.nonzero(mark)
         ax.plot(x0 + i * grid.spacing[0], y0 + j * grid.spacing[1], ".", color="w", ms=2,
-                label="from the plate")
+                label=label)
         ax.legend(loc="upper right", fontsize=7)
     if nodes is not None:
         ax.plot(nodes[:, 0], nodes[:, 1], "+", color="k", ms=3, mew=0.5)
