@@ -143,7 +143,8 @@ def main(argv=None):
     rows.append({"table": "4.2", "mesh": "whole loop", "seconds": round(r.total_seconds, 2),
                  "cpu_seconds": round(sum(r.cpu_seconds[p] for p in PHASES), 2),
                  "thesis": round(sum(THESIS_4_2.values()), 2)})
-    rows.append({"table": "plate", "mesh": "floor size grid 200 x 200", "seconds": round(plate_s, 3),
+    rows.append({"table": "plate", "mesh": "floor size grid 200 x 200",
+                 "seconds": round(plate_s, 3),
                  "cpu_seconds": round(plate_cpu, 3), "elements": plate_free})
     if args.quick:
         return
@@ -172,7 +173,8 @@ def main(argv=None):
     (RESULTS / "intensity_mesh.json").write_text(json.dumps(
         {"machine": machine(), "image": args.image, "tol": args.tol,
          "parameters": {k: v for k, v in r.parameters.items() if k != "solve"},
-         "table_4_1": counts, "table_4_2": r.seconds, "table_4_2_cpu": r.cpu_seconds, "plate_seconds": plate_s,
+         "table_4_1": counts, "table_4_2": r.seconds, "table_4_2_cpu": r.cpu_seconds,
+         "plate_seconds": plate_s,
          "plate_cpu_seconds": plate_cpu, "load_average": os.getloadavg(),
          "curves": {"uniform": [p.__dict__ for p in uni], "adaptive": [p.__dict__ for p in ada],
                     "intensity": [p.__dict__ for p in ours]},

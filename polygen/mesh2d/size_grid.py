@@ -64,7 +64,8 @@ def grid_lattice(bounds, grid):
             raise ValueError(f"grid: expected a step or (m, n), got {grid!r}") from None
         if not (np.isfinite(step) and step > 0):
             raise ValueError(f"grid: a step must be finite and > 0, got {grid}")
-        nx, ny = max(2, int(np.ceil(w / step - 1e-9)) + 1), max(2, int(np.ceil(h / step - 1e-9)) + 1)
+        nx = max(2, int(np.ceil(w / step - 1e-9)) + 1)
+        ny = max(2, int(np.ceil(h / step - 1e-9)) + 1)
     else:
         try:
             nx, ny = (int(g) for g in grid)
