@@ -17,7 +17,9 @@ mesh nearest the thesis's first mesh of 1976 elements among 1.4-1.75),
 gives no values), grid step ``size_max / 2`` (the finest element), adaptive
 threshold 0.1 of the bright surfaces' radiosity (as
 ``benchmarks/radiosity_error.py``); the curve of this method repeats the
-loop for ``size_initial`` 2.4 and 1.7 with the same ratios.  Writes
+loop for ``size_initial`` 2.4 and 1.7 with the same ratios.  A second curve,
+not Table 4.1's parameters, reruns the size function and second mesh from
+the same first solution (1.7) with ``size_min`` 1.5 and 1.25 ``size_initial``.  Writes
 ``benchmarks/results/intensity_mesh.json`` and ``.md``.
 
     python benchmarks/intensity_mesh.py [--image 160] [--quick]
@@ -98,6 +100,12 @@ def main(argv=None):
               f"{loops[si].second_mesh.n_elements} elements, "
               f"{loops[si].total_seconds:.1f} s", flush=True)
     r = loops[main_size]
+    # not Table 4.1's parameters: a less coarse size_min from the same first solution, to
+    # see what the method gives between "coarser everywhere" and the first mesh
+    sweep = {} if args.quick else {
+        f: intensity_bubble_mesh(sc, size_initial=main_size, size_min=f * main_size,
+                                 size_max=main_size / 2, solve=solve, first=r)
+        for f in (1.5, 1.25)}
     plate_s, plate_cpu, plate_free = plate_timing(r, 20 if args.quick else 200)
     print(f"plate 200 x 200: {plate_s:.2f} s wall, {plate_cpu:.2f} s CPU ({plate_free} grid "
           f"points from the plate)", flush=True)
@@ -124,9 +132,12 @@ def main(argv=None):
                           r.seconds["first_mesh"] + r.seconds["first_radiosity"]
                           + r.seconds["adaptive_mesh"] + r.seconds["adaptive_radiosity"]))
     ours = [loop_point(f"intensity-based {si:g}", q, cam, reference) for si, q in loops.items()]
+    ours_sweep = [loop_point(f"intensity-based {main_size:g}, size_min {f:g} x", q, cam,
+                             reference) for f, q in sweep.items()]
 
     rows = []
-    for kind, pts in (("uniform", uni), ("adaptive", ada), ("intensity-based", ours)):
+    for kind, pts in (("uniform", uni), ("adaptive", ada), ("intensity-based", ours),
+                      ("intensity-based, size_min sweep", ours_sweep)):
         for p in pts:
             print(f"  {p.label:28s} {p.n_elements:7d} elements  error {p.error:.4f}  "
                   f"{p.seconds:6.1f} s", flush=True)
@@ -177,7 +188,8 @@ def main(argv=None):
          "plate_seconds": plate_s,
          "plate_cpu_seconds": plate_cpu, "load_average": os.getloadavg(),
          "curves": {"uniform": [p.__dict__ for p in uni], "adaptive": [p.__dict__ for p in ada],
-                    "intensity": [p.__dict__ for p in ours]},
+                    "intensity": [p.__dict__ for p in ours],
+                    "intensity, smaller size_min": [p.__dict__ for p in ours_sweep]},
          "reference_elements": ref_mesh.n_elements, "reference_seconds": t_ref,
          "rows": rows}, indent=2) + "\n")
 

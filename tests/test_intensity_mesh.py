@@ -138,6 +138,21 @@ def test_two_pass_loop_pieces(small_loop):
     assert np.all(r.second_radiosity[lit] >= r.second_mesh.element_emission[lit] - 1e-9)
 
 
+def test_reuse_first_solution(small_loop):
+    r = small_loop
+    again = intensity_bubble_mesh(r.first_mesh.scene, size_initial=4.0, size_min=8.0,
+                                  size_max=2.0, solve={"tol": 0.05}, first=r)
+    assert again.first_mesh is r.first_mesh
+    np.testing.assert_array_equal(again.second_mesh.nodes, r.second_mesh.nodes)
+    other = intensity_bubble_mesh(r.first_mesh.scene, size_initial=4.0, size_min=5.0,
+                                  size_max=2.0, solve={"tol": 0.05}, first=r)
+    np.testing.assert_array_equal(other.variation, r.variation)
+    assert other.node_size.max() == pytest.approx(5.0)
+    with pytest.raises(MeshError, match="differ"):
+        intensity_bubble_mesh(r.first_mesh.scene, size_initial=3.0, size_min=8.0, size_max=2.0,
+                              solve={"tol": 0.05}, first=r)
+
+
 def test_second_mesh_follows_the_size_grid(coarse):
     """Grids built in each polygon's own frame reach the mesher in that frame.
 

@@ -278,7 +278,7 @@ def _solve(mesh, solve):
 
 def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
                           element_levels=1, nu=0.3, seed=0, solve=None,
-                          adaptive_threshold=None, solve_adaptive=False):
+                          adaptive_threshold=None, solve_adaptive=False, first=None):
     """The two-pass loop of Fig. 4.3.
 
     Parameters
@@ -310,6 +310,11 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
         :func:`bright_scale`.
     solve_adaptive : bool, keyword-only
         Solve the adaptive mesh too.
+    first : IntensityMesh or None, keyword-only
+        Reuse this earlier run's first mesh and solution (and their timings)
+        instead of computing them again, e.g. to try other ``size_min`` /
+        ``size_max``; it must come from the same scene, ``size_initial``,
+        ``element_levels``, ``seed`` and ``solve``.
 
     Returns
     -------
@@ -332,13 +337,27 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
     mesher = bubble_mesher if seed == 0 else _seeded(seed)
     clock = _Clock()
 
-    clock.start()
-    first = mesh_scene(scene, si, element_levels=element_levels, mesher=mesher)
-    clock.stop("first_mesh")
-
-    clock.start()
-    r1, b1 = _solve(first, solve)
-    clock.stop("first_radiosity")
+    if first is None:
+        clock.start()
+        first = mesh_scene(scene, si, element_levels=element_levels, mesher=mesher)
+        clock.stop("first_mesh")
+        clock.start()
+        r1, b1 = _solve(first, solve)
+        clock.stop("first_radiosity")
+    else:
+        if not isinstance(first, IntensityMesh):
+            raise MeshError(f"first must be an IntensityMesh, got {type(first).__name__}")
+        p = first.parameters
+        same = (first.first_mesh.scene is scene and p["size_initial"] == si
+                and p["element_levels"] == element_levels and p["seed"] == seed
+                and p["solve"] == solve)
+        if not same:
+            raise MeshError("first: that run's scene, size_initial, element_levels, seed or "
+                            "solve differ from these")
+        r1, b1 = first.first_result, first.first_radiosity
+        for k in PHASES[:2]:
+            clock.wall[k], clock.cpu[k] = first.seconds[k], first.cpu_seconds[k]
+        first = first.first_mesh
 
     clock.start()
     inten = node_intensities(first, b1)
