@@ -219,16 +219,18 @@ plt.show()
 # Gouraud image from the image of a much finer uniform mesh. The curves come from
 # `benchmarks/intensity_mesh.py` (its results file, as last run; nothing is asserted on a
 # stored file): uniform bubble meshes, adaptive subdivision repeated on the coarsest, the
-# adaptive re-mesh of Table 4.1, and this method from first meshes of two sizes.
+# adaptive re-mesh of Table 4.1, this method from first meshes of two sizes, and — not
+# Table 4.1's parameters — this method again from the first solution of size 1.7 with a less
+# coarse `size_min` (1.5 and 1.25 `size_initial`).
 #
-# In the last run, with the parameters above, this method is on the uniform meshes' line or a
-# little below it (0.061 with 600 elements and 0.082 with 344; the uniform meshes' power law
-# through 1064 and 2056 elements gives about 0.066 and 0.10 there), but it does **not** reach
-# adaptive subdivision's error with fewer elements: the adaptive re-mesh of the same first
-# solution has 0.015 with 3109 elements, where this method has stripped the first mesh down
-# to 600. With `size_min` = 2 `size_initial` the second mesh is a coarser mesh, not a finer
-# one where it matters; the thesis's claim of a better picture with fewer elements (Figs 4.12,
-# 4.13) is not reproduced at these sizes.
+# In the last run this method lies on the uniform meshes' line, a little below or above it:
+# 0.061 with 600 elements and 0.082 with 344 (the uniform meshes' power law through 1064 and
+# 2056 elements gives about 0.066 and 0.10 there), 0.044 with 1080 (uniform: 0.041 with
+# 1064) and 0.029 with 1520 (power law: 0.031). It does **not** reach adaptive subdivision's
+# error with fewer elements: the adaptive re-mesh of the same first solution has 0.015 with
+# 3109 elements, and no point of ours gets near that. The thesis's claim of a better picture
+# with fewer elements (Figs 4.12, 4.13 against 4.11) is not reproduced on our scene at
+# these sizes.
 
 # %%
 res = json.loads((Path("..") / "benchmarks" / "results" / "intensity_mesh.json").read_text())
