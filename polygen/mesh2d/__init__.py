@@ -16,6 +16,9 @@ it with shapely.
 * :func:`planar_graph`, :func:`mesh_planar_graph` -- a polygon cut by
   constrained segments (D0/D1) into regions, meshed with conforming nodes
   on every edge; :func:`convex_partition` (Hertel-Mehlhorn).
+* :func:`element_size_grid` -- the element-size grid of chapter 4 (4.5):
+  inverse-distance weights near the nodes, a thin plate bent through them
+  elsewhere (:mod:`polygen.mesh2d.plate`, the 12-DOF ACM element, 4.6-4.10).
 * :func:`triangle_quality`, :func:`quality_histogram` -- min angle and
   radius ratio.
 * :func:`subdivide_patches` (regular 1 -> 4), :func:`bubble_subdivide_patches`
@@ -40,6 +43,7 @@ from polygen.mesh2d.domain import (
     signed_area,
     validate_domain,
 )
+from polygen.mesh2d.plate import PlateError, assemble_plate, plate_element_stiffness, solve_plate
 from polygen.mesh2d.pslg import (
     D0,
     D1,
@@ -57,6 +61,7 @@ from polygen.mesh2d.quality import (
     triangle_areas,
     triangle_quality,
 )
+from polygen.mesh2d.size_grid import assign_grid_sizes, element_size_grid, grid_lattice
 from polygen.mesh2d.sizing import GridSize, as_size_function, uniform_size
 from polygen.mesh2d.subdivision import (
     AdaptiveSubdivision,
@@ -83,6 +88,13 @@ from polygen.mesh2d.tree_placement import (
 __all__ = [
     "D0",
     "D1",
+    "PlateError",
+    "assemble_plate",
+    "assign_grid_sizes",
+    "element_size_grid",
+    "grid_lattice",
+    "plate_element_stiffness",
+    "solve_plate",
     "GraphMesh",
     "PlanarGraph",
     "convex_partition",

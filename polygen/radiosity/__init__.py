@@ -17,6 +17,9 @@ Layers, each usable on its own (chapters 3 and 4 build on them):
   scanline z-buffer (2.9, 2.10);
 * :mod:`~polygen.radiosity.adaptive` -- adaptive subdivision of elements
   (Def. 2.6), the baseline of chapters 3 and 4;
+* :mod:`~polygen.radiosity.intensity` -- chapter 4's intensity-based
+  bubble mesh: intensity variation, size function, size grids, the
+  two-pass loop;
 * :mod:`~polygen.radiosity.error` -- image error against a reference, and
   the error-vs-elements curves of uniform meshes and adaptive subdivision
   (the yardstick of chapters 3 and 4).
@@ -46,6 +49,13 @@ from polygen.radiosity.hemicube import (
     delta_form_factors,
     hemicube_form_factors,
     hemicube_polygon_form_factor,
+)
+from polygen.radiosity.intensity import (
+    IntensityMesh,
+    intensity_bubble_mesh,
+    intensity_variation,
+    polygon_size_grids,
+    size_function,
 )
 from polygen.radiosity.layout import (
     D0,
@@ -92,6 +102,11 @@ from polygen.radiosity.solve import (
 )
 
 __all__ = [
+    "IntensityMesh",
+    "intensity_bubble_mesh",
+    "intensity_variation",
+    "polygon_size_grids",
+    "size_function",
     "D0",
     "D1",
     "RegionSize",

@@ -1,0 +1,198 @@
+"""Benchmark: the intensity-based bubble mesh (thesis chapter 4, Tables 4.1 and 4.2).
+
+On the scene of Fig. 4.8 (`scenes.three_rectangles_box`):
+
+* the plate solve that fills a size grid (4.6-4.10) on a 200 x 200 grid:
+  the floor's size grid from the first mesh's node sizes (target < 2 s);
+* the five phases of the two-pass loop (Table 4.2; target: all of it < 60 s);
+* element counts of Table 4.1: first mesh, conventional adaptive re-mesh
+  from the same first solution, this method;
+* image error against element count (:mod:`polygen.radiosity.error`'s
+  yardstick) for uniform bubble meshes, adaptive subdivision repeated on a
+  coarse mesh, and this method.
+
+Parameters, fixed before measuring: ``size_initial`` 1.7 (the uniform bubble
+mesh nearest the thesis's first mesh of 1976 elements among 1.4-1.75),
+``size_min = 2 size_initial``, ``size_max = size_initial / 2`` (the thesis
+gives no values), grid step ``size_max / 2`` (the finest element), adaptive
+threshold 0.1 of the bright surfaces' radiosity (as
+``benchmarks/radiosity_error.py``); the curve of this method repeats the
+loop for ``size_initial`` 2.4 and 1.7 with the same ratios.  A second curve,
+not Table 4.1's parameters, reruns the size function and second mesh from
+the same first solution (1.7) with ``size_min`` 1.5 and 1.25 ``size_initial``.  Writes
+``benchmarks/results/intensity_mesh.json`` and ``.md``.
+
+    python benchmarks/intensity_mesh.py [--image 160] [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+
+from _common import RESULTS, machine, write_results
+
+from polygen.mesh2d import element_size_grid
+from polygen.radiosity import (
+    Camera,
+    bubble_mesher,
+    intensity_bubble_mesh,
+    mesh_scene,
+    progressive_refinement,
+    scenes,
+)
+from polygen.radiosity.error import ErrorPoint, adaptive_curve, image_error, shade, uniform_curve
+from polygen.radiosity.intensity import PHASES
+
+THESIS_4_1 = {"first mesh": 1976, "adaptive re-mesh": 3205, "this method": 1396}
+THESIS_4_2 = dict(zip(PHASES, (31.51, 277.31, 171.75, 42.23, 225.54)))
+
+
+def camera(n):
+    """Inside the box by the front wall, looking at the three rectangles and the floor."""
+    return Camera([5.0, 6.0, 0.3], [5.0, 3.5, 6.0], fov=75.0, width=n, height=n, near=0.01)
+
+
+def plate_timing(result, n=200):
+    """Best of 3, wall and CPU seconds: the floor's size grid on n x n points (IDW + plate)."""
+    first = result.first_mesh
+    k = next(i for i, p in enumerate(first.scene.polygons) if p.name == "box_y0")
+    poly = first.scene.polygons[k]
+    xy, _, _, nodes = first.polygon_elements(k)
+    ext = poly.exterior_2d
+    bounds = (*ext.min(axis=0), *ext.max(axis=0))
+    wall = cpu = float("inf")
+    for _ in range(3):
+        t, c = time.perf_counter(), time.process_time()
+        grid = element_size_grid(xy, result.node_size[nodes], bounds, grid=(n, n))
+        wall = min(wall, time.perf_counter() - t)
+        cpu = min(cpu, time.process_time() - c)
+    return wall, cpu, int((~grid.assigned).sum())
+
+
+def loop_point(label, r, cam, reference):
+    return ErrorPoint(label, r.second_mesh.n_elements, r.second_mesh.n_patches,
+                      image_error(shade(r.second_mesh, r.second_radiosity, cam), reference),
+                      sum(r.seconds[p] for p in PHASES))
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--image", type=int, default=160, help="image side in pixels")
+    ap.add_argument("--tol", type=float, default=0.01, help="unshot fraction to stop at")
+    ap.add_argument("--quick", action="store_true", help="tiny sizes (a smoke test)")
+    args = ap.parse_args(argv)
+    solve = {"tol": args.tol, "ambient": True}
+    sc = scenes.three_rectangles_box()
+    cam = camera(args.image)
+    sizes = [4.0] if args.quick else [2.4, 1.7]
+    main_size = sizes[-1]
+
+    # the loop with Table 4.1/4.2's parameters (and the curve's other points)
+    loops = {}
+    for si in sizes:
+        loops[si] = intensity_bubble_mesh(sc, size_initial=si, size_min=2 * si, size_max=si / 2,
+                                          solve=solve, adaptive_threshold=0.1,
+                                          solve_adaptive=si == main_size)
+        print(f"loop size_initial {si}: {loops[si].first_mesh.n_elements} -> "
+              f"{loops[si].second_mesh.n_elements} elements, "
+              f"{loops[si].total_seconds:.1f} s", flush=True)
+    r = loops[main_size]
+    # not Table 4.1's parameters: a less coarse size_min from the same first solution, to
+    # see what the method gives between "coarser everywhere" and the first mesh
+    sweep = {} if args.quick else {
+        f: intensity_bubble_mesh(sc, size_initial=main_size, size_min=f * main_size,
+                                 size_max=main_size / 2, solve=solve, first=r)
+        for f in (1.5, 1.25)}
+    plate_s, plate_cpu, plate_free = plate_timing(r, 20 if args.quick else 200)
+    print(f"plate 200 x 200: {plate_s:.2f} s wall, {plate_cpu:.2f} s CPU ({plate_free} grid "
+          f"points from the plate)", flush=True)
+
+    # the reference: a finer uniform mesh, 16 elements per patch of a size no curve mesh has
+    t0 = time.perf_counter()
+    ref_mesh = mesh_scene(sc, 4.0 if args.quick else 1.1, element_levels=2)
+    ref_result = progressive_refinement(ref_mesh, **solve)
+    reference = shade(ref_mesh, ref_result.display_radiosity(ref_mesh), cam)
+    t_ref = time.perf_counter() - t0
+    print(f"reference {ref_mesh.n_elements} elements, {t_ref:.1f} s", flush=True)
+
+    uni = [ErrorPoint(f"uniform {si:g}", q.first_mesh.n_elements, q.first_mesh.n_patches,
+                      image_error(shade(q.first_mesh, q.first_radiosity, cam), reference),
+                      q.seconds["first_mesh"] + q.seconds["first_radiosity"])
+           for si, q in loops.items()]
+    if not args.quick:
+        uni += uniform_curve(sc, cam, reference, [1.2], mesher=bubble_mesher, solve=solve)
+    ada = adaptive_curve(sc, cam, reference, sizes[0], 1 if args.quick else 2, threshold=0.1,
+                         mesher=bubble_mesher, solve=solve)
+    ada.append(ErrorPoint(f"adaptive from uniform {main_size:g}", r.adaptive_mesh.n_elements,
+                          r.adaptive_mesh.n_patches,
+                          image_error(shade(r.adaptive_mesh, r.adaptive_radiosity, cam), reference),
+                          r.seconds["first_mesh"] + r.seconds["first_radiosity"]
+                          + r.seconds["adaptive_mesh"] + r.seconds["adaptive_radiosity"]))
+    ours = [loop_point(f"intensity-based {si:g}", q, cam, reference) for si, q in loops.items()]
+    ours_sweep = [loop_point(f"intensity-based {main_size:g}, size_min {f:g} x", q, cam,
+                             reference) for f, q in sweep.items()]
+
+    rows = []
+    for kind, pts in (("uniform", uni), ("adaptive", ada), ("intensity-based", ours),
+                      ("intensity-based, size_min sweep", ours_sweep)):
+        for p in pts:
+            print(f"  {p.label:28s} {p.n_elements:7d} elements  error {p.error:.4f}  "
+                  f"{p.seconds:6.1f} s", flush=True)
+            rows.append({"table": "error", "method": kind, "mesh": p.label,
+                         "elements": p.n_elements, "rms_error": round(p.error, 5),
+                         "seconds": round(p.seconds, 2)})
+    counts = {"first mesh": r.first_mesh.n_elements, "adaptive re-mesh": r.adaptive_mesh.n_elements,
+              "this method": r.second_mesh.n_elements}
+    for k, v in counts.items():
+        rows.append({"table": "4.1", "mesh": k, "elements": v, "thesis": THESIS_4_1[k]})
+    for p in PHASES:
+        rows.append({"table": "4.2", "mesh": p, "seconds": round(r.seconds[p], 2),
+                     "cpu_seconds": round(r.cpu_seconds[p], 2), "thesis": THESIS_4_2[p]})
+    rows.append({"table": "4.2", "mesh": "whole loop", "seconds": round(r.total_seconds, 2),
+                 "cpu_seconds": round(sum(r.cpu_seconds[p] for p in PHASES), 2),
+                 "thesis": round(sum(THESIS_4_2.values()), 2)})
+    rows.append({"table": "plate", "mesh": "floor size grid 200 x 200",
+                 "seconds": round(plate_s, 3),
+                 "cpu_seconds": round(plate_cpu, 3), "elements": plate_free})
+    if args.quick:
+        return
+    write_results("intensity_mesh", rows,
+                  ["table", "method", "mesh", "elements", "rms_error", "seconds", "cpu_seconds",
+                   "thesis"],
+                  title="Intensity-based bubble mesh (chapter 4): Tables 4.1, 4.2, the plate "
+                        "solve and image error against element count",
+                  notes=[f"scene of Fig. 4.8; size_initial {main_size}, size_min "
+                         f"{2 * main_size}, size_max {main_size / 2}, grid step "
+                         f"{main_size / 4}, adaptive threshold 0.1 of the bright surfaces' "
+                         "radiosity; sizes are patch sizes, 4 elements per patch",
+                         "table 4.1: elements (thesis column: the thesis's counts); table 4.2: "
+                         "wall and CPU seconds per phase (thesis column: RS/6000 model 560 "
+                         "seconds)",
+                         "plate: IDW + plate solve of the floor's size grid on 200 x 200 points, "
+                         "best of 3, wall and CPU (process) time; 'elements' = grid points "
+                         "filled by the plate",
+                         f"load average at the end: {os.getloadavg()[0]:.1f} on "
+                         f"{os.cpu_count()} CPUs (wall times are inflated by other jobs)",
+                         f"error: relative RMS over the covered pixels of a {args.image}^2 "
+                         f"Gouraud image against a uniform mesh of {ref_mesh.n_elements} "
+                         f"elements; progressive refinement, tol {args.tol}, ambient on; "
+                         "uniform and adaptive meshes are bubble meshes; seconds: meshing + "
+                         "solving (cumulative for adaptive rounds, the whole loop for ours)"])
+    (RESULTS / "intensity_mesh.json").write_text(json.dumps(
+        {"machine": machine(), "image": args.image, "tol": args.tol,
+         "parameters": {k: v for k, v in r.parameters.items() if k != "solve"},
+         "table_4_1": counts, "table_4_2": r.seconds, "table_4_2_cpu": r.cpu_seconds,
+         "plate_seconds": plate_s,
+         "plate_cpu_seconds": plate_cpu, "load_average": os.getloadavg(),
+         "curves": {"uniform": [p.__dict__ for p in uni], "adaptive": [p.__dict__ for p in ada],
+                    "intensity": [p.__dict__ for p in ours],
+                    "intensity, smaller size_min": [p.__dict__ for p in ours_sweep]},
+         "reference_elements": ref_mesh.n_elements, "reference_seconds": t_ref,
+         "rows": rows}, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()

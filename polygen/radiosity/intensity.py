@@ -1,0 +1,396 @@
+"""The intensity-based bubble mesh (thesis chapter 4, Fig. 4.3).
+
+A two-pass loop: a uniform mesh and a first radiosity solution; at every
+node the intensity variation ``D`` (4.1); an element size ``f(D)``, linear
+between ``size_min`` at the smallest ``D`` and ``size_max`` at the largest
+(4.2-4.4; note the thesis's naming: ``size_max`` is the size at ``D_max``,
+i.e. the *smallest* size); per polygon a rectangular size grid, assigned
+by inverse-distance weights near the nodes and elsewhere by bending a thin
+plate through them (4.5-4.10, :func:`polygen.mesh2d.element_size_grid`);
+a second bubble mesh reading the grid by bilinear interpolation (4.12,
+4.13); and a second solution.  Conventional adaptive subdivision
+(:func:`~polygen.radiosity.adaptive_refine`) from the same first solution
+is the comparison (Table 4.1).
+
+Sizes here are *patch* sizes, the bubble diameter of the patch mesh; each
+patch is split into ``4**element_levels`` elements, as the thesis makes
+elements by dividing patches (4.3.3, Fig. 4.6).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from polygen.mesh2d import triangle_edges
+from polygen.mesh2d.plate import PlateError
+from polygen.mesh2d.size_grid import element_size_grid
+from polygen.radiosity.adaptive import adaptive_refine
+from polygen.radiosity.mesh import MeshError, RadiosityMesh, bubble_mesher, mesh_scene
+from polygen.radiosity.raster import node_intensities
+from polygen.radiosity.scene import Scene, SceneError
+from polygen.radiosity.solve import progressive_refinement
+
+__all__ = ["IntensityMesh", "intensity_variation", "size_function", "check_size_parameters",
+           "polygon_size_grids", "intensity_bubble_mesh", "bright_scale", "PHASES"]
+
+#: Table 4.2's five phases, the keys of :attr:`IntensityMesh.seconds`.
+PHASES = ("first_mesh", "first_radiosity", "size_function", "second_mesh", "second_radiosity")
+
+
+def _node_edges(mesh):
+    """(E, 2) int64 node pairs joined by an element edge (Def. 4.1)."""
+    edges, _ = triangle_edges(mesh.elements)
+    return edges
+
+
+def intensity_variation(mesh, node_values):
+    """Intensity variation at every node, (4.1): ``D = max_i |I_i - I| / dist_i``.
+
+    Parameters
+    ----------
+    mesh : RadiosityMesh
+    node_values : (N,) or (N, C) float64
+        Node intensities (e.g. :func:`~polygen.radiosity.node_intensities` of
+        the element radiosities); with channels (RGB), ``D`` is the largest
+        over them (4.3.1).
+
+    Returns
+    -------
+    (N,) float64
+        Over the nodes joined to each node by an element edge (Def. 4.1);
+        0 for a node without neighbours.  Nodes of different polygons are
+        never neighbours.
+    """
+    if not isinstance(mesh, RadiosityMesh):
+        raise MeshError(f"mesh must be a RadiosityMesh, got {type(mesh).__name__}")
+    v = np.asarray(node_values, dtype=np.float64)
+    v = v.reshape(len(v), -1)
+    if v.shape[0] != mesh.n_nodes:
+        raise MeshError(f"node_values must have {mesh.n_nodes} rows, got {v.shape[0]}")
+    if not np.all(np.isfinite(v)):
+        raise MeshError("node_values contain NaN or inf")
+    e = _node_edges(mesh)
+    dist = np.linalg.norm(mesh.nodes[e[:, 0]] - mesh.nodes[e[:, 1]], axis=1)
+    if np.any(dist <= 0):
+        raise MeshError("two nodes joined by an element edge coincide")
+    g = np.abs(v[e[:, 0]] - v[e[:, 1]]).max(axis=1) / dist
+    out = np.zeros(mesh.n_nodes)
+    np.maximum.at(out, e[:, 0], g)
+    np.maximum.at(out, e[:, 1], g)
+    return out
+
+
+def check_size_parameters(size_initial, size_min, size_max):
+    """Check (4.3): ``0 < size_max < size_initial < size_min``, all finite.
+
+    Returns
+    -------
+    (size_initial, size_min, size_max) floats
+
+    Raises
+    ------
+    MeshError
+        Naming the parameter that breaks the order.
+    """
+    vals = {}
+    for name, v in (("size_initial", size_initial), ("size_min", size_min), ("size_max", size_max)):
+        try:
+            vals[name] = float(v)
+        except (TypeError, ValueError):
+            raise MeshError(f"{name} must be a number, got {type(v).__name__}") from None
+        if not (np.isfinite(vals[name]) and vals[name] > 0):
+            raise MeshError(f"{name} must be finite and > 0, got {v}")
+    si, smin, smax = vals["size_initial"], vals["size_min"], vals["size_max"]
+    if not smax < si:
+        raise MeshError(f"size_max ({smax}) must be smaller than size_initial ({si}): it is the "
+                        "size where the intensity varies most (4.3)")
+    if not si < smin:
+        raise MeshError(f"size_min ({smin}) must be larger than size_initial ({si}): it is the "
+                        "size where the intensity varies least (4.3)")
+    return si, smin, smax
+
+
+def size_function(variation, *, size_min, size_max):
+    """Element size at each node from its intensity variation, (4.2)-(4.4).
+
+    ``f(D) = a D + b`` with ``f(D_min) = size_min`` and ``f(D_max) =
+    size_max`` over the given ``D``.
+
+    Parameters
+    ----------
+    variation : (N,) float64
+        ``D`` at the nodes (:func:`intensity_variation`), >= 0.
+    size_min, size_max : float, keyword-only
+        Sizes at the smallest and the largest ``D`` (``size_max <
+        size_min``).
+
+    Returns
+    -------
+    (N,) float64
+        All ``size_min`` when ``D`` is constant (no variation anywhere).
+    """
+    d = np.asarray(variation, dtype=np.float64).reshape(-1)
+    if len(d) == 0 or not np.all(np.isfinite(d)) or d.min() < 0:
+        raise MeshError("variation must be a non-empty array of finite values >= 0")
+    smin, smax = float(size_min), float(size_max)
+    if not (np.isfinite(smax) and 0 < smax < smin and np.isfinite(smin)):
+        raise MeshError(f"need 0 < size_max < size_min, got size_max={size_max}, "
+                        f"size_min={size_min}")
+    dmin, dmax = float(d.min()), float(d.max())
+    if dmax == dmin:
+        return np.full(len(d), smin)
+    a = (smax - smin) / (dmax - dmin)  # (4.4)
+    b = (smin * dmax - smax * dmin) / (dmax - dmin)
+    return a * d + b
+
+
+def polygon_size_grids(mesh, node_sizes, *, grid, nu=0.3):
+    """One element-size grid per polygon of a mesh (4.3.2).
+
+    Parameters
+    ----------
+    mesh : RadiosityMesh
+    node_sizes : (N,) float64
+        Sizes at the nodes (:func:`size_function`).
+    grid : float or (m, n) ints, keyword-only
+        Lattice step, or point counts, of every polygon's grid
+        (:func:`polygen.mesh2d.grid_lattice`).
+    nu : float, keyword-only
+        The plate's Poisson ratio.
+
+    Returns
+    -------
+    list of GridSize
+        In each polygon's (u, v) frame, over its bounding box.  The two
+        faces of a two-sided polygon share one grid: at each node position
+        the smaller of the two faces' sizes counts.
+    """
+    s = np.asarray(node_sizes, dtype=np.float64).reshape(-1)
+    if s.shape != (mesh.n_nodes,):
+        raise MeshError(f"node_sizes must be ({mesh.n_nodes},), got {s.shape}")
+    out = []
+    for k, poly in enumerate(mesh.scene.polygons):
+        xy, _, _, nodes = mesh.polygon_elements(k)
+        sk = s[nodes]
+        # both faces' copies of a node sit at the same (u, v): keep the finer size
+        key = np.round(xy / (1e-9 * max(1.0, np.abs(xy).max())))
+        _, inv = np.unique(key, axis=0, return_inverse=True)
+        inv = inv.reshape(-1)
+        finest = np.full(inv.max() + 1, np.inf)
+        np.minimum.at(finest, inv, sk)
+        first = np.unique(inv, return_index=True)[1]
+        ext = poly.exterior_2d
+        bounds = (*ext.min(axis=0), *ext.max(axis=0))
+        try:
+            out.append(element_size_grid(xy[first], finest, bounds, grid=grid, nu=nu))
+        except (ValueError, PlateError) as exc:
+            raise MeshError(f"polygon {k} ({poly.name!r}): {exc}") from None
+    return out
+
+
+def bright_scale(mesh, radiosity):
+    """The radiosity of the bright surfaces: the 95th percentile over non-emitting elements.
+
+    The scale that a relative adaptive-subdivision threshold multiplies,
+    as in :func:`polygen.radiosity.error.adaptive_curve`.
+    """
+    b = np.asarray(radiosity, dtype=np.float64)
+    lit = ~(mesh.element_emission > 0).any(axis=1)
+    return float(np.percentile(b[lit].max(axis=1), 95.0)) if lit.any() else float(b.max())
+
+
+@dataclass(frozen=True, eq=False)
+class IntensityMesh:
+    """Result of :func:`intensity_bubble_mesh`.
+
+    Attributes
+    ----------
+    first_mesh, second_mesh : RadiosityMesh
+        The uniform mesh and the intensity-based bubble mesh.
+    first_radiosity, second_radiosity : (M1, 3), (M2, 3) float64
+        Display radiosities of the two solutions (ambient term included).
+    first_result, second_result : RadiosityResult
+    node_intensity : (N1, 3) float64
+        The first solution's node intensities (2.8).
+    variation : (N1,) float64
+        ``D`` at the first mesh's nodes (4.1).
+    node_size : (N1,) float64
+        ``f(D)`` (4.4).
+    size_grids : list of GridSize
+        One per polygon (4.3.2).
+    seconds : dict
+        Wall time of Table 4.2's five phases (:data:`PHASES`), and of the
+        adaptive re-mesh and its solution when asked for.
+    cpu_seconds : dict
+        The same phases' CPU time of this process (all its threads): on a
+        shared machine, what the work cost rather than how long it waited.
+    adaptive_mesh : RadiosityMesh or None
+        Conventional adaptive subdivision of the first mesh by the first
+        solution (Table 4.1's middle row); None unless asked for.
+    adaptive_radiosity : (M3, 3) float64 or None
+        Its solution, when asked for.
+    parameters : dict
+        The sizes and options used.
+    """
+
+    first_mesh: RadiosityMesh
+    first_result: object
+    first_radiosity: np.ndarray
+    node_intensity: np.ndarray
+    variation: np.ndarray
+    node_size: np.ndarray
+    size_grids: list
+    second_mesh: RadiosityMesh
+    second_result: object
+    second_radiosity: np.ndarray
+    seconds: dict
+    cpu_seconds: dict
+    adaptive_mesh: RadiosityMesh | None = None
+    adaptive_radiosity: np.ndarray | None = None
+    parameters: dict = field(default_factory=dict)
+
+    @property
+    def total_seconds(self):
+        return float(sum(self.seconds[p] for p in PHASES))
+
+
+class _Clock:
+    """Wall and CPU seconds of named phases."""
+
+    def __init__(self):
+        self.wall, self.cpu = {}, {}
+
+    def start(self):
+        self._t, self._c = time.perf_counter(), time.process_time()
+
+    def stop(self, name):
+        self.wall[name] = time.perf_counter() - self._t
+        self.cpu[name] = time.process_time() - self._c
+
+
+def _solve(mesh, solve):
+    result = progressive_refinement(mesh, **solve)
+    return result, result.display_radiosity(mesh)
+
+
+def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
+                          element_levels=1, nu=0.3, seed=0, solve=None,
+                          adaptive_threshold=None, solve_adaptive=False, first=None):
+    """The two-pass loop of Fig. 4.3.
+
+    Parameters
+    ----------
+    scene : Scene
+    size_initial : float, keyword-only
+        Patch size of the first, uniform bubble mesh.
+    size_min, size_max : float, keyword-only
+        Patch sizes where the intensity varies least and most;
+        ``size_max < size_initial < size_min`` (4.3).
+    grid : float or (m, n) ints, keyword-only
+        Size-grid lattice step or point counts per polygon; default
+        ``size_max / 2**element_levels``, the finest element's size (the
+        thesis gives no grid size): finer than the first mesh's nodes, so
+        that the plate fills the grid points between them.
+    element_levels : int, keyword-only
+        Each patch is split into ``4**element_levels`` elements (both meshes).
+    nu : float, keyword-only
+        The plate's Poisson ratio.
+    seed : int, keyword-only
+        Seed of the bubble meshes.
+    solve : dict, keyword-only
+        Keywords of :func:`~polygen.radiosity.progressive_refinement`
+        (default ``tol=0.01, ambient=True``).
+    adaptive_threshold : float in (0, 1) or None, keyword-only
+        Also refine the first mesh by conventional adaptive subdivision
+        (:func:`~polygen.radiosity.adaptive_refine`): elements whose radiosity
+        jumps from an edge neighbour's by more than this fraction of
+        :func:`bright_scale`.
+    solve_adaptive : bool, keyword-only
+        Solve the adaptive mesh too.
+    first : IntensityMesh or None, keyword-only
+        Reuse this earlier run's first mesh and solution (and their timings)
+        instead of computing them again, e.g. to try other ``size_min`` /
+        ``size_max``; it must come from the same scene, ``size_initial``,
+        ``element_levels``, ``seed`` and ``solve``.
+
+    Returns
+    -------
+    IntensityMesh
+
+    Raises
+    ------
+    SceneError
+        ``scene`` is not a Scene.
+    MeshError
+        Sizes out of order (4.3), a bad grid or threshold.
+    """
+    if not isinstance(scene, Scene):
+        raise SceneError(f"scene must be a Scene, got {type(scene).__name__}")
+    si, smin, smax = check_size_parameters(size_initial, size_min, size_max)
+    grid = smax / 2 ** int(element_levels) if grid is None else grid
+    if adaptive_threshold is not None and not 0 < adaptive_threshold < 1:
+        raise MeshError(f"adaptive_threshold must be in (0, 1), got {adaptive_threshold}")
+    solve = {"tol": 0.01, "ambient": True} if solve is None else dict(solve)
+    mesher = bubble_mesher if seed == 0 else _seeded(seed)
+    clock = _Clock()
+
+    if first is None:
+        clock.start()
+        first = mesh_scene(scene, si, element_levels=element_levels, mesher=mesher)
+        clock.stop("first_mesh")
+        clock.start()
+        r1, b1 = _solve(first, solve)
+        clock.stop("first_radiosity")
+    else:
+        if not isinstance(first, IntensityMesh):
+            raise MeshError(f"first must be an IntensityMesh, got {type(first).__name__}")
+        p = first.parameters
+        same = (first.first_mesh.scene is scene and p["size_initial"] == si
+                and p["element_levels"] == element_levels and p["seed"] == seed
+                and p["solve"] == solve)
+        if not same:
+            raise MeshError("first: that run's scene, size_initial, element_levels, seed or "
+                            "solve differ from these")
+        r1, b1 = first.first_result, first.first_radiosity
+        for k in PHASES[:2]:
+            clock.wall[k], clock.cpu[k] = first.seconds[k], first.cpu_seconds[k]
+        first = first.first_mesh
+
+    clock.start()
+    inten = node_intensities(first, b1)
+    d = intensity_variation(first, inten)
+    fsize = size_function(d, size_min=smin, size_max=smax)
+    grids = polygon_size_grids(first, fsize, grid=grid, nu=nu)
+    clock.stop("size_function")
+
+    clock.start()
+    second = mesh_scene(scene, grids, element_levels=element_levels, mesher=mesher)
+    clock.stop("second_mesh")
+
+    clock.start()
+    r2, b2 = _solve(second, solve)
+    clock.stop("second_radiosity")
+
+    ada = ada_b = None
+    if adaptive_threshold is not None:
+        clock.start()
+        ada = adaptive_refine(first, b1, adaptive_threshold * bright_scale(first, b1)).mesh
+        clock.stop("adaptive_mesh")
+        if solve_adaptive:
+            clock.start()
+            _, ada_b = _solve(ada, solve)
+            clock.stop("adaptive_radiosity")
+    params = {"size_initial": si, "size_min": smin, "size_max": smax, "grid": grid,
+              "element_levels": element_levels, "nu": nu, "seed": seed, "solve": solve,
+              "adaptive_threshold": adaptive_threshold}
+    return IntensityMesh(first, r1, b1, inten, d, fsize, grids, second, r2, b2, clock.wall,
+                         clock.cpu, ada, ada_b, params)
+
+
+def _seeded(seed):
+    import functools
+
+    return functools.partial(bubble_mesher, seed=int(seed))
