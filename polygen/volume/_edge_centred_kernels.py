@@ -267,7 +267,12 @@ def _polygon_codes(case, exact, vals, value, tri_table, tri_count, local_edges, 
 
     ``marching._cell_codes`` with node codes ``n_local_edges + i``; returns
     ``(k, mask)``: the triangles kept (zero-area ones are dropped) and the
-    slots they use.
+    slots of the whole polygon, dropped triangles included. A polygon that
+    collapses onto its nodes has no triangle, but its vertices must still be
+    registered: for-loop (3) of a node vertex is what reaches the cells
+    around the node, one of which may hold a real triangle (a boundary face
+    exactly at ``C``); vertices no triangle uses are dropped afterwards
+    (``surface.drop_unreferenced``).
     """
     ne = local_edges.shape[0]
     k = 0
@@ -278,9 +283,8 @@ def _polygon_codes(case, exact, vals, value, tri_table, tri_count, local_edges, 
             a = local_edges[e, 0]
             hi = a if vals[a] >= value else local_edges[e, 1]
             out[k, j] = ne + hi if (exact >> hi) & 1 else e
+            mask |= 1 << out[k, j]
         if out[k, 0] != out[k, 1] and out[k, 0] != out[k, 2] and out[k, 1] != out[k, 2]:
-            for j in range(3):
-                mask |= 1 << out[k, j]
             k += 1
     return k, mask
 

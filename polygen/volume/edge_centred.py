@@ -92,6 +92,7 @@ from polygen.volume.surface import (
     check_normals,
     check_value,
     drop_double_faces,
+    drop_unreferenced,
     node_gradients,
     vertex_normals,
     volume_arrays,
@@ -138,7 +139,10 @@ class EdgeCentredTable:
         ``constructed`` (polygons constructed), ``node_tests`` (cells around
         an exact-node vertex tested), ``node_vertices``, ``seeds_tested``,
         ``seeds_crossed``, ``lookups`` (vertex look-ups counted by the
-        kernel: it makes none), ``restarts`` (queries redone after a buffer grew).
+        kernel: it makes none), ``restarts`` (queries redone after a buffer grew),
+        ``collapsed`` (the end-node pairs of the vertices registered for
+        polygons that collapsed onto nodes at ``C`` and used by no triangle,
+        a tuple, usually empty; a node's two ends are equal).
     preprocess_s : float
         Seconds to build the incidence tables.
 
@@ -303,14 +307,20 @@ class EdgeCentredTable:
         tri = self._tris[:n_t].copy()
         tri_cell = self._tri_cell[:n_t].copy()
         keys = self._vkey[:n_v].copy()
+        vend = self._vend[:n_v]
+        collapsed = vend[:0].copy()
         if any_node:  # a face exactly at C between two cells: keep it once (as every method does)
             tri, tri_cell = drop_double_faces(keys, tri, tri_cell, self.n_edges)
+            tri, keep = drop_unreferenced(tri, n_v)  # vertices of polygons collapsed onto nodes
+            if keep is not None:
+                collapsed = np.delete(vend, keep, axis=0)
+                keys, vend, n_v = keys[keep], vend[keep], keep.size
         t2 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
         vertices = np.empty((n_v, 3))
         if n_v:
-            _k.positions(self._vend, n_v, self.points, self.s, value, vertices)
+            _k.positions(np.ascontiguousarray(vend), n_v, self.points, self.s, value, vertices)
         nrm = vertex_normals(normals, vertices, tri, keys, edges=np.ascontiguousarray(self.vol.edges), s=self.s,
                              value=value, node_grad=node_grad, points=self.points)
         t3 = time.perf_counter() - t0
@@ -326,6 +336,7 @@ class EdgeCentredTable:
             "seeds_crossed": int(n_queued),
             "lookups": int(counters[_k.C_LOOKUPS]),
             "restarts": restarts,
+            "collapsed": tuple(map(tuple, collapsed.tolist())),
         }
         return IsoSurface(
             value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell,
@@ -407,7 +418,7 @@ class EdgeCentredWalk:
         the edges), ``touched``, ``constructed``, ``node_tests``,
         ``node_vertices``, ``seeds_tested``, ``seeds_crossed``, ``lookups``
         and ``probes`` (hash slots inspected; both 0 unless ``search``),
-        ``restarts``, ``t_label`` (s).
+        ``restarts``, ``collapsed`` (as :class:`EdgeCentredTable`), ``t_label`` (s).
     preprocess_s : float
         Seconds to build the records.
     """
@@ -551,12 +562,18 @@ class EdgeCentredWalk:
         tri = self._tris[:n_t].copy()
         tri_cell = self._tri_cell[:n_t].copy()
         pkeys = self._vkey[:n_v].copy()
+        vend = self._vend[:n_v]
+        collapsed = vend[:0].copy()
         if any_node:  # a face exactly at C between two cells: keep it once (as every method does)
             tri, tri_cell = drop_double_faces(pkeys, tri, tri_cell, np.int64(self.n_points) * self.n_points)
+            tri, keep = drop_unreferenced(tri, n_v)  # vertices of polygons collapsed onto nodes
+            if keep is not None:
+                collapsed = np.delete(vend, keep, axis=0)
+                pkeys, vend = pkeys[keep], np.ascontiguousarray(vend[keep])
         t2 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
-        vertices, nrm = pair_stage3(self._vend[:n_v], tri, self.points, self.s, value, normals, node_grad)
+        vertices, nrm = pair_stage3(vend, tri, self.points, self.s, value, normals, node_grad)
         t3 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
@@ -575,6 +592,7 @@ class EdgeCentredWalk:
             "lookups": int(counters[_w.C_LOOKUPS]),
             "probes": int(counters[_w.C_PROBES]),
             "restarts": restarts,
+            "collapsed": tuple(map(tuple, collapsed.tolist())),
             "t_label": t_label,
         }
         return IsoSurface(

@@ -463,6 +463,24 @@ def drop_double_faces(keys, tri, tri_cell, n_edges):
     return tri[keep], tri_cell[keep]
 
 
+def drop_unreferenced(tri, n_vertices):
+    """``(tri, keep)``: triangles renumbered onto the vertices they use, and those vertices' old ids.
+
+    A polygon that collapses onto nodes at ``C`` registers vertices that no
+    kept triangle uses (they are how propagation reaches the node's other
+    cells); the surface holds only the vertices its triangles use, as the
+    full scan's does. ``keep`` is ``None`` when every vertex is used.
+    """
+    used = np.zeros(n_vertices, bool)
+    used[tri.ravel()] = True
+    if used.all():
+        return tri, None
+    keep = np.flatnonzero(used)
+    new = np.full(n_vertices, -1, tri.dtype)
+    new[keep] = np.arange(keep.size, dtype=tri.dtype)
+    return new[tri], keep
+
+
 def same_surface(a, b, *, geometry=True, normals_atol=1e-12):
     """Whether two isosurfaces are the same surface, whatever order their triangles came in.
 

@@ -180,7 +180,7 @@ class ShellRenderer:
             self.camera = camera
             self.distance = eye_distance(self.vol, camera)
             self.distance.setflags(write=False)
-            self.method = _methods.get("edge-centred")(self.vol, field=self.distance, seeds=self.seeds)
+            self.method = _methods.get("edge-centred-table")(self.vol, field=self.distance, seeds=self.seeds)
             self.skeleton_s = time.perf_counter() - t0
             self.rebuilds += 1
             self._shells = {}
