@@ -174,6 +174,10 @@ class PreparedPartition:
             "max_id": int(self.global_ids.max()), "preprocess_s": time.perf_counter() - t0,
         }
 
+    def get_info(self):
+        """:attr:`info` (a method: what a Dask actor can be asked)."""
+        return self.info
+
     def set_layout(self, cell_offset, n_ids, shared_ids):
         """The client's numbering and seams.
 
