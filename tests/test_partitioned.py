@@ -358,3 +358,25 @@ def test_worker_killed_during_query(data3):
     finally:
         c.close()
         c.cluster.close()
+
+
+# ------------------------------------------------------------------ CLI
+
+def test_cli_split_and_pvtu(tmp_path, capsys):
+    from polygen.cli import main
+
+    vol = datasets.load("torus")
+    rc = main(["isosurface", "torus", "--partitions", "3", "--values", "4", "--json", str(tmp_path / "t.json"),
+               "--output", str(tmp_path / "o")])
+    assert rc == 0
+    import json
+
+    out = json.loads((tmp_path / "t.json").read_text())
+    values = isovalues(vol.scalars(), 4)
+    assert out["partitions"] == 3
+    assert out["triangles"] == [vol.isosurface(v).n_triangles for v in values]
+    PartitionedVolume.split(vol, 2).write_pvtu(tmp_path / "t.pvtu")
+    (tmp_path / "t_1.vtu").unlink()
+    rc = main(["isosurface", str(tmp_path / "t.pvtu"), "--values", "2", "--no-files"])
+    assert rc != 0
+    assert "t_1.vtu" in capsys.readouterr().err

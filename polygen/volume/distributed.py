@@ -77,6 +77,8 @@ class DaskPartitionedMethod:
         Wall clock of preparing all partitions (reading, preparing, checking).
     prepare_s : list of float
         Each partition's own preparation time on its worker.
+    infos : list of dict
+        What each partition reported when prepared (:attr:`PreparedPartition.info`).
     placement : list of str
         The worker address of each partition.
     reprepared : int
@@ -105,6 +107,7 @@ class DaskPartitionedMethod:
         for i, w in zip(range(len(self.pieces)), itertools.cycle(workers)):
             self._start(i, w)
         infos = self._gather([a.get_info() for a in self.actors], what="prepare")
+        self.infos = infos
         offsets, self.n_ids, self._shared = check_partitions(infos)
         self._offsets = offsets
         self.prepare_s = [i["preprocess_s"] for i in infos]

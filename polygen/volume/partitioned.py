@@ -140,7 +140,8 @@ class PreparedPartition:
         What the client checks across partitions: ``n_cells``, ``n_points``,
         ``fields`` (names), ``boundary_ids`` / ``boundary_points`` /
         ``boundary_values`` (the global ids, coordinates and field values of
-        the nodes on the partition's boundary), ``preprocess_s``.
+        the nodes on the partition's boundary), ``min`` / ``max`` of the
+        field, ``preprocess_s``.
     """
 
     def __init__(self, piece, index, field=None, method=None, params=None):
@@ -171,7 +172,8 @@ class PreparedPartition:
             "cell_type": self.vol.cell_type,
             "boundary_ids": self.global_ids[bnodes], "boundary_points": self.vol.points[bnodes],
             "boundary_values": self.vol.fields[self.field][bnodes],
-            "max_id": int(self.global_ids.max()), "preprocess_s": time.perf_counter() - t0,
+            "max_id": int(self.global_ids.max()), "min": float(self.vol.fields[self.field].min()),
+            "max": float(self.vol.fields[self.field].max()), "preprocess_s": time.perf_counter() - t0,
         }
 
     def get_info(self):
@@ -544,6 +546,8 @@ class PartitionedMethod:
     Attributes
     ----------
     partitions : list of PreparedPartition
+    infos : list of dict
+        Each partition's :attr:`PreparedPartition.info`.
     preprocess_s : float
         Wall clock of reading and preparing all partitions.
     """
@@ -551,7 +555,8 @@ class PartitionedMethod:
     def __init__(self, pvol, field=None, method=None, **params):
         t0 = time.perf_counter()
         self.partitions = [PreparedPartition(p, i, field, method, params) for i, p in enumerate(pvol.pieces)]
-        offsets, self.n_ids, shared = check_partitions([p.info for p in self.partitions])
+        self.infos = [p.info for p in self.partitions]
+        offsets, self.n_ids, shared = check_partitions(self.infos)
         for p, off in zip(self.partitions, offsets):
             p.set_layout(off, self.n_ids, shared)
         self.preprocess_s = time.perf_counter() - t0
