@@ -90,6 +90,8 @@ class DaskPartitionedMethod:
         Partitions prepared again after a worker was lost.
     bytes_last : int
         Bytes of the arrays that came back for the last query.
+    wait_last : float
+        Seconds the last query waited for the partitions (calls, work, transfer; the stitch excluded).
 
     Notes
     -----
@@ -104,6 +106,7 @@ class DaskPartitionedMethod:
         self.field, self.method, self.params = field, method, params
         self.reprepared = 0
         self.bytes_last = 0
+        self.wait_last = 0.0
         t0 = time.perf_counter()
         workers = self._workers()
         self._futures = [None] * len(self.pieces)
@@ -170,6 +173,7 @@ class DaskPartitionedMethod:
         """The stitched surfaces of ``values`` (one call per partition for all values)."""
         values = [check_value(v) for v in values]
         _check_normals(normals)
+        t0 = time.perf_counter()
         for attempt in range(RETRIES + 1):
             try:
                 pieces = self._gather([a.extract_many(values, normals) for a in self.actors], what="query")
@@ -185,6 +189,7 @@ class DaskPartitionedMethod:
                     raise PartitionError(f"partition {lost.index} ({self.pieces[lost.index].name!r}) was lost and "
                                          f"could not be prepared again ({type(e).__name__}: {e}); no surface "
                                          "returned") from e
+        self.wait_last = time.perf_counter() - t0
         self.bytes_last = sum(_nbytes(p) for per in pieces for p in per)
         return [stitch(v, [per[j] for per in pieces], n_ids=self.n_ids, normals=normals)
                 for j, v in enumerate(values)]

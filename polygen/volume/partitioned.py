@@ -41,6 +41,7 @@ import numpy as np
 from polygen.volume import marching as _m
 from polygen.volume import registry as _registry
 from polygen.volume.mesh import UnstructuredVolume, VolumeError
+from polygen._jit import njit
 from polygen.volume import _topology as _topo
 from polygen.volume.thinning import ThinningWarning
 from polygen.volume.surface import IsoSurface, IsoSurfaceError, check_normals, check_value
@@ -265,17 +266,34 @@ class PreparedPartition:
         (:func:`~polygen.volume.surface.vertex_normals`). These few rows are
         what the stitch needs from here, instead of every normal.
         """
-        v, t = iso.vertices, iso.triangles
-        flat = ~(np.abs(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])).sum(axis=1) > 0.0)
-        if not flat.any():
+        on_flat = np.zeros(iso.vertices.shape[0], np.bool_)
+        if not _mark_flat_fans(iso.vertices, iso.triangles, on_flat):
             return np.zeros(0, np.int64), np.zeros((0, 3))
-        lone = np.unique(t[flat].ravel())
+        lone = np.flatnonzero(on_flat)
         edges = self.vol.edges
         lone = lone[iso.vertex_keys[lone] < edges.shape[0]]
         e = edges[iso.vertex_keys[lone]]
         pts, sv = self.vol.points, self.vol.fields[self.field]
         d = (pts[e[:, 1]] - pts[e[:, 0]]) * np.sign(sv[e[:, 1]] - sv[e[:, 0]])[:, None]
         return gkeys[lone], d / np.linalg.norm(d, axis=1)[:, None]
+
+
+@njit
+def _mark_flat_fans(vertices, triangles, out):
+    """Mark ``out[v]`` for the vertices of triangles of zero area (cross product exactly zero); how many."""
+    n = 0
+    for t in range(triangles.shape[0]):
+        i0, i1, i2 = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+        ux = vertices[i1, 0] - vertices[i0, 0]
+        uy = vertices[i1, 1] - vertices[i0, 1]
+        uz = vertices[i1, 2] - vertices[i0, 2]
+        wx = vertices[i2, 0] - vertices[i0, 0]
+        wy = vertices[i2, 1] - vertices[i0, 1]
+        wz = vertices[i2, 2] - vertices[i0, 2]
+        if uy * wz - uz * wy == 0.0 and uz * wx - ux * wz == 0.0 and ux * wy - uy * wx == 0.0:
+            out[i0] = out[i1] = out[i2] = True
+            n += 1
+    return n
 
 
 def _concat(a, b, keep):
