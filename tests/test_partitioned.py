@@ -172,10 +172,11 @@ def test_pvtu_round_trip(tmp_path, data3):
 
 
 @pytest.mark.slow
-def test_2M_split_stitched_equals_single():
+@pytest.mark.parametrize("k", [2, 8])
+def test_2M_split_stitched_equals_single(k):
     vol = datasets.load("2M")
-    prepared = PartitionedVolume.split(vol, 4).prepare()
-    for v in isovalues(vol.scalars(), 20):
+    prepared = PartitionedVolume.split(vol, k).prepare()
+    for v in isovalues(vol.scalars(), N_VALUES):
         assert_same_as_single(vol, vol.isosurface(v), prepared.extract(v))
 
 
