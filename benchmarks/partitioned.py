@@ -43,6 +43,7 @@ WORKERS = 2
 def main(name="2M"):
     from polygen.volume import datasets, isovalues, methods
     from polygen.volume.distributed import local_client
+    from polygen.volume.distributed import prepare as dask_prepare
     from polygen.volume.partitioned import PartitionedVolume
 
     vol = datasets.load(name)
@@ -72,7 +73,7 @@ def main(name="2M"):
             t0 = time.perf_counter()
             pvol = PartitionedVolume.split(vol, k)
             split_s = time.perf_counter() - t0
-            prepared = pvol.prepare(field, client=client)
+            prepared = dask_prepare(pvol, field, client=client)
             prepared.extract_many(values[:2])
             best, surfaces, wait = float("inf"), None, None
             for _ in range(2):

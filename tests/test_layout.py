@@ -33,6 +33,7 @@ VOLUME_LAYERS = [
     ("constructions", ["propagate", "isosurface"]),
     ("methods", ["methods"]),
     ("chapter methods", ["homology", "extrema_graph", "thinning", "edge_centred"]),
+    ("partitioned volumes", ["partitioned", "distributed"]),
 ]
 
 

@@ -291,6 +291,12 @@ def test_missing_dask_is_a_clear_message(monkeypatch):
 
 # ------------------------------------------------------------------ on Dask
 
+def dask_prepare(pvol, **kwargs):
+    from polygen.volume.distributed import prepare
+
+    return prepare(pvol, **kwargs)
+
+
 def _cluster_client():
     pytest.importorskip("distributed")
     from polygen.volume.distributed import local_client
@@ -311,7 +317,7 @@ def test_dask_stitched_equals_single_and_local(client, name, k, request):
     vol = request.getfixturevalue(name)
     values = isovalues(vol.scalars(), N_VALUES_DASK)
     pvol = PartitionedVolume.split(vol, k)
-    on_dask = pvol.prepare(client=client)
+    on_dask = dask_prepare(pvol, client=client)
     local = pvol.prepare()
     assert len(set(on_dask.placement)) == 2  # both workers hold partitions
     surfaces = on_dask.extract_many(values)
@@ -327,7 +333,7 @@ def test_dask_stitched_equals_single_and_local(client, name, k, request):
 
 def test_dask_pvtu_pieces_read_on_workers(client, tmp_path, data3):
     PartitionedVolume.split(data3, 2).write_pvtu(tmp_path / "d3.pvtu")
-    on_dask = PartitionedVolume.from_pvtu(tmp_path / "d3.pvtu").prepare(client=client)
+    on_dask = dask_prepare(PartitionedVolume.from_pvtu(tmp_path / "d3.pvtu"), client=client)
     for v, s in zip(isovalues(data3.scalars(), 5), on_dask.extract_many(isovalues(data3.scalars(), 5))):
         assert_same_as_single(data3, data3.isosurface(v), s)
     on_dask.close()
@@ -341,7 +347,7 @@ def test_dask_bad_piece_is_named(client, tmp_path):
 
     _rewrite(pieces[2], extra)
     with pytest.raises(PartitionError, match=r"t_2\.vtu"):
-        PartitionedVolume.from_pvtu(tmp_path / "t.pvtu").prepare(client=client)
+        dask_prepare(PartitionedVolume.from_pvtu(tmp_path / "t.pvtu"), client=client)
 
 
 def test_worker_killed_during_query(data3):
@@ -351,7 +357,7 @@ def test_worker_killed_during_query(data3):
     c = _cluster_client()
     try:
         values = isovalues(data3.scalars(), 60)
-        prepared = PartitionedVolume.split(data3, 4).prepare(client=c)
+        prepared = dask_prepare(PartitionedVolume.split(data3, 4), client=c)
         victim = prepared.placement[0]
         pid = c.run(os.getpid)[victim]
         result = {}

@@ -181,10 +181,14 @@ def run_partitioned(args):
         client = None
         if args.workers is not None or args.scheduler is not None:
             from polygen.volume.distributed import local_client
+            from polygen.volume.distributed import prepare as dask_prepare
 
             client = local_client(args.workers or 2, scheduler=args.scheduler)
         try:
-            prepared = pvol.prepare(args.field, method, client=client)
+            if client is None:
+                prepared = pvol.prepare(args.field, method)
+            else:
+                prepared = dask_prepare(pvol, args.field, method, client=client)
             return _partitioned_table(args, label, pvol, prepared, client, isovalues)
         finally:
             if client is not None:

@@ -29,7 +29,7 @@ from polygen.volume.partitioned import (PartitionError, PreparedPartition, _chec
                                         stitch)
 from polygen.volume.surface import check_value
 
-__all__ = ["DaskPartitionedMethod", "local_client", "require_distributed"]
+__all__ = ["DaskPartitionedMethod", "prepare", "local_client", "require_distributed"]
 
 #: how many times a query asks again after losing partitions (each time after preparing them again)
 RETRIES = 1
@@ -43,6 +43,16 @@ def require_distributed():
         raise PartitionError("partitioned volumes on Dask need dask.distributed, which is not installed: "
                              "pip install 'polygen[distributed]' (or run without a client)") from e
     return distributed
+
+
+def prepare(pvol, field=None, method=None, *, client, **params):
+    """Prepare ``method`` on every partition of ``pvol`` on the workers of ``client``, and keep them there.
+
+    Returns a :class:`DaskPartitionedMethod` (``extract``, ``extract_many``,
+    ``close``); ``client`` is a ``dask.distributed.Client`` (see
+    :func:`local_client`).
+    """
+    return DaskPartitionedMethod(pvol, field, method, client=client, **params)
 
 
 def local_client(n_workers=2, *, threads_per_worker=1, processes=True, scheduler=None):

@@ -41,8 +41,8 @@ vertex's triangles lie on both sides); ``normals="gradient"`` is refused
 
 :class:`PartitionedMethod` runs the partitions here, one after the other;
 :mod:`polygen.volume.distributed` runs the same partitions on Dask workers
-(``PartitionedVolume.prepare(..., client=...)``). This module does not
-import dask.
+(``distributed.prepare(pvol, client=...)``). This module does not import
+dask.
 """
 
 from __future__ import annotations
@@ -587,24 +587,18 @@ class PartitionedVolume:
         path.write_text("\n".join(lines))
         return written
 
-    def prepare(self, field=None, method=None, *, client=None, **params):
-        """Prepare ``method`` on every partition; an object whose ``extract(value)`` answers across them.
+    def prepare(self, field=None, method=None, **params):
+        """Prepare ``method`` on every partition here; a :class:`PartitionedMethod` answering across them.
+
+        On Dask workers: :func:`polygen.volume.distributed.prepare`.
 
         Parameters
         ----------
         field, method : str, optional
             As for :meth:`UnstructuredVolume.isosurface`.
-        client : dask.distributed.Client, optional, keyword-only
-            Prepare on its workers and keep the partitions there
-            (:class:`polygen.volume.distributed.DaskPartitionedMethod`);
-            without it, here (:class:`PartitionedMethod`).
         **params
             The method's parameters.
         """
-        if client is not None:
-            from polygen.volume.distributed import DaskPartitionedMethod
-
-            return DaskPartitionedMethod(self, field, method, client=client, **params)
         return PartitionedMethod(self, field, method, **params)
 
 
