@@ -412,3 +412,18 @@ def test_cli_split_and_pvtu(tmp_path, capsys):
     rc = main(["isosurface", str(tmp_path / "t.pvtu"), "--values", "2", "--no-files"])
     assert rc != 0
     assert "t_1.vtu" in capsys.readouterr().err
+
+
+def test_cli_on_a_local_cluster(capsys):
+    from polygen.cli import main
+
+    pytest.importorskip("distributed")
+    vol = datasets.load("torus")
+    rc = main(["isosurface", "torus", "--workers", "2", "--values", "3", "--no-files"])
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "prepared on Dask (2 workers)" in out and "bytes of surfaces came back" in out
+    for v in isovalues(vol.scalars(), 3):
+        assert f"{vol.isosurface(v).n_triangles:10d}" in out
+    rc = main(["isosurface", "torus", "--workers", "2", "--scheduler", "tcp://127.0.0.1:1", "--no-files"])
+    assert rc != 0 and "not both" in capsys.readouterr().err
