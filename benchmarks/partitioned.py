@@ -21,7 +21,7 @@ Query times are the best of two sweeps. Results go to
 model on paper of a 1B-cell volume on 64 workers built from these numbers.
 
     python benchmarks/partitioned.py            # 2M
-    python benchmarks/partitioned.py data4      # another data set
+    python benchmarks/partitioned.py 10M        # another data set (results/partitioned_10M.*)
 """
 
 import os
@@ -125,7 +125,8 @@ def _write(name, vol, rows):
              "triangles as int32, global cell ids; normals are made here); work_part_max_s: the busiest partition's t1 + t2 + t3 over "
              "the 20 values; wait_s: the query's wait for the partitions (calls, work, transfer); stitch_s: the stitch "
              "here over the 20 values"]
-    path = write_results("partitioned", rows, cols, title=f"Partitioned volumes on Dask: {name}", notes=notes)
+    path = write_results("partitioned" if name == "2M" else f"partitioned_{name}", rows, cols,
+                         title=f"Partitioned volumes on Dask: {name}", notes=notes)
     model = _model(vol, rows)
     path.write_text(path.read_text() + "\n" + model)
     print(model)

@@ -124,13 +124,18 @@ class DaskPartitionedMethod:
         self.placement = [None] * len(self.pieces)
         for i, w in zip(range(len(self.pieces)), itertools.cycle(workers)):
             self._start(i, w)
-        infos = self._gather([a.get_info() for a in self.actors], what="prepare")
-        self.infos = infos
-        offsets, self.n_ids, self._shared = check_partitions(infos)
-        self._offsets = offsets
-        self.prepare_s = [i["preprocess_s"] for i in infos]
-        self._gather([a.set_layout(o, self.n_ids, self._shared) for a, o in zip(self.actors, offsets)],
-                     what="prepare")
+        try:
+            infos = self._gather([a.get_info() for a in self.actors], what="prepare")
+            self.infos = infos
+            offsets, self.n_ids, self._shared = check_partitions(infos)
+            self._offsets = offsets
+            self.prepare_s = [i["preprocess_s"] for i in infos]
+            self._gather([a.set_layout(o, self.n_ids, self._shared) for a, o in zip(self.actors, offsets)],
+                         what="prepare")
+        except _Lost as lost:
+            self.close()
+            raise PartitionError(f"partition {lost.index} ({self.pieces[lost.index].name!r}) was lost while being "
+                                 f"prepared ({type(lost.cause).__name__}: {lost.cause}); prepare again") from lost
         self.preprocess_s = time.perf_counter() - t0
 
     # ------------------------------------------------------------ workers
