@@ -36,6 +36,7 @@ VOLUME_LAYERS = [
     ("methods", ["methods"]),
     ("chapter methods", ["homology", "extrema_graph", "thinning", "edge_centred"]),
     ("applications", ["render"]),
+    ("partitioned volumes", ["partitioned", "distributed"]),
 ]
 
 

@@ -28,6 +28,8 @@ EXAMPLES = """examples:
   polygen isosurface mixed.vtu --tetrahedralize            wedges, pyramids, mixed cells: split into tetrahedra
   polygen isosurface part.vtu --no-compare-vtk --no-files --json times.json
   polygen isosurface torus --value 0.5 --method scan --components   the surface's connected parts
+  polygen isosurface volume.pvtu --workers 4        a partitioned volume on a local Dask cluster
+  polygen isosurface data4 --partitions 8 --scheduler tcp://host:8786   split, on a running Dask cluster
 """
 
 
@@ -59,6 +61,14 @@ def configure(parser):
                         help="split cells other than tetrahedra (wedges, pyramids, hexahedra, quadratic or mixed "
                              "cells) into tetrahedra instead of refusing a mesh that is not all tetrahedra or all "
                              "hexahedra")
+    dist = parser.add_argument_group("partitioned volumes (a .pvtu, or a volume split with --partitions)")
+    dist.add_argument("--workers", type=int, metavar="N",
+                      help="prepare the partitions on a local Dask cluster of N worker processes and query there "
+                           "(needs pip install 'polygen[distributed]')")
+    dist.add_argument("--scheduler", metavar="ADDRESS",
+                      help="use the Dask cluster whose scheduler is at ADDRESS (e.g. tcp://host:8786)")
+    dist.add_argument("--partitions", type=int, metavar="K",
+                      help="split the volume into K partitions (Morton ranges of cells; default: one per worker)")
     parser.add_argument("--components", action="store_true",
                         help="print each surface's connected components (by the first method): triangles, area, "
                              "enclosed volume, bounds, closed, touching the boundary")
@@ -152,7 +162,107 @@ def _warm_up(names, cell_type):
     return time.perf_counter() - t0
 
 
+def _is_partitioned(args):
+    return (str(args.mesh).lower().endswith(".pvtu") or args.workers is not None or args.scheduler is not None
+            or args.partitions is not None)
+
+
+def run_partitioned(args):
+    """A partitioned volume: prepared per partition (here or on Dask), the surfaces stitched; a table."""
+    from polygen.cli import CLIError
+    from polygen.volume import isovalues
+    from polygen.volume.partitioned import PartitionedVolume, PartitionError
+
+    if args.workers is not None and args.scheduler is not None:
+        raise CLIError("give --workers (a local cluster) or --scheduler (a running one), not both")
+    if args.workers is not None and args.workers < 1:
+        raise CLIError(f"--workers needs at least 1; got {args.workers}")
+    if args.method and len(args.method) > 1:
+        raise CLIError("a partitioned volume runs one --method at a time")
+    method = args.method[0] if args.method else None
+    if method is not None and method not in _method_names():
+        raise CLIError(f"unknown method {method!r}; the methods are {', '.join(_method_names())}")
+    try:
+        if str(args.mesh).lower().endswith(".pvtu"):
+            if args.partitions is not None:
+                raise CLIError("a .pvtu is partitioned already: --partitions splits a single volume")
+            pvol, label = PartitionedVolume.from_pvtu(args.mesh), Path(args.mesh).name
+        else:
+            label, vol = _load(args.mesh, sys.stderr.isatty(), orient=args.orient)
+            k = args.partitions if args.partitions is not None else (args.workers or 2)
+            pvol = PartitionedVolume.split(vol, k)
+        client = None
+        if args.workers is not None or args.scheduler is not None:
+            from polygen.volume.distributed import local_client
+            from polygen.volume.distributed import prepare as dask_prepare
+
+            client = local_client(args.workers or 2, scheduler=args.scheduler)
+        try:
+            if client is None:
+                prepared = pvol.prepare(args.field, method)
+            else:
+                prepared = dask_prepare(pvol, args.field, method, client=client)
+            return _partitioned_table(args, label, pvol, prepared, client, isovalues)
+        finally:
+            if client is not None:
+                cluster = client.cluster if args.scheduler is None else None
+                client.close()
+                if cluster is not None:
+                    cluster.close()
+    except PartitionError as e:
+        raise CLIError(str(e)) from e
+
+
+def _partitioned_table(args, label, pvol, prepared, client, isovalues):
+    from polygen.cli import CLIError
+
+    if args.value:
+        values = np.asarray(args.value, float)
+        if not np.isfinite(values).all():
+            raise CLIError(f"--value must be finite; got {args.value}")
+    else:
+        if args.values < 1:
+            raise CLIError(f"--values needs at least 1; got {args.values}")
+        # the field's range: the boundary values every partition reported are a sample; ask a first surface
+        lo, hi = _field_range(prepared)
+        values = isovalues(np.array([lo, hi]), args.values)
+    where = f"on Dask ({len(set(prepared.placement))} workers)" if client is not None else "here"
+    print(f"{label}: {pvol.n_partitions} partitions, prepared {where} in {prepared.preprocess_s:.3f} s; "
+          f"{len(values)} values")
+    t0 = time.perf_counter()
+    surfaces = prepared.extract_many(values)
+    query = time.perf_counter() - t0
+    head = f"{'value':>12s} {'triangles':>10s} {'vertices':>10s} {'seam vertices':>13s} {'seam seeds':>10s}"
+    print(head)
+    print("-" * len(head))
+    for v, iso in zip(values, surfaces):
+        seeds = sum(p["seam_seeds"] for p in iso.partitions)
+        print(f"{v:12.6g} {iso.n_triangles:10d} {iso.n_vertices:10d} {iso.seam_vertices:13d} {seeds:10d}")
+    moved = getattr(prepared, "bytes_last", None)
+    print(f"query: {query:.3f} s for {len(values)} values" + (f"; {moved} bytes of surfaces came back" if moved else ""))
+    if args.json:
+        out = {"mesh": label, "partitions": pvol.n_partitions, "values": np.asarray(values).tolist(),
+               "preprocess_s": prepared.preprocess_s, "query_s": query, "bytes": moved,
+               "triangles": [s.n_triangles for s in surfaces], "vertices": [s.n_vertices for s in surfaces]}
+        Path(args.json).write_text(json.dumps(out, indent=2) + "\n")
+    if not args.no_files:
+        out = Path(args.output)
+        out.mkdir(parents=True, exist_ok=True)
+        for i, iso in enumerate(surfaces):
+            if not iso.is_empty:
+                iso.to_pyvista().save(out / f"{Path(label).stem}-iso{i:02d}.vtp")
+        print(f"wrote the surfaces to {out}/")
+    return 0
+
+
+def _field_range(prepared):
+    infos = prepared.infos
+    return min(i["min"] for i in infos), max(i["max"] for i in infos)
+
+
 def run(args):
+    if _is_partitioned(args):
+        return run_partitioned(args)
     os.environ.setdefault("VTK_SMP_BACKEND_IN_USE", "STDThread")
     from tqdm.auto import tqdm
 

@@ -1,0 +1,429 @@
+"""Partitioned volumes (issue 21): the stitched surface is the single volume's, here and on Dask.
+
+Oracle: the single volume's surface of the same value (its triangles by the
+global node pairs of their vertices' edges, its vertex count, its area),
+and the full scan of each partition for the per-partition completeness.
+"""
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from polygen.volume import datasets, isovalues
+from polygen.volume.partitioned import PartitionedVolume, PartitionError, stitch
+from polygen.volume.surface import IsoSurfaceError
+
+N_VALUES = 200  # the issue's sweep, without Dask
+N_VALUES_DASK = 60  # with the cluster: keeps each Dask test well under a minute on two shared cores
+
+
+def global_keys(vol, iso):
+    """The single volume's vertex keys as global pair keys ``a * N + b`` (``a * (N + 1)`` on a node)."""
+    e, n = vol.edges, vol.n_points
+    k = iso.vertex_keys
+    on_edge = k < e.shape[0]
+    out = np.empty(k.shape, np.int64)
+    out[on_edge] = e[k[on_edge], 0] * n + e[k[on_edge], 1]
+    out[~on_edge] = (k[~on_edge] - e.shape[0]) * (n + 1)
+    return out
+
+
+def _edge_counts(tri, n):
+    """Distinct undirected edges of triangles over ``n`` vertex ids (as ``a * n + b``) and their uses."""
+    e = np.sort(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    return np.unique(e[:, 0] * n + e[:, 1], return_counts=True)
+
+
+def assert_same_as_single(vol, single, stitched):
+    """Same triangles, vertex count, area (1e-9 relative); no vertex twice; interior edges in two triangles."""
+    assert stitched.n_triangles == single.n_triangles
+    assert stitched.n_vertices == single.n_vertices
+    assert stitched.area() == pytest.approx(single.area(), rel=1e-9, abs=1e-300)
+    keys = stitched.vertex_keys
+    # one vertex per global key, each made where the single volume makes it, bit for bit: no vertex twice
+    assert np.all(np.diff(keys) > 0)
+    gk = global_keys(vol, single)
+    order = np.argsort(gk)
+    np.testing.assert_array_equal(gk[order], keys)
+    np.testing.assert_array_equal(single.vertices[order], stitched.vertices)
+    # the same triangles, as sets of vertices (single's vertices renumbered as the stitched ones)
+    rank = np.empty(gk.size, np.int64)
+    rank[order] = np.arange(gk.size)
+    nv = max(keys.size, 1)
+
+    def tri_codes(t):
+        t = np.sort(t, axis=1)
+        return np.sort((t[:, 0] * nv + t[:, 1]) * nv + t[:, 2])
+
+    np.testing.assert_array_equal(tri_codes(rank[single.triangles]), tri_codes(stitched.triangles))
+    # no crack: every edge is in two triangles but the single volume's open ones, which lie on its boundary
+    if stitched.n_triangles:
+        u1, c1 = _edge_counts(rank[single.triangles], nv)
+        u2, c2 = _edge_counts(stitched.triangles, nv)
+        np.testing.assert_array_equal(u1[c1 == 1], u2[c2 == 1])
+        assert set(np.unique(c2).tolist()) <= {1, 2}
+        bnodes = np.zeros(vol.n_points, bool)
+        bnodes[vol.boundary_face_nodes] = True
+        once = u2[c2 == 1]
+        ends = keys[np.stack([once // nv, once % nv])]
+        n = vol.n_points
+        assert bnodes[ends // n].all() and bnodes[ends % n].all()
+
+
+@pytest.fixture(scope="module")
+def data3():
+    return datasets.load("data3")
+
+
+@pytest.fixture(scope="module")
+def data4():
+    return datasets.load("data4")
+
+
+# ------------------------------------------------------------------ exactness without Dask
+
+@pytest.mark.parametrize("name,k", [("data3", 2), ("data3", 8), ("data4", 3), ("data4", 5)])
+def test_split_stitched_equals_single(name, k, request):
+    vol = request.getfixturevalue(name)
+    values = isovalues(vol.scalars(), N_VALUES)
+    prepared = PartitionedVolume.split(vol, k).prepare()
+    seam = 0
+    for v in values:
+        single = vol.isosurface(v)
+        stitched = prepared.extract(v)
+        assert_same_as_single(vol, single, stitched)
+        assert len(stitched.partitions) == k
+        assert sum(p["n_triangles"] for p in stitched.partitions) == stitched.n_triangles
+        seam += stitched.seam_vertices
+    assert seam > 0  # the sweep crosses the seams: the stitch had vertices to merge
+
+
+@pytest.mark.parametrize("method", ["span-space", "extrema-graph", "thinning", "scan"])
+def test_other_methods_stitched_equal_single(data3, method):
+    values = isovalues(data3.scalars(), 40)
+    prepared = PartitionedVolume.split(data3, 4).prepare(method=method)
+    for v in values:
+        assert_same_as_single(data3, data3.isosurface(v, method="scan"), prepared.extract(v))
+
+
+def test_each_partition_is_its_full_scan(data3):
+    """Completeness per partition: method + seam seeds = the partition's full scan, for every partition."""
+    prepared = PartitionedVolume.split(data3, 5).prepare()
+    for v in isovalues(data3.scalars(), 60):
+        for p in prepared.partitions:
+            piece = p.extract(v)
+            scan = p.vol.isosurface(v, method="scan")
+            assert np.array_equal(np.sort(piece["triangle_cells"]), np.sort(p.cell_ids[scan.triangle_cells]))
+            assert np.unique(piece["keys"]).size == scan.n_vertices
+
+
+def test_vertices_bitwise_equal_single_and_normals_close(data3):
+    prepared = PartitionedVolume.split(data3, 6).prepare()
+    for v in isovalues(data3.scalars(), 10):
+        single, stitched = data3.isosurface(v), prepared.extract(v)
+        gk = global_keys(data3, single)
+        o1, o2 = np.argsort(gk), np.argsort(stitched.vertex_keys)
+        np.testing.assert_array_equal(single.vertices[o1], stitched.vertices[o2])
+        # mean normals summed in another triangle order: equal to rounding
+        np.testing.assert_allclose(single.normals[o1], stitched.normals[o2], atol=1e-12, rtol=0)
+
+
+def test_normals_of_flat_vertices_near_an_extremum(data3):
+    """A value a hair above each local minimum: zero-area triangles, whose vertices take their edge's direction."""
+    prepared = PartitionedVolume.split(data3, 4).prepare()
+    s = data3.scalars()
+    flat = 0
+    for base in (s.min(), np.sort(s)[len(s) // 3]):
+        v = np.nextafter(base, np.inf)
+        flat += sum(p.extract(v)["fallback"][0].size for p in prepared.partitions)
+        # the scan: vertex_normals with the points, as the propagation (the edge-centred method passes none)
+        single, stitched = data3.isosurface(v, method="scan"), prepared.extract(v)
+        o = np.argsort(global_keys(data3, single))
+        # a vertex touching a zero-area triangle has a mean normal made of rounding-level cross products
+        # (they may cancel in another order): compared elsewhere only for being a unit vector
+        sv, st = single.vertices, single.triangles
+        zero_area = ~(np.abs(np.cross(sv[st[:, 1]] - sv[st[:, 0]], sv[st[:, 2]] - sv[st[:, 0]])).sum(axis=1) > 0)
+        ill = np.zeros(single.n_vertices, bool)
+        ill[st[zero_area].ravel()] = True
+        ill = ill[o]
+        np.testing.assert_allclose(single.normals[o][~ill], stitched.normals[~ill], atol=1e-12, rtol=0)
+        on_edge = (stitched.vertex_keys // stitched.n_ids) != (stitched.vertex_keys % stitched.n_ids)
+        np.testing.assert_allclose(np.linalg.norm(stitched.normals[on_edge], axis=1), 1.0, atol=1e-12)
+        assert ill.any()  # the case was met
+    assert flat > 0  # the case was met
+
+
+def test_pvtu_round_trip(tmp_path, data3):
+    pvol = PartitionedVolume.split(data3, 3)
+    pieces = pvol.write_pvtu(tmp_path / "d3.pvtu")
+    assert len(pieces) == 3 and all(p.exists() for p in pieces)
+    back = PartitionedVolume.from_pvtu(tmp_path / "d3.pvtu").prepare()
+    for v in isovalues(data3.scalars(), 12):
+        single = data3.isosurface(v)
+        stitched = back.extract(v)
+        # cells are numbered piece after piece here; compare by nodes, which keep their global ids
+        assert_same_as_single(data3, single, stitched)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("k", [2, 8])
+def test_2M_split_stitched_equals_single(k):
+    vol = datasets.load("2M")
+    prepared = PartitionedVolume.split(vol, k).prepare()
+    for v in isovalues(vol.scalars(), N_VALUES):
+        assert_same_as_single(vol, vol.isosurface(v), prepared.extract(v))
+
+
+# ------------------------------------------------------------------ bad input
+
+def _tiny_pvtu(tmp_path, k=3):
+    vol = datasets.load("torus")
+    return vol, PartitionedVolume.split(vol, k).write_pvtu(tmp_path / "t.pvtu")
+
+
+def test_missing_piece_named(tmp_path):
+    _, pieces = _tiny_pvtu(tmp_path)
+    pieces[1].unlink()
+    with pytest.raises(PartitionError, match="t_1.vtu"):
+        PartitionedVolume.from_pvtu(tmp_path / "t.pvtu")
+    with pytest.raises(PartitionError, match="no such file"):
+        PartitionedVolume.from_pvtu(tmp_path / "nothing.pvtu")
+
+
+def _rewrite(path, edit):
+    import pyvista as pv
+
+    grid = pv.read(path)
+    edit(grid)
+    grid.save(path)
+
+
+def test_global_ids_disagreeing_on_shared_coordinates_named(tmp_path):
+    _, pieces = _tiny_pvtu(tmp_path)
+
+    def shift(grid):
+        grid.point_data["GlobalNodeId"] = np.asarray(grid.point_data["GlobalNodeId"]) + 1000000
+
+    _rewrite(pieces[2], shift)
+    with pytest.raises(PartitionError, match=r"t_2\.vtu.*same coordinates|same coordinates"):
+        PartitionedVolume.from_pvtu(tmp_path / "t.pvtu").prepare()
+    try:
+        PartitionedVolume.from_pvtu(tmp_path / "t.pvtu").prepare()
+    except PartitionError as e:
+        assert "t_2.vtu" in str(e)
+
+
+def test_pieces_with_different_fields_named(tmp_path):
+    _, pieces = _tiny_pvtu(tmp_path)
+
+    def extra(grid):
+        grid.point_data["pressure"] = np.zeros(grid.n_points)
+
+    _rewrite(pieces[1], extra)
+    with pytest.raises(PartitionError, match=r"t_1\.vtu.*same node fields"):
+        PartitionedVolume.from_pvtu(tmp_path / "t.pvtu").prepare()
+
+
+def test_piece_without_global_ids_named(tmp_path):
+    _, pieces = _tiny_pvtu(tmp_path)
+
+    def drop(grid):
+        del grid.point_data["GlobalNodeId"]
+
+    _rewrite(pieces[0], drop)
+    with pytest.raises(PartitionError, match=r"t_0\.vtu.*GlobalNodeId"):
+        PartitionedVolume.from_pvtu(tmp_path / "t.pvtu").prepare()
+
+
+def test_bad_arguments():
+    vol = datasets.load("torus")
+    with pytest.raises(PartitionError, match="k must be"):
+        PartitionedVolume.split(vol, 0)
+    with pytest.raises(PartitionError, match="UnstructuredVolume"):
+        PartitionedVolume.split("vol", 2)
+    prepared = PartitionedVolume.split(vol, 2).prepare()
+    with pytest.raises(IsoSurfaceError, match="gradient"):
+        prepared.extract(0.5, normals="gradient")
+    with pytest.raises(IsoSurfaceError, match="value"):
+        prepared.extract("x")
+
+
+def test_stitch_merges_shared_keys_once():
+    """Two pieces making one vertex (same key) and one triangle on a shared face at C: each kept once."""
+    n = 10
+    node = lambda a: a * n + a  # noqa: E731
+    piece = lambda cell: {  # noqa: E731
+        "keys": np.array([node(1), node(2), node(3), 4 * n + 5]), "vertices": np.eye(4, 3),
+        "triangles": np.array([[0, 1, 2], [0, 1, 3]], np.int32), "triangle_cells": np.array([cell, cell]),
+        "fallback": None, "cells_tested": 1, "cells_intersected": 1, "vertex_lookups": 3, "seam_seeds": 0,
+        "t1": 0.0, "t2": 0.0, "t3": 0.0, "method": "x"}
+    s = stitch(0.0, [piece(7), piece(3)], n_ids=n, normals=None)
+    assert s.n_vertices == 4 and s.seam_vertices == 4
+    # the all-node triangle once (from cell 3, the lower id); the other triangle made by both cells twice
+    assert s.n_triangles == 3
+    assert sorted(s.triangle_cells[np.all(np.isin(s.triangles, [0, 1, 2]), axis=1)].tolist()) == [3]
+
+
+# ------------------------------------------------------------------ no dask on the single-volume path
+
+def test_single_volume_path_does_not_import_dask():
+    code = ("import sys; from polygen.volume import datasets; import polygen.volume.partitioned; "
+            "v = datasets.load('torus'); v.isosurface(0.5); "
+            "print(any(m == 'dask' or m.startswith(('dask.', 'distributed')) for m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         cwd=os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    assert out.stdout.strip() == "False"
+
+
+def test_missing_dask_is_a_clear_message(monkeypatch):
+    from polygen.volume import distributed as pd
+
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(PartitionError, match=r"pip install 'polygen\[distributed\]'"):
+        pd.require_distributed()
+
+
+# ------------------------------------------------------------------ on Dask
+
+def dask_prepare(pvol, **kwargs):
+    from polygen.volume.distributed import prepare
+
+    return prepare(pvol, **kwargs)
+
+
+def _cluster_client():
+    pytest.importorskip("distributed")
+    from polygen.volume.distributed import local_client
+
+    return local_client(2)
+
+
+@pytest.fixture(scope="module")
+def client():
+    c = _cluster_client()
+    yield c
+    c.close()
+    c.cluster.close()
+
+
+@pytest.mark.parametrize("name,k", [("data3", 4), ("data4", 3)])
+def test_dask_stitched_equals_single_and_local(client, name, k, request):
+    vol = request.getfixturevalue(name)
+    values = isovalues(vol.scalars(), N_VALUES_DASK)
+    pvol = PartitionedVolume.split(vol, k)
+    on_dask = dask_prepare(pvol, client=client)
+    local = pvol.prepare()
+    assert len(set(on_dask.placement)) == 2  # both workers hold partitions
+    surfaces = on_dask.extract_many(values)
+    assert on_dask.bytes_last > 0
+    for v, s in zip(values, surfaces):
+        assert_same_as_single(vol, vol.isosurface(v), s)
+        here = local.extract(v)
+        np.testing.assert_array_equal(here.vertex_keys, s.vertex_keys)
+        np.testing.assert_array_equal(here.vertices, s.vertices)
+        np.testing.assert_array_equal(here.triangles, s.triangles)
+    on_dask.close()
+
+
+def test_dask_pvtu_pieces_read_on_workers(client, tmp_path, data3):
+    PartitionedVolume.split(data3, 2).write_pvtu(tmp_path / "d3.pvtu")
+    on_dask = dask_prepare(PartitionedVolume.from_pvtu(tmp_path / "d3.pvtu"), client=client)
+    for v, s in zip(isovalues(data3.scalars(), 5), on_dask.extract_many(isovalues(data3.scalars(), 5))):
+        assert_same_as_single(data3, data3.isosurface(v), s)
+    on_dask.close()
+
+
+def test_dask_bad_piece_is_named(client, tmp_path):
+    _, pieces = _tiny_pvtu(tmp_path)
+
+    def extra(grid):
+        grid.point_data["pressure"] = np.zeros(grid.n_points)
+
+    _rewrite(pieces[2], extra)
+    with pytest.raises(PartitionError, match=r"t_2\.vtu"):
+        dask_prepare(PartitionedVolume.from_pvtu(tmp_path / "t.pvtu"), client=client)
+
+
+def test_worker_killed_during_query(data3):
+    """A worker killed mid-query: the surfaces come back complete (partitions prepared again) or an error."""
+    from polygen.volume import distributed as pd
+
+    c = _cluster_client()
+    try:
+        values = isovalues(data3.scalars(), 60)
+        prepared = dask_prepare(PartitionedVolume.split(data3, 4), client=c)
+        victim = prepared.placement[0]
+        pid = c.run(os.getpid)[victim]
+        result = {}
+
+        def query():
+            try:
+                result["surfaces"] = prepared.extract_many(values)
+            except PartitionError as e:
+                result["error"] = e
+
+        t = threading.Thread(target=query)
+        t.start()
+        time.sleep(0.3)
+        assert t.is_alive()  # killed during the query, not after it
+        os.kill(pid, signal.SIGKILL)
+        t.join(120)
+        assert not t.is_alive()
+        print("outcome:", "error" if "error" in result else f"complete, {prepared.reprepared} prepared again")
+        if "error" in result:  # a clear error, naming the partition lost
+            assert "partition" in str(result["error"]) and "no surface" in str(result["error"])
+        else:
+            surfaces = result["surfaces"]
+            assert len(surfaces) == len(values)
+            for v, s in zip(values, surfaces):
+                assert_same_as_single(data3, data3.isosurface(v), s)
+            assert prepared.reprepared >= 1 and victim not in prepared.placement
+        # the next query works on what is left
+        assert_same_as_single(data3, data3.isosurface(values[7]), prepared.extract(values[7]))
+        assert pd.RETRIES >= 1
+    finally:
+        c.close()
+        c.cluster.close()
+
+
+# ------------------------------------------------------------------ CLI
+
+def test_cli_split_and_pvtu(tmp_path, capsys):
+    from polygen.cli import main
+
+    vol = datasets.load("torus")
+    rc = main(["isosurface", "torus", "--partitions", "3", "--values", "4", "--json", str(tmp_path / "t.json"),
+               "--output", str(tmp_path / "o")])
+    assert rc == 0
+    import json
+
+    out = json.loads((tmp_path / "t.json").read_text())
+    values = isovalues(vol.scalars(), 4)
+    assert out["partitions"] == 3
+    assert out["triangles"] == [vol.isosurface(v).n_triangles for v in values]
+    PartitionedVolume.split(vol, 2).write_pvtu(tmp_path / "t.pvtu")
+    (tmp_path / "t_1.vtu").unlink()
+    rc = main(["isosurface", str(tmp_path / "t.pvtu"), "--values", "2", "--no-files"])
+    assert rc != 0
+    assert "t_1.vtu" in capsys.readouterr().err
+
+
+def test_cli_on_a_local_cluster(capsys):
+    from polygen.cli import main
+
+    pytest.importorskip("distributed")
+    vol = datasets.load("torus")
+    rc = main(["isosurface", "torus", "--workers", "2", "--values", "3", "--no-files"])
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "prepared on Dask (2 workers)" in out and "bytes of surfaces came back" in out
+    for v in isovalues(vol.scalars(), 3):
+        assert f"{vol.isosurface(v).n_triangles:10d}" in out
+    rc = main(["isosurface", "torus", "--workers", "2", "--scheduler", "tcp://127.0.0.1:1", "--no-files"])
+    assert rc != 0 and "not both" in capsys.readouterr().err
