@@ -188,7 +188,8 @@ def run_partitioned(args):
                 raise CLIError("a .pvtu is partitioned already: --partitions splits a single volume")
             pvol, label = PartitionedVolume.from_pvtu(args.mesh), Path(args.mesh).name
         else:
-            label, vol = _load(args.mesh, sys.stderr.isatty(), orient=args.orient)
+            label, vol = _load(args.mesh, sys.stderr.isatty(), orient=args.orient, cell_data=args.cell_data,
+                               tetrahedralize=args.tetrahedralize)
             k = args.partitions if args.partitions is not None else (args.workers or 2)
             pvol = PartitionedVolume.split(vol, k)
         client = None
