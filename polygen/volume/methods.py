@@ -33,10 +33,13 @@ import time
 import numpy as np
 
 from polygen.volume import registry as _registry
+from polygen.volume.isosurface import _scan_unprepared
 from polygen.volume.isosurface import extract as _extract
 from polygen.volume.propagate import Propagator
 from polygen.volume.seeds.source import seed_source as _seed_source
 from polygen.volume.surface import IsoSurfaceError, same_surface
+from polygen.volume.surface import check_normals as _check_normals
+from polygen.volume.surface import check_value as _check_value
 
 __all__ = ["IsosurfaceMethod", "SeedsThenPropagate", "METHODS", "DEFAULT", "register", "get", "names", "default",
            "Sweep", "sweep"]
@@ -222,6 +225,25 @@ class FullScan(IsosurfaceMethod):
         iso = _extract(self.vol, value, field=self.field, method="scan", normals=normals)
         self.seed_cells_tested = iso.cells_tested
         return iso
+
+
+@register
+class UnpreparedScan(IsosurfaceMethod):
+    name = "unprepared-scan"
+    description = ("test every cell, merging vertices by the node pairs of the crossed edges: nothing "
+                   "prepared (the first surface of a freshly loaded volume)")
+    construction = "scan"
+
+    def extract(self, value, *, normals="mean"):
+        value = _check_value(value)
+        _check_normals(normals)
+        iso = _scan_unprepared(self.vol, value, self.field, normals)
+        self.seed_cells_tested = iso.cells_tested
+        return iso
+
+    def memory_bytes(self):
+        """Bytes held between calls: none (every array is per call)."""
+        return 0
 
 
 class SeedsThenPropagate(IsosurfaceMethod):
