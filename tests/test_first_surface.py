@@ -78,3 +78,41 @@ def test_the_policy_answers_first_from_the_scan_then_from_the_prepared_method():
     assert not isinstance(later, PairKeyedIsoSurface) and later.vertex_lookups == 0  # edge-centred
     assert same_surface(first, later)
     assert same_surface(vol.isosurface(values[1], prepare=False), vol.isosurface(values[1], prepare=True))
+
+
+# ------------------------------------------------------------------ memory
+def test_volume_memory_counts_what_was_built():
+    vol = datasets.load("genus3")
+    assert vol.memory_bytes() == {}  # nothing derived yet
+    vol.isosurface(float(np.median(vol.scalars())), prepare=False)
+    assert vol.memory_bytes() == {}  # the unprepared scan builds nothing
+    nb = vol.face_neighbors
+    mem = vol.memory_bytes()
+    assert mem["face_neighbors"] == nb.nbytes
+    assert mem["_face_table"] == sum(a.nbytes for a in vol._face_table)
+    vol.cell_edges
+    assert vol.memory_bytes()["_edge_table"] == vol.edges.nbytes + vol.cell_edges.nbytes
+
+
+def test_method_memory_excludes_the_volume_and_counts_structures():
+    from polygen.volume import methods
+
+    vol = datasets.load("genus3")
+    v = float(np.median(vol.scalars()))
+    for name in methods.names():
+        m = methods.get(name)(vol)
+        m.extract(v)
+        held = m.memory_bytes()
+        if name in ("scan", "unprepared-scan"):
+            assert held == 0, name
+            continue
+        assert held > 0, name
+        structure = getattr(getattr(m, "source", None), "structure", None)
+        if hasattr(structure, "nbytes"):
+            assert held >= structure.nbytes, name  # the search structure is part of what is held
+    # the volume's arrays are never counted: a method holding only them holds nothing
+    m = methods.get("scan")(vol)
+    m.borrowed = (vol.cells, vol.face_neighbors, vol.fields[next(iter(vol.fields))])
+    assert m.memory_bytes() == 0
+    m.own = np.zeros(1000, np.int32)
+    assert methods.IsosurfaceMethod.memory_bytes(m) == 4000

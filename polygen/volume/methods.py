@@ -211,8 +211,70 @@ class IsosurfaceMethod(abc.ABC):
         methods that can run queries side by side override this and use ``threads``)."""
         return [self.extract(v, normals=normals) for v in values]
 
+    def memory_bytes(self):
+        """Bytes of the arrays this prepared method holds between calls.
+
+        Every numpy array reachable from the method's attributes (through
+        lists, tuples, dicts and objects, three levels deep) counts once;
+        arrays of the volume (points, cells, fields and its cached topology,
+        :meth:`UnstructuredVolume.memory_bytes`) do not. Per-call scratch that
+        a method keeps between calls counts: it is held.
+        """
+        return _held_bytes(self, self.vol)
+
     def __repr__(self):
         return f"{type(self).__name__}({self.vol!r}, preprocess_s={self.preprocess_s:.3g})"
+
+
+def _array_root(a):
+    while isinstance(a.base, np.ndarray):
+        a = a.base
+    return id(a)
+
+
+def _held_bytes(obj, vol, depth=4):
+    """Bytes of the numpy arrays reachable from ``obj``, each buffer once, the volume's excluded."""
+    skip = set()
+    for a in [getattr(vol, "points", None), getattr(vol, "cells", None)] + list(getattr(vol, "fields", {}).values()):
+        if isinstance(a, np.ndarray):
+            skip.add(_array_root(a))
+
+    def vol_arrays(x, d):
+        if isinstance(x, np.ndarray):
+            skip.add(_array_root(x))
+        elif isinstance(x, (tuple, list)) and d:
+            for y in x:
+                vol_arrays(y, d - 1)
+
+    for x in getattr(vol, "__dict__", {}).values():
+        vol_arrays(x, 2)
+    seen, total = set(), 0
+    stack = [(obj, depth)]
+    visited = {id(vol)}
+    while stack:
+        x, d = stack.pop()
+        if isinstance(x, np.ndarray):
+            root = _array_root(x)
+            if root not in skip and root not in seen:
+                seen.add(root)
+                total += x.nbytes if x.base is None else _base(x).nbytes
+            continue
+        if d == 0 or id(x) in visited or isinstance(x, (str, bytes, int, float, type)):
+            continue
+        visited.add(id(x))
+        if isinstance(x, dict):
+            stack += [(y, d - 1) for y in x.values()]
+        elif isinstance(x, (list, tuple, set)):
+            stack += [(y, d - 1) for y in x]
+        elif hasattr(x, "__dict__"):
+            stack += [(y, d - 1) for y in vars(x).values()]
+    return int(total)
+
+
+def _base(a):
+    while isinstance(a.base, np.ndarray):
+        a = a.base
+    return a
 
 
 @register
