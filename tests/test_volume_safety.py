@@ -119,7 +119,6 @@ def test_background_preparation_from_two_threads(grid30):
     values = np.linspace(0.05, 0.95, 40)
     first = vol.isosurface(values[0])
     assert type(first).__name__ == "PairKeyedIsoSurface"  # answered without waiting for the preparation
-    assert "_edge_table" not in vol.__dict__ or vol._iso_pending  # only the background thread builds tables
     both = _two_threads(vol.isosurface, values)
     assert vol.wait_prepared(timeout=600)
     assert not vol.preparation_errors

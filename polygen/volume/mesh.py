@@ -403,16 +403,18 @@ class UnstructuredVolume:
         key = (name, _registry.DEFAULT_METHOD)
         with self._iso_lock:
             prepared = self._iso_methods.get(key)
-            if prepared is None and policy == "background":
-                self._prepare_in_background(key)
-        if prepared is None and policy == "now":
+        if prepared is not None:
+            return prepared.extract(value, normals=normals)  # serialised per method (IsosurfaceMethod's lock)
+        if policy == "now":
             pending = self._iso_pending.get(key)
             if pending is not None:
                 pending.join()  # the background preparation is running: wait for it rather than build twice
-            prepared = self._prepared(name, _registry.DEFAULT_METHOD)
-        if prepared is None:
-            prepared = self._prepared(name, "unprepared-scan")
-        return prepared.extract(value, normals=normals)  # serialised per method (IsosurfaceMethod's lock)
+            return self._prepared(name, _registry.DEFAULT_METHOD).extract(value, normals=normals)
+        iso = self._prepared(name, "unprepared-scan").extract(value, normals=normals)
+        if policy == "background":
+            with self._iso_lock:  # started after the answer, so that it does not compete with it for the cores
+                self._prepare_in_background(key)
+        return iso
 
     def _prepared(self, name, method):
         """The method ``method`` prepared on field ``name``, prepared now if it is not yet."""
