@@ -116,3 +116,33 @@ def test_method_memory_excludes_the_volume_and_counts_structures():
     assert m.memory_bytes() == 0
     m.own = np.zeros(1000, np.int32)
     assert methods.IsosurfaceMethod.memory_bytes(m) == 4000
+
+
+# ------------------------------------------------------------------ the constructor's one-pass check
+def test_one_pass_cell_check_never_passes_a_cell_the_exact_checks_refuse():
+    """``tet_cells_clearly_valid`` may send a valid cell to the exact checks, never the reverse: cells
+    flattened to around the degeneracy bound, inverted, with repeated or out-of-range nodes."""
+    from polygen.volume import _topology as k
+    from polygen.volume.mesh import _DEGENERATE_RTOL
+
+    rng = np.random.default_rng(7)
+    base = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    pts, cells = [], []
+    for i, h in enumerate(np.concatenate([np.geomspace(1e-12, 1e-8, 400), [1.0, -1.0, 1e-3, -1e-12]])):
+        p = base.copy()
+        p[3, 2] = h
+        p = p @ rng.normal(size=(3, 3)) if i % 2 else p  # rotated (possibly inverting) copies too
+        pts.append(p + rng.normal(size=3) * 10.0 ** rng.integers(0, 7))
+        cells.append(np.arange(4) + 4 * i)
+    points, cells = np.concatenate(pts), np.array(cells)
+    cells = np.concatenate([cells, [[0, 0, 1, 2], [0, 1, 2, len(points)], [-1, 0, 1, 2]]])
+    vol6, longest = k.tet_volumes6(points, np.clip(cells, 0, len(points) - 1))
+    exact_ok = (vol6 > _DEGENERATE_RTOL * longest**3) & (np.diff(np.sort(cells, axis=1), axis=1) > 0).all(axis=1) \
+        & (cells >= 0).all(axis=1) & (cells < len(points)).all(axis=1)
+    for c in range(len(cells)):
+        used = np.zeros(len(points), np.uint8)
+        clear = k.tet_cells_clearly_valid(points, cells[c:c + 1], _DEGENERATE_RTOL, used) == 0
+        assert not clear or exact_ok[c], c
+        assert used.sum() == (4 if clear else 0)
+    # both answers occur: the test exercises the bound from both sides
+    assert 0 < exact_ok.sum() < len(cells)

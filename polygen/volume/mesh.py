@@ -132,7 +132,8 @@ class UnstructuredVolume:
         self.points = np.ascontiguousarray(points, dtype=np.float64)
         self.cells = np.ascontiguousarray(cells, dtype=np.int64)
         n = self.points.shape[0]
-        bad_pts = np.flatnonzero(~np.all(np.isfinite(self.points), axis=1))
+        finite = bool(np.isfinite(self.points.ravel()).all())  # the row-wise check below only when it fails
+        bad_pts = np.flatnonzero(~np.all(np.isfinite(self.points), axis=1)) if not finite else np.zeros(0, np.int64)
         if bad_pts.size:
             raise VolumeError(f"{bad_pts.size} points have NaN or infinite coordinates, e.g. points {_examples(bad_pts)}")
         with np.errstate(over="ignore"):
@@ -140,19 +141,15 @@ class UnstructuredVolume:
         if not np.all(np.isfinite(extent)):
             raise VolumeError(f"the points span {extent.tolist()}: max - min of a coordinate overflows float64; "
                               "rescale the coordinates")
-        out_of_range = np.flatnonzero(np.any((self.cells < 0) | (self.cells >= n), axis=1))
-        if out_of_range.size:
-            c = out_of_range[0]
-            raise VolumeError(
-                f"{out_of_range.size} cells reference node ids outside 0..{n - 1}, e.g. cells "
-                f"{_examples(out_of_range)} (cell {c} has nodes {self.cells[c].tolist()})"
-            )
-        repeated = np.flatnonzero(np.any(np.diff(np.sort(self.cells, axis=1), axis=1) == 0, axis=1))
-        if repeated.size:
-            raise VolumeError(
-                f"{repeated.size} degenerate cells repeat a node, e.g. cells {_examples(repeated)} "
-                f"(cell {repeated[0]} has nodes {self.cells[repeated[0]].tolist()})"
-            )
+        # tetrahedra, checked in full: one parallel pass decides when every cell is clearly valid (the usual
+        # case); otherwise the exact checks below find the bad cells and name them
+        used = None
+        if self.cells.shape[1] == 4 and validate and not orient:
+            used = np.zeros(n, np.uint8)
+            if _k.tet_cells_clearly_valid(self.points, self.cells, _DEGENERATE_RTOL, used):
+                used = None
+        if used is None:
+            self._check_cells(n)
         self.cell_type = _CELL_TYPES[self.cells.shape[1]]
         self.fields = _Fields(self)
         self._iso_methods = {}  # (field, method) -> a prepared IsosurfaceMethod, for isosurface()
@@ -165,9 +162,10 @@ class UnstructuredVolume:
         self.preparation = "background"
         for name, values in (fields or {}).items():
             self.add_field(name, values)
-        if validate or orient:
-            self._check_geometry(orient)
-        used = np.bincount(self.cells.ravel(), minlength=n)
+        if used is None:
+            if validate or orient:
+                self._check_geometry(orient)
+            used = np.bincount(self.cells.ravel(), minlength=n)
         self.unreferenced_nodes = np.flatnonzero(used == 0)
         if self.unreferenced_nodes.size:
             warnings.warn(
@@ -176,6 +174,22 @@ class UnstructuredVolume:
                 "(remove_unreferenced_nodes() gives a copy without them)",
                 VolumeWarning,
                 stacklevel=2,
+            )
+
+    def _check_cells(self, n):
+        """Node ids in range and distinct in every cell, or a VolumeError naming the bad cells."""
+        out_of_range = np.flatnonzero(np.any((self.cells < 0) | (self.cells >= n), axis=1))
+        if out_of_range.size:
+            c = out_of_range[0]
+            raise VolumeError(
+                f"{out_of_range.size} cells reference node ids outside 0..{n - 1}, e.g. cells "
+                f"{_examples(out_of_range)} (cell {c} has nodes {self.cells[c].tolist()})"
+            )
+        repeated = np.flatnonzero(np.any(np.diff(np.sort(self.cells, axis=1), axis=1) == 0, axis=1))
+        if repeated.size:
+            raise VolumeError(
+                f"{repeated.size} degenerate cells repeat a node, e.g. cells {_examples(repeated)} "
+                f"(cell {repeated[0]} has nodes {self.cells[repeated[0]].tolist()})"
             )
 
     # ------------------------------------------------------------------ basics
