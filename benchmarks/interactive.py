@@ -43,7 +43,6 @@ os.environ["VTK_SMP_BACKEND_IN_USE"] = "STDThread"  # before anything imports vt
 
 import gc  # noqa: E402
 import json  # noqa: E402
-import resource  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
@@ -84,8 +83,7 @@ def vtk_filter(grid, label):
 
     span = label.endswith("+SpanSpace")
     if label.startswith("vtkContour3DLinearGrid"):
-        f = vtk.vtkContour3DLinearGrid()
-        f.SetMergePoints(True)
+        f = vtk.vtkContour3DLinearGrid()  # merges points always (VTK >= 9.7)
         f.SetInterpolateAttributes(False)
     else:
         f = vtk.vtkContourFilter()
@@ -125,10 +123,12 @@ def per_value(one, values):
     return ts, out
 
 
-def rss_now_mb():
+def rss_now_mb(key="VmRSS"):
+    """This process's resident set (``VmRSS``) or its peak (``VmHWM``), MB. (Not ``ru_maxrss``:
+    a child started by ``subprocess`` inherits its parent's value there.)"""
     with open("/proc/self/status") as fh:
         for line in fh:
-            if line.startswith("VmRSS:"):
+            if line.startswith(key + ":"):
                 return int(line.split()[1]) / 1024.0
     return float("nan")
 
@@ -141,6 +141,7 @@ def warm_up():
     fresh = UnstructuredVolume(vol.points, vol.cells, {FIELD: s})
     fresh.isosurface(values[0])
     fresh.wait_prepared()
+    vtk_filter(vtk_grid(vol.points, vol.cells, np.array(s)), "vtkContourFilter")[1](values[0])  # pyvista, vtk
     for name in ("edge-centred", "scan", "unprepared-scan"):
         m = methods.get(name)(vol, field=FIELD)
         for v in values:
@@ -232,6 +233,9 @@ def worker(side, path, value):
     values = isovalues(s, 20)
     if side == "polygen":
         warm_up()
+    else:
+        import pyvista  # noqa: F401  (the libraries are loaded before the baseline, as polygen's warm-up does)
+        import vtk  # noqa: F401
     gc.collect()
     base = rss_now_mb()
     if side == "polygen":
@@ -248,7 +252,7 @@ def worker(side, path, value):
         _, one = vtk_filter(grid, label)
         for v in values:
             one(v)
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    peak = rss_now_mb("VmHWM")
     print(json.dumps({"peak_rss_mb": peak, "rss_after_loading_mb": base}))
 
 
@@ -338,7 +342,7 @@ def report(rows, load_before, load_after):
         "(inside the first update) is not in the sweep times (build_s in the JSON)",
         "- polygen: mean normals on; 'edge-centred' = the prepared default method, 'unprepared-scan' = what "
         "vol.isosurface answers before the preparation is ready",
-        "- peak RSS: each side in its own subprocess (ru_maxrss); polygen's includes the numba runtime and "
+        "- peak RSS: each side in its own subprocess (VmHWM); polygen's includes the numba runtime and "
         "its warm-up on data1, and its background preparation",
         f"- machine load average (1, 5, 15 min) before {load_before}, after {load_after}; "
         f"{os.cpu_count()} CPUs shared with other jobs: times are indicative",
