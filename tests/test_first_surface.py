@@ -89,7 +89,7 @@ def test_volume_memory_counts_what_was_built():
     nb = vol.face_neighbors
     mem = vol.memory_bytes()
     assert mem["face_neighbors"] == nb.nbytes
-    assert mem["_face_table"] == sum(a.nbytes for a in vol._face_table)
+    assert set(mem) == {"face_neighbors"}  # the face ids it was matched from are not kept
     vol.cell_edges
     assert vol.memory_bytes()["_edge_table"] == vol.edges.nbytes + vol.cell_edges.nbytes
 

@@ -477,12 +477,12 @@ class UnstructuredVolume:
         """Bytes of the derived tables this volume holds (topology, incidence), by name.
 
         Only what has been computed is counted (the tables are built lazily):
-        ``face_neighbors``, the face table, the edge table (``edges`` and
+        ``face_neighbors``, the edge table (``edges`` and
         ``cell_edges``), ``cell_records``, ``edge_cells``, ``node_cells`` and
         the locator. The points, cells and fields themselves are not counted.
         """
         out = {}
-        for attr in ("_face_table", "face_neighbors", "boundary_faces", "_edge_table", "cell_records",
+        for attr in ("face_neighbors", "boundary_faces", "_edge_table", "cell_records",
                      "edge_cells", "node_cells", "cell_components", "_locator", "boundary_edge_table"):
             obj = self.__dict__.get(attr)
             if obj is not None:
@@ -490,8 +490,8 @@ class UnstructuredVolume:
         return out
 
     # ------------------------------------------------------------- adjacency
-    @functools.cached_property
     def _face_table(self):
+        # not kept: face_neighbors is all that is needed from it (48 bytes per tetrahedron less held)
         faces = _k.gather_local(self.cells, self.local_faces)
         _k.sort_rows(faces)
         ids, first = _k.match_rows(faces, self.n_points)
@@ -503,7 +503,7 @@ class UnstructuredVolume:
 
         Cells are neighbours only when their faces have the same nodes.
         """
-        ids, first = self._face_table
+        ids, first = self._face_table()
         nf = self.local_faces.shape[0]
         neighbors, bad = _k.face_neighbors_from_ids(ids, nf, first.shape[0])
         if bad >= 0:
