@@ -280,6 +280,7 @@ def test_volume_isosurface_uses_the_default_method_prepared_once():
     vol.add_field("r", np.linalg.norm(vol.points - vol.points.mean(axis=0), axis=1))
     vol.add_field("x", vol.points[:, 0].copy())
     assert methods.default() == "edge-centred-table" == methods.names()[0]
+    vol.preparation = "now"  # the behaviour before issue 20: prepare, then answer
     iso = vol.isosurface(1.7)
     assert iso.vertex_lookups == 0 and iso.n_triangles > 0
     assert_same_surface(extract(vol, 1.7), iso)

@@ -103,11 +103,71 @@ def test_two_threads_on_vol_isosurface(grid30):
     points, cells = grid30.points, grid30.cells
     vol = UnstructuredVolume(points, cells, {"f": grid30.fields["f"]}, validate=False)
     values = np.linspace(0.05, 0.95, 40)
-    both = _two_threads(vol.isosurface, values)
+    both = _two_threads(lambda v: vol.isosurface(v, prepare=True), values)
     assert len(vol._iso_methods) == 1  # prepared once, not once per thread
     for v, a, b in zip(values, *both):
         ref = scan(grid30, v)
         assert same_surface(a, ref, geometry=False) and same_surface(b, ref, geometry=False)
+
+
+def test_background_preparation_from_two_threads(grid30):
+    """Issue 20: the default policy answers at once by the unprepared scan while the edge-centred
+    method is prepared in a background thread; two threads asking meanwhile get the scan's surfaces,
+    the preparation starts once, and the answers after it are the same surfaces."""
+    vol = UnstructuredVolume(grid30.points, grid30.cells, {"f": grid30.fields["f"]}, validate=False)
+    assert vol.preparation == "background"
+    values = np.linspace(0.05, 0.95, 40)
+    first = vol.isosurface(values[0])
+    assert type(first).__name__ == "PairKeyedIsoSurface"  # answered without waiting for the preparation
+    both = _two_threads(vol.isosurface, values)
+    assert vol.wait_prepared(timeout=600)
+    assert not vol.preparation_errors
+    assert sorted(k[1] for k in vol._iso_methods) == ["edge-centred", "unprepared-scan"]
+    prepared = vol._iso_methods[("f", "edge-centred")]
+    after = [vol.isosurface(v) for v in values]
+    assert vol._iso_methods[("f", "edge-centred")] is prepared  # prepared once
+    assert all(type(iso).__name__ == "IsoSurface" for iso in after)  # the prepared method answers now
+    for v, a, b, c in zip(values, *both, after):
+        ref = scan(grid30, v)
+        for iso in (a, b, c):
+            assert same_surface(iso, ref)  # vertex keys, positions and normals
+
+
+def test_prepare_false_never_prepares(grid30):
+    vol = UnstructuredVolume(grid30.points, grid30.cells, {"f": grid30.fields["f"]}, validate=False)
+    for v in (0.3, 0.6):
+        iso = vol.isosurface(v, prepare=False)
+        assert not vol._iso_pending and "_edge_table" not in vol.__dict__ and "face_neighbors" not in vol.__dict__
+        ref = scan(grid30, v)  # the same numbering: the same arrays (vertex_keys would build the edge table)
+        assert np.array_equal(iso.triangles, ref.triangles) and np.array_equal(iso.vertices, ref.vertices)
+        assert np.array_equal(iso.normals, ref.normals)
+    assert same_surface(iso, ref)  # the edge ids, looked up now
+    assert "_edge_table" in vol.__dict__ and "face_neighbors" not in vol.__dict__
+    vol.preparation = "never"
+    vol.isosurface(0.5)
+    assert not vol._iso_pending and list(vol._iso_methods) == [("f", "unprepared-scan")]
+    with pytest.raises(VolumeError, match="prepare must be"):
+        vol.isosurface(0.5, prepare="yes")
+    vol.preparation = "soon"
+    with pytest.raises(VolumeError, match="preparation must be one of"):
+        vol.isosurface(0.5)
+
+
+def test_background_preparation_of_a_replaced_field_is_dropped():
+    points, cells = grid_tets(12)
+    old = two_blobs(points)
+    new = two_blobs(points[:, [2, 1, 0]]) * 0.5 + 0.3
+    vol = UnstructuredVolume(points, cells, {"f": old}, orient=True)
+    fresh = UnstructuredVolume(points, vol.cells, {"f": new}, validate=False)
+    vol.isosurface(0.5)  # starts preparing on the old values
+    vol.fields["f"] = new
+    assert vol.wait_prepared(timeout=600)
+    for v in (0.35, 0.5, 0.7):
+        assert same_surface(vol.isosurface(v), scan(fresh, v))
+    assert vol.wait_prepared(timeout=600)
+    for v in (0.35, 0.5, 0.7):
+        assert same_surface(vol.isosurface(v), scan(fresh, v))
+        assert same_surface(vol.isosurface(v, prepare=True), scan(fresh, v))
 
 
 def test_every_method_at_once_on_one_volume(grid30):

@@ -166,6 +166,55 @@ def tet_volumes6(points, cells):
 
 
 @njit(parallel=True)
+def tet_cells_clearly_valid(points, cells, rtol, used):
+    """How many tetrahedra are *not* clearly valid; marks ``used[node] = 1`` for the others' nodes.
+
+    One parallel pass, no temporaries: node ids in range, four distinct
+    nodes, and a positive volume clearly above the degeneracy bound of
+    :meth:`UnstructuredVolume._check_geometry` (``6V > rtol * longest**3``
+    with a relative margin of 1e-9, so rounding can never call a cell valid
+    that the exact check would refuse). The constructor runs the full,
+    exact checks (and their messages) only when this count is not zero.
+    """
+    m = cells.shape[0]
+    n = points.shape[0]
+    bad = 0
+    for c in prange(m):
+        i0 = cells[c, 0]
+        i1 = cells[c, 1]
+        i2 = cells[c, 2]
+        i3 = cells[c, 3]
+        if (min(min(i0, i1), min(i2, i3)) < 0 or max(max(i0, i1), max(i2, i3)) >= n
+                or i0 == i1 or i0 == i2 or i0 == i3 or i1 == i2 or i1 == i3 or i2 == i3):
+            bad += 1
+            continue
+        ax = points[i1, 0] - points[i0, 0]
+        ay = points[i1, 1] - points[i0, 1]
+        az = points[i1, 2] - points[i0, 2]
+        bx = points[i2, 0] - points[i0, 0]
+        by = points[i2, 1] - points[i0, 1]
+        bz = points[i2, 2] - points[i0, 2]
+        dx = points[i3, 0] - points[i0, 0]
+        dy = points[i3, 1] - points[i0, 1]
+        dz = points[i3, 2] - points[i0, 2]
+        v6 = ax * (by * dz - bz * dy) - ay * (bx * dz - bz * dx) + az * (bx * dy - by * dx)
+        e = max(ax * ax + ay * ay + az * az, bx * bx + by * by + bz * bz, dx * dx + dy * dy + dz * dz)
+        for i, j in ((i1, i2), (i1, i3), (i2, i3)):  # the other edges from the points, as tet_volumes6
+            ex = points[i, 0] - points[j, 0]
+            ey = points[i, 1] - points[j, 1]
+            ez = points[i, 2] - points[j, 2]
+            e = max(e, ex * ex + ey * ey + ez * ez)
+        if not (v6 > rtol * (1.0 + 1e-9) * e * np.sqrt(e)):  # NaN too
+            bad += 1
+            continue
+        used[i0] = 1
+        used[i1] = 1
+        used[i2] = 1
+        used[i3] = 1
+    return bad
+
+
+@njit(parallel=True)
 def hex_jacobians(points, cells, corners):
     """Corner Jacobian determinants ``(M, 8)``, volume and longest edge of each hexahedron."""
     m = cells.shape[0]

@@ -21,6 +21,7 @@ vertex identification), ``t3`` the vertex positions and normals.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -31,6 +32,7 @@ from polygen.volume.propagate import Propagator
 from polygen.volume.surface import (
     IsoSurface,
     IsoSurfaceError,
+    PairKeyedIsoSurface,
     check_normals,
     check_value,
     finish,
@@ -89,6 +91,65 @@ def _scan(vol, value, field, normals, node_grad=None):
     return finish(value, keys, tri, tri_cell, points=points, edges=edges, s=s, normals=normals,
                   node_grad=node_grad, method="scan", cells_tested=m, cells_intersected=n_ic,
                   vertex_lookups=int(ch_look.sum()), t1=t1, t2=t2)
+
+
+def _scan_unprepared(vol, value, field, normals, node_grad=None):
+    """The full scan with the vertices merged by node pairs: no edge table needed.
+
+    The same two parallel passes as :func:`_scan`; pass 2 keys each corner by
+    the sorted node pair of its crossed edge (or its node), and a hash table
+    over the crossed edges alone numbers the vertices in order of first use
+    -- the full scan's numbering, so vertices, triangles and normals come out
+    identical to it, array for array. Output-sensitive: nothing of the
+    volume's edge count is allocated or swept.
+    """
+    points, cells, s, cell_type = volume_arrays(vol, field)
+    table, count, local_edges, faces = _m.local_tables(cell_type)
+    n_points = points.shape[0]
+    if n_points > 3_037_000_499:  # a * N + b must fit int64
+        raise IsoSurfaceError(f"the unprepared scan keys node pairs as a * N + b; {n_points} nodes overflow int64")
+    if normals == "gradient" and node_grad is None:
+        node_grad = node_gradients(vol, s)
+    m = cells.shape[0]
+
+    t0 = time.perf_counter()
+    nch = max(1, -(-m // _CHUNK))
+    cases = np.empty(m, np.int32)
+    ch_cells = np.empty(nch, np.int64)
+    ch_tris = np.empty(nch, np.int64)
+    ch_look = np.empty(nch, np.int64)
+    _m._scan_count(cells, s, value, faces, table, count, _m.crossed_counts(cell_type), local_edges, _CHUNK,
+                   cases, ch_cells, ch_tris, ch_look)
+    tri_off = np.zeros(nch + 1, np.int64)
+    np.cumsum(ch_tris, out=tri_off[1:])
+    t1 = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    n_ic, n_t = int(ch_cells.sum()), int(tri_off[-1])
+    tri_codes = np.empty((n_t, 3), np.int64)
+    tri_cell = np.empty(n_t, np.int64)
+    _m._scan_fill_pairs(cells, s, value, n_points, table, count, local_edges, _CHUNK,
+                        cases, tri_off, tri_codes, tri_cell)
+    tri = np.empty((n_t, 3), np.int64)
+    v_max = 3 * n_t
+    bits = max(4, int(2 * v_max).bit_length())  # load factor <= 1/2
+    table_keys = np.full(1 << bits, -1, np.int64)
+    table_vals = np.empty(1 << bits, np.int64)
+    codes = np.empty(v_max, np.int64)
+    edges = np.empty((v_max, 2), np.int64)
+    keys = np.empty(v_max, np.int64)
+    n_v = _m._number_pair_codes(tri_codes, n_points, 64 - bits, table_keys, table_vals, codes, tri, edges, keys)
+    keys = keys[:n_v]
+    t2 = time.perf_counter() - t0
+
+    iso = finish(value, keys, tri, tri_cell, points=points, edges=edges, s=s, normals=normals,
+                 node_grad=node_grad, method="scan", cells_tested=m, cells_intersected=n_ic,
+                 vertex_lookups=int(ch_look.sum()), t1=t1, t2=t2)
+    out = PairKeyedIsoSurface(**{f.name: getattr(iso, f.name) for f in dataclasses.fields(iso)
+                                 if f.name != "vertex_keys"}, vertex_keys=None)
+    object.__setattr__(out, "vertex_pairs", edges[:n_v].copy())
+    object.__setattr__(out, "_volume", vol)
+    return out
 
 
 def extract(vol, value, *, field=None, method="scan", normals="mean", seeds=None):

@@ -681,3 +681,84 @@ def _node_gradients(points, cells, s, hex_dn, out):
         if wsum[q] > 0.0:
             for d in range(3):
                 out[q, d] /= wsum[q]
+
+
+# ------------------------------------------- the scan without prepared topology
+@njit
+def _pair_code(code, c, cells, local_edges, n_points):
+    """Node-pair key of a local vertex code: ``a * N + b`` (``a < b``) for the crossing on edge
+    ``(a, b)``, ``p * N + p`` for node ``p`` itself. Needs no edge table."""
+    if code >= 16:
+        p = cells[c, code - 16]
+        return p * n_points + p
+    a = cells[c, local_edges[code, 0]]
+    b = cells[c, local_edges[code, 1]]
+    if a < b:
+        return a * n_points + b
+    return b * n_points + a
+
+
+@njit(parallel=True)
+def _scan_fill_pairs(cells, s, value, n_points, tri_table, tri_count, local_edges, chunk,
+                     cases, tri_off, tri_codes, tri_cell):
+    # pass 2 of the scan, keyed by the node pairs of the crossed edges instead of edge ids
+    m = cells.shape[0]
+    nch = tri_off.shape[0] - 1
+    for ch in prange(nch):
+        lo = ch * chunk
+        hi = min(m, lo + chunk)
+        tris = np.empty((MAX_TRIANGLES, 3), np.int64)
+        it = tri_off[ch]
+        for c in range(lo, hi):
+            case = cases[c]
+            if case < 0:
+                continue
+            k = _cell_codes(cells, c, s, value, case, tri_table, tri_count, local_edges, tris)
+            for t in range(k):
+                for j in range(3):
+                    tri_codes[it, j] = _pair_code(tris[t, j], c, cells, local_edges, n_points)
+                tri_cell[it] = c
+                it += 1
+
+
+@njit
+def _number_pair_codes(tri_codes, n_points, shift, table_keys, table_vals, codes, tris, edges, keys):
+    """One vertex per distinct node-pair code, numbered in order of first use (as
+    :func:`_number_vertices`, so the numbering is the full scan's); returns the count.
+
+    An open-addressing hash table (``table_keys`` (H,) int64 all -1, ``H`` a
+    power of two ``2**(64 - shift)`` above the number of codes; ``table_vals`` (H,) int64
+    scratch) replaces the volume-sized ``seen`` array: only the crossed
+    edges are touched. Fills ``codes`` (V,), ``tris`` (T, 3) vertex ids,
+    ``edges`` (V, 2) the node pair of each vertex and ``keys`` (V,) its key
+    in the numbering of ``edges``: ``v`` on an edge, ``V_max + node`` on a
+    node, with ``V_max = edges.shape[0]`` (what :func:`_vertex_positions` reads).
+    """
+    n_slots = table_keys.shape[0]
+    n_edges = edges.shape[0]
+    n = 0
+    for t in range(tri_codes.shape[0]):
+        for j in range(3):
+            k = tri_codes[t, j]
+            h = np.int64((np.uint64(k) * np.uint64(0x9E3779B97F4A7C15)) >> np.uint64(shift))
+            while True:
+                cur = table_keys[h]
+                if cur == k:
+                    tris[t, j] = table_vals[h]
+                    break
+                if cur == -1:
+                    table_keys[h] = k
+                    table_vals[h] = n
+                    codes[n] = k
+                    a = k // n_points
+                    b = k - a * n_points
+                    edges[n, 0] = a
+                    edges[n, 1] = b
+                    keys[n] = n if a != b else n_edges + a
+                    tris[t, j] = n
+                    n += 1
+                    break
+                h += 1
+                if h == n_slots:
+                    h = 0
+    return n

@@ -64,6 +64,19 @@ class _Fields(collections.abc.MutableMapping):
         return f"fields({', '.join(f'{k!r}: ({v.shape[0]},)' for k, v in self._data.items())})"
 
 
+#: the values of :attr:`UnstructuredVolume.preparation` (see :meth:`UnstructuredVolume.isosurface`)
+PREPARATION_POLICIES = ("background", "now", "never")
+
+
+def _nbytes(obj):
+    """Bytes of the numpy arrays in ``obj`` (an array or a tuple of them)."""
+    if isinstance(obj, np.ndarray):
+        return int(obj.nbytes)
+    if isinstance(obj, (tuple, list)):
+        return sum(_nbytes(o) for o in obj)
+    return 0
+
+
 def _examples(idx, n=5):
     idx = np.asarray(idx).ravel()
     head = ", ".join(str(int(i)) for i in idx[:n])
@@ -119,7 +132,8 @@ class UnstructuredVolume:
         self.points = np.ascontiguousarray(points, dtype=np.float64)
         self.cells = np.ascontiguousarray(cells, dtype=np.int64)
         n = self.points.shape[0]
-        bad_pts = np.flatnonzero(~np.all(np.isfinite(self.points), axis=1))
+        finite = bool(np.isfinite(self.points.ravel()).all())  # the row-wise check below only when it fails
+        bad_pts = np.flatnonzero(~np.all(np.isfinite(self.points), axis=1)) if not finite else np.zeros(0, np.int64)
         if bad_pts.size:
             raise VolumeError(f"{bad_pts.size} points have NaN or infinite coordinates, e.g. points {_examples(bad_pts)}")
         with np.errstate(over="ignore"):
@@ -127,6 +141,43 @@ class UnstructuredVolume:
         if not np.all(np.isfinite(extent)):
             raise VolumeError(f"the points span {extent.tolist()}: max - min of a coordinate overflows float64; "
                               "rescale the coordinates")
+        # tetrahedra, checked in full: one parallel pass decides when every cell is clearly valid (the usual
+        # case); otherwise the exact checks below find the bad cells and name them
+        used = None
+        if self.cells.shape[1] == 4 and validate and not orient:
+            used = np.zeros(n, np.uint8)
+            if _k.tet_cells_clearly_valid(self.points, self.cells, _DEGENERATE_RTOL, used):
+                used = None
+        if used is None:
+            self._check_cells(n)
+        self.cell_type = _CELL_TYPES[self.cells.shape[1]]
+        self.fields = _Fields(self)
+        self._iso_methods = {}  # (field, method) -> a prepared IsosurfaceMethod, for isosurface()
+        self._iso_lock = threading.RLock()  # guards _iso_methods (isosurface() from several threads)
+        self._iso_pending = {}  # (field, method) -> the thread preparing it in the background
+        #: (field, method) -> the exception a background preparation raised (isosurface() then scans)
+        self.preparation_errors = {}
+        #: what :meth:`isosurface` does about the default method's preparation: one of
+        #: :data:`PREPARATION_POLICIES` (``"background"``, ``"now"``, ``"never"``)
+        self.preparation = "background"
+        for name, values in (fields or {}).items():
+            self.add_field(name, values)
+        if used is None:
+            if validate or orient:
+                self._check_geometry(orient)
+            used = np.bincount(self.cells.ravel(), minlength=n)
+        self.unreferenced_nodes = np.flatnonzero(used == 0)
+        if self.unreferenced_nodes.size:
+            warnings.warn(
+                f"{self.unreferenced_nodes.size} of {n} nodes are used by no cell, e.g. nodes "
+                f"{_examples(self.unreferenced_nodes)}; they keep their ids and every isosurface method ignores them "
+                "(remove_unreferenced_nodes() gives a copy without them)",
+                VolumeWarning,
+                stacklevel=2,
+            )
+
+    def _check_cells(self, n):
+        """Node ids in range and distinct in every cell, or a VolumeError naming the bad cells."""
         out_of_range = np.flatnonzero(np.any((self.cells < 0) | (self.cells >= n), axis=1))
         if out_of_range.size:
             c = out_of_range[0]
@@ -139,24 +190,6 @@ class UnstructuredVolume:
             raise VolumeError(
                 f"{repeated.size} degenerate cells repeat a node, e.g. cells {_examples(repeated)} "
                 f"(cell {repeated[0]} has nodes {self.cells[repeated[0]].tolist()})"
-            )
-        self.cell_type = _CELL_TYPES[self.cells.shape[1]]
-        self.fields = _Fields(self)
-        self._iso_methods = {}  # (field, method) -> a prepared IsosurfaceMethod, for isosurface()
-        self._iso_lock = threading.RLock()  # guards _iso_methods (isosurface() from several threads)
-        for name, values in (fields or {}).items():
-            self.add_field(name, values)
-        if validate or orient:
-            self._check_geometry(orient)
-        used = np.bincount(self.cells.ravel(), minlength=n)
-        self.unreferenced_nodes = np.flatnonzero(used == 0)
-        if self.unreferenced_nodes.size:
-            warnings.warn(
-                f"{self.unreferenced_nodes.size} of {n} nodes are used by no cell, e.g. nodes "
-                f"{_examples(self.unreferenced_nodes)}; they keep their ids and every isosurface method ignores them "
-                "(remove_unreferenced_nodes() gives a copy without them)",
-                VolumeWarning,
-                stacklevel=2,
             )
 
     # ------------------------------------------------------------------ basics
@@ -229,6 +262,7 @@ class UnstructuredVolume:
         """Drop the methods :meth:`isosurface` prepared on field ``name`` (it changed or went)."""
         with self._iso_lock:
             self._iso_methods = {k: m for k, m in self._iso_methods.items() if k[0] != name}
+            self.preparation_errors = {k: e for k, e in self.preparation_errors.items() if k[0] != name}
 
     def scalars(self, name=None) -> np.ndarray:
         """The node values of field ``name`` (the first field by default)."""
@@ -318,17 +352,43 @@ class UnstructuredVolume:
         return (out, node_order, cell_order) if return_permutations else out
 
     # ------------------------------------------------------------ isosurface
-    def isosurface(self, value, *, field=None, method=None, normals="mean"):
-        """The isosurface ``S = value``, by the fastest method unless told otherwise.
+    def isosurface(self, value, *, field=None, method=None, normals="mean", prepare=None):
+        """The isosurface ``S = value``: at once on a fresh volume, by the fastest method once it is ready.
 
-        The method is prepared on the first call for a field (for the default,
-        cell-edge-centred construction, that is volume thinning and the edge
-        incidence: about a second per million cells) and kept, so later
-        calls cost only the query (milliseconds on a 2M-cell volume).
-        Replacing the field (``vol.fields[name] = new``) drops the prepared
-        method. Safe from several threads: the preparation happens once, and
-        the prepared method's lock lets one extraction run at a time
-        (:class:`~polygen.volume.methods.IsosurfaceMethod`).
+        **Policy** (``method=None``, the usual call). The default method
+        (:data:`~polygen.volume.registry.DEFAULT_METHOD`, the cell-edge-centred
+        construction) needs a preparation -- face neighbours, edges,
+        thinning, edge records: about a second per million cells -- that a
+        single surface does not repay. So the first surface never waits
+        for it:
+
+        * ``prepare=None`` (default) follows :attr:`preparation`, the
+          volume's setting, ``"background"`` unless changed: until the
+          default method is prepared on the field, the answer comes from
+          the ``"unprepared-scan"`` (every cell tested in parallel, vertices
+          merged by the node pairs of the crossed edges; no topology needed,
+          the same triangles as every other method) while the first call
+          starts the preparation in a background thread (its numba kernels
+          release the GIL). Later calls use the prepared method as soon as
+          it is there. With ``preparation = "now"`` the first call prepares
+          and then answers (the behaviour before issue 20); with
+          ``"never"`` every call scans.
+        * ``prepare=True``: prepare now (or wait for the background
+          preparation already running) and answer with the prepared method.
+        * ``prepare=False``: answer with the unprepared scan and start nothing.
+
+        With ``method`` named, that method is prepared on first use, before
+        answering (``prepare`` does not apply), and kept.
+
+        Replacing the field (``vol.fields[name] = new``) drops what was
+        prepared on it (a background preparation of the old values is
+        discarded when it ends). Safe from several threads: each preparation
+        happens once, and a prepared method's lock lets one extraction run at
+        a time (:class:`~polygen.volume.methods.IsosurfaceMethod`). Whichever
+        path answers, the triangles, vertices and normals are the same; the
+        ``vertex_keys`` of an unprepared answer (a
+        :class:`~polygen.volume.surface.PairKeyedIsoSurface`) are computed
+        when first read.
 
         Parameters
         ----------
@@ -336,9 +396,12 @@ class UnstructuredVolume:
         field : str, optional, keyword-only
             Field name (the first field by default).
         method : str, optional, keyword-only
-            A registered method (:func:`polygen.volume.registry.method_names`;
-            default :data:`~polygen.volume.registry.DEFAULT_METHOD`, ``"edge-centred-table"``).
+            A registered method (:func:`polygen.volume.registry.method_names`);
+            by default :data:`~polygen.volume.registry.DEFAULT_METHOD`
+            (``"edge-centred-table"``) once prepared, the unprepared scan before.
         normals : {"mean", "gradient", None}, keyword-only
+        prepare : bool or None, keyword-only
+            Force (True) or skip (False) the preparation of the default method.
 
         Returns
         -------
@@ -346,18 +409,91 @@ class UnstructuredVolume:
         """
         self.scalars(field)  # a clear error when the field is missing
         name = field if field is not None else next(iter(self.fields))
-        method = _registry.DEFAULT_METHOD if method is None else method
+        if method is not None:
+            return self._prepared(name, method).extract(value, normals=normals)
+        if prepare not in (None, True, False):
+            raise VolumeError(f"prepare must be True, False or None; got {prepare!r}")
+        policy = self.preparation if prepare is None else ("now" if prepare else "never")
+        if policy not in PREPARATION_POLICIES:
+            raise VolumeError(f"preparation must be one of {PREPARATION_POLICIES}; got {policy!r}")
+        key = (name, _registry.DEFAULT_METHOD)
+        with self._iso_lock:
+            prepared = self._iso_methods.get(key)
+        if prepared is not None:
+            return prepared.extract(value, normals=normals)  # serialised per method (IsosurfaceMethod's lock)
+        if policy == "now":
+            pending = self._iso_pending.get(key)
+            if pending is not None:
+                pending.join()  # the background preparation is running: wait for it rather than build twice
+            return self._prepared(name, _registry.DEFAULT_METHOD).extract(value, normals=normals)
+        iso = self._prepared(name, "unprepared-scan").extract(value, normals=normals)
+        if policy == "background":
+            with self._iso_lock:  # started after the answer, so that it does not compete with it for the cores
+                self._prepare_in_background(key)
+        return iso
+
+    def _prepared(self, name, method):
+        """The method ``method`` prepared on field ``name``, prepared now if it is not yet."""
         key = (name, method)
         with self._iso_lock:  # one preparation per (field, method), also when threads ask at once
             prepared = self._iso_methods.get(key)
             if prepared is None:
                 # the registry, not the methods: they sit above the mesh and register themselves there
                 prepared = self._iso_methods[key] = _registry.get_method(method)(self, field=name)
-        return prepared.extract(value, normals=normals)  # serialised per method (IsosurfaceMethod's lock)
+        return prepared
+
+    def _prepare_in_background(self, key):
+        """Start preparing ``key = (field, method)`` in a daemon thread (once; call under ``_iso_lock``)."""
+        if key in self._iso_methods or key in self._iso_pending or key in self.preparation_errors:
+            return
+        thread = threading.Thread(target=self._background_preparation, args=(key,), daemon=True,
+                                  name=f"polygen-prepare-{key[1]}-{key[0]}")
+        self._iso_pending[key] = thread
+        thread.start()
+
+    def _background_preparation(self, key):
+        name, method = key
+        try:
+            prepared = _registry.get_method(method)(self, field=name)
+        except Exception as e:  # kept for the caller; isosurface() goes on scanning, prepare=True raises it
+            with self._iso_lock:
+                self.preparation_errors[key] = e
+                self._iso_pending.pop(key, None)
+            return
+        with self._iso_lock:
+            # the field may have been replaced meanwhile: then the preparation is stale, drop it
+            if self.fields._data.get(name) is prepared._field_values and key not in self._iso_methods:
+                self._iso_methods[key] = prepared
+            self._iso_pending.pop(key, None)
+
+    def wait_prepared(self, timeout=None):
+        """Wait for the background preparations started by :meth:`isosurface`; True when none is left."""
+        with self._iso_lock:
+            threads = list(self._iso_pending.values())
+        for thread in threads:
+            thread.join(timeout)
+        with self._iso_lock:
+            return not self._iso_pending
+
+    def memory_bytes(self):
+        """Bytes of the derived tables this volume holds (topology, incidence), by name.
+
+        Only what has been computed is counted (the tables are built lazily):
+        ``face_neighbors``, the edge table (``edges`` and
+        ``cell_edges``), ``cell_records``, ``edge_cells``, ``node_cells`` and
+        the locator. The points, cells and fields themselves are not counted.
+        """
+        out = {}
+        for attr in ("face_neighbors", "boundary_faces", "_edge_table", "cell_records",
+                     "edge_cells", "node_cells", "cell_components", "_locator", "boundary_edge_table"):
+            obj = self.__dict__.get(attr)
+            if obj is not None:
+                out[attr] = _nbytes(obj)
+        return out
 
     # ------------------------------------------------------------- adjacency
-    @functools.cached_property
     def _face_table(self):
+        # not kept: face_neighbors is all that is needed from it (48 bytes per tetrahedron less held)
         faces = _k.gather_local(self.cells, self.local_faces)
         _k.sort_rows(faces)
         ids, first = _k.match_rows(faces, self.n_points)
@@ -369,7 +505,7 @@ class UnstructuredVolume:
 
         Cells are neighbours only when their faces have the same nodes.
         """
-        ids, first = self._face_table
+        ids, first = self._face_table()
         nf = self.local_faces.shape[0]
         neighbors, bad = _k.face_neighbors_from_ids(ids, nf, first.shape[0])
         if bad >= 0:

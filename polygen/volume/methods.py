@@ -33,10 +33,13 @@ import time
 import numpy as np
 
 from polygen.volume import registry as _registry
+from polygen.volume.isosurface import _scan_unprepared
 from polygen.volume.isosurface import extract as _extract
 from polygen.volume.propagate import Propagator
 from polygen.volume.seeds.source import seed_source as _seed_source
 from polygen.volume.surface import IsoSurfaceError, same_surface
+from polygen.volume.surface import check_normals as _check_normals
+from polygen.volume.surface import check_value as _check_value
 
 __all__ = ["IsosurfaceMethod", "SeedsThenPropagate", "METHODS", "DEFAULT", "register", "get", "names", "default",
            "Sweep", "sweep"]
@@ -208,8 +211,70 @@ class IsosurfaceMethod(abc.ABC):
         methods that can run queries side by side override this and use ``threads``)."""
         return [self.extract(v, normals=normals) for v in values]
 
+    def memory_bytes(self):
+        """Bytes of the arrays this prepared method holds between calls.
+
+        Every numpy array reachable from the method's attributes (through
+        lists, tuples, dicts and objects, three levels deep) counts once;
+        arrays of the volume (points, cells, fields and its cached topology,
+        :meth:`UnstructuredVolume.memory_bytes`) do not. Per-call scratch that
+        a method keeps between calls counts: it is held.
+        """
+        return _held_bytes(self, self.vol)
+
     def __repr__(self):
         return f"{type(self).__name__}({self.vol!r}, preprocess_s={self.preprocess_s:.3g})"
+
+
+def _array_root(a):
+    while isinstance(a.base, np.ndarray):
+        a = a.base
+    return id(a)
+
+
+def _held_bytes(obj, vol, depth=4):
+    """Bytes of the numpy arrays reachable from ``obj``, each buffer once, the volume's excluded."""
+    skip = set()
+    for a in [getattr(vol, "points", None), getattr(vol, "cells", None)] + list(getattr(vol, "fields", {}).values()):
+        if isinstance(a, np.ndarray):
+            skip.add(_array_root(a))
+
+    def vol_arrays(x, d):
+        if isinstance(x, np.ndarray):
+            skip.add(_array_root(x))
+        elif isinstance(x, (tuple, list)) and d:
+            for y in x:
+                vol_arrays(y, d - 1)
+
+    for x in getattr(vol, "__dict__", {}).values():
+        vol_arrays(x, 2)
+    seen, total = set(), 0
+    stack = [(obj, depth)]
+    visited = {id(vol)}
+    while stack:
+        x, d = stack.pop()
+        if isinstance(x, np.ndarray):
+            root = _array_root(x)
+            if root not in skip and root not in seen:
+                seen.add(root)
+                total += x.nbytes if x.base is None else _base(x).nbytes
+            continue
+        if d == 0 or id(x) in visited or isinstance(x, (str, bytes, int, float, type)):
+            continue
+        visited.add(id(x))
+        if isinstance(x, dict):
+            stack += [(y, d - 1) for y in x.values()]
+        elif isinstance(x, (list, tuple, set)):
+            stack += [(y, d - 1) for y in x]
+        elif hasattr(x, "__dict__"):
+            stack += [(y, d - 1) for y in vars(x).values()]
+    return int(total)
+
+
+def _base(a):
+    while isinstance(a.base, np.ndarray):
+        a = a.base
+    return a
 
 
 @register
@@ -222,6 +287,25 @@ class FullScan(IsosurfaceMethod):
         iso = _extract(self.vol, value, field=self.field, method="scan", normals=normals)
         self.seed_cells_tested = iso.cells_tested
         return iso
+
+
+@register
+class UnpreparedScan(IsosurfaceMethod):
+    name = "unprepared-scan"
+    description = ("test every cell, merging vertices by the node pairs of the crossed edges: nothing "
+                   "prepared (the first surface of a freshly loaded volume)")
+    construction = "scan"
+
+    def extract(self, value, *, normals="mean"):
+        value = _check_value(value)
+        _check_normals(normals)
+        iso = _scan_unprepared(self.vol, value, self.field, normals)
+        self.seed_cells_tested = iso.cells_tested
+        return iso
+
+    def memory_bytes(self):
+        """Bytes held between calls: none (every array is per call)."""
+        return 0
 
 
 class SeedsThenPropagate(IsosurfaceMethod):

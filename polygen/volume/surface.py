@@ -24,6 +24,7 @@ from polygen.volume.errors import IsoSurfaceError
 __all__ = [
     "IsoSurface",
     "IsoSurfaceError",
+    "PairKeyedIsoSurface",
     "NORMALS",
     "check_value",
     "check_normals",
@@ -243,6 +244,51 @@ class IsoSurface:
             f"IsoSurface(value={self.value:g}, {self.n_triangles} triangles, {self.n_vertices} vertices, "
             f"{self.cells_intersected}/{self.cells_tested} cells intersected/tested, method={self.method!r})"
         )
+
+
+class _EdgeKeys:
+    """``vertex_keys`` of a :class:`PairKeyedIsoSurface`: edge ids, computed on first access."""
+
+    def __get__(self, obj, cls=None):
+        if obj is None:
+            return self
+        keys = obj.__dict__.get("_vertex_keys")
+        if keys is None:
+            keys = obj._edge_keys()
+            obj.__dict__["_vertex_keys"] = keys
+        return keys
+
+    def __set__(self, obj, value):
+        obj.__dict__["_vertex_keys"] = value
+
+
+class PairKeyedIsoSurface(IsoSurface):
+    """An :class:`IsoSurface` made without the volume's edge table (the unprepared scan).
+
+    Its vertices are identified by the node pairs of their edges
+    (:attr:`vertex_pairs`); :attr:`vertex_keys`, the edge ids of the
+    volume, are looked up on first access (which builds the volume's edge
+    table, :attr:`UnstructuredVolume.edges`, if nothing has yet). Everything
+    else -- vertices, triangles, normals, counters -- is there at once.
+    """
+
+    vertex_keys = _EdgeKeys()
+
+    def _edge_keys(self):
+        pairs, vol = self.vertex_pairs, self._volume
+        n = vol.n_points
+        edges = vol.edges  # (E, 2), a < b, numbered by a then b: sorted codes
+        on_node = pairs[:, 0] == pairs[:, 1]
+        keys = np.empty(pairs.shape[0], np.int64)
+        keys[on_node] = edges.shape[0] + pairs[on_node, 0]
+        codes = pairs[~on_node, 0] * n + pairs[~on_node, 1]
+        edge_codes = edges[:, 0] * n + edges[:, 1]
+        idx = np.searchsorted(edge_codes, codes)
+        if codes.size and not np.array_equal(edge_codes[np.minimum(idx, edge_codes.size - 1)], codes):
+            raise IsoSurfaceError("a vertex's node pair is not an edge of the volume")  # never: the tests check
+        keys[~on_node] = idx
+        keys.setflags(write=False)
+        return keys
 
 
 # ------------------------------------------------------------------ helpers

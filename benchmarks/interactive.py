@@ -1,0 +1,376 @@
+"""Interactive isosurfaces (issue 20): polygen against the strongest VTK configuration.
+
+Per data set (field ``fem``; data4 and 2M by default, 10M when named and
+cached):
+
+* **20-value sweep**, ``linspace(min, max, 22)[1:-1]``: VTK's
+  ``vtkContourFilter`` and ``vtkContour3DLinearGrid``, each without and
+  with ``vtkSpanSpace`` (merged points, normals on, scalars off,
+  ``VTK_SMP_BACKEND_IN_USE=STDThread``); polygen's prepared default method
+  (``edge-centred``) one value at a time and by ``extract_many``, the full
+  scan and the unprepared scan (mean normals on). Repeats are interleaved
+  (every configuration once per round); the table gives medians over the
+  rounds. The best VTK configuration is the fastest median of the four,
+  chosen in this run.
+* **single-isosurface latency**: median and max over the 20 values (each
+  value's median over the rounds) and over 200 values
+  (``linspace(min, max, 202)[1:-1]``, one pass), polygen's prepared method
+  and the best VTK configuration.
+* **time to the first surface** from arrays in memory: polygen's
+  constructor (with its validation) then ``vol.isosurface(v)`` on the
+  fresh volume (the unprepared scan answers; the preparation starts in
+  the background), against VTK's grid construction and its first
+  ``vtkContourFilter`` update (no tree) on that fresh grid; then the
+  preparation of the default method until it is ready, alone (a fresh
+  volume's ``edge-centred`` method: topology, thinning, records).
+* **memory**: bytes per cell held by the prepared method and by the
+  volume's derived tables (``memory_bytes()``); and the peak RSS of each
+  side, each in its own subprocess (arrays loaded from a ``.npy`` file,
+  then: polygen's constructor, first surface, preparation and a sweep; or
+  VTK's grid and a sweep in the best configuration), with the RSS after
+  loading the arrays subtracted as well.
+
+The machine's load average is recorded before and after. Results go to
+``benchmarks/results/interactive.{json,md}``.
+
+    python benchmarks/interactive.py                # data4, 2M
+    python benchmarks/interactive.py data4 2M 10M   # 10M only if cached (building it takes long)
+"""
+
+import os
+
+os.environ["VTK_SMP_BACKEND_IN_USE"] = "STDThread"  # before anything imports vtk
+
+import gc  # noqa: E402
+import json  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from _common import RESULTS, machine  # noqa: E402
+from polygen.volume import UnstructuredVolume, datasets, isovalues, methods  # noqa: E402
+
+DATA = ["data4", "2M"]
+FIELD = "fem"
+VTK_CONFIGS = [("vtkContourFilter", False), ("vtkContourFilter+SpanSpace", True),
+               ("vtkContour3DLinearGrid", False), ("vtkContour3DLinearGrid+SpanSpace", True)]
+
+
+def rounds(n_cells):
+    return 5 if n_cells < 5_000_000 else 3
+
+
+# ------------------------------------------------------------------ VTK
+def vtk_grid(points, cells, s):
+    import pyvista as pv
+    from vtk.util.numpy_support import numpy_to_vtk
+
+    grid = pv.UnstructuredGrid({pv.CellType.TETRA if cells.shape[1] == 4 else pv.CellType.HEXAHEDRON: cells},
+                               points)
+    arr = numpy_to_vtk(np.ascontiguousarray(s), deep=True)
+    arr.SetName(FIELD)
+    grid.GetPointData().SetScalars(arr)
+    return grid
+
+
+def vtk_filter(grid, label):
+    """A configured filter and ``one(v) -> n_triangles``."""
+    import vtk
+
+    span = label.endswith("+SpanSpace")
+    if label.startswith("vtkContour3DLinearGrid"):
+        f = vtk.vtkContour3DLinearGrid()  # merges points always (VTK >= 9.7)
+        f.SetInterpolateAttributes(False)
+    else:
+        f = vtk.vtkContourFilter()
+    f.SetInputData(grid)
+    f.SetInputArrayToProcess(0, 0, 0, vtk.vtkDataObject.FIELD_ASSOCIATION_POINTS, FIELD)
+    f.ComputeNormalsOn()
+    f.ComputeScalarsOff()
+    if span:
+        f.SetScalarTree(vtk.vtkSpanSpace())
+        f.UseScalarTreeOn()
+    else:
+        f.UseScalarTreeOff()
+    f.SetNumberOfContours(1)
+
+    def one(v):
+        f.SetValue(0, float(v))
+        f.Update()
+        return f.GetOutput().GetNumberOfCells()
+
+    return f, one
+
+
+# ------------------------------------------------------------------ helpers
+def timed(fn, *args):
+    t0 = time.perf_counter()
+    out = fn(*args)
+    return time.perf_counter() - t0, out
+
+
+def per_value(one, values):
+    """(seconds per value, results)."""
+    ts, out = [], []
+    for v in values:
+        t, r = timed(one, v)
+        ts.append(t)
+        out.append(r)
+    return ts, out
+
+
+def rss_now_mb(key="VmRSS"):
+    """This process's resident set (``VmRSS``) or its peak (``VmHWM``), MB. (Not ``ru_maxrss``:
+    a child started by ``subprocess`` inherits its parent's value there.)"""
+    with open("/proc/self/status") as fh:
+        for line in fh:
+            if line.startswith(key + ":"):
+                return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def warm_up():
+    """Compile (or load from the cache) every kernel used below, so that no timing includes JIT."""
+    vol = datasets.load("data1")
+    s = vol.scalars(FIELD)
+    values = isovalues(s, 3)
+    fresh = UnstructuredVolume(vol.points, vol.cells, {FIELD: s})
+    fresh.isosurface(values[0])
+    fresh.wait_prepared()
+    vtk_filter(vtk_grid(vol.points, vol.cells, np.array(s)), "vtkContourFilter")[1](values[0])  # pyvista, vtk
+    for name in ("edge-centred", "scan", "unprepared-scan"):
+        m = methods.get(name)(vol, field=FIELD)
+        for v in values:
+            m.extract(v)
+        m.extract_many(values)
+
+
+# ------------------------------------------------------------------ parts
+def first_surface(points, cells, s, value):
+    """Time to the first surface from arrays: polygen vs VTK's first vtkContourFilter (no tree)."""
+    gc.collect()
+    t_ctor, vol = timed(lambda: UnstructuredVolume(points, cells, {FIELD: s}))
+    t_first, iso = timed(lambda: vol.isosurface(value))
+    t_ready, _ = timed(vol.wait_prepared)
+    kind = type(iso).__name__
+    del vol
+    gc.collect()
+    t_grid, grid = timed(vtk_grid, points, cells, s)
+    _, one = vtk_filter(grid, "vtkContourFilter")
+    t_vtk, n_vtk = timed(one, value)
+    del grid
+    gc.collect()
+    # the full preparation alone, on a fresh volume (topology + the method), nothing else running
+    vol = UnstructuredVolume(points, cells, {FIELD: s}, validate=False)
+    t_prep, m = timed(lambda: methods.get(methods.DEFAULT)(vol, field=FIELD))
+    mem_method = m.memory_bytes()
+    mem_volume = vol.memory_bytes()
+    del m, vol
+    gc.collect()
+    return {"ctor_s": t_ctor, "first_isosurface_s": t_first, "ctor_plus_first_s": t_ctor + t_first,
+            "first_answered_by": kind, "first_triangles": iso.n_triangles,
+            "background_ready_after_s": t_first + t_ready,
+            "vtk_grid_s": t_grid, "vtk_first_contour_s": t_vtk, "vtk_first_triangles": n_vtk,
+            "prepare_alone_s": t_prep,
+            "method_bytes": mem_method, "volume_bytes": mem_volume}
+
+
+def sweeps(vol, grid, values, values200, n_rounds):
+    """Interleaved rounds of every configuration; per-value seconds per round."""
+    confs = {}
+    for label, _ in VTK_CONFIGS:
+        f, one = vtk_filter(grid, label)
+        t0 = time.perf_counter()
+        one(values[0])  # builds the span space, if any
+        confs[label] = {"one": one, "filter": f, "build_s": time.perf_counter() - t0}
+    prepared = {name: methods.get(name)(vol, field=FIELD) for name in ("edge-centred", "scan", "unprepared-scan")}
+    times = {k: [] for k in list(confs) + ["polygen edge-centred", "polygen extract_many", "polygen scan",
+                                            "polygen unprepared-scan"]}
+    tris = {}
+    for _ in range(n_rounds):
+        for label, c in confs.items():
+            ts, out = per_value(c["one"], values)
+            times[label].append(ts)
+            tris[label] = out
+        for name, m in prepared.items():
+            ts, out = per_value(m.extract, values)
+            times[f"polygen {name}"].append(ts)
+            tris[f"polygen {name}"] = [i.n_triangles for i in out]
+            del out
+        t, out = timed(prepared["edge-centred"].extract_many, values)
+        times["polygen extract_many"].append([t / len(values)] * len(values))
+        tris["polygen extract_many"] = [i.n_triangles for i in out]
+        del out
+        gc.collect()
+    rows = {}
+    for k, per_round in times.items():
+        a = np.array(per_round)  # (rounds, values)
+        med_value = np.median(a, axis=0)
+        rows[k] = {"sweep_s": float(np.median(a.sum(axis=1))), "latency_median_s": float(np.median(med_value)),
+                   "latency_max_s": float(med_value.max()), "triangles": int(sum(tris[k])),
+                   "same_counts_as_vtkContourFilter": tris[k] == tris["vtkContourFilter"]}
+    vtk_best = min((lbl for lbl, _ in VTK_CONFIGS), key=lambda lbl: rows[lbl]["sweep_s"])
+    # 200 values, one pass each: polygen's prepared method and the best VTK configuration
+    ts, _ = per_value(prepared["edge-centred"].extract, values200)
+    rows["polygen edge-centred"].update(latency200_median_s=float(np.median(ts)), latency200_max_s=float(max(ts)))
+    ts, _ = per_value(confs[vtk_best]["one"], values200)
+    rows[vtk_best].update(latency200_median_s=float(np.median(ts)), latency200_max_s=float(max(ts)))
+    for label, c in confs.items():
+        rows[label]["build_s"] = c["build_s"]
+    return rows, vtk_best
+
+
+# ------------------------------------------------------------------ RSS workers
+def worker(side, path, value):
+    """Run one side in this process and print its peak RSS (MB) as JSON."""
+    points = np.load(f"{path}_points.npy")
+    cells = np.load(f"{path}_cells.npy")
+    s = np.load(f"{path}_s.npy")
+    values = isovalues(s, 20)
+    if side == "polygen":
+        warm_up()
+    else:
+        import pyvista  # noqa: F401  (the libraries are loaded before the baseline, as polygen's warm-up does)
+        import vtk  # noqa: F401
+    gc.collect()
+    base = rss_now_mb()
+    if side == "polygen":
+        vol = UnstructuredVolume(points, cells, {FIELD: s})
+        vol.isosurface(value)
+        vol.wait_prepared()
+        for v in values:
+            vol.isosurface(v)
+        vol.isosurface(value, prepare=True).n_triangles
+        vol._iso_methods[(FIELD, methods.DEFAULT)].extract_many(values)
+    else:
+        grid = vtk_grid(points, cells, s)
+        label = sys.argv[5]
+        _, one = vtk_filter(grid, label)
+        for v in values:
+            one(v)
+    peak = rss_now_mb("VmHWM")
+    print(json.dumps({"peak_rss_mb": peak, "rss_after_loading_mb": base}))
+
+
+def rss(side, path, value, label=""):
+    cmd = [sys.executable, __file__, "--worker", side, path, repr(float(value)), label]
+    out = subprocess.run(cmd, capture_output=True, text=True, check=True, env=os.environ)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+# ------------------------------------------------------------------ main
+def run(name):
+    vol = datasets.load(name, field=FIELD)
+    points, cells, s = vol.points.copy(), vol.cells.copy(), np.array(vol.scalars(FIELD))
+    values = isovalues(s, 20)
+    values200 = isovalues(s, 200)
+    first_value = values[len(values) // 2]
+    row = {"data": name, "cells": int(vol.n_cells), "nodes": int(vol.n_points)}
+    print(f"{name}: first surface", file=sys.stderr)
+    row["first"] = first_surface(points, cells, s, first_value)
+    print(f"{name}: sweeps", file=sys.stderr)
+    vol.wait_prepared()
+    grid = vtk_grid(points, cells, s)
+    row["sweeps"], row["vtk_best"] = sweeps(vol, grid, values, values200, rounds(vol.n_cells))
+    del grid
+    gc.collect()
+    print(f"{name}: rss", file=sys.stderr)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = str(Path(tmp) / "arrays")
+        np.save(f"{path}_points.npy", points)
+        np.save(f"{path}_cells.npy", cells)
+        np.save(f"{path}_s.npy", s)
+        row["rss_polygen"] = rss("polygen", path, first_value)
+        row["rss_vtk"] = rss("vtk", path, first_value, row["vtk_best"])
+    row["array_bytes"] = int(points.nbytes + cells.nbytes + s.nbytes)
+    del vol
+    gc.collect()
+    return row
+
+
+def report(rows, load_before, load_after):
+    lines = ["# Interactive isosurfaces: polygen vs the strongest VTK configuration (issue 20)", ""]
+    for r in rows:
+        sw, best, f = r["sweeps"], r["vtk_best"], r["first"]
+        bsw = sw[best]["sweep_s"]
+        lines += [f"## {r['data']} ({r['cells']:,} cells, {r['nodes']:,} nodes)", "",
+                  f"Best VTK configuration in this run: **{best}**.", "",
+                  "| configuration | 20 values s | / best VTK | latency median ms | max ms | "
+                  "200 values: median ms | max ms | triangles | same counts as vtkContourFilter |",
+                  "|---|---|---|---|---|---|---|---|---|"]
+        for k, v in sw.items():
+            l2m = v.get("latency200_median_s")
+            l2x = v.get("latency200_max_s")
+            lines.append(f"| {k} | {v['sweep_s']:.4f} | {v['sweep_s'] / bsw:.3f} | {1e3 * v['latency_median_s']:.2f} | "
+                         f"{1e3 * v['latency_max_s']:.2f} | {'' if l2m is None else f'{1e3 * l2m:.2f}'} | "
+                         f"{'' if l2x is None else f'{1e3 * l2x:.2f}'} | {v['triangles']} | "
+                         f"{v['same_counts_as_vtkContourFilter']} |")
+        pm = f["method_bytes"] / r["cells"]
+        pv = sum(f["volume_bytes"].values()) / r["cells"]
+        tables = ", ".join(f"{k} {v / r['cells']:.1f}" for k, v in f["volume_bytes"].items())
+        lines += ["", "| time to first surface | s |", "|---|---|",
+                  f"| polygen constructor (validation) | {f['ctor_s']:.3f} |",
+                  f"| polygen first `vol.isosurface(v)` ({f['first_answered_by']}, {f['first_triangles']} triangles) "
+                  f"| {f['first_isosurface_s']:.3f} |",
+                  f"| polygen constructor + first surface | {f['ctor_plus_first_s']:.3f} |",
+                  f"| VTK grid from the arrays | {f['vtk_grid_s']:.3f} |",
+                  f"| VTK first vtkContourFilter, no tree ({f['vtk_first_triangles']} triangles) | "
+                  f"{f['vtk_first_contour_s']:.3f} |",
+                  f"| (constructor + first) / VTK first contour | {f['ctor_plus_first_s'] / f['vtk_first_contour_s']:.2f} |",
+                  f"| first surface alone / VTK first contour | {f['first_isosurface_s'] / f['vtk_first_contour_s']:.2f} |",
+                  f"| background preparation ready, from the first call | {f['background_ready_after_s']:.3f} |",
+                  f"| full preparation alone (topology + edge-centred) | {f['prepare_alone_s']:.3f} |",
+                  "", "| memory | |", "|---|---|",
+                  f"| prepared edge-centred method, bytes per cell | {pm:.1f} |",
+                  f"| volume's derived tables, bytes per cell | {pv:.1f} "
+                  f"({tables}) |",
+                  f"| together | {pm + pv:.1f} |",
+                  f"| input arrays (points, cells, field), bytes per cell | {r['array_bytes'] / r['cells']:.1f} |",
+                  f"| peak RSS polygen (above loaded arrays) MB | {r['rss_polygen']['peak_rss_mb']:.0f} "
+                  f"({r['rss_polygen']['peak_rss_mb'] - r['rss_polygen']['rss_after_loading_mb']:.0f}) |",
+                  f"| peak RSS VTK, {best} (above loaded arrays) MB | {r['rss_vtk']['peak_rss_mb']:.0f} "
+                  f"({r['rss_vtk']['peak_rss_mb'] - r['rss_vtk']['rss_after_loading_mb']:.0f}) |", ""]
+    lines += [
+        "- 20 values linspace(min, max, 22)[1:-1] of 'fem'; medians over interleaved rounds (5, 3 at 10M); "
+        "latency: each value's median over the rounds, then the median / max over the values; "
+        "200 values: one pass; extract_many: its wall clock / 20 per value",
+        "- VTK: merged points, normals on, scalars off, VTK_SMP_BACKEND_IN_USE=STDThread; the span-space build "
+        "(inside the first update) is not in the sweep times (build_s in the JSON)",
+        "- polygen: mean normals on; 'edge-centred' = the prepared default method, 'unprepared-scan' = what "
+        "vol.isosurface answers before the preparation is ready",
+        "- peak RSS: each side in its own subprocess (VmHWM); polygen's includes the numba runtime and "
+        "its warm-up on data1, and its background preparation",
+        f"- machine load average (1, 5, 15 min) before {load_before}, after {load_after}; "
+        f"{os.cpu_count()} CPUs shared with other jobs: times are indicative",
+        f"- machine: {machine()}",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def main(names):
+    load_before = tuple(round(x, 2) for x in os.getloadavg())
+    warm_up()
+    rows = []
+    for name in names:
+        if name == "10M" and not datasets.is_cached("10M"):
+            print("10M is not cached: skipped (building it takes longer than this benchmark)", file=sys.stderr)
+            continue
+        rows.append(run(name))
+        print(json.dumps(rows[-1]["sweeps"][rows[-1]["vtk_best"]]), file=sys.stderr)
+    load_after = tuple(round(x, 2) for x in os.getloadavg())
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    (RESULTS / "interactive.json").write_text(json.dumps(
+        {"machine": machine(), "load_before": load_before, "load_after": load_after, "rows": rows}, indent=2) + "\n")
+    (RESULTS / "interactive.md").write_text(report(rows, load_before, load_after))
+    print(f"wrote {RESULTS / 'interactive.md'}", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    if len(sys.argv) > 1 and sys.argv[1] == "--worker":
+        worker(sys.argv[2], sys.argv[3], float(sys.argv[4]))
+    else:
+        main(sys.argv[1:] or DATA)

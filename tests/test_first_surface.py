@@ -1,0 +1,148 @@
+"""Issue 20: the first surface without prepared topology (the unprepared scan) and the preparation policy.
+
+Oracle: the full scan of :mod:`polygen.volume.isosurface` (itself checked
+against VTK on data 1-4 in ``test_isosurface_vtk.py``). The unprepared scan
+numbers its vertices in the scan's order of first use, so the arrays --
+triangles, vertex positions, normals, triangle cells -- must be equal
+element for element, and its lazily looked-up ``vertex_keys`` the scan's
+edge ids.
+"""
+
+import numpy as np
+import pytest
+
+from polygen.volume import datasets, isovalues
+from polygen.volume.isosurface import _scan_unprepared, extract
+from polygen.volume.surface import PairKeyedIsoSurface, same_surface
+
+
+def assert_identical(fresh, ref, where):
+    assert isinstance(fresh, PairKeyedIsoSurface), where
+    for name in ("triangles", "vertices", "normals", "triangle_cells"):
+        a, b = getattr(fresh, name), getattr(ref, name)
+        assert (a is None) == (b is None), (where, name)
+        assert a is None or np.array_equal(a, b), (where, name)
+    assert fresh.counters() | {"t1": 0, "t2": 0, "t3": 0} == ref.counters() | {"t1": 0, "t2": 0, "t3": 0}, where
+    assert np.array_equal(fresh.vertex_keys, ref.vertex_keys), where
+    assert same_surface(fresh, ref), where
+
+
+def values_with_node_hits(s, n=9):
+    """``n`` values from min to max, plus two node values: crossings exactly on nodes are exercised."""
+    s = np.asarray(s)
+    return np.concatenate([np.linspace(s.min(), s.max(), n), s[[len(s) // 3, len(s) // 2]]])
+
+
+@pytest.mark.parametrize("normals", ["mean", "gradient", None])
+def test_tiny_volumes_give_the_scans_arrays(tiny_volume, normals):
+    name = repr(tiny_volume)
+    for field in tiny_volume.fields:
+        for v in values_with_node_hits(tiny_volume.fields[field]):
+            fresh_vol = type(tiny_volume)(tiny_volume.points, tiny_volume.cells, dict(tiny_volume.fields),
+                                          validate=False)
+            fresh = _scan_unprepared(fresh_vol, v, field, normals)
+            assert "_edge_table" not in fresh_vol.__dict__  # no topology was needed
+            assert_identical(fresh, extract(tiny_volume, v, field=field, normals=normals), (name, field, v))
+
+
+@pytest.mark.parametrize("name", ["data1", "data2", "hexa1",
+                                  pytest.param("data3", marks=pytest.mark.slow),
+                                  pytest.param("data4", marks=pytest.mark.slow)])
+def test_data_sets_give_the_scans_arrays(name):
+    vol = datasets.load(name)
+    s = vol.scalars("fem")
+    values = np.concatenate([isovalues(s, 20), s[[0, len(s) // 2]]])
+    fresh = [_scan_unprepared(vol, v, "fem", "mean") for v in values]
+    assert "_edge_table" not in vol.__dict__ and "face_neighbors" not in vol.__dict__
+    assert sum(iso.n_triangles for iso in fresh) > 0
+    for v, iso in zip(values, fresh):
+        assert_identical(iso, extract(vol, v, field="fem"), (name, v))
+
+
+def test_empty_and_out_of_range():
+    vol = datasets.load("torus")
+    s = vol.scalars()
+    for v in (s.min() - 1.0, s.max() + 1.0):
+        iso = vol.isosurface(v, prepare=False)
+        assert iso.is_empty and iso.vertex_keys.shape == (0,) and iso.cells_tested == vol.n_cells
+
+
+def test_the_policy_answers_first_from_the_scan_then_from_the_prepared_method():
+    vol = datasets.load("genus3")
+    s = vol.scalars()
+    values = isovalues(s, 5)
+    first = vol.isosurface(values[0])
+    assert isinstance(first, PairKeyedIsoSurface)
+    assert vol.wait_prepared(timeout=600) and not vol.preparation_errors
+    later = vol.isosurface(values[0])
+    assert not isinstance(later, PairKeyedIsoSurface) and later.vertex_lookups == 0  # edge-centred
+    assert same_surface(first, later)
+    assert same_surface(vol.isosurface(values[1], prepare=False), vol.isosurface(values[1], prepare=True))
+
+
+# ------------------------------------------------------------------ memory
+def test_volume_memory_counts_what_was_built():
+    vol = datasets.load("genus3")
+    assert vol.memory_bytes() == {}  # nothing derived yet
+    vol.isosurface(float(np.median(vol.scalars())), prepare=False)
+    assert vol.memory_bytes() == {}  # the unprepared scan builds nothing
+    nb = vol.face_neighbors
+    mem = vol.memory_bytes()
+    assert mem["face_neighbors"] == nb.nbytes
+    assert set(mem) == {"face_neighbors"}  # the face ids it was matched from are not kept
+    vol.cell_edges
+    assert vol.memory_bytes()["_edge_table"] == vol.edges.nbytes + vol.cell_edges.nbytes
+
+
+def test_method_memory_excludes_the_volume_and_counts_structures():
+    from polygen.volume import methods
+
+    vol = datasets.load("genus3")
+    v = float(np.median(vol.scalars()))
+    for name in methods.names():
+        m = methods.get(name)(vol)
+        m.extract(v)
+        held = m.memory_bytes()
+        if name in ("scan", "unprepared-scan"):
+            assert held == 0, name
+            continue
+        assert held > 0, name
+        structure = getattr(getattr(m, "source", None), "structure", None)
+        if hasattr(structure, "nbytes"):
+            assert held >= structure.nbytes, name  # the search structure is part of what is held
+    # the volume's arrays are never counted: a method holding only them holds nothing
+    m = methods.get("scan")(vol)
+    m.borrowed = (vol.cells, vol.face_neighbors, vol.fields[next(iter(vol.fields))])
+    assert m.memory_bytes() == 0
+    m.own = np.zeros(1000, np.int32)
+    assert methods.IsosurfaceMethod.memory_bytes(m) == 4000
+
+
+# ------------------------------------------------------------------ the constructor's one-pass check
+def test_one_pass_cell_check_never_passes_a_cell_the_exact_checks_refuse():
+    """``tet_cells_clearly_valid`` may send a valid cell to the exact checks, never the reverse: cells
+    flattened to around the degeneracy bound, inverted, with repeated or out-of-range nodes."""
+    from polygen.volume import _topology as k
+    from polygen.volume.mesh import _DEGENERATE_RTOL
+
+    rng = np.random.default_rng(7)
+    base = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    pts, cells = [], []
+    for i, h in enumerate(np.concatenate([np.geomspace(1e-12, 1e-8, 400), [1.0, -1.0, 1e-3, -1e-12]])):
+        p = base.copy()
+        p[3, 2] = h
+        p = p @ rng.normal(size=(3, 3)) if i % 2 else p  # rotated (possibly inverting) copies too
+        pts.append(p + rng.normal(size=3) * 10.0 ** rng.integers(0, 7))
+        cells.append(np.arange(4) + 4 * i)
+    points, cells = np.concatenate(pts), np.array(cells)
+    cells = np.concatenate([cells, [[0, 0, 1, 2], [0, 1, 2, len(points)], [-1, 0, 1, 2]]])
+    vol6, longest = k.tet_volumes6(points, np.clip(cells, 0, len(points) - 1))
+    exact_ok = (vol6 > _DEGENERATE_RTOL * longest**3) & (np.diff(np.sort(cells, axis=1), axis=1) > 0).all(axis=1) \
+        & (cells >= 0).all(axis=1) & (cells < len(points)).all(axis=1)
+    for c in range(len(cells)):
+        used = np.zeros(len(points), np.uint8)
+        clear = k.tet_cells_clearly_valid(points, cells[c:c + 1], _DEGENERATE_RTOL, used) == 0
+        assert not clear or exact_ok[c], c
+        assert used.sum() == (4 if clear else 0)
+    # both answers occur: the test exercises the bound from both sides
+    assert 0 < exact_ok.sum() < len(cells)
