@@ -122,10 +122,10 @@ def test_background_preparation_from_two_threads(grid30):
     both = _two_threads(vol.isosurface, values)
     assert vol.wait_prepared(timeout=600)
     assert not vol.preparation_errors
-    assert sorted(k[1] for k in vol._iso_methods) == ["edge-centred", "unprepared-scan"]
-    prepared = vol._iso_methods[("f", "edge-centred")]
+    assert sorted(k[1] for k in vol._iso_methods) == [registry.DEFAULT_METHOD, "unprepared-scan"]
+    prepared = vol._iso_methods[("f", registry.DEFAULT_METHOD)]
     after = [vol.isosurface(v) for v in values]
-    assert vol._iso_methods[("f", "edge-centred")] is prepared  # prepared once
+    assert vol._iso_methods[("f", registry.DEFAULT_METHOD)] is prepared  # prepared once
     assert all(type(iso).__name__ == "IsoSurface" for iso in after)  # the prepared method answers now
     for v, a, b, c in zip(values, *both, after):
         ref = scan(grid30, v)
