@@ -536,6 +536,18 @@ def positions(vend, n_v, points, s, value, out):
 
 
 # ------------------------------------------------------------------ the parallel construction
+def owned_edges(ec, ec_off, cell_edges):
+    """(M,) int32: bit ``w`` set when cell ``c`` is the first in the cell list of its local edge ``w``.
+
+    Every cell around a crossed edge is reached, so the first one numbers
+    the edge's vertex; stored in a free field of the records, so that
+    numbering reads no cell list.
+    """
+    first = ec[ec_off[:-1]] >> CELL_SHIFT
+    mine = first[cell_edges] == np.arange(cell_edges.shape[0])[:, None]
+    return (mine.astype(np.int32) << np.arange(cell_edges.shape[1], dtype=np.int32)).sum(axis=1).astype(np.int32)
+
+
 # No compare-and-swap: the threads claim cells with plain stores and sort out the rare double
 # claims afterwards. Thread ``t`` starts from every ``T``-th crossed seed and runs the same
 # propagation as :func:`construct` (for-loops (1) and (3), newest cell first) on its own stack,
@@ -603,11 +615,26 @@ def propagate_parallel(rec, nn, s, value, faces, tri_table, tri_count, case_mask
             rec[c, R_STATE] = st
             _, _, _, todo = _polygon_mask(rec, c, nn, s, value, st, tri_table, tri_count, case_mask, local_edges,
                                           vals, codes)
+            pre = todo & ((1 << ne) - 1)  # the cell lists of its edges, fetched together (as in construct)
+            while pre:
+                w = _ctz(pre)
+                pre &= pre - 1
+                _prefetch_item(ec, rec[c, oe + w])
+            if sp > 0:
+                _prefetch_row(rec, stack[t, sp - 1])
             while todo and not full:
                 w = _ctz(todo)
                 todo &= todo - 1
                 if w < ne:  # for-loop (3) over the cells around the edge: all crossed
-                    q = rec[c, oe + w]
+                    lo = rec[c, oe + w]
+                    q = lo
+                    while True:  # their records, fetched together before the stamps are read
+                        packed = ec[q]
+                        _prefetch_row(rec, packed >> CELL_SHIFT)
+                        q += 1
+                        if packed & LAST:
+                            break
+                    q = lo
                     while True:
                         packed = ec[q]
                         j = packed >> CELL_SHIFT
@@ -647,12 +674,13 @@ def propagate_parallel(rec, nn, s, value, faces, tri_table, tri_count, case_mask
 
 
 @njit(parallel=True, cache=_KCACHE)
-def number_parallel(rec, nn, s, value, tri_table, tri_count, case_mask, local_edges, ec, claim, log, n_log,
+def number_parallel(rec, nn, s, value, tri_table, tri_count, case_mask, local_edges, owned, claim, log, n_log,
                     vid, exact_cells, counts):
     """Per thread: its kept cells' triangles counted, the edge vertices it owns numbered.
 
     ``vid[edge]`` gets ``local * (T + 1) + t`` for the ``local``-th vertex
-    thread ``t`` owns; ``exact_cells[t, :counts[t, 2]]`` lists its kept cells
+    thread ``t`` owns (a vertex on an edge belongs to the edge's first cell:
+    bit ``w`` of ``rec[c, owned]``, see :func:`owned_edges`); ``exact_cells[t, :counts[t, 2]]`` lists its kept cells
     with a node at the isovalue; ``counts[t] = (triangles, vertices,
     exact cells, cells kept)``.
     """
@@ -677,13 +705,12 @@ def number_parallel(rec, nn, s, value, tri_table, tri_count, case_mask, local_ed
             if exact:
                 exact_cells[t, n_x] = c
                 n_x += 1
-            mask &= (1 << ne) - 1
+            mask &= rec[c, owned]  # the vertices on the edges whose first cell is c
             while mask:
                 w = _ctz(mask)
                 mask &= mask - 1
-                if (ec[rec[c, oe + w]] >> CELL_SHIFT) == c:  # the edge's first cell owns its vertex
-                    vid[rec[c, oe + ne + w]] = n_v * (n_thr + 1) + t
-                    n_v += 1
+                vid[rec[c, oe + ne + w]] = n_v * (n_thr + 1) + t
+                n_v += 1
         counts[t, 0] = n_t
         counts[t, 1] = n_v
         counts[t, 2] = n_x
@@ -721,8 +748,8 @@ def number_nodes(rec, nn, s, value, tri_table, tri_count, case_mask, local_edges
 
 
 @njit(parallel=True, cache=_KCACHE)
-def write_parallel(rec, nn, s, value, tri_table, tri_count, case_mask, local_edges, n_edges, ec, claim, log, n_log,
-                   vid, v_base, t_base, tris, tri_cell, vkey, vend):
+def write_parallel(rec, nn, s, value, tri_table, tri_count, case_mask, local_edges, n_edges, owned, claim, log,
+                   n_log, vid, v_base, t_base, tris, tri_cell, vkey, vend):
     """Per thread: its kept cells' triangles (as final vertex ids) from ``t_base[t]``, its vertices' keys and ends."""
     n_thr = log.shape[0]
     ne = local_edges.shape[0]
@@ -738,17 +765,16 @@ def write_parallel(rec, nn, s, value, tri_table, tri_count, case_mask, local_edg
                 continue
             case, exact, k, mask = _polygon_mask(rec, c, nn, s, value, rec[c, R_STATE], tri_table, tri_count,
                                                  case_mask, local_edges, vals, codes)
-            mask &= (1 << ne) - 1
+            mask &= rec[c, owned]
             while mask:
                 w = _ctz(mask)
                 mask &= mask - 1
-                if (ec[rec[c, oe + w]] >> CELL_SHIFT) == c:
-                    vkey[n_v] = rec[c, oe + ne + w]
-                    x = rec[c, R_NODES + local_edges[w, 0]]
-                    y = rec[c, R_NODES + local_edges[w, 1]]
-                    vend[n_v, 0] = min(x, y)
-                    vend[n_v, 1] = max(x, y)
-                    n_v += 1
+                vkey[n_v] = rec[c, oe + ne + w]
+                x = rec[c, R_NODES + local_edges[w, 0]]
+                y = rec[c, R_NODES + local_edges[w, 1]]
+                vend[n_v, 0] = min(x, y)
+                vend[n_v, 1] = max(x, y)
+                n_v += 1
             for tt in range(k):
                 for jj in range(3):
                     w = tri_table[case, 3 * tt + jj] if exact == 0 else codes[tt, jj]

@@ -245,6 +245,9 @@ class EdgeCentredTable:
         start = (-(raw.ctypes.data // 4)) % 16
         self.rec = raw[start:start + m * width].reshape(m, width)
         _k.fill_records(self.rec, np.ascontiguousarray(cells), ce, ec_off, _k.R_NODES + 2 * nn + ne)
+        # the parallel construction's two fields in the records' free tail: claims and owned edges
+        assert width - 2 >= _k.R_NODES + 2 * nn + 3 * ne
+        self.rec[:, width - 2] = _k.owned_edges(self.ec, ec_off, ce)
         self.generation = 0
         self._node_grad = None
         # buffers, grown by doubling when a query overflows one (the query is then redone)
@@ -411,6 +414,7 @@ class EdgeCentredTable:
         nn, s, ne = self.nn, self.s, self.ne
         tabs = (self.table, self.count, self.case_mask, self.local_edges)
         claim = self.rec.shape[1] - 1
+        owned = self.rec.shape[1] - 2
         if self._vid is None:
             self._vid = np.empty(self.n_edges + self.vol.n_points, np.int32)
             self._node_gen = np.zeros(self.vol.n_points, np.int32)
@@ -441,7 +445,7 @@ class EdgeCentredTable:
             self._log = np.empty((threads, cap), np.int32)
         counts = np.zeros((threads, 4), np.int64)
         exact_cells = self._stack  # free once the propagation is done
-        _k.number_parallel(self.rec, nn, s, value, *tabs, self.ec, claim, self._log, n_log, self._vid, exact_cells,
+        _k.number_parallel(self.rec, nn, s, value, *tabs, owned, claim, self._log, n_log, self._vid, exact_cells,
                            counts)
         n_edge_v = int(counts[:, 1].sum())
         n_cap = n_edge_v + int(counts[:, 2].sum()) * nn  # node vertices: at most nn per exact cell
@@ -459,7 +463,7 @@ class EdgeCentredTable:
         n_t = int(t_base[-1])
         tri = np.empty((n_t, 3), np.int64)
         tri_cell = np.empty(n_t, np.int64)
-        _k.write_parallel(self.rec, nn, s, value, *tabs, self.n_edges, self.ec, claim, self._log, n_log, self._vid,
+        _k.write_parallel(self.rec, nn, s, value, *tabs, self.n_edges, owned, claim, self._log, n_log, self._vid,
                           v_base, t_base, tri, tri_cell, keys, vend)
         keys = keys[:n_v]
         vend = vend[:n_v]
