@@ -199,6 +199,9 @@ def test_lists_grow_and_queries_repeat():
     again = par.extract(0.5, seeds)
     assert par.stats["restarts"] == 0
     assert_same_as_serial(iso, again)
+    mem = par.memory_bytes()
+    assert mem["parallel"] == 4 * (vol.edges.shape[0] + 2 * vol.n_points) + 2 * par._log.nbytes
+    assert "parallel" not in ser.memory_bytes()
 
 
 def test_empty_surfaces_and_uncrossed_seeds():

@@ -512,10 +512,12 @@ class EdgeCentredTable:
         ``node_cells_offsets``, ``edge_list`` (the volume's ``edges``, read
         by stage 3; its ``cell_edges`` serve the preparation only),
         ``buffers`` (queue, triangles, vertex keys and ends at their
-        current sizes).
+        current sizes); after a query with ``threads > 1`` also
+        ``parallel`` (the vertex number per edge and node, the node stamps,
+        the threads' stacks and lists of cells taken).
         """
         vol = self.vol
-        return {
+        out = {
             "records": int(self.rec.nbytes),
             "edge_cells": int(self.ec.nbytes),
             "node_cells": int(self.nc.nbytes),
@@ -524,6 +526,9 @@ class EdgeCentredTable:
             "buffers": int(self._queue.nbytes + self._tris.nbytes + self._tri_cell.nbytes + self._vkey.nbytes
                            + self._vend.nbytes),
         }
+        if self._vid is not None:
+            out["parallel"] = int(self._vid.nbytes + self._node_gen.nbytes + self._stack.nbytes + self._log.nbytes)
+        return out
 
 
 class EdgeCentredWalk:
