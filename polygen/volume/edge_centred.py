@@ -178,6 +178,14 @@ class EdgeCentredTable:
         both). Costs ``4 (n_edges + 2 n_points)`` bytes more, and two lists of
         the cells taken per thread. ``stats`` then has ``pops`` (cells taken,
         doubles included), ``constructed``, ``duplicates``, ``per_thread``.
+        Measured (``benchmarks/results/parallel_construction.md``, a shared
+        2-core machine under load ~7.5): slower than one thread (median
+        42.7 ms against 2.26 ms for the construction on 2M), and its total
+        work, run on one core, 1.2 times the serial's at the median: the
+        default stays 1. Two builders running such queries at once from two
+        Python threads need a thread-safe numba threading layer (``omp`` or
+        ``tbb``, not ``workqueue``); :meth:`EdgeCentredMethod.extract_many`
+        runs its values one thread each.
 
     Attributes
     ----------
