@@ -48,7 +48,7 @@ import os
 import numpy as np
 
 from polygen import _jit
-from polygen._jit import njit
+from polygen._jit import njit, prange
 from polygen.volume import marching as _m
 
 NOT_CROSSED = -1
@@ -533,3 +533,254 @@ def positions(vend, n_v, points, s, value, out):
             # (5.2) P_c = ((C - C1) P2 - (C - C2) P1) / (C2 - C1)
             for d in range(3):
                 out[v, d] = ((value - c1) * points[b, d] - (value - c2) * points[a, d]) / (c2 - c1)
+
+
+# ------------------------------------------------------------------ the parallel construction
+def owned_edges(ec, ec_off, cell_edges):
+    """(M,) int32: bit ``w`` set when cell ``c`` is the first in the cell list of its local edge ``w``.
+
+    Every cell around a crossed edge is reached, so the first one numbers
+    the edge's vertex; stored in a free field of the records, so that
+    numbering reads no cell list.
+    """
+    first = ec[ec_off[:-1]] >> CELL_SHIFT
+    mine = first[cell_edges] == np.arange(cell_edges.shape[0])[:, None]
+    return (mine.astype(np.int32) << np.arange(cell_edges.shape[1], dtype=np.int32)).sum(axis=1).astype(np.int32)
+
+
+# No compare-and-swap: the threads claim cells with plain stores and sort out the rare double
+# claims afterwards. Thread ``t`` starts from every ``T``-th crossed seed and runs the same
+# propagation as :func:`construct` (for-loops (1) and (3), newest cell first) on its own stack,
+# marking a cell it reaches for the first time (``rec[j, R_GEN] = gen``) and writing its own number
+# into the cell's claim field (the record's last, otherwise unused, int32). Two threads may both
+# see a cell unmarked and both take it; each then processes it (same polygon, same neighbours),
+# and after the pass only the thread whose number stayed in the claim field keeps it. Every
+# marked cell is on the stack of a thread that marks all its neighbours, so the cells kept are
+# exactly the ones :func:`construct` reaches, each once. Vertices are numbered afterwards: the
+# vertex on a crossed edge belongs to the first cell in the edge's cell list (every cell around a
+# crossed edge is reached), the one on a node is numbered in one thread; triangles go to offsets
+# summed per thread. No two threads write the same slot of any output.
+
+
+@njit(inline="always")
+def _polygon_mask(rec, c, nn, s, value, st, tri_table, tri_count, case_mask, local_edges, vals, codes):
+    """``(case, exact, k, mask)`` of a constructed cell from its state (``codes`` filled when ``exact``)."""
+    case = st & 0xFFFF
+    exact = st >> 16
+    if exact == 0:
+        return case, exact, tri_count[case], case_mask[case]
+    for i in range(nn):
+        vals[i] = s[rec[c, R_NODES + i]]
+    k, mask = _polygon_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
+    return case, exact, k, mask
+
+
+@njit(parallel=True, cache=_KCACHE)
+def propagate_parallel(rec, nn, s, value, faces, tri_table, tri_count, case_mask, local_edges, ec, nc_off, nc,
+                       gen, queue, n_queued, claim, stack, log, n_log, status):
+    """The cells the surface crosses, reached from the ``n_queued`` crossed seeds in ``queue``, by ``T`` threads.
+
+    ``stack`` and ``log`` are (T, cap) int32 scratch; thread ``t`` lists the
+    cells it took in ``log[t, :n_log[t]]`` (a cell may be in two lists: it
+    belongs to the thread ``rec[c, claim]``) and leaves each one's state in
+    its record as :func:`construct` does. ``status[t]`` is ``OK`` or
+    ``FULL_QUEUE`` (the caller grows ``cap`` and starts again under a new
+    generation).
+    """
+    n_thr = stack.shape[0]
+    cap = stack.shape[1]
+    ne = local_edges.shape[0]
+    oe = R_NODES + nn + ne + nn
+    for t in prange(n_thr):
+        vals = np.empty(8, np.float64)
+        codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+        sp = 0
+        nl = 0
+        full = False
+        for i in range(t, n_queued, n_thr):
+            if nl == cap:
+                full = True
+                break
+            c = queue[i]
+            rec[c, claim] = t
+            stack[t, sp] = c
+            sp += 1
+            log[t, nl] = c
+            nl += 1
+        while sp > 0 and not full:
+            sp -= 1
+            c = stack[t, sp]
+            case, exact = _node_values(rec, c, nn, s, value, faces, vals)
+            st = case | (exact << 16)
+            rec[c, R_STATE] = st
+            _, _, _, todo = _polygon_mask(rec, c, nn, s, value, st, tri_table, tri_count, case_mask, local_edges,
+                                          vals, codes)
+            pre = todo & ((1 << ne) - 1)  # the cell lists of its edges, fetched together (as in construct)
+            while pre:
+                w = _ctz(pre)
+                pre &= pre - 1
+                _prefetch_item(ec, rec[c, oe + w])
+            if sp > 0:
+                _prefetch_row(rec, stack[t, sp - 1])
+            while todo and not full:
+                w = _ctz(todo)
+                todo &= todo - 1
+                if w < ne:  # for-loop (3) over the cells around the edge: all crossed
+                    lo = rec[c, oe + w]
+                    q = lo
+                    while True:  # their records, fetched together before the stamps are read
+                        packed = ec[q]
+                        _prefetch_row(rec, packed >> CELL_SHIFT)
+                        q += 1
+                        if packed & LAST:
+                            break
+                    q = lo
+                    while True:
+                        packed = ec[q]
+                        j = packed >> CELL_SHIFT
+                        if rec[j, R_GEN] != gen:
+                            if nl == cap:
+                                full = True
+                                break
+                            rec[j, R_GEN] = gen
+                            rec[j, claim] = t
+                            stack[t, sp] = j
+                            sp += 1
+                            log[t, nl] = j
+                            nl += 1
+                        if packed & LAST:
+                            break
+                        q += 1
+                else:  # a vertex on a node: the crossed cells around the node
+                    node = rec[c, R_NODES + w - ne]
+                    for q in range(nc_off[node], nc_off[node + 1]):
+                        j = nc[q] >> CELL_SHIFT
+                        if rec[j, R_GEN] == gen:
+                            continue
+                        cj, _ = _node_values(rec, j, nn, s, value, faces, vals)
+                        if cj < 0:
+                            continue
+                        if nl == cap:
+                            full = True
+                            break
+                        rec[j, R_GEN] = gen
+                        rec[j, claim] = t
+                        stack[t, sp] = j
+                        sp += 1
+                        log[t, nl] = j
+                        nl += 1
+        n_log[t] = nl
+        status[t] = FULL_QUEUE if full else OK
+
+
+@njit(parallel=True, cache=_KCACHE)
+def number_parallel(rec, nn, s, value, tri_table, tri_count, case_mask, local_edges, owned, claim, log, n_log,
+                    vid, exact_cells, counts):
+    """Per thread: its kept cells' triangles counted, the edge vertices it owns numbered.
+
+    ``vid[edge]`` gets ``local * (T + 1) + t`` for the ``local``-th vertex
+    thread ``t`` owns (a vertex on an edge belongs to the edge's first cell:
+    bit ``w`` of ``rec[c, owned]``, see :func:`owned_edges`); ``exact_cells[t, :counts[t, 2]]`` lists its kept cells
+    with a node at the isovalue; ``counts[t] = (triangles, vertices,
+    exact cells, cells kept)``.
+    """
+    n_thr = log.shape[0]
+    ne = local_edges.shape[0]
+    oe = R_NODES + nn + ne + nn
+    for t in prange(n_thr):
+        vals = np.empty(8, np.float64)
+        codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+        n_t = 0
+        n_v = 0
+        n_x = 0
+        n_c = 0
+        for i in range(n_log[t]):
+            c = log[t, i]
+            if rec[c, claim] != t:
+                continue
+            n_c += 1
+            _, exact, k, mask = _polygon_mask(rec, c, nn, s, value, rec[c, R_STATE], tri_table, tri_count,
+                                              case_mask, local_edges, vals, codes)
+            n_t += k
+            if exact:
+                exact_cells[t, n_x] = c
+                n_x += 1
+            mask &= rec[c, owned]  # the vertices on the edges whose first cell is c
+            while mask:
+                w = _ctz(mask)
+                mask &= mask - 1
+                vid[rec[c, oe + ne + w]] = n_v * (n_thr + 1) + t
+                n_v += 1
+        counts[t, 0] = n_t
+        counts[t, 1] = n_v
+        counts[t, 2] = n_x
+        counts[t, 3] = n_c
+
+
+@njit(cache=_KCACHE)
+def number_nodes(rec, nn, s, value, tri_table, tri_count, case_mask, local_edges, n_edges, exact_cells, counts,
+                 vid, node_gen, gen, v0, vkey, vend):
+    """Vertices on nodes, numbered from ``v0`` in one thread (key and ends written); returns their count."""
+    n_thr = exact_cells.shape[0]
+    ne = local_edges.shape[0]
+    vals = np.empty(8, np.float64)
+    codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+    n = 0
+    for t in range(n_thr):
+        for i in range(counts[t, 2]):
+            c = exact_cells[t, i]
+            _, _, _, mask = _polygon_mask(rec, c, nn, s, value, rec[c, R_STATE], tri_table, tri_count, case_mask,
+                                          local_edges, vals, codes)
+            mask >>= ne
+            while mask:
+                w = _ctz(mask)
+                mask &= mask - 1
+                node = rec[c, R_NODES + w]
+                if node_gen[node] == gen:
+                    continue
+                node_gen[node] = gen
+                vid[n_edges + node] = n * (n_thr + 1) + n_thr
+                vkey[v0 + n] = n_edges + node
+                vend[v0 + n, 0] = node
+                vend[v0 + n, 1] = node
+                n += 1
+    return n
+
+
+@njit(parallel=True, cache=_KCACHE)
+def write_parallel(rec, nn, s, value, tri_table, tri_count, case_mask, local_edges, n_edges, owned, claim, log,
+                   n_log, vid, v_base, t_base, tris, tri_cell, vkey, vend):
+    """Per thread: its kept cells' triangles (as final vertex ids) from ``t_base[t]``, its vertices' keys and ends."""
+    n_thr = log.shape[0]
+    ne = local_edges.shape[0]
+    oe = R_NODES + nn + ne + nn
+    for t in prange(n_thr):
+        vals = np.empty(8, np.float64)
+        codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+        n_t = t_base[t]
+        n_v = v_base[t]
+        for i in range(n_log[t]):
+            c = log[t, i]
+            if rec[c, claim] != t:
+                continue
+            case, exact, k, mask = _polygon_mask(rec, c, nn, s, value, rec[c, R_STATE], tri_table, tri_count,
+                                                 case_mask, local_edges, vals, codes)
+            mask &= rec[c, owned]
+            while mask:
+                w = _ctz(mask)
+                mask &= mask - 1
+                vkey[n_v] = rec[c, oe + ne + w]
+                x = rec[c, R_NODES + local_edges[w, 0]]
+                y = rec[c, R_NODES + local_edges[w, 1]]
+                vend[n_v, 0] = min(x, y)
+                vend[n_v, 1] = max(x, y)
+                n_v += 1
+            for tt in range(k):
+                for jj in range(3):
+                    w = tri_table[case, 3 * tt + jj] if exact == 0 else codes[tt, jj]
+                    key = rec[c, oe + ne + w] if w < ne else n_edges + rec[c, R_NODES + w - ne]
+                    code = vid[key]
+                    owner = code % (n_thr + 1)
+                    tris[n_t, jj] = v_base[owner] + code // (n_thr + 1)
+                tri_cell[n_t] = c
+                n_t += 1

@@ -98,10 +98,47 @@ from polygen.volume.surface import (
     volume_arrays,
 )
 
-__all__ = ["EdgeCentredWalk", "EdgeCentredTable", "EdgeCentred", "edge_centred", "SeedSource", "seed_source",
+__all__ = ["EdgeCentredWalk", "EdgeCentredTable", "canonical_order", "EdgeCentred", "edge_centred", "SeedSource", "seed_source",
            "SEED_SOURCES", "EdgeCentredMethod", "EdgeCentredTableMethod"]
 
 _INT32_MAX = np.iinfo(np.int32).max
+
+
+def _check_threads(threads):
+    """``threads`` as an int >= 1 (``None``: numba's thread count), else :class:`IsoSurfaceError`."""
+    if threads is None:
+        import numba
+
+        return numba.get_num_threads()
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise IsoSurfaceError(f"threads must be a whole number >= 1 (or None: numba's thread count); got {threads!r}")
+    return int(threads)
+
+
+def canonical_order(iso):
+    """``iso`` with its vertices sorted by key and its triangles by cell (each cell's in its own order).
+
+    Two constructions of the same surface (serial and parallel, FIFO and
+    LIFO) give equal arrays in this order.
+
+    Parameters
+    ----------
+    iso : IsoSurface
+        With ``vertex_keys`` and ``triangle_cells``.
+
+    Returns
+    -------
+    IsoSurface
+        The same surface, reordered.
+    """
+    order = np.argsort(iso.vertex_keys, kind="stable")
+    new_id = np.empty_like(order)
+    new_id[order] = np.arange(order.size)
+    tri_order = np.argsort(iso.triangle_cells, kind="stable")
+    return dataclasses.replace(
+        iso, vertices=iso.vertices[order], vertex_keys=iso.vertex_keys[order],
+        normals=None if iso.normals is None else iso.normals[order],
+        triangles=new_id[iso.triangles[tri_order]], triangle_cells=iso.triangle_cells[tri_order])
 
 
 class EdgeCentredTable:
@@ -129,6 +166,26 @@ class EdgeCentredTable:
         FIFO) or the newest (its neighbours' records are still in cache). The
         surface is the same either way; only the order of its triangles and
         vertices differs.
+    threads : int or None, keyword-only
+        Threads for one query (default 1; ``None``: numba's thread count).
+        With more than one, the seeds are split among the threads, which
+        propagate side by side without compare-and-swap (a cell two threads
+        both take is kept by one, see
+        ``_edge_centred_kernels.propagate_parallel``); the vertices are
+        numbered by their edges' first cells and the triangles written to
+        per-thread offsets afterwards. The same triangles and vertices as one
+        thread, in another order (:func:`canonical_order` gives one order for
+        both). Costs ``4 (n_edges + 2 n_points)`` bytes more, and two lists of
+        the cells taken per thread. ``stats`` then has ``pops`` (cells taken,
+        doubles included), ``constructed``, ``duplicates``, ``per_thread``.
+        Measured (``benchmarks/results/parallel_construction.md``, a shared
+        2-core machine under load ~7.5): slower than one thread (median
+        42.7 ms against 2.26 ms for the construction on 2M), and its total
+        work, run on one core, 1.2 times the serial's at the median: the
+        default stays 1. Two builders running such queries at once from two
+        Python threads need a thread-safe numba threading layer (``omp`` or
+        ``tbb``, not ``workqueue``); :meth:`EdgeCentredMethod.extract_many`
+        runs its values one thread each.
 
     Attributes
     ----------
@@ -156,11 +213,14 @@ class EdgeCentredTable:
 
     method = "edge-centred-table"
 
-    def __init__(self, vol, field=None, *, order="lifo"):
+    def __init__(self, vol, field=None, *, order="lifo", threads=1):
         t0 = time.perf_counter()
         if order not in ("fifo", "lifo"):
             raise IsoSurfaceError(f"order must be 'fifo' or 'lifo'; got {order!r}")
         self.order = order
+        self.threads = _check_threads(threads)
+        # the parallel construction's scratch, made at its first query
+        self._vid = self._node_gen = self._stack = self._log = None
         self.vol = vol
         points, cells, s, cell_type = volume_arrays(vol, field)
         m, nn = cells.shape
@@ -193,6 +253,9 @@ class EdgeCentredTable:
         start = (-(raw.ctypes.data // 4)) % 16
         self.rec = raw[start:start + m * width].reshape(m, width)
         _k.fill_records(self.rec, np.ascontiguousarray(cells), ce, ec_off, _k.R_NODES + 2 * nn + ne)
+        # the parallel construction's two fields in the records' free tail: claims and owned edges
+        assert width - 2 >= _k.R_NODES + 2 * nn + 3 * ne
+        self.rec[:, width - 2] = _k.owned_edges(self.ec, ec_off, ce)
         self.generation = 0
         self._node_grad = None
         # buffers, grown by doubling when a query overflows one (the query is then redone)
@@ -222,6 +285,7 @@ class EdgeCentredTable:
         new._tri_cell = np.empty_like(self._tri_cell)
         new._vkey = np.empty_like(self._vkey)
         new._vend = np.empty_like(self._vend)
+        new._vid = new._node_gen = new._stack = new._log = None
         new.stats = {}
         return new
 
@@ -250,7 +314,7 @@ class EdgeCentredTable:
         self.generation += 1
         return self.generation
 
-    def extract(self, value, seeds, *, normals="mean"):
+    def extract(self, value, seeds, *, normals="mean", threads=None):
         """The isosurface reached from ``seeds``, built without any vertex search.
 
         Parameters
@@ -261,6 +325,11 @@ class EdgeCentredTable:
             Cells to start from; the ones the surface does not cross are skipped.
         normals : {"mean", "gradient", None}, keyword-only
             As in :func:`polygen.volume.isosurface.extract`.
+        threads : int, optional, keyword-only
+            Threads for this query (default: the builder's ``threads``); more
+            than 1 runs the parallel construction (:meth:`_construct_parallel`):
+            the same triangles and vertices, in another order
+            (:func:`canonical_order` gives one order for both).
 
         Returns
         -------
@@ -275,7 +344,10 @@ class EdgeCentredTable:
         value = check_value(value)
         check_normals(normals)
         seeds = self._check_seeds(seeds)
+        threads = self.threads if threads is None else _check_threads(threads)
         node_grad = self.node_gradients if normals == "gradient" else None
+        if threads > 1:
+            return self._extract_parallel(value, seeds, normals, node_grad, threads)
         restarts = 0
         counters = np.zeros(_k.N_COUNTERS, np.int64)
         lifo = self.order == "lifo"
@@ -345,6 +417,100 @@ class EdgeCentredTable:
             method=self.method,
         )
 
+    def _extract_parallel(self, value, seeds, normals, node_grad, threads):
+        """:meth:`extract` by ``threads`` threads (see ``_edge_centred_kernels.propagate_parallel``)."""
+        nn, s, ne = self.nn, self.s, self.ne
+        tabs = (self.table, self.count, self.case_mask, self.local_edges)
+        claim = self.rec.shape[1] - 1
+        owned = self.rec.shape[1] - 2
+        if self._vid is None:
+            self._vid = np.empty(self.n_edges + self.vol.n_points, np.int32)
+            self._node_gen = np.zeros(self.vol.n_points, np.int32)
+        if self._log is None or self._log.shape[0] != threads:
+            cap = max(1024, self._queue.shape[0] // threads)
+            self._stack = np.empty((threads, cap), np.int32)
+            self._log = np.empty((threads, cap), np.int32)
+        n_log = np.zeros(threads, np.int64)
+        status = np.zeros(threads, np.int64)
+        restarts = 0
+        while True:
+            gen = self._next_generation()
+            if gen == 1:  # the stamps were cleared: so are the node stamps
+                self._node_gen[:] = 0
+            t0 = time.perf_counter()
+            if self._queue.shape[0] < seeds.shape[0]:
+                self._queue = np.empty(2 * seeds.shape[0], np.int32)
+            tested, n_queued = _k.test_seeds(self.rec, nn, s, value, self.faces, seeds, gen, self._queue)
+            t1 = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            _k.propagate_parallel(self.rec, nn, s, value, self.faces, *tabs, self.ec, self.nc_off, self.nc, gen,
+                                  self._queue, n_queued, claim, self._stack, self._log, n_log, status)
+            if not status.any():
+                break
+            restarts += 1  # a thread's list was too small: grow them and do the query again
+            cap = 2 * self._log.shape[1]
+            self._stack = np.empty((threads, cap), np.int32)
+            self._log = np.empty((threads, cap), np.int32)
+        counts = np.zeros((threads, 4), np.int64)
+        exact_cells = self._stack  # free once the propagation is done
+        _k.number_parallel(self.rec, nn, s, value, *tabs, owned, claim, self._log, n_log, self._vid, exact_cells,
+                           counts)
+        n_edge_v = int(counts[:, 1].sum())
+        n_cap = n_edge_v + int(counts[:, 2].sum()) * nn  # node vertices: at most nn per exact cell
+        keys = np.empty(n_cap, np.int64)
+        vend = np.empty((n_cap, 2), np.int32)
+        n_node_v = 0
+        if counts[:, 2].any():
+            n_node_v = _k.number_nodes(self.rec, nn, s, value, *tabs, self.n_edges, exact_cells, counts, self._vid,
+                                       self._node_gen, gen, n_edge_v, keys, vend)
+        n_v = n_edge_v + n_node_v
+        v_base = np.zeros(threads + 1, np.int64)
+        v_base[1:] = np.cumsum(counts[:, 1])
+        t_base = np.zeros(threads + 1, np.int64)
+        t_base[1:] = np.cumsum(counts[:, 0])
+        n_t = int(t_base[-1])
+        tri = np.empty((n_t, 3), np.int64)
+        tri_cell = np.empty(n_t, np.int64)
+        _k.write_parallel(self.rec, nn, s, value, *tabs, self.n_edges, owned, claim, self._log, n_log, self._vid,
+                          v_base, t_base, tri, tri_cell, keys, vend)
+        keys = keys[:n_v]
+        vend = vend[:n_v]
+        collapsed = vend[:0].copy()
+        if n_node_v:  # a face exactly at C between two cells: keep it once (as every method does)
+            tri, tri_cell = drop_double_faces(keys, tri, tri_cell, self.n_edges)
+            tri, keep = drop_unreferenced(tri, n_v)  # vertices of polygons collapsed onto nodes
+            if keep is not None:
+                collapsed = np.delete(vend, keep, axis=0)
+                keys, vend, n_v = keys[keep], vend[keep], keep.size
+        t2 = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        vertices = np.empty((n_v, 3))
+        if n_v:
+            _k.positions(np.ascontiguousarray(vend), n_v, self.points, s, value, vertices)
+        nrm = vertex_normals(normals, vertices, tri, keys, edges=np.ascontiguousarray(self.vol.edges), s=s,
+                             value=value, node_grad=node_grad, points=self.points)
+        t3 = time.perf_counter() - t0
+        pops = int(n_log.sum())
+        n_p = int(counts[:, 3].sum())
+        self.stats = {
+            "pops": pops,
+            "constructed": n_p,
+            "duplicates": pops - n_p,
+            "seeds_tested": int(tested),
+            "seeds_crossed": int(n_queued),
+            "lookups": 0,
+            "restarts": restarts,
+            "collapsed": tuple(map(tuple, collapsed.tolist())),
+            "threads": threads,
+            "per_thread": tuple(int(x) for x in n_log),
+        }
+        return IsoSurface(
+            value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell,
+            cells_tested=int(tested) + n_p - int(n_queued), cells_intersected=n_p, vertex_lookups=0,
+            t1=t1, t2=t2, t3=t3, method=self.method,
+        )
+
     def memory_bytes(self):
         """Bytes this builder holds beyond the volume's points, cells and field, by array.
 
@@ -354,10 +520,12 @@ class EdgeCentredTable:
         ``node_cells_offsets``, ``edge_list`` (the volume's ``edges``, read
         by stage 3; its ``cell_edges`` serve the preparation only),
         ``buffers`` (queue, triangles, vertex keys and ends at their
-        current sizes).
+        current sizes); after a query with ``threads > 1`` also
+        ``parallel`` (the vertex number per edge and node, the node stamps,
+        the threads' stacks and lists of cells taken).
         """
         vol = self.vol
-        return {
+        out = {
             "records": int(self.rec.nbytes),
             "edge_cells": int(self.ec.nbytes),
             "node_cells": int(self.nc.nbytes),
@@ -366,6 +534,9 @@ class EdgeCentredTable:
             "buffers": int(self._queue.nbytes + self._tris.nbytes + self._tri_cell.nbytes + self._vkey.nbytes
                            + self._vend.nbytes),
         }
+        if self._vid is not None:
+            out["parallel"] = int(self._vid.nbytes + self._node_gen.nbytes + self._stack.nbytes + self._log.nbytes)
+        return out
 
 
 class EdgeCentredWalk:
@@ -658,6 +829,10 @@ class _EdgeCentredMethods(IsosurfaceMethod):
         ``"extrema-graph"``, ``"span-filter"``, ...
     order : {"fifo", "lifo"}
         Queue discipline of the builder.
+    threads : int or None
+        Threads for one surface (``edge-centred-table`` only; default 1, see
+        :class:`EdgeCentredTable`). :meth:`extract_many` runs its values one
+        thread each whatever this is.
     **params
         Passed to the seed source.
 
@@ -674,9 +849,15 @@ class _EdgeCentredMethods(IsosurfaceMethod):
     construction = "edge-centred"
     builder_class = None
 
-    def _prepare(self, seeds="auto", order="lifo", **params):
+    def _prepare(self, seeds="auto", order="lifo", threads=1, **params):
         self.source = seed_source(self.vol, self.field, seeds, **params)
-        self.builder = self.builder_class(self.vol, self.field, order=order)
+        kw = {}
+        if self.builder_class is EdgeCentredTable:
+            kw["threads"] = threads
+        elif threads != 1:
+            raise IsoSurfaceError(f"threads > 1 (one surface by several threads) is the edge-centred-table "
+                                  f"method's; {self.name!r} runs one thread; got threads={threads!r}")
+        self.builder = self.builder_class(self.vol, self.field, order=order, **kw)
         self.seed_preprocess_s = self.source.preprocess_s
         self.construct_preprocess_s = self.builder.preprocess_s
         self.stats = {}
@@ -751,7 +932,7 @@ class _EdgeCentredMethods(IsosurfaceMethod):
                     return
                 cells, n_tested, t_search = found[i].cells, found[i].n_tested, found[i].seconds
                 try:
-                    iso = builder.extract(values[i], cells, normals=normals)
+                    iso = builder.extract(values[i], cells, normals=normals, **one)
                 except BaseException as exc:  # re-raised in the caller's thread
                     errors.append(exc)
                     return
@@ -759,6 +940,8 @@ class _EdgeCentredMethods(IsosurfaceMethod):
                 out[i] = dataclasses.replace(iso, cells_tested=iso.cells_tested + int(n_tested),
                                              t1=iso.t1 + t_search)
 
+        # the values run side by side, each in one thread (parallel kernels are not started from two threads)
+        one = {"threads": 1} if isinstance(self.builder, EdgeCentredTable) else {}
         pool = [threading.Thread(target=work, args=(b,)) for b in self._builders[1:threads]]
         for t in pool:
             t.start()

@@ -1,0 +1,99 @@
+"""One isosurface by one thread or two: the edge-centred construction, serial against parallel (issue 20).
+
+For data 4 and the 2M volume (field ``fem``), twenty isovalues
+``linspace(min, max, 22)[1:-1]``, the ``edge-centred-table`` method
+prepared once (thinning seeds); each value is extracted by the builder with
+``threads=1`` (the serial construction) and ``threads=2`` (the parallel one:
+seeds split between the threads, see ``EdgeCentredTable``), interleaved,
+``REPEATS`` times, mean normals on, the seed search done beforehand (it is
+the same for both). Per value: the median wall time of ``extract`` (the
+construction ``t2`` and positions/normals ``t3`` included) and of ``t2``
+alone; per data set the median and the max over the values, and the sum.
+Every parallel surface is checked to be the serial one (``same_surface``).
+The load average of the machine is recorded before and after: this is a
+shared 2-core machine, and the parallel path can only be faster when the
+second core is free.
+
+    python benchmarks/parallel_construction.py            # data4, 2M
+    python benchmarks/parallel_construction.py data4      # a subset
+"""
+
+import os
+import sys
+import time
+
+import numba
+import numpy as np
+
+from _common import write_results
+from polygen.volume import datasets, isovalues, methods
+from polygen.volume.surface import same_surface
+
+DATA = ["data4", "2M"]
+REPEATS = 5
+COLUMNS = ["data", "cells", "threads", "median_ms", "max_ms", "sum_ms", "t2_median_ms", "t2_max_ms",
+           "triangles (sum)", "duplicates (sum)", "same as serial", "load before", "load after"]
+
+
+def run(name):
+    vol = datasets.load(name)
+    s = vol.scalars("fem")
+    m = methods.get("edge-centred-table")(vol, field="fem")
+    b = m.builder
+    values = isovalues(s, 20)
+    seeds = [m.source.query(v).cells for v in values]
+    for v, sd in zip(values, seeds):  # compile and warm the caches; check the surfaces
+        ref = b.extract(v, sd, threads=1)
+        assert same_surface(ref, b.extract(v, sd, threads=2)), (name, v)
+    load0 = os.getloadavg()[0]
+    # "2 on 1 core": the two threads' work run one after the other on one core (numba.set_num_threads(1)):
+    # the parallel algorithm's total work, free of waiting for a busy second core
+    kinds = [1, 2, "2 on 1 core"]
+    wall = {k: np.zeros((REPEATS, len(values))) for k in kinds}
+    t2 = {k: np.zeros((REPEATS, len(values))) for k in kinds}
+    tris = {k: 0 for k in kinds}
+    dup = 0
+    n_thr = numba.get_num_threads()
+    for r in range(REPEATS):
+        for i, (v, sd) in enumerate(zip(values, seeds)):
+            for kind in kinds[r % 3:] + kinds[:r % 3]:
+                th = 1 if kind == 1 else 2
+                numba.set_num_threads(1 if kind == "2 on 1 core" else n_thr)
+                t0 = time.perf_counter()
+                iso = b.extract(v, sd, threads=th)
+                wall[kind][r, i] = time.perf_counter() - t0
+                t2[kind][r, i] = iso.t2
+                if r == 0:
+                    tris[kind] += iso.n_triangles
+                    if kind == 2:
+                        dup += b.stats["duplicates"]
+    numba.set_num_threads(n_thr)
+    load1 = os.getloadavg()[0]
+    rows = []
+    for th in kinds:
+        per_value = np.median(wall[th], axis=0) * 1e3
+        per_value_t2 = np.median(t2[th], axis=0) * 1e3
+        rows.append({"data": name, "cells": vol.n_cells, "threads": th, "median_ms": float(np.median(per_value)),
+                     "max_ms": float(per_value.max()), "sum_ms": float(per_value.sum()),
+                     "t2_median_ms": float(np.median(per_value_t2)), "t2_max_ms": float(per_value_t2.max()),
+                     "triangles (sum)": tris[th], "duplicates (sum)": dup if th != 1 else 0,
+                     "same as serial": True, "load before": round(load0, 2), "load after": round(load1, 2)})
+    return rows
+
+
+def main(names):
+    rows = []
+    for name in names:
+        rows += run(name)
+        print(*rows[-3:], sep="\n", flush=True)
+    notes = [f"{REPEATS} interleaved repeats per value; per value the median, then the median / max / sum over "
+             "the 20 values; wall = the builder's extract (construction, positions, mean normals) after the seed "
+             "search; t2 = the construction alone",
+             "threads = 2: EdgeCentredTable(..., threads=2); duplicates: cells both threads took (kept once)",
+             f"load: 1-minute load average of the machine ({os.cpu_count()} cores) before / after the timed loop"]
+    return write_results("parallel_construction", rows, COLUMNS,
+                         title="One isosurface, one thread or two (edge-centred construction)", notes=notes)
+
+
+if __name__ == "__main__":
+    print(main(sys.argv[1:] or DATA))

@@ -1,0 +1,263 @@
+"""The parallel edge-centred construction (issue 20, Deliver 1): exactly the serial construction's surface.
+
+``EdgeCentredTable(..., threads=T)`` splits the seeds among ``T`` threads that propagate side by side
+without compare-and-swap; the oracle is the serial construction (one thread) and the full scan: the same
+triangles in the same cells, the same vertices bit for bit, and, in :func:`canonical_order`, equal arrays.
+"""
+
+import threading
+
+import numpy as np
+import pytest
+
+from polygen.volume import _edge_centred_kernels as _k
+from polygen.volume import datasets, methods
+from polygen.volume.edge_centred import EdgeCentredTable, canonical_order
+from polygen.volume.isosurface import IsoSurfaceError, extract
+from polygen.volume.mesh import UnstructuredVolume
+
+from _surfaces import assert_same_surface, block_volume, grid_volume  # noqa: E402
+
+
+def one_seed_per_component(iso):
+    labels, _ = iso.connected_components()
+    _, first = np.unique(labels, return_index=True)
+    return iso.triangle_cells[first]
+
+
+def assert_same_as_serial(serial, par):
+    """``par`` is ``serial``: the same surface, and equal arrays once both are in the canonical order."""
+    assert_same_surface(serial, par)
+    a, b = canonical_order(serial), canonical_order(par)
+    np.testing.assert_array_equal(a.triangles, b.triangles)
+    np.testing.assert_array_equal(a.triangle_cells, b.triangle_cells)
+    np.testing.assert_array_equal(a.vertex_keys, b.vertex_keys)
+    np.testing.assert_array_equal(a.vertices, b.vertices)
+
+
+def both(vol, s, value, seeds, threads=2, **kw):
+    ser = EdgeCentredTable(vol, s, **kw)
+    par = EdgeCentredTable(vol, s, threads=threads, **kw)
+    return ser.extract(value, seeds), par.extract(value, seeds), ser, par
+
+
+def test_canonical_order_is_one_order_for_fifo_and_lifo():
+    vol = grid_volume((9, 8, 7), spacing=(0.3, 0.5, 0.7), jitter=0.15, seed=1)
+    s = np.random.default_rng(7).random(vol.n_points)
+    seeds = np.arange(vol.n_cells)
+    a = EdgeCentredTable(vol, s, order="fifo").extract(0.5, seeds)
+    b = EdgeCentredTable(vol, s, order="lifo").extract(0.5, seeds)
+    assert not np.array_equal(a.vertex_keys, b.vertex_keys)  # the two orders differ before ...
+    assert_same_as_serial(a, b)  # ... and agree after
+
+
+@pytest.mark.parametrize("threads", [2, 3, 8])
+@pytest.mark.parametrize("tets", [True, False])
+def test_random_fields_same_as_serial_and_scan(tets, threads):
+    vol = grid_volume((9, 8, 7), spacing=(0.3, 0.5, 0.7), tets=tets, jitter=0.15 if tets else 0.0, seed=1)
+    s = np.random.default_rng(7).random(vol.n_points)
+    ser = EdgeCentredTable(vol, s)
+    par = EdgeCentredTable(vol, s, threads=threads)
+    for value in np.linspace(0.05, 0.95, 7):
+        scan = extract(vol, value, field=s)
+        seeds = np.unique(scan.triangle_cells)
+        iso = par.extract(value, seeds)
+        assert_same_surface(scan, iso)
+        assert_same_as_serial(ser.extract(value, seeds), iso)
+        st = par.stats
+        assert st["threads"] == threads and sum(st["per_thread"]) == st["pops"]
+        assert st["constructed"] == iso.cells_intersected == st["pops"] - st["duplicates"]
+        assert iso.vertex_lookups == 0
+
+
+@pytest.mark.parametrize("tets", [True, False])
+def test_one_seed_per_surface_part(tets):
+    """Few seeds: the threads that start from them run into each other's cells."""
+    vol = grid_volume((16, 14, 12), spacing=(0.1, 0.1, 0.1), tets=tets)
+    x = vol.points
+    s = np.sin(9 * x[:, 0]) * np.cos(8 * x[:, 1]) * np.sin(7 * x[:, 2] + 0.3) + 0.2 * x[:, 0]
+    ser = EdgeCentredTable(vol, s)
+    par = EdgeCentredTable(vol, s, threads=2)
+    for value in (-0.5, -0.1, 0.2, 0.6):
+        scan = extract(vol, value, field=s)
+        seeds = one_seed_per_component(scan)
+        assert seeds.size >= 2
+        iso = par.extract(value, seeds)
+        assert_same_surface(scan, iso)
+        assert_same_as_serial(ser.extract(value, seeds), iso)
+
+
+@pytest.mark.parametrize("tets", [True, False])
+def test_values_exactly_on_nodes(tets):
+    vol = grid_volume((8, 7, 6), tets=tets)
+    s = np.random.default_rng(3).integers(0, 5, vol.n_points).astype(float)
+    ser = EdgeCentredTable(vol, s)
+    par = EdgeCentredTable(vol, s, threads=2)
+    every = np.arange(vol.n_cells)
+    n_node_vertices = 0
+    for value in (1.0, 2.0, 3.0, 4.0, 2.5):
+        scan = extract(vol, value, field=s)
+        for seeds in (every, one_seed_per_component(scan)):
+            iso = par.extract(value, seeds)
+            ref = ser.extract(value, seeds)
+            assert_same_surface(scan, iso, cells=seeds is every)
+            assert_same_as_serial(ref, iso)
+            assert sorted(par.stats["collapsed"]) == sorted(ser.stats["collapsed"])
+        n_node_vertices += int(np.sum(iso.vertex_keys >= vol.edges.shape[0]))
+    assert n_node_vertices > 0
+
+
+def test_face_exactly_at_the_value_kept_once():
+    vol = datasets.load("two_tets")
+    s = np.zeros(vol.n_points)
+    s[vol.cells[0][np.isin(vol.cells[0], vol.cells[1])]] = 1.0
+    scan = extract(vol, 1.0, field=s)
+    iso = EdgeCentredTable(vol, s, threads=2).extract(1.0, [1])
+    assert scan.n_triangles == 1
+    assert_same_surface(scan, iso)
+
+
+def test_boundary_face_at_the_maximum():
+    """``test_fuzz.py::test_edge_centred_boundary_face_at_the_maximum``: the seeds' polygons collapse onto the
+    face's nodes, whose vertices must still carry the propagation to the cell that holds the face."""
+    vol = block_volume(np.array([[[False], [False]], [[True], [True]]]), "tetra", jitter=0.0, seed=651)
+    f = np.array([-1.0, 2.0, 0.0, 0.0, -2.0, -1.0, 0.0, 0.0, 2.0, -1.0, 2.0, 2.0])
+    vol = UnstructuredVolume(vol.points, vol.cells, {"f": f})
+    scan = extract(vol, 2.0, field="f", method="scan")
+    assert scan.n_triangles == 1
+    m = methods.get("edge-centred-table")(vol, field="f", threads=2)
+    assert_same_surface(scan, m.extract(2.0), cells=False)
+    ser = methods.get("edge-centred-table")(vol, field="f")
+    assert_same_as_serial(ser.extract(2.0), m.extract(2.0))
+
+
+@pytest.mark.parametrize("name", ["torus", "hollow_cube", "genus3", "torus_hex", "hollow_cube_hex", "genus3_hex",
+                                  "one_tet", "two_tets", "one_hex", "two_hexes"])
+def test_tiny_volumes_all_fields(name):
+    vol = datasets.load(name)
+    for field in vol.fields:
+        s = vol.scalars(field)
+        ser = EdgeCentredTable(vol, field)
+        par = EdgeCentredTable(vol, field, threads=2)
+        every = np.arange(vol.n_cells)
+        for value in np.unique(np.concatenate([np.linspace(s.min(), s.max(), 9), s[:5]])):
+            iso = par.extract(value, every)
+            assert_same_surface(extract(vol, value, field=field), iso)
+            assert_same_as_serial(ser.extract(value, every), iso)
+
+
+@pytest.mark.parametrize("name", ["data1", "data2", "data3", "hexa1"])
+def test_thinning_seeds_on_data(name):
+    """The registered method with ``threads=2`` against one thread and the scan, on the tables' twenty values."""
+    vol = datasets.load(name)
+    s = vol.scalars("fem")
+    ser = methods.get("edge-centred-table")(vol, field="fem")
+    par = methods.get("edge-centred-table")(vol, field="fem", threads=2)
+    for value in np.linspace(s.min(), s.max(), 22)[1:-1]:
+        iso = par.extract(value)
+        assert_same_surface(extract(vol, value, field="fem"), iso)
+        assert_same_as_serial(ser.extract(value), iso)
+
+
+def test_doubly_taken_cells_are_kept_once(monkeypatch):
+    """A cell both threads took (a race the test cannot provoke) is kept by its claim's thread only: here every
+    cell of thread 0 is also put into thread 1's list, as a lost race would."""
+    vol = grid_volume((10, 9, 8), spacing=(0.1, 0.1, 0.1), seed=2)
+    s = np.random.default_rng(5).random(vol.n_points)
+    real = _k.propagate_parallel
+
+    def racy(*args):
+        real(*args)
+        log, n_log = args[-3], args[-2]
+        extra = log[0, :n_log[0]].copy()
+        room = log.shape[1] - n_log[1]
+        assert room >= extra.size
+        log[1, n_log[1]:n_log[1] + extra.size] = extra
+        n_log[1] += extra.size
+
+    monkeypatch.setattr(_k, "propagate_parallel", racy)
+    ser = EdgeCentredTable(vol, s)
+    par = EdgeCentredTable(vol, s, threads=2)
+    par._stack = par._log = np.empty((2, 8 * vol.n_cells), np.int32)
+    seeds = np.arange(vol.n_cells)
+    for value in (0.3, 0.5, 0.7):
+        iso = par.extract(value, seeds)
+        assert par.stats["duplicates"] > 0
+        assert_same_as_serial(ser.extract(value, seeds), iso)
+
+
+def test_lists_grow_and_queries_repeat():
+    vol = grid_volume((10, 9, 8), spacing=(0.1, 0.1, 0.1), seed=2)
+    s = np.random.default_rng(5).random(vol.n_points)
+    ser = EdgeCentredTable(vol, s)
+    par = EdgeCentredTable(vol, s, threads=2)
+    par._stack = par._log = np.empty((2, 2), np.int32)  # too small for any surface here
+    seeds = np.arange(vol.n_cells)
+    iso = par.extract(0.5, seeds)
+    assert par.stats["restarts"] > 0
+    assert_same_as_serial(ser.extract(0.5, seeds), iso)
+    again = par.extract(0.5, seeds)
+    assert par.stats["restarts"] == 0
+    assert_same_as_serial(iso, again)
+    mem = par.memory_bytes()
+    assert mem["parallel"] == 4 * (vol.edges.shape[0] + 2 * vol.n_points) + 2 * par._log.nbytes
+    assert "parallel" not in ser.memory_bytes()
+
+
+def test_empty_surfaces_and_uncrossed_seeds():
+    vol = datasets.load("torus")
+    s = vol.scalars()
+    par = EdgeCentredTable(vol, threads=2)
+    assert par.extract(s.max() + 1, np.arange(vol.n_cells)).n_triangles == 0
+    assert par.extract(s.min() - 1, np.arange(vol.n_cells)).n_triangles == 0
+    assert par.extract(float(np.median(s)), []).n_triangles == 0
+
+
+def test_two_threads_share_one_prepared_method():
+    """Two Python threads on one method prepared with ``threads=2``: the method's lock runs them one at a
+    time, and each gets its surface."""
+    vol = datasets.load("data1")
+    s = vol.scalars("fem")
+    values = np.linspace(s.min(), s.max(), 22)[1:-1]
+    ser = methods.get("edge-centred-table")(vol, field="fem")
+    ref = [ser.extract(v) for v in values]
+    par = methods.get("edge-centred-table")(vol, field="fem", threads=2)
+    out = [[None] * len(values) for _ in range(2)]
+    errors = []
+
+    def work(k):
+        try:
+            for i in (range(len(values)) if k == 0 else range(len(values) - 1, -1, -1)):
+                out[k][i] = par.extract(values[i])
+        except BaseException as exc:
+            errors.append(exc)
+
+    pool = [threading.Thread(target=work, args=(k,)) for k in range(2)]
+    for t in pool:
+        t.start()
+    for t in pool:
+        t.join()
+    assert not errors
+    for k in range(2):
+        for a, b in zip(ref, out[k]):
+            assert_same_as_serial(a, b)
+    many = par.extract_many(values, threads=2)  # values side by side, one thread each
+    for a, b in zip(ref, many):
+        assert_same_as_serial(a, b)
+
+
+@pytest.mark.parametrize("threads", [0, -1, 1.5, "2", True])
+def test_bad_thread_counts_are_refused(threads):
+    vol = datasets.load("torus")
+    with pytest.raises(IsoSurfaceError, match=f"threads must be a whole number >= 1.*got {threads!r}"):
+        EdgeCentredTable(vol, threads=threads)
+    ec = EdgeCentredTable(vol)
+    with pytest.raises(IsoSurfaceError, match="threads must be a whole number"):
+        ec.extract(1.0, [0], threads=threads)
+
+
+def test_walk_method_refuses_threads():
+    vol = datasets.load("torus")
+    with pytest.raises(IsoSurfaceError, match="edge-centred-table"):
+        methods.get("edge-centred")(vol, threads=2)
+    assert methods.get("edge-centred")(vol, threads=1).extract(float(np.median(vol.scalars()))).n_triangles > 0
