@@ -51,12 +51,20 @@ from polygen.discontinuity.states import (
     region_size,
 )
 from polygen.discontinuity.simplified import SimplifiedDiscontinuity, simplified_discontinuity
+from polygen.discontinuity.meshing import (
+    DiscontinuityRecord,
+    MeshingError,
+    conventional_discontinuity,
+    discontinuity_mesh,
+)
 
 __all__ = [
     "BRIGHT",
     "BSPRegions",
     "ComplexError",
     "CriticalSegments",
+    "DiscontinuityRecord",
+    "MeshingError",
     "PENUMBRA",
     "Polyhedron",
     "ReceiverComplex",
@@ -69,8 +77,10 @@ __all__ = [
     "UNPROCESSED",
     "bsp_split",
     "conventional_bsp",
+    "conventional_discontinuity",
     "conventional_segments",
     "critical_surfaces",
+    "discontinuity_mesh",
     "discontinuity_segments",
     "polyhedron_section",
     "receiver_complex",
