@@ -114,3 +114,23 @@ def test_bad_arguments_are_named():
     from polygen.discontinuity import simplified_discontinuity
     with pytest.raises(MeshingError, match="discontinuity"):
         discontinuity_mesh(sc, patch_size=1.0, discontinuity=simplified_discontinuity(other))
+
+
+def test_conventional_mesh_follows_every_critical_segment():
+    # 2.4.3: the conventional mesh has all EV/VE segments as patch edges: no patch's interior
+    # meets one (the segments are noded where they cross, so the mesh model takes them)
+    from polygen.discontinuity import conventional_segments
+
+    sc = scenes.figure_3_4_scene()
+    m = discontinuity_mesh(sc, patch_size=2.0, penumbra_patch_size=0.7, method="conventional")
+    floor = sc.polygons[0]
+    cs = conventional_segments(sc, 0)
+    assert len(cs.segments) == 64
+    lines = shapely.multilinestrings(list(shapely.linestrings(cs.segments)))
+    sel = np.flatnonzero(m.patch_polygon == 0)
+    tri = floor.to_2d(m.nodes[m.patches[sel]])
+    eps = 1e-7 * floor.diameter
+    inner = [shapely.Polygon(t).buffer(-eps) for t in tri]
+    assert max(p.intersection(lines).length for p in inner) < 1e-6 * floor.diameter
+    # penumbra regions (in some light's penumbra, in none of its umbrae) were meshed finer
+    assert m.n_patches > discontinuity_mesh(sc, patch_size=2.0, method="conventional").n_patches

@@ -12,6 +12,8 @@
   :mod:`~polygen.discontinuity.states` -- illumination states (3.3.5) and
   the output to the mesh model (3.3.6);
   :mod:`~polygen.discontinuity.simplified` -- the whole method on a scene;
+  :mod:`~polygen.discontinuity.meshing` -- lines, regions, patches and elements
+  (3.3.6) by the simplified or the conventional method;
 * :mod:`~polygen.discontinuity.conventional` -- the baseline of 2.4.3:
   all EV and VE critical surfaces on a receiver;
 * :mod:`~polygen.discontinuity.bsp` -- the 2-D BSP split of a receiver

@@ -67,7 +67,8 @@ class DiscontinuityRecord:
         ``method="simplified"``; ``critical_surfaces`` and
         ``critical_segments`` (before noding) with ``"conventional"``.
     timings : dict
-        Seconds: ``T_d`` the discontinuity phase, ``T_m`` the meshing;
+        Seconds: ``T_d`` the discontinuity phase (when reused, the sum of
+        its recorded phases), ``T_m`` the meshing;
         the simplified method adds Table 3.2's phases.
     discontinuity : SimplifiedDiscontinuity or None
         The simplified method's records (complexes, states ...).
@@ -119,8 +120,10 @@ def discontinuity_mesh(scene, *, patch_size, penumbra_patch_size=None, element_l
         mesh), possibly a ``functools.partial`` with its ``seed``.
     element_mesher : callable, keyword-only, optional
         Passed to :func:`~polygen.radiosity.mesh_scene`.
-    discontinuity : SimplifiedDiscontinuity, keyword-only, optional
-        The scene's discontinuity phase, reused (``method="simplified"``).
+    discontinuity : keyword-only, optional
+        The scene's discontinuity phase, reused (e.g. for several sizes):
+        ``simplified_discontinuity(scene)`` with ``method="simplified"``,
+        ``conventional_discontinuity(scene)`` with ``"conventional"``.
     tol : float, keyword-only
         Relative tolerance of the discontinuity phase.
 
@@ -156,12 +159,19 @@ def discontinuity_mesh(scene, *, patch_size, penumbra_patch_size=None, element_l
         counters = dict(sd.counters)
         timings = {k: v for k, v in sd.timings.items()}
     else:
-        if discontinuity is not None:
-            raise MeshingError("discontinuity= is the simplified method's; method='conventional' computes its own")
         sd = None
-        segments, pen_pts, counters = conventional_discontinuity(scene, tol=tol)
+        if discontinuity is None:
+            discontinuity = conventional_discontinuity(scene, tol=tol)
+        elif not (isinstance(discontinuity, tuple) and len(discontinuity) == 3):
+            raise MeshingError("discontinuity must be conventional_discontinuity(scene) with "
+                               "method='conventional'")
+        segments, pen_pts, counters = discontinuity
+        counters = dict(counters)
         timings = {}
     timings["T_d"] = time.perf_counter() - t0
+    if method == "simplified" and timings["T_d"] < sum(sd.timings.values()):
+        # reused: the phase's own time, not the time to hand it over
+        timings["T_d"] = float(sum(sd.timings.values()))
     sizes = []
     n_pen = 0
     for k in range(len(scene.polygons)):
