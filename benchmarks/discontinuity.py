@@ -3,12 +3,13 @@
 Run ``python benchmarks/discontinuity.py`` from the repository root; writes
 ``benchmarks/results/discontinuity.json`` and ``.md``.  Three parts:
 
-* **error** -- image error against element count (the yardstick of
+* **error** (and **scaled**) -- image error against element count (the yardstick of
   :mod:`polygen.radiosity.error`) on the three scenes of chapter 3, one
   curve each for uniform meshing, adaptive subdivision, conventional
   discontinuity meshing (all EV/VE segments) and simplified discontinuity
   meshing, the two DM curves at one coarse size with a decreasing penumbra
-  size; and the issue's claim: the simplified method reaches the uniform
+  size (``--parts scaled``: both sizes scaled together, the penumbra size a
+  third of the coarse one, at each uniform size); and the issue's claim: the simplified method reaches the uniform
   mesh's error with <= 60 % of its elements (reported, not tuned);
 * **table** -- Table 3.1 (N_f1, N_f2, N_d, N_p, N_e1, N_e2, T_d, T_m,
   T_rs) on examples 1 and 2 beside the thesis's, from the middle point of
@@ -57,7 +58,8 @@ def _reference_sizes(sc, fine, rest):
 
 def _dm_curve(sc, cam, ref, method, disc, coarse, pens, solve):
     out = []
-    for pen in pens:
+    coarse = np.broadcast_to(coarse, (len(pens),))
+    for coarse, pen in zip(coarse.tolist(), pens):
         t0 = time.perf_counter()
         m = discontinuity_mesh(sc, patch_size=coarse, penumbra_patch_size=pen, element_levels=1,
                                method=method, discontinuity=disc)
@@ -78,7 +80,7 @@ def _reach(curve, target):
     return min(ok) if ok else None
 
 
-def error_part(names, image, solve, threshold, log):
+def error_part(names, image, solve, threshold, log, scaled_only=False):
     curves, rows = {}, []
     for name in names:
         cfg = SETUPS[name]
@@ -96,6 +98,29 @@ def error_part(names, image, solve, threshold, log):
         cd = conventional_discontinuity(sc)
         t_cd = time.perf_counter() - t0
         c = {"reference_elements": rm.n_elements, "T_d_simplified": t_sd, "T_d_conventional": t_cd}
+        if scaled_only:
+            # both sizes scaled together: the coarse size of each uniform mesh, a third of it in
+            # penumbra (the ratio fixed before measuring)
+            sizes = cfg["uniform"]
+            pens = [x / 3.0 for x in sizes]
+            c["uniform"] = [p.__dict__ for p in uniform_curve(sc, cam, ref, sizes, solve=solve)]
+            for method, disc in (("conventional", cd), ("simplified", sd)):
+                c[method + "_scaled"] = _dm_curve(sc, cam, ref, method, disc, sizes, pens, solve)
+            c["claim_scaled"] = [dict(uniform_elements=u["n_elements"], uniform_error=u["error"],
+                                      simplified_elements=_reach(c["simplified_scaled"], u["error"]))
+                                 for u in c["uniform"]]
+            for q in c["claim_scaled"]:
+                n = q["simplified_elements"]
+                q["ratio"] = None if n is None else n / q["uniform_elements"]
+            curves[name] = c
+            for kind in ("conventional_scaled", "simplified_scaled"):
+                for p in c[kind]:
+                    rows.append(dict(scene=name, curve=kind, mesh=p["label"], elements=p["n_elements"],
+                                     patches=p["n_patches"], rms_error=round(p["error"], 5),
+                                     seconds=round(p["seconds"], 2)))
+                    log(f"  {p['label']:28s} {p['n_elements']:7d} el  error {p['error']:.4f}")
+            log(f"  claim (scaled): {c['claim_scaled']}")
+            continue
         c["uniform"] = [p.__dict__ for p in uniform_curve(sc, cam, ref, cfg["uniform"], solve=solve)]
         c["adaptive"] = [p.__dict__ for p in adaptive_curve(sc, cam, ref, cfg["coarse"], cfg["rounds"],
                                                             threshold=threshold, solve=solve)]
@@ -188,6 +213,14 @@ def main(argv=None):
         out.setdefault("curves", {}).update(curves)
         out["error_rows"] = [r for r in out.get("error_rows", []) if r["scene"] not in curves] + rows
         out["table_3_1"] = table_part(out["curves"])
+    if "scaled" in parts:
+        curves, rows = error_part(args.scenes.split(","), args.image, solve, args.threshold, log,
+                                  scaled_only=True)
+        for name, c in curves.items():
+            keep = out.setdefault("curves", {}).setdefault(name, {})
+            keep.update({k: c[k] for k in ("conventional_scaled", "simplified_scaled", "claim_scaled")})
+        out["error_rows"] = [r for r in out.get("error_rows", []) if not r["curve"].endswith("_scaled")
+                             or r["scene"] not in curves] + rows
     if "speed" in parts:
         rows, slopes = speed_part(log)
         out["speed"], out["speed_slopes"] = rows, slopes
@@ -214,6 +247,15 @@ def _markdown(out):
                 r = "not reached" if q["ratio"] is None else f"{q['ratio']:.3f}"
                 lines.append(f"| {name} | {q['uniform_elements']} | {q['uniform_error']:.4f} | "
                              f"{q['simplified_elements']} | {r} |")
+        if any("claim_scaled" in c for c in out["curves"].values()):
+            lines += ["", "Sizes scaled together (each uniform size outside penumbra, a third of it "
+                      "inside):", "", "| scene | uniform elements | uniform error | simplified "
+                      "elements needed | ratio |", "|---|---|---|---|---|"]
+            for name, c in out["curves"].items():
+                for q in c.get("claim_scaled", []):
+                    r = "not reached" if q["ratio"] is None else f"{q['ratio']:.3f}"
+                    lines.append(f"| {name} | {q['uniform_elements']} | {q['uniform_error']:.4f} | "
+                                 f"{q['simplified_elements']} | {r} |")
     if out.get("table_3_1"):
         keys = ["N_f1", "N_f2", "N_d", "N_p", "N_e1", "N_e2", "T_d", "T_m", "T_rs"]
         lines += ["", "## Table 3.1 (ours, thesis in parentheses)", "",

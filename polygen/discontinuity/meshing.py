@@ -219,10 +219,10 @@ def conventional_discontinuity(scene, *, tol=1e-9, shadows=None):
         noding, ``regions`` of the segments.
     """
     import shapely
-    from shapely.ops import unary_union
 
     from polygen.discontinuity.conventional import conventional_segments
-    from polygen.radiosity.layout import LAYOUT_TOL, Segments, polygon_layout
+    from polygen.radiosity._errors import MeshError
+    from polygen.radiosity.layout import LAYOUT_TOL, polygon_layout
 
     if shadows is None:
         shadows = scene_sections(scene, tol=tol)
@@ -236,28 +236,28 @@ def conventional_discontinuity(scene, *, tol=1e-9, shadows=None):
         counters["critical_segments"] += len(cs.segments)
         if not len(cs.segments):
             continue
-        min_len = 10 * LAYOUT_TOL * R.diameter
         by_kind = {}
         for seg, (li, _, _) in zip(cs.segments, cs.sources):
             by_kind.setdefault("D1" if kinds_of_light[li] == "area" else "D0", []).append(seg)
-        ends, kinds = [], []
-        noded = unary_union([shapely.LineString(s) for v in by_kind.values() for s in v])
-        d0 = unary_union([shapely.LineString(s) for s in by_kind.get("D0", [])]) if "D0" in by_kind else None
-        for g in getattr(noded, "geoms", [noded]):
-            c = np.asarray(g.coords, dtype=np.float64)
-            for a, b in zip(c[:-1], c[1:]):
-                if np.hypot(*(b - a)) <= min_len:
-                    continue
-                mid = shapely.Point(0.5 * (a + b))
-                kinds.append("D0" if d0 is not None and d0.distance(mid) <= min_len else "D1")
-                ends.append((a, b))
-        if not ends:
+        seg = lay = None
+        failure = None
+        # a segment ending a hair short of another (a T the mesh model sees as a crossing) is
+        # retried with every segment extended by that hair, clipped to the receiver, and the
+        # stubs the extension leaves dropped
+        for ext in (0.0, 100.0, 1000.0):
+            seg = _noded(by_kind, ext * LAYOUT_TOL * R.diameter, 10 * LAYOUT_TOL * R.diameter,
+                         R._shape2d)
+            if seg is None:
+                break
+            try:
+                lay = polygon_layout(R, seg)
+                break
+            except MeshError as exc:
+                failure = exc
+        if seg is None:
             continue
-        seg = Segments(np.asarray(ends).reshape(-1, 2, 2), kinds)
-        try:
-            lay = polygon_layout(R, seg)
-        except Exception as exc:  # the mesh model's own error, naming the polygon
-            raise ShadowError(f"conventional segments on polygon {r} ({R.name!r}): {exc}") from None
+        if lay is None:
+            raise ShadowError(f"conventional segments on polygon {r} ({R.name!r}): {failure}") from None
         pts = lay.region_point
         counters["regions"] += len(pts)
         P = shapely.points(pts)
@@ -275,3 +275,50 @@ def conventional_discontinuity(scene, *, tol=1e-9, shadows=None):
         segments[r] = seg
         pen_pts[r] = pts[pen]
     return segments, pen_pts, counters
+
+
+def _noded(by_kind, ext, min_len, shape):
+    """Segments split where they cross, shorter than ``min_len`` left out.
+
+    With ``ext`` > 0 each segment is first extended by ``ext`` at both ends
+    (then clipped to ``shape``), and pieces up to ``2 ext`` long dropped.
+
+    Returns
+    -------
+    Segments or None
+        None when nothing is left.
+    """
+    import shapely
+    from shapely.ops import unary_union
+
+    from polygen.radiosity.layout import Segments
+
+    def line(s):
+        s = np.asarray(s, dtype=np.float64)
+        if ext > 0:
+            d = s[1] - s[0]
+            d = d / max(np.hypot(*d), 1e-300)
+            s = np.array([s[0] - ext * d, s[1] + ext * d])
+        return shapely.LineString(s)
+
+    lines = [line(s) for v in by_kind.values() for s in v]
+    noded = unary_union(lines)
+    if ext > 0:
+        noded = noded.intersection(shape)
+        min_len = max(min_len, 2.0 * ext)
+    d0 = by_kind.get("D0")
+    d0 = unary_union([shapely.LineString(s) for s in d0]) if d0 else None
+    ends, kinds = [], []
+    for g in getattr(noded, "geoms", [noded]):
+        if g.geom_type != "LineString":
+            continue
+        c = np.asarray(g.coords, dtype=np.float64)
+        for a, b in zip(c[:-1], c[1:]):
+            if np.hypot(*(b - a)) <= min_len:
+                continue
+            mid = shapely.Point(0.5 * (a + b))
+            kinds.append("D0" if d0 is not None and d0.distance(mid) <= min_len else "D1")
+            ends.append((a, b))
+    if not ends:
+        return None
+    return Segments(np.asarray(ends).reshape(-1, 2, 2), kinds)

@@ -53,19 +53,22 @@ def plot_polyhedra(polyhedra, *, ax=None, title=None, elev=20, azim=-60):
         fig = plt.figure(figsize=(5, 5))
         ax = fig.add_subplot(projection="3d")
     fig = ax.figure
+    # the scenes' y is up: draw (x, z, y) so that it is up on the page
+    up = [0, 2, 1]
     for poly, color, lw in ((polyhedra.penumbra, "tab:orange", 0.8), (polyhedra.umbra, "k", 1.4)):
-        V = poly.vertices
+        V = poly.vertices[:, up]
         for a, b in poly.edges:
             if poly.on_cap[a] and poly.on_cap[b]:
                 continue
             ax.plot(*V[[a, b]].T, color=color, lw=lw)
-    L = polyhedra.light_vertices
+    L = polyhedra.light_vertices[:, up]
     if len(L) > 1:
         r = np.vstack([L, L[:1]])
         ax.plot(*r.T, color="gold", lw=2.5)
     else:
         ax.scatter(*L.T, color="gold", s=40)
-    O = np.vstack([polyhedra.occluder_vertices, polyhedra.occluder_vertices[:1]])
+    O = polyhedra.occluder_vertices[:, up]
+    O = np.vstack([O, O[:1]])
     ax.plot(*O.T, color="tab:blue", lw=2.5)
     ax.view_init(elev=elev, azim=azim)
     ax.set_axis_off()
