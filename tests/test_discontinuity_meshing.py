@@ -134,3 +134,26 @@ def test_conventional_mesh_follows_every_critical_segment():
     assert max(p.intersection(lines).length for p in inner) < 1e-6 * floor.diameter
     # penumbra regions (in some light's penumbra, in none of its umbrae) were meshed finer
     assert m.n_patches > discontinuity_mesh(sc, patch_size=2.0, method="conventional").n_patches
+
+
+def test_conventional_lines_of_a_point_light_are_d0():
+    # a point light's critical surfaces are its shadow volume's sides (No per pair): D0 lines,
+    # node copies on both sides as in the simplified mesh
+    sc = _point_light_scene()
+    m = discontinuity_mesh(sc, patch_size=0.5, method="conventional")
+    seg = m.discontinuity.segments[0]
+    assert m.discontinuity.counters["critical_surfaces"] == 4
+    assert len(seg) == 4 and set(seg.kinds) == {"D0"}
+    on = _nodes_on(m, 0, seg.ends, 1e-9 * sc.polygons[0].diameter)
+    _, counts = np.unique(np.round(m.nodes[on], 9), axis=0, return_counts=True)
+    assert len(counts) > 8 and np.all(counts >= 2)
+
+
+def test_conventional_mesh_of_the_chair():
+    # the chair's floor has holes under the legs and critical segments ending a hair short of
+    # others: the noding still gives the mesh model a planar graph
+    sc = scenes.chair_scene()
+    m = discontinuity_mesh(sc, patch_size=3.3, penumbra_patch_size=1.1, method="conventional")
+    c = m.discontinuity.counters
+    assert c["critical_segments"] > 500 and c["discontinuity_edges"] > 0
+    assert m.n_elements > mesh_scene(sc, 3.3).n_elements
