@@ -12,6 +12,8 @@
   :mod:`~polygen.discontinuity.states` -- illumination states (3.3.5) and
   the output to the mesh model (3.3.6);
   :mod:`~polygen.discontinuity.simplified` -- the whole method on a scene;
+  :mod:`~polygen.discontinuity.meshing` -- lines, regions, patches and elements
+  (3.3.6) by the simplified or the conventional method;
 * :mod:`~polygen.discontinuity.conventional` -- the baseline of 2.4.3:
   all EV and VE critical surfaces on a receiver;
 * :mod:`~polygen.discontinuity.bsp` -- the 2-D BSP split of a receiver
@@ -51,12 +53,20 @@ from polygen.discontinuity.states import (
     region_size,
 )
 from polygen.discontinuity.simplified import SimplifiedDiscontinuity, simplified_discontinuity
+from polygen.discontinuity.meshing import (
+    DiscontinuityRecord,
+    MeshingError,
+    conventional_discontinuity,
+    discontinuity_mesh,
+)
 
 __all__ = [
     "BRIGHT",
     "BSPRegions",
     "ComplexError",
     "CriticalSegments",
+    "DiscontinuityRecord",
+    "MeshingError",
     "PENUMBRA",
     "Polyhedron",
     "ReceiverComplex",
@@ -69,8 +79,10 @@ __all__ = [
     "UNPROCESSED",
     "bsp_split",
     "conventional_bsp",
+    "conventional_discontinuity",
     "conventional_segments",
     "critical_surfaces",
+    "discontinuity_mesh",
     "discontinuity_segments",
     "polyhedron_section",
     "receiver_complex",

@@ -1,0 +1,308 @@
+"""Benchmark of discontinuity meshing end to end (chapter 3, issue 14).
+
+Run ``python benchmarks/discontinuity.py`` from the repository root; writes
+``benchmarks/results/discontinuity.json`` and ``.md``.  Three parts:
+
+* **error** (and **scaled**) -- image error against element count (the yardstick of
+  :mod:`polygen.radiosity.error`) on the three scenes of chapter 3, one
+  curve each for uniform meshing, adaptive subdivision, conventional
+  discontinuity meshing (all EV/VE segments) and simplified discontinuity
+  meshing, the two DM curves at one coarse size with a decreasing penumbra
+  size (``--parts scaled``: both sizes scaled together, the penumbra size a
+  third of the coarse one, at each uniform size); and the issue's claim:
+  the simplified method reaches the uniform mesh's error with <= 60 % of
+  its elements (reported, not tuned);
+* **table** -- Table 3.1 (N_f1, N_f2, N_d, N_p, N_e1, N_e2, T_d, T_m,
+  T_rs) on examples 1 and 2 beside the thesis's, from the middle point of
+  the simplified curve;
+* **speed** -- the discontinuity phase (Table 3.2's phases) against the
+  polygon count on a family of sphere scenes, with the log-log slopes.
+
+The solves are progressive refinement to ``--tol`` unshot with
+``--vis``^2 visibility rays, the same for every mesh and the reference
+(sizes chosen to fit a ~10 minute run on 2 shared cores).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from _common import RESULTS, machine
+
+from polygen.discontinuity import simplified_discontinuity
+from polygen.discontinuity.meshing import conventional_discontinuity, discontinuity_mesh
+from polygen.radiosity import Camera, mesh_scene, progressive_refinement, scenes
+from polygen.radiosity.error import adaptive_curve, image_error, shade, uniform_curve
+
+ROOM_CAMERA = dict(position=[5.0, 8.5, 0.3], look_at=[5.0, 0.0, 6.5], fov=80.0, near=0.01)
+# per scene: uniform patch sizes, the DM's coarse size and penumbra sizes, adaptive rounds,
+# and the reference: per polygon patch size (fine on the floor and on the occluders)
+SETUPS = {name: dict(uniform=[3.3, 2.5, 1.8], coarse=3.3, penumbra=[1.6, 1.1, 0.75], rounds=2,
+                     fine=0.6, rest=1.4)
+          for name in ("two_rectangles_room", "chair_scene", "sphere_scene")}
+THESIS_31 = {"two_rectangles_room": dict(N_f1=8, N_f2=20, N_d=40, N_p=486, N_e1=3485, N_e2=6090,
+                                         T_d=0.12, T_m=1.77, T_rs=156.63),
+             "sphere_scene": dict(N_f1=721, N_f2=2495, N_d=3116, N_p=6030, N_e1=11230, N_e2=17150,
+                                  T_d=166.58, T_m=15.28, T_rs=289.02)}
+SPHERES = [(6, 8), (8, 10), (12, 15), (16, 20), (20, 30)]
+
+
+def _reference_sizes(sc, fine, rest):
+    # the floor (where the shadows fall) and the occluders fine, the other walls coarser: a size
+    # no curve's mesh has, so that no curve shares the reference's patches
+    return [fine if (p.name == "room_y0" or not p.name.startswith("room")) else rest
+            for p in sc.polygons]
+
+
+def _dm_curve(sc, cam, ref, method, disc, coarse, pens, solve):
+    out = []
+    coarse = np.broadcast_to(coarse, (len(pens),))
+    for coarse, pen in zip(coarse.tolist(), pens):
+        t0 = time.perf_counter()
+        m = discontinuity_mesh(sc, patch_size=coarse, penumbra_patch_size=pen, element_levels=1,
+                               method=method, discontinuity=disc)
+        t1 = time.perf_counter()
+        res = progressive_refinement(m, **solve)
+        t2 = time.perf_counter()
+        err = image_error(shade(m, res.display_radiosity(m), cam), ref)
+        out.append(dict(label=f"{method} {coarse:g}/{pen:g}", n_elements=m.n_elements,
+                        n_patches=m.n_patches, error=err, seconds=t2 - t0, T_m=t1 - t0, T_rs=t2 - t1,
+                        counters={k: v for k, v in m.discontinuity.counters.items()
+                                  if isinstance(v, (int, float))}))
+    return out
+
+
+def _reach(curve, target):
+    """Fewest elements among the curve's points with error <= target (None if none)."""
+    ok = [p["n_elements"] for p in curve if p["error"] <= target]
+    return min(ok) if ok else None
+
+
+def error_part(names, image, solve, threshold, log, scaled_only=False, save=None):
+    curves, rows = {}, []
+    for name in names:
+        cfg = SETUPS[name]
+        sc = getattr(scenes, name)()
+        cam = Camera(width=image, height=image, **ROOM_CAMERA)
+        t0 = time.perf_counter()
+        # the reference is kept between runs (same scene, sizes, image and solve)
+        key = json.dumps([name, cfg["fine"], cfg["rest"], image, solve], sort_keys=True)
+        cache = (Path(tempfile.gettempdir()) / "polygen_benchmarks"
+                 / f"discontinuity_ref_{hashlib.sha1(key.encode()).hexdigest()[:16]}.npz")
+        if cache.exists() and str(np.load(cache)["key"]) == key:
+            ref, n_ref = np.load(cache)["image"], int(np.load(cache)["n"])
+        else:
+            rm = mesh_scene(sc, _reference_sizes(sc, cfg["fine"], cfg["rest"]), element_levels=1)
+            rr = progressive_refinement(rm, **solve)
+            ref, n_ref = shade(rm, rr.display_radiosity(rm), cam), rm.n_elements
+            cache.parent.mkdir(exist_ok=True)
+            np.savez(cache, image=ref, n=n_ref, key=key)
+        log(f"{name}: reference {n_ref} elements {time.perf_counter() - t0:.0f} s")
+        t0 = time.perf_counter()
+        sd = simplified_discontinuity(sc)
+        t_sd = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        cd = conventional_discontinuity(sc)
+        t_cd = time.perf_counter() - t0
+        c = {"reference_elements": n_ref, "T_d_simplified": t_sd, "T_d_conventional": t_cd}
+        if scaled_only:
+            # both sizes scaled together: the coarse size of each uniform mesh, a third of it in
+            # penumbra (the ratio fixed before measuring)
+            sizes = cfg["uniform"]
+            pens = [x / 3.0 for x in sizes]
+            c["uniform"] = [p.__dict__ for p in uniform_curve(sc, cam, ref, sizes, solve=solve)]
+            for method, disc in (("conventional", cd), ("simplified", sd)):
+                c[method + "_scaled"] = _dm_curve(sc, cam, ref, method, disc, sizes, pens, solve)
+            c["claim_scaled"] = [dict(uniform_elements=u["n_elements"], uniform_error=u["error"],
+                                      simplified_elements=_reach(c["simplified_scaled"], u["error"]))
+                                 for u in c["uniform"]]
+            for q in c["claim_scaled"]:
+                n = q["simplified_elements"]
+                q["ratio"] = None if n is None else n / q["uniform_elements"]
+            curves[name] = c
+            for kind in ("conventional_scaled", "simplified_scaled"):
+                for p in c[kind]:
+                    rows.append(dict(scene=name, curve=kind, mesh=p["label"], elements=p["n_elements"],
+                                     patches=p["n_patches"], rms_error=round(p["error"], 5),
+                                     seconds=round(p["seconds"], 2)))
+                    log(f"  {p['label']:28s} {p['n_elements']:7d} el  error {p['error']:.4f}")
+            log(f"  claim (scaled): {c['claim_scaled']}")
+            if save is not None:
+                save(curves, rows)
+            continue
+        c["uniform"] = [p.__dict__ for p in uniform_curve(sc, cam, ref, cfg["uniform"], solve=solve)]
+        c["adaptive"] = [p.__dict__ for p in adaptive_curve(sc, cam, ref, cfg["coarse"], cfg["rounds"],
+                                                            threshold=threshold, solve=solve)]
+        c["conventional"] = _dm_curve(sc, cam, ref, "conventional", cd, cfg["coarse"], cfg["penumbra"], solve)
+        c["simplified"] = _dm_curve(sc, cam, ref, "simplified", sd, cfg["coarse"], cfg["penumbra"], solve)
+        c["N_f2"] = len(sc.polygons) - sd.counters["receivers"] + sd.counters["regions"]
+        c["N_d"] = sd.counters["discontinuity_edges"]
+        c["N_e2"] = [mesh_scene(sc, p, element_levels=1).n_elements for p in cfg["penumbra"]]
+        # the claim: elements the simplified curve needs for each uniform point's error
+        c["claim"] = []
+        for u in c["uniform"]:
+            need = _reach(c["simplified"], u["error"])
+            c["claim"].append(dict(uniform_elements=u["n_elements"], uniform_error=u["error"],
+                                   simplified_elements=need,
+                                   ratio=None if need is None else need / u["n_elements"]))
+        curves[name] = c
+        for kind in ("uniform", "adaptive", "conventional", "simplified"):
+            for p in c[kind]:
+                rows.append(dict(scene=name, curve=kind, mesh=p["label"], elements=p["n_elements"],
+                                 patches=p["n_patches"], rms_error=round(p["error"], 5),
+                                 seconds=round(p["seconds"], 2)))
+                log(f"  {p['label']:28s} {p['n_elements']:7d} el  error {p['error']:.4f}  "
+                    f"{p['seconds']:6.1f} s")
+        log(f"  claim: {c['claim']}")
+        if save is not None:
+            save(curves, rows)
+    return curves, rows
+
+
+def table_part(curves):
+    rows = []
+    for name, th in THESIS_31.items():
+        if name not in curves:
+            continue
+        c = curves[name]
+        p = c["simplified"][1]  # the middle penumbra size
+        sc = getattr(scenes, name)()
+        row = dict(scene=name, N_f1=len(sc.polygons), N_f2=c["N_f2"], N_d=c["N_d"], N_p=p["n_patches"],
+                   N_e1=p["n_elements"], N_e2=c["N_e2"][1], T_d=c["T_d_simplified"], T_m=p["T_m"],
+                   T_rs=p["T_rs"])
+        row.update({f"thesis_{k}": v for k, v in th.items()})
+        rows.append(row)
+    return rows
+
+
+def speed_part(log):
+    rows = []
+    for n_lat, n_lon in SPHERES:
+        sc = scenes.sphere_scene(n_lat=n_lat, n_lon=n_lon)
+        simplified_discontinuity(sc)  # warm
+        best = None
+        for _ in range(2):
+            t0 = time.perf_counter()
+            sd = simplified_discontinuity(sc)
+            t = time.perf_counter() - t0
+            if best is None or t < best[0]:
+                best = (t, sd)
+        t, sd = best
+        row = dict(polygons=len(sc.polygons), sphere_faces=n_lat * n_lon, total_s=t)
+        row.update({k: v for k, v in sd.timings.items()})
+        rows.append(row)
+        log(f"  sphere {n_lat}x{n_lon}: {len(sc.polygons)} polygons, {t:.2f} s, "
+            f"T_isr {sd.timings['T_isr']:.3f} s")
+    n = np.log([r["polygons"] for r in rows])
+    slopes = {k: float(np.polyfit(n, np.log([max(r[k], 1e-6) for r in rows]), 1)[0])
+              for k in ("T_isr", "T_sdw", "total_s")}
+    return rows, slopes
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenes", default=",".join(SETUPS))
+    ap.add_argument("--parts", default="error,speed")
+    ap.add_argument("--image", type=int, default=80)
+    ap.add_argument("--tol", type=float, default=0.1)
+    ap.add_argument("--vis", type=int, default=2)
+    ap.add_argument("--threshold", type=float, default=0.1)
+    args = ap.parse_args(argv)
+    solve = dict(tol=args.tol, ambient=True, visibility_samples=args.vis)
+    parts = args.parts.split(",")
+    out = {"machine": machine(), "image": args.image, "solve": solve, "threshold": args.threshold}
+    path = RESULTS / "discontinuity.json"
+    if path.exists():
+        old = json.loads(path.read_text())
+        out.update({k: v for k, v in old.items() if k not in ("machine", "image", "solve", "threshold")})
+
+    def log(s):
+        print(s, flush=True)
+
+    def save_error(curves, rows):
+        out.setdefault("curves", {}).update(curves)
+        out["error_rows"] = [r for r in out.get("error_rows", []) if r["scene"] not in curves] + rows
+        out["table_3_1"] = table_part(out["curves"])
+        _write(path, out)
+
+    def save_scaled(curves, rows):
+        for name, c in curves.items():
+            keep = out.setdefault("curves", {}).setdefault(name, {})
+            keep.update({k: c[k] for k in ("conventional_scaled", "simplified_scaled", "claim_scaled")})
+        out["error_rows"] = [r for r in out.get("error_rows", []) if not r["curve"].endswith("_scaled")
+                             or r["scene"] not in curves] + rows
+        _write(path, out)
+
+    if "error" in parts:
+        error_part(args.scenes.split(","), args.image, solve, args.threshold, log, save=save_error)
+    if "scaled" in parts:
+        error_part(args.scenes.split(","), args.image, solve, args.threshold, log, scaled_only=True,
+                   save=save_scaled)
+    if "speed" in parts:
+        rows, slopes = speed_part(log)
+        out["speed"], out["speed_slopes"] = rows, slopes
+        log(f"  log-log slopes against polygon count: {slopes}")
+    _write(path, out)
+
+
+def _write(path, out):
+    path.write_text(json.dumps(out, indent=2, default=float) + "\n")
+    _markdown(out)
+
+
+def _markdown(out):
+    lines = []
+    if "error_rows" in out:
+        # not write_results: it would overwrite discontinuity.json with the rows alone
+        cols = ["scene", "curve", "mesh", "elements", "patches", "rms_error", "seconds"]
+        lines = ["# Discontinuity meshing: image error against element count", "",
+                 f"Solve {out['solve']}, {out['image']}^2 Gouraud images, reference elements "
+                 + ", ".join(f"{k} {v['reference_elements']}" for k, v in out["curves"].items()
+                             if "reference_elements" in v) + f"; machine {out['machine']}.", "",
+                 "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+        lines += ["| " + " | ".join(str(r[c]) for c in cols) + " |" for r in out["error_rows"]]
+        lines += ["", "## The claim: simplified DM reaches a uniform mesh's error with <= 60 % of its "
+                  "elements", "", "| scene | uniform elements | uniform error | simplified elements "
+                  "needed | ratio |", "|---|---|---|---|---|"]
+        for name, c in out["curves"].items():
+            for q in c.get("claim", []):
+                r = "not reached" if q["ratio"] is None else f"{q['ratio']:.3f}"
+                lines.append(f"| {name} | {q['uniform_elements']} | {q['uniform_error']:.4f} | "
+                             f"{q['simplified_elements']} | {r} |")
+        if any("claim_scaled" in c for c in out["curves"].values()):
+            lines += ["", "Sizes scaled together (each uniform size outside penumbra, a third of it "
+                      "inside):", "", "| scene | uniform elements | uniform error | simplified "
+                      "elements needed | ratio |", "|---|---|---|---|---|"]
+            for name, c in out["curves"].items():
+                for q in c.get("claim_scaled", []):
+                    r = "not reached" if q["ratio"] is None else f"{q['ratio']:.3f}"
+                    lines.append(f"| {name} | {q['uniform_elements']} | {q['uniform_error']:.4f} | "
+                                 f"{q['simplified_elements']} | {r} |")
+    if out.get("table_3_1"):
+        keys = ["N_f1", "N_f2", "N_d", "N_p", "N_e1", "N_e2", "T_d", "T_m", "T_rs"]
+        lines += ["", "## Table 3.1 (ours, thesis in parentheses)", "",
+                  "| scene | " + " | ".join(keys) + " |", "|---|" + "---|" * len(keys)]
+        for r in out["table_3_1"]:
+            cells = [(f"{r[k]:.3g}" if isinstance(r[k], float) else str(r[k])) + f" ({r['thesis_' + k]})"
+                     for k in keys]
+            lines.append(f"| {r['scene']} | " + " | ".join(cells) + " |")
+    if out.get("speed"):
+        keys = ["polygons", "total_s", "T_sdw", "T_isr", "T_idd", "T_lop", "T_lit", "T_div"]
+        lines += ["", "## The discontinuity phase against polygon count (sphere scenes)", "",
+                  "| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+        for r in out["speed"]:
+            lines.append("| " + " | ".join(f"{r[k]:.4g}" if isinstance(r[k], float) else str(r[k])
+                                          for k in keys) + " |")
+        lines += ["", "log-log slopes against polygon count: " + ", ".join(
+            f"{k} {v:.2f}" for k, v in out["speed_slopes"].items()) + " (thesis: T_isr O(n^2))"]
+    (RESULTS / "discontinuity.md").write_text("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
