@@ -188,3 +188,90 @@ def test_table_4_1_pattern():
                               size_max=0.85, adaptive_threshold=0.1)
     n1, n2, na = r.first_mesh.n_elements, r.second_mesh.n_elements, r.adaptive_mesh.n_elements
     assert n2 < n1 < na
+
+
+def test_element_quality_measures_each_face_from_its_own_side(coarse):
+    """Back faces are clockwise in the polygon's frame: measured reversed, they score as the front.
+
+    Oracle: the angles and radius ratios from the elements' 3-D edge lengths, which know
+    no orientation; and the two faces of a two-sided polygon are the same triangles.
+    """
+    ang, q = coarse.element_quality()
+    t = coarse.nodes[coarse.elements]
+    a, b, c = np.linalg.norm(t[:, [1, 2, 0]] - t[:, [2, 0, 1]], axis=2).T
+    cosines = np.stack([(b * b + c * c - a * a) / (2 * b * c), (a * a + c * c - b * b) / (2 * a * c),
+                        (a * a + b * b - c * c) / (2 * a * b)], axis=1)
+    np.testing.assert_allclose(ang, np.degrees(np.arccos(np.clip(cosines, -1, 1))).min(axis=1),
+                               atol=1e-7)
+    area = coarse.element_area
+    np.testing.assert_allclose(q, 4 * area / (a + b + c) / (a * b * c / (4 * area)), rtol=1e-9)
+    two = [k for k, p in enumerate(coarse.scene.polygons) if p.two_sided]
+    assert two
+    for k in two:
+        sel = coarse.element_polygon == k
+        front = np.sort(q[sel & (coarse.element_side == 1)])
+        back = np.sort(q[sel & (coarse.element_side == -1)])
+        np.testing.assert_allclose(back, front, rtol=1e-12)
+        assert back.min() > 0
+
+
+@pytest.fixture(scope="module")
+def cut():
+    """The scene of Fig. 4.8 meshed along its simplified discontinuity lines (chapter 3)."""
+    from polygen.discontinuity import simplified_discontinuity
+
+    sc = scenes.three_rectangles_box()
+    sd = simplified_discontinuity(sc)
+    return sd, mesh_scene(sc, 4.0, mesher=bubble_mesher, segments=sd.segments)
+
+
+def test_size_grids_per_region_do_not_cross_the_lines(cut):
+    """Node sizes constant per region, a different constant in every region: each region's
+    grid is its own constant (the plate does not smooth across a discontinuity line)."""
+    from polygen.radiosity.layout import RegionSize
+
+    sd, m = cut
+    reg = m.element_region
+    # a value per (polygon, region), from the elements' regions
+    value = {}
+    sizes = np.full(m.n_nodes, np.inf)
+    for e in range(m.n_elements):
+        key = (int(m.element_polygon[e]), int(reg[e]))
+        v = value.setdefault(key, 0.5 + 0.37 * (len(value) % 7))
+        sizes[m.elements[e]] = np.minimum(sizes[m.elements[e]], v)
+    # (a node on a D1 line, shared by two regions, takes the finer of their values)
+    grids = polygon_size_grids(m, sizes, grid=0.5)
+    n_cut = 0
+    for k in range(len(m.scene.polygons)):
+        regions = np.unique(reg[m.element_polygon == k])
+        if len(regions) == 1:
+            continue
+        n_cut += 1
+        assert isinstance(grids[k], RegionSize)
+        assert len(grids[k].sizes) == len(regions)
+        for r, g, at in zip(regions, grids[k].sizes, grids[k].at):
+            sel = (m.element_polygon == k) & (reg == r)
+            ns = sizes[np.unique(m.elements[sel])]
+            vals = np.asarray(g.values if isinstance(g, GridSize) else [g])
+            # every grid value lies within the sizes of this region's own nodes
+            assert vals.min() >= ns.min() - 1e-12 and vals.max() <= ns.max() + 1e-12
+            assert m.layouts[k].region_of(at[None])[0] == r
+    assert n_cut >= 3  # the floor and the rectangles under the light are cut by shadow lines
+
+
+@pytest.mark.slow
+def test_combined_loop_keeps_the_lines(cut):
+    from polygen.discontinuity.combined import combined_bubble_mesh
+
+    sd, _ = cut
+    r = combined_bubble_mesh(sd.scene, size_initial=4.0, size_min=8.0, size_max=2.0,
+                             solve={"tol": 0.05}, discontinuity=sd)
+    for m in (r.first_mesh, r.second_mesh):
+        assert m.element_region is not None and len(m.t_vertices()) == 0
+        # every polygon with lines is cut into regions in both meshes
+        for k in sd.segments:
+            assert len(np.unique(m.element_region[m.element_polygon == k])) > 1
+    assert r.parameters["segments"] is sd.segments
+    with pytest.raises(TypeError, match="segments"):
+        combined_bubble_mesh(sd.scene, size_initial=4.0, size_min=8.0, size_max=2.0,
+                             discontinuity=sd, segments={})
