@@ -21,13 +21,13 @@ threshold 0.1 of the bright surfaces' radiosity (as
 loop for ``size_initial`` 2.4 and 1.7 with the same ratios.  A second curve,
 not Table 4.1's parameters, reruns the size function and second mesh from
 the same first solution (1.7) with ``size_min`` 1.5 and 1.25 ``size_initial``.
-Added with the combination (fixed before measuring it): this method's curve
-also at ``size_initial`` 1.2; simplified discontinuity meshing as
-``mesh_scene`` along the scene's discontinuity lines with patch size 2.4,
-1.7, 1.2 and half that in the penumbra regions (``region_sizes(s, s / 2)``);
-the combination (:func:`polygen.discontinuity.combined.combined_bubble_mesh`)
-with exactly this method's parameters: ``size_initial`` 2.4, 1.7, 1.2 and
-the same ``size_min`` sweep at 1.7.  Each mesh's quality (mean radius ratio,
+Added with the combination (fixed before measuring it): simplified
+discontinuity meshing as ``mesh_scene`` along the scene's discontinuity
+lines with patch size 3.4, 2.4, 1.7 and half that in the penumbra regions
+(``region_sizes(s, s / 2)``); the combination
+(:func:`polygen.discontinuity.combined.combined_bubble_mesh`) with exactly
+this method's parameters: ``size_initial`` 2.4, 1.7 and the same
+``size_min`` sweep at 1.7.  Each mesh's quality (mean radius ratio,
 smallest angle) is recorded too.  Writes
 ``benchmarks/results/intensity_mesh.json`` and ``.md``.
 
@@ -54,7 +54,7 @@ from polygen.radiosity import (
     progressive_refinement,
     scenes,
 )
-from polygen.radiosity.error import ErrorPoint, adaptive_curve, image_error, shade
+from polygen.radiosity.error import ErrorPoint, adaptive_curve, image_error, shade, uniform_curve
 from polygen.radiosity.intensity import PHASES
 
 THESIS_4_1 = {"first mesh": 1976, "adaptive re-mesh": 3205, "this method": 1396}
@@ -118,7 +118,7 @@ def main(argv=None):
     solve = {"tol": args.tol, "ambient": True}
     sc = scenes.three_rectangles_box()
     cam = camera(args.image)
-    sizes = [4.0] if args.quick else [2.4, 1.7, 1.2]
+    sizes = [4.0] if args.quick else [2.4, 1.7]
     main_size = 4.0 if args.quick else 1.7
 
     # the loop with Table 4.1/4.2's parameters (and the curve's other points)
@@ -167,6 +167,8 @@ def main(argv=None):
                       image_error(shade(q.first_mesh, q.first_radiosity, cam), reference),
                       q.seconds["first_mesh"] + q.seconds["first_radiosity"])
            for si, q in loops.items()]
+    if not args.quick:
+        uni += uniform_curve(sc, cam, reference, [1.2], mesher=bubble_mesher, solve=solve)
     ada = adaptive_curve(sc, cam, reference, sizes[0], 1 if args.quick else 2, threshold=0.1,
                          mesher=bubble_mesher, solve=solve)
     ada.append(ErrorPoint(f"adaptive from uniform {main_size:g}", r.adaptive_mesh.n_elements,
@@ -177,7 +179,7 @@ def main(argv=None):
     ours = [loop_point(f"intensity-based {si:g}", q, cam, reference) for si, q in loops.items()]
     ours_sweep = [loop_point(f"intensity-based {main_size:g}, size_min {f:g} x", q, cam,
                              reference) for f, q in sweep.items()]
-    dm, dm_q = dm_curve(sc, sd, cam, reference, sizes, solve)
+    dm, dm_q = dm_curve(sc, sd, cam, reference, [4.0] if args.quick else [3.4, 2.4, 1.7], solve)
     comb = [loop_point(f"combination {si:g}", q, cam, reference) for si, q in combos.items()]
     comb_sweep = [loop_point(f"combination {main_size:g}, size_min {f:g} x", q, cam, reference)
                   for f, q in combo_sweep.items()]
