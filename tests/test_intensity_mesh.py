@@ -299,3 +299,21 @@ def test_graded_mesh_quality():
     ang, q = r.second_mesh.element_quality()
     assert q.mean() >= 0.93
     assert ang.min() >= 25.0
+
+
+@pytest.mark.slow
+def test_graded_mesh_quality_with_a_finer_size_min():
+    """Issue 15's thresholds where size_min is not coarse for the scene's polygons.
+
+    Not parameters fixed in advance: the benchmark's size_min sweep (size_initial 1.7,
+    size_max 0.85, size_min 1.25 x 1.7 = 2.125) measured q 0.9355 and 33.1 degrees on its
+    second mesh (1520 elements), the point where size_min is near the patch size at which a
+    uniform bubble mesh of this scene reaches q 0.935 (2.4).  A regression guard for that
+    explanation of the xfail above, not evidence for the thresholds in general.
+    """
+    sc = scenes.three_rectangles_box()
+    r = intensity_bubble_mesh(sc, size_initial=1.7, size_min=1.25 * 1.7, size_max=0.85)
+    ang, q = r.second_mesh.element_quality()
+    assert q.mean() >= 0.93
+    assert ang.min() >= 25.0
+    assert r.second_mesh.n_elements < r.first_mesh.n_elements
