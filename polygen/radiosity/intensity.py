@@ -10,7 +10,10 @@ plate through them (4.5-4.10, :func:`polygen.mesh2d.element_size_grid`);
 a second bubble mesh reading the grid by bilinear interpolation (4.12,
 4.13); and a second solution.  Conventional adaptive subdivision
 (:func:`~polygen.radiosity.adaptive_refine`) from the same first solution
-is the comparison (Table 4.1).
+is the comparison (Table 4.1).  With ``segments`` (discontinuity lines,
+chapter 3) both meshes keep the lines and the size grids are built per
+region: the thesis's future work (4.5),
+:func:`polygen.discontinuity.combined.combined_bubble_mesh`.
 
 Sizes here are *patch* sizes, the bubble diameter of the patch mesh; each
 patch is split into ``4**element_levels`` elements, as the thesis makes
