@@ -9,7 +9,8 @@ On the scene of Fig. 4.8 (`scenes.three_rectangles_box`):
   from the same first solution, this method;
 * image error against element count (:mod:`polygen.radiosity.error`'s
   yardstick) for uniform bubble meshes, adaptive subdivision repeated on a
-  coarse mesh, and this method.
+  coarse mesh, this method, simplified discontinuity meshing (chapter 3)
+  and the combination of the two (the thesis's future work, 4.5).
 
 Parameters, fixed before measuring: ``size_initial`` 1.7 (the uniform bubble
 mesh nearest the thesis's first mesh of 1976 elements among 1.4-1.75),
@@ -19,7 +20,15 @@ threshold 0.1 of the bright surfaces' radiosity (as
 ``benchmarks/radiosity_error.py``); the curve of this method repeats the
 loop for ``size_initial`` 2.4 and 1.7 with the same ratios.  A second curve,
 not Table 4.1's parameters, reruns the size function and second mesh from
-the same first solution (1.7) with ``size_min`` 1.5 and 1.25 ``size_initial``.  Writes
+the same first solution (1.7) with ``size_min`` 1.5 and 1.25 ``size_initial``.
+Added with the combination (fixed before measuring it): simplified
+discontinuity meshing as ``mesh_scene`` along the scene's discontinuity
+lines with patch size 3.4, 2.4, 1.7 and half that in the penumbra regions
+(``region_sizes(s, s / 2)``); the combination
+(:func:`polygen.discontinuity.combined.combined_bubble_mesh`) with exactly
+this method's parameters: ``size_initial`` 2.4, 1.7 and the same
+``size_min`` sweep at 1.7.  Each mesh's quality (mean radius ratio,
+smallest angle) is recorded too.  Writes
 ``benchmarks/results/intensity_mesh.json`` and ``.md``.
 
     python benchmarks/intensity_mesh.py [--image 160] [--quick]
@@ -34,6 +43,8 @@ import time
 
 from _common import RESULTS, machine, write_results
 
+from polygen.discontinuity import simplified_discontinuity
+from polygen.discontinuity.combined import combined_bubble_mesh
 from polygen.mesh2d import element_size_grid
 from polygen.radiosity import (
     Camera,
@@ -78,6 +89,26 @@ def loop_point(label, r, cam, reference):
                       sum(r.seconds[p] for p in PHASES))
 
 
+def quality(mesh):
+    """(mean radius ratio, smallest angle in degrees) of a mesh's elements."""
+    ang, q = mesh.element_quality()
+    return round(float(q.mean()), 4), round(float(ang.min()), 2)
+
+
+def dm_curve(sc, sd, cam, reference, sizes, solve):
+    """Simplified discontinuity meshing: the lines as segments, penumbra regions at half size."""
+    out, quals = [], []
+    for s in sizes:
+        t = time.perf_counter()
+        m = mesh_scene(sc, sd.region_sizes(s, s / 2), segments=sd.segments, mesher=bubble_mesher)
+        res = progressive_refinement(m, **solve)
+        err = image_error(shade(m, res.display_radiosity(m), cam), reference)
+        out.append(ErrorPoint(f"simplified DM {s:g}", m.n_elements, m.n_patches, err,
+                              time.perf_counter() - t + sum(sd.timings.values())))
+        quals.append(quality(m))
+    return out, quals
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--image", type=int, default=160, help="image side in pixels")
@@ -88,7 +119,7 @@ def main(argv=None):
     sc = scenes.three_rectangles_box()
     cam = camera(args.image)
     sizes = [4.0] if args.quick else [2.4, 1.7]
-    main_size = sizes[-1]
+    main_size = 4.0 if args.quick else 1.7
 
     # the loop with Table 4.1/4.2's parameters (and the curve's other points)
     loops = {}
@@ -105,6 +136,20 @@ def main(argv=None):
     sweep = {} if args.quick else {
         f: intensity_bubble_mesh(sc, size_initial=main_size, size_min=f * main_size,
                                  size_max=main_size / 2, solve=solve, first=r)
+        for f in (1.5, 1.25)}
+    # the combination, with the same parameters along the same curve
+    sd = simplified_discontinuity(sc)
+    combos = {}
+    for si in sizes:
+        combos[si] = combined_bubble_mesh(sc, size_initial=si, size_min=2 * si, size_max=si / 2,
+                                          solve=solve, discontinuity=sd)
+        print(f"combination size_initial {si}: {combos[si].first_mesh.n_elements} -> "
+              f"{combos[si].second_mesh.n_elements} elements, "
+              f"{combos[si].total_seconds:.1f} s", flush=True)
+    combo_sweep = {} if args.quick else {
+        f: combined_bubble_mesh(sc, size_initial=main_size, size_min=f * main_size,
+                                size_max=main_size / 2, solve=solve, discontinuity=sd,
+                                first=combos[main_size])
         for f in (1.5, 1.25)}
     plate_s, plate_cpu, plate_free = plate_timing(r, 20 if args.quick else 200)
     print(f"plate 200 x 200: {plate_s:.2f} s wall, {plate_cpu:.2f} s CPU ({plate_free} grid "
@@ -134,16 +179,31 @@ def main(argv=None):
     ours = [loop_point(f"intensity-based {si:g}", q, cam, reference) for si, q in loops.items()]
     ours_sweep = [loop_point(f"intensity-based {main_size:g}, size_min {f:g} x", q, cam,
                              reference) for f, q in sweep.items()]
+    dm, dm_q = dm_curve(sc, sd, cam, reference, [4.0] if args.quick else [3.4, 2.4, 1.7], solve)
+    comb = [loop_point(f"combination {si:g}", q, cam, reference) for si, q in combos.items()]
+    comb_sweep = [loop_point(f"combination {main_size:g}, size_min {f:g} x", q, cam, reference)
+                  for f, q in combo_sweep.items()]
+    quals = {"uniform": [quality(q.first_mesh) for q in loops.values()],
+             "intensity-based": [quality(q.second_mesh) for q in loops.values()],
+             "intensity-based, size_min sweep": [quality(q.second_mesh) for q in sweep.values()],
+             "simplified DM": dm_q,
+             "combination": [quality(q.second_mesh) for q in combos.values()],
+             "combination, size_min sweep": [quality(q.second_mesh) for q in combo_sweep.values()]}
 
     rows = []
     for kind, pts in (("uniform", uni), ("adaptive", ada), ("intensity-based", ours),
-                      ("intensity-based, size_min sweep", ours_sweep)):
-        for p in pts:
+                      ("intensity-based, size_min sweep", ours_sweep), ("simplified DM", dm),
+                      ("combination", comb), ("combination, size_min sweep", comb_sweep)):
+        qs = quals.get(kind, [])
+        for i, p in enumerate(pts):
             print(f"  {p.label:28s} {p.n_elements:7d} elements  error {p.error:.4f}  "
                   f"{p.seconds:6.1f} s", flush=True)
-            rows.append({"table": "error", "method": kind, "mesh": p.label,
-                         "elements": p.n_elements, "rms_error": round(p.error, 5),
-                         "seconds": round(p.seconds, 2)})
+            row = {"table": "error", "method": kind, "mesh": p.label,
+                   "elements": p.n_elements, "rms_error": round(p.error, 5),
+                   "seconds": round(p.seconds, 2)}
+            if i < len(qs):
+                row["mean_q"], row["min_angle"] = qs[i]
+            rows.append(row)
     counts = {"first mesh": r.first_mesh.n_elements, "adaptive re-mesh": r.adaptive_mesh.n_elements,
               "this method": r.second_mesh.n_elements}
     for k, v in counts.items():
@@ -160,8 +220,8 @@ def main(argv=None):
     if args.quick:
         return
     write_results("intensity_mesh", rows,
-                  ["table", "method", "mesh", "elements", "rms_error", "seconds", "cpu_seconds",
-                   "thesis"],
+                  ["table", "method", "mesh", "elements", "rms_error", "mean_q", "min_angle",
+                   "seconds", "cpu_seconds", "thesis"],
                   title="Intensity-based bubble mesh (chapter 4): Tables 4.1, 4.2, the plate "
                         "solve and image error against element count",
                   notes=[f"scene of Fig. 4.8; size_initial {main_size}, size_min "
@@ -180,7 +240,13 @@ def main(argv=None):
                          f"Gouraud image against a uniform mesh of {ref_mesh.n_elements} "
                          f"elements; progressive refinement, tol {args.tol}, ambient on; "
                          "uniform and adaptive meshes are bubble meshes; seconds: meshing + "
-                         "solving (cumulative for adaptive rounds, the whole loop for ours)"])
+                         "solving (cumulative for adaptive rounds, the whole loop for ours "
+                         "and the combination, plus the discontinuity phase for simplified DM)",
+                         "simplified DM: patch size s outside, s / 2 in the penumbra regions, "
+                         "along the lines of simplified_discontinuity; combination: "
+                         "combined_bubble_mesh with this method's parameters",
+                         "mean_q, min_angle: element quality (radius ratio 2 r_in / R_circ, "
+                         "smallest angle), each face measured from its own side"])
     (RESULTS / "intensity_mesh.json").write_text(json.dumps(
         {"machine": machine(), "image": args.image, "tol": args.tol,
          "parameters": {k: v for k, v in r.parameters.items() if k != "solve"},
@@ -189,7 +255,11 @@ def main(argv=None):
          "plate_cpu_seconds": plate_cpu, "load_average": os.getloadavg(),
          "curves": {"uniform": [p.__dict__ for p in uni], "adaptive": [p.__dict__ for p in ada],
                     "intensity": [p.__dict__ for p in ours],
-                    "intensity, smaller size_min": [p.__dict__ for p in ours_sweep]},
+                    "intensity, smaller size_min": [p.__dict__ for p in ours_sweep],
+                    "simplified DM": [p.__dict__ for p in dm],
+                    "combination": [p.__dict__ for p in comb],
+                    "combination, smaller size_min": [p.__dict__ for p in comb_sweep]},
+         "quality": quals, "discontinuity_timings": sd.timings,
          "reference_elements": ref_mesh.n_elements, "reference_seconds": t_ref,
          "rows": rows}, indent=2) + "\n")
 

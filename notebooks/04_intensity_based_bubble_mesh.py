@@ -28,9 +28,12 @@
 # This notebook validates the plate element on textbook plates, runs the loop on the scene of
 # Fig. 4.8 (a box with three floating rectangles), shows the size function (Fig. 4.1), a
 # size grid as an image and as the bent plate (Fig. 4.2), the three meshes and their
-# renderings (Figs 4.8–4.13), Tables 4.1 and 4.2 beside the thesis's numbers, and the image
-# error of this method against uniform meshes and adaptive subdivision. Algorithms are in
-# `polygen.radiosity.intensity`, `polygen.mesh2d.size_grid` and `polygen.mesh2d.plate`; the
+# renderings (Figs 4.8–4.13), Tables 4.1 and 4.2 beside the thesis's numbers, the meshes'
+# quality, Theorem 4.1 on a family of size grids, the thesis's tree/quadtree placements
+# against ours, the thesis's future work — this method combined with chapter 3's simplified
+# discontinuity meshing — and the image error of all of them against element count.
+# Algorithms are in `polygen.radiosity.intensity`, `polygen.discontinuity.combined`,
+# `polygen.mesh2d.size_grid`, `polygen.mesh2d.plate` and `polygen.mesh2d.theorem41`; the
 # figures in `polygen.plotting.intensity`.
 
 # %%
@@ -213,35 +216,217 @@ plot_radiosity.show_images(images, [f"Fig. 4.11: first ({counts['first mesh']} e
 plt.show()
 
 # %% [markdown]
+# ## Mesh quality of the second mesh
+#
+# Issue 15 asks for a mean radius ratio q ≥ 0.93 and a smallest angle ≥ 25° on the second
+# mesh. Each element is measured in its polygon's plane from its own face (a back face's
+# elements are clockwise there and used to score 0°). Measured at Table 4.1's parameters
+# (benchmark, `size_initial` 1.7): the first mesh has q 0.952 and 31.0°, the second 0.872
+# and 24.4° — and a **uniform** bubble mesh of patch size 3.3, the second mesh's size on the
+# walls, has the same, 0.861 and 24.2°. Sizes 2.6–3.4 on the 10 × 10 walls mean three
+# patches across a wall, and the light and the rectangles (2–3 units) get one or two
+# patches (q about 0.81): the coarse packing that a large `size_min` asks for, not the size
+# grid's variation, limits the quality. The binary-tree/quadtree placement gives 0.869 /
+# 24.4°, no better; capping the size at a quarter of each polygon's side 0.909 / 11.0°,
+# worse. Uniform bubble meshes of this scene reach q 0.935 at patch size 2.4 (3.0: 0.921);
+# with the same ratios from `size_initial` 1.2 (`size_min` 2.4) the second mesh has q 0.926.
+# **At Table 4.1's ratios the issue's thresholds are not met** (kept as a strict xfail,
+# `test_graded_mesh_quality`). With a finer `size_min` they are: the benchmark's sweep point
+# `size_min` = 1.25 `size_initial` (2.125, 1520 elements) has q 0.936 and 33.1° (a guard
+# test, parameters picked after that measurement). Here, at this notebook's size:
+
+# %%
+for name, m in (("first mesh", run.first_mesh), ("adaptive re-mesh", run.adaptive_mesh),
+                ("this method", run.second_mesh)):
+    ang, q = m.element_quality()
+    print(f"{name:17s} {m.n_elements:5d} elements: mean q {q.mean():.3f}, "
+          f"smallest angle {ang.min():.1f} deg, {100 * np.mean(ang < 25):.1f} % below 25 deg")
+
+# %% [markdown]
+# ## Theorem 4.1 — the sharper the size variation, the skinnier the triangles
+#
+# The appendix: in a relaxed packing two neighbours of diameters r_i, r_j sit 0.5 (r_i + r_j)
+# apart, so a triangle with vertex sizes r_a ≤ r_b = s r_a ≤ r_c = t r_a has the edge-length
+# ratio (s + t) / (1 + s), between 2t / (1 + t) and (1 + t) / 2 (`polygen.mesh2d.theorem41`).
+# A family of size grids on the unit square: ramps from 0.02 to 0.16 (ratio 8) of increasing
+# gradient; for the triangles meeting the ramp, the vertex size ratio t and the measured
+# longest / shortest edge.
+
+# %%
+from polygen.mesh2d import GridSize, bubble_mesh, triangle_quality
+from polygen.mesh2d.theorem41 import edge_length_ratio, packed_edge_ratio_bounds, vertex_size_ratio
+
+SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+family = {}
+for slope in (0.15, 0.4, 1.0, 1.6):
+    ramp = GridSize.from_function(lambda xy, g=slope: np.clip(
+        0.02 + g * (xy[:, 0] - 0.5 + 0.07 / g), 0.02, 0.16), (0, 0, 1, 1), (65, 65))
+    bm = bubble_mesh(SQUARE, (), ramp, seed=0)
+    r = ramp(bm.nodes)[bm.triangles]
+    on = r.max(axis=1) > r.min(axis=1) * (1 + 1e-9)
+    family[slope] = (vertex_size_ratio(r[on]), edge_length_ratio(bm.nodes, bm.triangles)[on],
+                     triangle_quality(bm.nodes, bm.triangles)[0][on])
+print(table([{"slope |grad size|": g, "triangles": len(t), "median t": round(np.median(t), 3),
+              "median edge ratio": round(np.median(e), 3), "smallest angle": round(a.min(), 1)}
+             for g, (t, e, a) in family.items()],
+            ["slope |grad size|", "triangles", "median t", "median edge ratio", "smallest angle"]))
+
+# %%
+fig, ax = plt.subplots(figsize=(6, 4))
+for g, (t, e, _) in family.items():
+    ax.scatter(t, e, s=4, alpha=0.5, label=f"slope {g}")
+tt = np.linspace(1, 3, 50)
+lo, hi = packed_edge_ratio_bounds(tt)
+ax.plot(tt, lo, "k--", lw=1, label="2t/(1+t)")
+ax.plot(tt, hi, "k-", lw=1, label="(1+t)/2")
+ax.set(xlabel="vertex size ratio t", ylabel="longest / shortest edge", xlim=(1, 3), ylim=(1, 3),
+       title="Theorem 4.1 on ramps of ratio 8")
+ax.legend(fontsize=7)
+plt.show()
+med = [np.median(e) for _, e, _ in family.values()]
+# the claim: sharper size variation -> skinnier triangles (median edge ratio grows with slope)
+assert all(a < b for a, b in zip(med, med[1:]))
+
+# %% [markdown]
+# The packed ratio is a lower estimate of what relaxation leaves (the bubbles are not all
+# touching), but the ordering is the theorem's: the median edge-length ratio grows with the
+# gradient. `benchmarks/results/mesh2d_graded.md` has the full family for both placements
+# (Spearman correlation of slope and median ratio 1.0 for each).
+#
+# ## Initial placements: the thesis's binary tree and quadtree against quantiles and a lattice
+#
+# The thesis places edge bubbles by a binary tree and face bubbles by a quadtree (4.3.3,
+# Fig. 4.7); our default puts edge bubbles at quantiles of the size along the edge and face
+# bubbles on a hexagonal lattice graded by the size. On four size fields of the unit square
+# (ratio 8), from `benchmarks/mesh2d.py`, and one pair drawn on the steep field:
+
+# %%
+graded = json.loads((Path("..") / "benchmarks" / "results" / "mesh2d_graded.json").read_text())
+print(table([{k: r[k] for k in ("field", "face", "edge", "neighbours", "ideal", "final",
+                                "q_mean", "angle_min")} for r in graded["rows"]],
+            ["field", "face", "edge", "neighbours", "ideal", "final", "q_mean", "angle_min"]))
+steep = GridSize.from_function(lambda xy: 0.0125 + 0.0875 * 0.5 * (
+    1 + np.tanh((xy[:, 0] - 0.5) / 0.05)), (0, 0, 1, 1), (33, 33))
+fig, axes = plt.subplots(1, 2, figsize=(11, 5))
+for ax, (init, edge) in zip(axes, (("lattice", "quantile"), ("quadtree", "tree"))):
+    bm = bubble_mesh(SQUARE, (), steep, init=init, edge_init=edge, seed=0)
+    ang, q = triangle_quality(bm.nodes, bm.triangles)
+    plot_radiosity.plot_mesh2d(bm.nodes, bm.triangles, values=q, vmin=0.5, vmax=1.0, ax=ax,
+                               title=f"{init}/{edge}: {len(bm.nodes)} nodes, mean q "
+                                     f"{q.mean():.3f}, min angle {ang.min():.1f}")
+fig.tight_layout()
+plt.show()
+
+# %% [markdown]
+# Neither placement wins everywhere: the quadtree/tree start is better on the linear field
+# and the Gaussian dip (q 0.980 / 0.971 against 0.973 / 0.958), the lattice/quantile start on
+# the uniform and steep fields (0.997 / 0.991 against 0.983 / 0.982); the smallest angle of
+# the steep field is 23.9° from the lattice/quantile start and 25.1–28.3° from the others.
+# Both are kept (`bubble_mesh(..., init=, edge_init=)`), the lattice the default.
+#
+# ## The thesis's future work: with simplified discontinuity meshing (4.5)
+#
+# The thesis ends chapter 4 proposing to combine this method with chapter 3's simplified
+# discontinuity meshing. `polygen.discontinuity.combined.combined_bubble_mesh` does it: both
+# meshes of the loop keep the scene's discontinuity lines as constrained segments (D0: nodes
+# duplicated across, so the first solution's shadow jump does not enter D; D1: shared), and
+# every region between the lines gets its own size grid, from the nodes of that region only,
+# so that the plate never smooths a size across a line.
+
+# %%
+from polygen.discontinuity import simplified_discontinuity
+from polygen.discontinuity.combined import combined_bubble_mesh
+from polygen.radiosity.layout import RegionSize
+
+sd = simplified_discontinuity(scene)
+combo = combined_bubble_mesh(scene, size_initial=SIZE_INITIAL, size_min=SIZE_MIN,
+                             size_max=SIZE_MAX, discontinuity=sd)
+cut = [k for k, g in enumerate(combo.size_grids) if isinstance(g, RegionSize)]
+print(f"discontinuity lines on {len(sd.segments)} polygons; size grids per region on "
+      f"{len(cut)}: {[scene.polygons[k].name for k in cut]}")
+print(table([{"mesh": name, "elements": m.n_elements, "seconds": round(s, 1)} for name, m, s in (
+    ("this method", run.second_mesh, run.total_seconds),
+    ("combination: first mesh (lines, uniform)", combo.first_mesh, 0.0),
+    ("combination: second mesh", combo.second_mesh, combo.total_seconds))],
+    ["mesh", "elements", "seconds"]))
+# both meshes conform across their elements (no T-vertex, Def. 2.5)
+assert len(combo.first_mesh.t_vertices()) == len(combo.second_mesh.t_vertices()) == 0
+
+# %%
+fig, axes = plt.subplots(1, 2, figsize=(10, 4.8))
+for ax, (name, m) in zip(axes, [("this method", run.second_mesh),
+                                ("combination", combo.second_mesh)]):
+    plot_radiosity.plot_polygon_mesh(m, floor, ax=ax)
+    ax.set_title(f"{name}: {int((m.element_polygon == floor).sum())} floor elements", fontsize=9)
+fig.tight_layout()
+plt.show()
+plot_radiosity.show_images(
+    [images[2], np.nan_to_num(shade(combo.second_mesh, combo.second_radiosity, camera))],
+    [f"this method ({run.second_mesh.n_elements} el.)",
+     f"combination ({combo.second_mesh.n_elements} el.)"], size=4.0)
+plt.show()
+
+# %% [markdown]
 # ## Image error against element count
 #
 # The yardstick of chapter 2 (`polygen.radiosity.error`): relative RMS difference of the
-# Gouraud image from the image of a much finer uniform mesh. The curves come from
-# `benchmarks/intensity_mesh.py` (its results file, as last run; nothing is asserted on a
-# stored file): uniform bubble meshes, adaptive subdivision repeated on the coarsest, the
-# adaptive re-mesh of Table 4.1, this method from first meshes of two sizes, and — not
-# Table 4.1's parameters — this method again from the first solution of size 1.7 with a less
-# coarse `size_min` (1.5 and 1.25 `size_initial`).
+# Gouraud image from the image of a much finer uniform mesh (19328 elements). The curves come
+# from `benchmarks/intensity_mesh.py` (its results file, as last run; nothing is asserted on
+# a stored file), one per method, each along its own size parameter, fixed before measuring:
+# uniform bubble meshes (patch size 2.4, 1.7, 1.2); adaptive subdivision repeated on the
+# coarsest, and the adaptive re-mesh of Table 4.1; this method from first meshes of 2.4 and
+# 1.7 and, from the first solution of 1.7, `size_min` 1.5 and 1.25 `size_initial`; simplified
+# discontinuity meshing with patch size 3.4, 2.4, 1.7 and half that in the penumbra regions;
+# the combination with exactly this method's parameters.
 #
-# In the last run this method lies on the uniform meshes' line, a little below or above it:
-# 0.061 with 600 elements and 0.082 with 344 (the uniform meshes' power law through 1064 and
-# 2056 elements gives about 0.066 and 0.10 there), 0.044 with 1080 (uniform: 0.041 with
-# 1064) and 0.029 with 1520 (power law: 0.031). It does **not** reach adaptive subdivision's
-# error with fewer elements: the adaptive re-mesh of the same first solution has 0.015 with
-# 3109 elements, and no point of ours gets near that. The thesis's claim of a better picture
-# with fewer elements (Figs 4.12, 4.13 against 4.11) is not reproduced on our scene at
-# these sizes.
+# What the last run says:
+#
+# * **This method does not reach adaptive subdivision's error with fewer elements.** It lies
+#   on the uniform meshes' line (0.044 with 1080 elements, uniform 0.041 with 1064); its
+#   best, 0.0285 with 1520 elements, is above adaptive subdivision's 0.023 with 2020 and
+#   0.015 with 3109. The thesis's claim of a better picture with fewer elements is not
+#   reproduced on our scene at these sizes.
+# * **The combination beats both parents at equal element count at one of its four points.**
+#   With 1240 elements it has 0.033, against 0.037 for this method and 0.042 for simplified DM
+#   interpolated there; with 1648 elements 0.031 against simplified DM's 0.034 (this method's
+#   curve ends at 1520); but with 632 and 888 elements it is worse than this method (0.076
+#   and 0.051 against about 0.059 and 0.049), where simplified DM's curve does not reach. The
+#   lines cost elements: the combination's first mesh has 1304 elements where the uniform one
+#   has 1064 (2.4), and its second mesh keeps them. The claim holds only in the middle of the
+#   range, not in general.
 
 # %%
 res = json.loads((Path("..") / "benchmarks" / "results" / "intensity_mesh.json").read_text())
-curves = {name: [(p["n_elements"], p["error"]) for p in pts]
-          for name, pts in res["curves"].items()}
+METHODS = {"uniform": ["uniform"], "adaptive subdivision": ["adaptive"],
+           "this method": ["intensity", "intensity, smaller size_min"],
+           "simplified DM": ["simplified DM"],
+           "combination": ["combination", "combination, smaller size_min"]}
+curves = {m: sorted((p["n_elements"], p["error"]) for k in keys for p in res["curves"].get(k, []))
+          for m, keys in METHODS.items()}
 plot_intensity.plot_error_curves(
     curves, title=f"Fig. 4.8 scene (reference: {res['reference_elements']} elements)")
 plt.show()
 print(table([{"method": name, "mesh": p["label"], "elements": p["n_elements"],
               "error": round(p["error"], 4)} for name, pts in res["curves"].items() for p in pts],
             ["method", "mesh", "elements", "error"]))
+
+# %%
+def error_at(curve, n):
+    """Error of a curve at n elements, log-log interpolated; None outside its range."""
+    c = np.array(curve, dtype=float)
+    if not c[0, 0] <= n <= c[-1, 0]:
+        return None
+    return float(np.exp(np.interp(np.log(n), np.log(c[:, 0]), np.log(c[:, 1]))))
+
+
+rows = []
+for n, e in curves["combination"]:
+    ours, dm = error_at(curves["this method"], n), error_at(curves["simplified DM"], n)
+    rows.append({"elements": n, "combination": round(e, 4),
+                 "this method": "-" if ours is None else round(ours, 4),
+                 "simplified DM": "-" if dm is None else round(dm, 4)})
+print("at the combination's element counts (interpolated; '-': outside that curve's range)")
+print(table(rows, ["elements", "combination", "this method", "simplified DM"]))
 
 # %% [markdown]
 # ## Try other sizes

@@ -188,3 +188,132 @@ def test_table_4_1_pattern():
                               size_max=0.85, adaptive_threshold=0.1)
     n1, n2, na = r.first_mesh.n_elements, r.second_mesh.n_elements, r.adaptive_mesh.n_elements
     assert n2 < n1 < na
+
+
+def test_element_quality_measures_each_face_from_its_own_side(coarse):
+    """Back faces are clockwise in the polygon's frame: measured reversed, they score as the front.
+
+    Oracle: the angles and radius ratios from the elements' 3-D edge lengths, which know
+    no orientation; and the two faces of a two-sided polygon are the same triangles.
+    """
+    ang, q = coarse.element_quality()
+    t = coarse.nodes[coarse.elements]
+    a, b, c = np.linalg.norm(t[:, [1, 2, 0]] - t[:, [2, 0, 1]], axis=2).T
+    cosines = np.stack([(b * b + c * c - a * a) / (2 * b * c), (a * a + c * c - b * b) / (2 * a * c),
+                        (a * a + b * b - c * c) / (2 * a * b)], axis=1)
+    np.testing.assert_allclose(ang, np.degrees(np.arccos(np.clip(cosines, -1, 1))).min(axis=1),
+                               atol=1e-7)
+    area = coarse.element_area
+    np.testing.assert_allclose(q, 4 * area / (a + b + c) / (a * b * c / (4 * area)), rtol=1e-9)
+    two = [k for k, p in enumerate(coarse.scene.polygons) if p.two_sided]
+    assert two
+    for k in two:
+        sel = coarse.element_polygon == k
+        front = np.sort(q[sel & (coarse.element_side == 1)])
+        back = np.sort(q[sel & (coarse.element_side == -1)])
+        np.testing.assert_allclose(back, front, rtol=1e-12)
+        assert back.min() > 0
+
+
+@pytest.fixture(scope="module")
+def cut():
+    """The scene of Fig. 4.8 meshed along its simplified discontinuity lines (chapter 3)."""
+    from polygen.discontinuity import simplified_discontinuity
+
+    sc = scenes.three_rectangles_box()
+    sd = simplified_discontinuity(sc)
+    return sd, mesh_scene(sc, 4.0, mesher=bubble_mesher, segments=sd.segments)
+
+
+def test_size_grids_per_region_do_not_cross_the_lines(cut):
+    """Node sizes constant per region, a different constant in every region: each region's
+    grid is its own constant (the plate does not smooth across a discontinuity line)."""
+    from polygen.radiosity.layout import RegionSize
+
+    sd, m = cut
+    reg = m.element_region
+    # a value per (polygon, region), from the elements' regions
+    value = {}
+    sizes = np.full(m.n_nodes, np.inf)
+    for e in range(m.n_elements):
+        key = (int(m.element_polygon[e]), int(reg[e]))
+        v = value.setdefault(key, 0.5 + 0.37 * (len(value) % 7))
+        sizes[m.elements[e]] = np.minimum(sizes[m.elements[e]], v)
+    # (a node on a D1 line, shared by two regions, takes the finer of their values)
+    grids = polygon_size_grids(m, sizes, grid=0.5)
+    n_cut = 0
+    for k in range(len(m.scene.polygons)):
+        regions = np.unique(reg[m.element_polygon == k])
+        if len(regions) == 1:
+            continue
+        n_cut += 1
+        assert isinstance(grids[k], RegionSize)
+        assert len(grids[k].sizes) == len(regions)
+        for r, g, at in zip(regions, grids[k].sizes, grids[k].at):
+            sel = (m.element_polygon == k) & (reg == r)
+            ns = sizes[np.unique(m.elements[sel])]
+            vals = np.asarray(g.values if isinstance(g, GridSize) else [g])
+            # every grid value lies within the sizes of this region's own nodes
+            assert vals.min() >= ns.min() - 1e-12 and vals.max() <= ns.max() + 1e-12
+            assert m.layouts[k].region_of(at[None])[0] == r
+    assert n_cut >= 3  # the floor and the rectangles under the light are cut by shadow lines
+
+
+@pytest.mark.slow
+def test_combined_loop_keeps_the_lines(cut):
+    from polygen.discontinuity.combined import combined_bubble_mesh
+
+    sd, _ = cut
+    r = combined_bubble_mesh(sd.scene, size_initial=4.0, size_min=8.0, size_max=2.0,
+                             solve={"tol": 0.05}, discontinuity=sd)
+    for m in (r.first_mesh, r.second_mesh):
+        assert m.element_region is not None and len(m.t_vertices()) == 0
+        # every polygon with lines is cut into regions in both meshes
+        for k in sd.segments:
+            assert len(np.unique(m.element_region[m.element_polygon == k])) > 1
+    assert r.parameters["segments"] is sd.segments
+    with pytest.raises(TypeError, match="segments"):
+        combined_bubble_mesh(sd.scene, size_initial=4.0, size_min=8.0, size_max=2.0,
+                             discontinuity=sd, segments={})
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured: mean q 0.926 at size_initial 1.2, 0.872 at 1.7 "
+                   "(issue 15 asks 0.93): the second mesh is as coarse as size_min allows, and a "
+                   "uniform bubble mesh that coarse is no better (see the docstring)")
+def test_graded_mesh_quality():
+    """Issue 15: mean radius ratio >= 0.93 and smallest angle >= 25 degrees on the second mesh.
+
+    Not met, and kept as a strict xfail so that it is noticed when it is.  At Table 4.1's
+    parameters (size_initial 1.7, size_min 3.4, size_max 0.85) the second mesh has q 0.872
+    and 24.4 degrees, and a *uniform* bubble mesh of its wall size (3.3) has the same (0.861,
+    24.2); uniform bubble meshes of this scene reach q 0.935 only at patch size 2.4 (3.0:
+    0.921), and its small polygons (the light, the rectangles: 2-3 units) meshed by one or
+    two patches score about 0.81.  So the limit is the coarse packing that a large size_min
+    asks for, not the size grid's variation: the binary-tree/quadtree placement gives
+    0.869 / 24.4, capping the size at a quarter of each polygon's side 0.909 / 11.0.  At
+    size_initial 1.2 (size_min 2.4, size_max 0.6) the second mesh has q 0.926.
+    """
+    r = intensity_bubble_mesh(scenes.three_rectangles_box(), size_initial=1.2, size_min=2.4,
+                              size_max=0.6, solve={"tol": 0.05})
+    ang, q = r.second_mesh.element_quality()
+    assert q.mean() >= 0.93
+    assert ang.min() >= 25.0
+
+
+@pytest.mark.slow
+def test_graded_mesh_quality_with_a_finer_size_min():
+    """Issue 15's thresholds where size_min is not coarse for the scene's polygons.
+
+    Not parameters fixed in advance: the benchmark's size_min sweep (size_initial 1.7,
+    size_max 0.85, size_min 1.25 x 1.7 = 2.125) measured q 0.9355 and 33.1 degrees on its
+    second mesh (1520 elements), the point where size_min is near the patch size at which a
+    uniform bubble mesh of this scene reaches q 0.935 (2.4).  A regression guard for that
+    explanation of the xfail above, not evidence for the thresholds in general.
+    """
+    sc = scenes.three_rectangles_box()
+    r = intensity_bubble_mesh(sc, size_initial=1.7, size_min=1.25 * 1.7, size_max=0.85)
+    ang, q = r.second_mesh.element_quality()
+    assert q.mean() >= 0.93
+    assert ang.min() >= 25.0
+    assert r.second_mesh.n_elements < r.first_mesh.n_elements

@@ -10,7 +10,10 @@ plate through them (4.5-4.10, :func:`polygen.mesh2d.element_size_grid`);
 a second bubble mesh reading the grid by bilinear interpolation (4.12,
 4.13); and a second solution.  Conventional adaptive subdivision
 (:func:`~polygen.radiosity.adaptive_refine`) from the same first solution
-is the comparison (Table 4.1).
+is the comparison (Table 4.1).  With ``segments`` (discontinuity lines,
+chapter 3) both meshes keep the lines and the size grids are built per
+region: the thesis's future work (4.5),
+:func:`polygen.discontinuity.combined.combined_bubble_mesh`.
 
 Sizes here are *patch* sizes, the bubble diameter of the patch mesh; each
 patch is split into ``4**element_levels`` elements, as the thesis makes
@@ -147,8 +150,26 @@ def size_function(variation, *, size_min, size_max):
     return a * d + b
 
 
+def _finest_per_site(xy, sizes):
+    """Dedupe points at one (u, v) (both faces', both sides of a D0 line): the finer size."""
+    key = np.round(xy / (1e-9 * max(1.0, np.abs(xy).max())))
+    _, inv = np.unique(key, axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    finest = np.full(inv.max() + 1, np.inf)
+    np.minimum.at(finest, inv, sizes)
+    first = np.unique(inv, return_index=True)[1]
+    return xy[first], finest
+
+
+def _grid(xy, sizes, bounds, grid, nu, k, poly, where=""):
+    try:
+        return element_size_grid(xy, sizes, bounds, grid=grid, nu=nu)
+    except (ValueError, PlateError) as exc:
+        raise MeshError(f"polygon {k} ({poly.name!r}){where}: {exc}") from None
+
+
 def polygon_size_grids(mesh, node_sizes, *, grid, nu=0.3):
-    """One element-size grid per polygon of a mesh (4.3.2).
+    """One element-size grid per polygon of a mesh (4.3.2), per region where it has regions.
 
     Parameters
     ----------
@@ -163,31 +184,44 @@ def polygon_size_grids(mesh, node_sizes, *, grid, nu=0.3):
 
     Returns
     -------
-    list of GridSize
+    list of GridSize or RegionSize
         In each polygon's (u, v) frame, over its bounding box.  The two
         faces of a two-sided polygon share one grid: at each node position
-        the smaller of the two faces' sizes counts.
+        the smaller of the two faces' sizes counts.  A polygon that the
+        mesh's constrained segments (discontinuity lines) cut into several
+        regions gets a :class:`~polygen.radiosity.layout.RegionSize` of one
+        grid per region, over the region's bounding box, built from the
+        nodes of that region's elements only: the plate never smooths a
+        size across a discontinuity line.  A region whose nodes cannot
+        hold a plate (all on one line) gets the finest of their sizes.
     """
+    from polygen.radiosity.layout import RegionSize
+
     s = np.asarray(node_sizes, dtype=np.float64).reshape(-1)
     if s.shape != (mesh.n_nodes,):
         raise MeshError(f"node_sizes must be ({mesh.n_nodes},), got {s.shape}")
+    regions = mesh.element_region
     out = []
     for k, poly in enumerate(mesh.scene.polygons):
-        xy, _, _, nodes = mesh.polygon_elements(k)
-        sk = s[nodes]
-        # both faces' copies of a node sit at the same (u, v): keep the finer size
-        key = np.round(xy / (1e-9 * max(1.0, np.abs(xy).max())))
-        _, inv = np.unique(key, axis=0, return_inverse=True)
-        inv = inv.reshape(-1)
-        finest = np.full(inv.max() + 1, np.inf)
-        np.minimum.at(finest, inv, sk)
-        first = np.unique(inv, return_index=True)[1]
+        xy, tris, el, nodes = mesh.polygon_elements(k)
         ext = poly.exterior_2d
-        bounds = (*ext.min(axis=0), *ext.max(axis=0))
-        try:
-            out.append(element_size_grid(xy[first], finest, bounds, grid=grid, nu=nu))
-        except (ValueError, PlateError) as exc:
-            raise MeshError(f"polygon {k} ({poly.name!r}): {exc}") from None
+        reg = None if regions is None else regions[el]
+        if reg is None or len(np.unique(reg)) == 1:
+            p, f = _finest_per_site(xy, s[nodes])
+            out.append(_grid(p, f, (*ext.min(axis=0), *ext.max(axis=0)), grid, nu, k, poly))
+            continue
+        sizes, at = [], []
+        for r in np.unique(reg):
+            loc = np.unique(tris[reg == r])
+            p, f = _finest_per_site(xy[loc], s[nodes[loc]])
+            bounds = (*p.min(axis=0), *p.max(axis=0))
+            try:
+                g = element_size_grid(p, f, bounds, grid=grid, nu=nu)
+            except (ValueError, PlateError):
+                g = float(f.min())
+            sizes.append(g)
+            at.append(mesh.layouts[k].region_point[r])
+        out.append(RegionSize(sizes, at=np.array(at)))
     return out
 
 
@@ -278,7 +312,8 @@ def _solve(mesh, solve):
 
 def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
                           element_levels=1, nu=0.3, seed=0, solve=None,
-                          adaptive_threshold=None, solve_adaptive=False, first=None):
+                          adaptive_threshold=None, solve_adaptive=False, first=None,
+                          segments=None):
     """The two-pass loop of Fig. 4.3.
 
     Parameters
@@ -314,7 +349,15 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
         Reuse this earlier run's first mesh and solution (and their timings)
         instead of computing them again, e.g. to try other ``size_min`` /
         ``size_max``; it must come from the same scene, ``size_initial``,
-        ``element_levels``, ``seed`` and ``solve``.
+        ``element_levels``, ``seed``, ``solve`` and ``segments``.
+    segments : mapping or sequence, keyword-only, optional
+        Constrained segments per polygon (``mesh_scene(..., segments=)``),
+        e.g. the discontinuity lines of
+        :func:`polygen.discontinuity.simplified_discontinuity`: both meshes
+        keep them as patch edges, and the size grids are built per region
+        (:func:`polygon_size_grids`), so that no size is smoothed across a
+        line.  :func:`polygen.discontinuity.combined.combined_bubble_mesh` is this
+        with the scene's own lines (the thesis's future work, 4.5).
 
     Returns
     -------
@@ -339,7 +382,8 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
 
     if first is None:
         clock.start()
-        first = mesh_scene(scene, si, element_levels=element_levels, mesher=mesher)
+        first = mesh_scene(scene, si, element_levels=element_levels, mesher=mesher,
+                           segments=segments)
         clock.stop("first_mesh")
         clock.start()
         r1, b1 = _solve(first, solve)
@@ -350,10 +394,10 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
         p = first.parameters
         same = (first.first_mesh.scene is scene and p["size_initial"] == si
                 and p["element_levels"] == element_levels and p["seed"] == seed
-                and p["solve"] == solve)
+                and p["solve"] == solve and p.get("segments") is segments)
         if not same:
-            raise MeshError("first: that run's scene, size_initial, element_levels, seed or "
-                            "solve differ from these")
+            raise MeshError("first: that run's scene, size_initial, element_levels, seed, "
+                            "solve or segments differ from these")
         r1, b1 = first.first_result, first.first_radiosity
         for k in PHASES[:2]:
             clock.wall[k], clock.cpu[k] = first.seconds[k], first.cpu_seconds[k]
@@ -367,7 +411,8 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
     clock.stop("size_function")
 
     clock.start()
-    second = mesh_scene(scene, grids, element_levels=element_levels, mesher=mesher)
+    second = mesh_scene(scene, grids, element_levels=element_levels, mesher=mesher,
+                        segments=segments)
     clock.stop("second_mesh")
 
     clock.start()
@@ -385,7 +430,7 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
             clock.stop("adaptive_radiosity")
     params = {"size_initial": si, "size_min": smin, "size_max": smax, "grid": grid,
               "element_levels": element_levels, "nu": nu, "seed": seed, "solve": solve,
-              "adaptive_threshold": adaptive_threshold}
+              "adaptive_threshold": adaptive_threshold, "segments": segments}
     return IntensityMesh(first, r1, b1, inten, d, fsize, grids, second, r2, b2, clock.wall,
                          clock.cpu, ada, ada_b, params)
 

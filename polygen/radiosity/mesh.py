@@ -283,7 +283,8 @@ class RadiosityMesh:
         xy : (n, 2) float64
             Plane coordinates of the polygon's nodes.
         triangles : (m, 3) int64
-            Its elements in local node numbers, counter-clockwise.
+            Its elements in local node numbers: counter-clockwise on the
+            front face, clockwise on a back face (seen from the front).
         elements : (m,) int64
             Their indices in the mesh.
         nodes : (n,) int64
@@ -300,6 +301,12 @@ class RadiosityMesh:
     def element_quality(self):
         """Smallest angle (degrees) and radius ratio ``2 r_in / R_circ`` of every element.
 
+        Each element is measured in its polygon's (u, v) frame as seen from
+        its own face: a back face's elements (clockwise in that frame, their
+        normal being the negated polygon normal) are reversed first, so that
+        both faces of a two-sided polygon score alike and only a truly
+        inverted or degenerate element scores 0.
+
         Returns
         -------
         min_angle : (M,) float64
@@ -310,8 +317,10 @@ class RadiosityMesh:
         ang = np.empty(self.n_elements)
         q = np.empty(self.n_elements)
         for k in range(len(self.scene.polygons)):
-            xy, tris, el, _ = self.polygon_elements(k)
-            ang[el], q[el] = triangle_quality(xy, tris)
+            for side in (1, -1):
+                xy, tris, el, _ = self.polygon_elements(k, side)
+                if len(el):
+                    ang[el], q[el] = triangle_quality(xy, tris if side == 1 else tris[:, ::-1])
         return ang, q
 
     def t_vertices(self):
