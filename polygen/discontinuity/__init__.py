@@ -14,6 +14,8 @@
   :mod:`~polygen.discontinuity.simplified` -- the whole method on a scene;
   :mod:`~polygen.discontinuity.meshing` -- lines, regions, patches and elements
   (3.3.6) by the simplified or the conventional method;
+  :mod:`~polygen.discontinuity.combined` -- chapter 8's future work: these
+  lines and chapter 4's intensity-based bubble mesh together;
 * :mod:`~polygen.discontinuity.conventional` -- the baseline of 2.4.3:
   all EV and VE critical surfaces on a receiver;
 * :mod:`~polygen.discontinuity.bsp` -- the 2-D BSP split of a receiver
@@ -53,6 +55,7 @@ from polygen.discontinuity.states import (
     region_size,
 )
 from polygen.discontinuity.simplified import SimplifiedDiscontinuity, simplified_discontinuity
+from polygen.discontinuity.combined import combined_bubble_mesh
 from polygen.discontinuity.meshing import (
     DiscontinuityRecord,
     MeshingError,
@@ -78,6 +81,7 @@ __all__ = [
     "UMBRA",
     "UNPROCESSED",
     "bsp_split",
+    "combined_bubble_mesh",
     "conventional_bsp",
     "conventional_discontinuity",
     "conventional_segments",
