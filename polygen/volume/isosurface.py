@@ -46,6 +46,20 @@ __all__ = ["IsoSurface", "extract", "IsoSurfaceError", "same_surface"]
 _CHUNK = 8192
 
 
+def _classify(cells, s, value, cell_type, table, count, local_edges, faces):
+    """t1 of both scans: every cell's case, and per chunk of cells the crossed cells and triangle offsets."""
+    nch = max(1, -(-cells.shape[0] // _CHUNK))
+    cases = np.empty(cells.shape[0], np.int32)
+    ch_cells = np.empty(nch, np.int64)
+    ch_tris = np.empty(nch, np.int64)
+    ch_look = np.empty(nch, np.int64)
+    _m._scan_count(cells, s, value, faces, table, count, _m.crossed_counts(cell_type), local_edges, _CHUNK,
+                   cases, ch_cells, ch_tris, ch_look)
+    tri_off = np.zeros(nch + 1, np.int64)
+    np.cumsum(ch_tris, out=tri_off[1:])
+    return cases, ch_cells, ch_look, tri_off
+
+
 def _scan(vol, value, field, normals, node_grad=None):
     points, cells, s, cell_type = volume_arrays(vol, field)
     table, count, local_edges, faces = _m.local_tables(cell_type)
@@ -58,15 +72,7 @@ def _scan(vol, value, field, normals, node_grad=None):
 
     # t1: classify all cells (pass 1 counts per chunk)
     t0 = time.perf_counter()
-    nch = max(1, -(-m // _CHUNK))
-    cases = np.empty(m, np.int32)
-    ch_cells = np.empty(nch, np.int64)
-    ch_tris = np.empty(nch, np.int64)
-    ch_look = np.empty(nch, np.int64)
-    _m._scan_count(cells, s, value, faces, table, count, _m.crossed_counts(cell_type), local_edges, _CHUNK,
-                   cases, ch_cells, ch_tris, ch_look)
-    tri_off = np.zeros(nch + 1, np.int64)
-    np.cumsum(ch_tris, out=tri_off[1:])
+    cases, ch_cells, ch_look, tri_off = _classify(cells, s, value, cell_type, table, count, local_edges, faces)
     t1 = time.perf_counter() - t0
 
     # t2: triangles as vertex keys (pass 2), then one vertex per key
@@ -113,15 +119,7 @@ def _scan_unprepared(vol, value, field, normals, node_grad=None):
     m = cells.shape[0]
 
     t0 = time.perf_counter()
-    nch = max(1, -(-m // _CHUNK))
-    cases = np.empty(m, np.int32)
-    ch_cells = np.empty(nch, np.int64)
-    ch_tris = np.empty(nch, np.int64)
-    ch_look = np.empty(nch, np.int64)
-    _m._scan_count(cells, s, value, faces, table, count, _m.crossed_counts(cell_type), local_edges, _CHUNK,
-                   cases, ch_cells, ch_tris, ch_look)
-    tri_off = np.zeros(nch + 1, np.int64)
-    np.cumsum(ch_tris, out=tri_off[1:])
+    cases, ch_cells, ch_look, tri_off = _classify(cells, s, value, cell_type, table, count, local_edges, faces)
     t1 = time.perf_counter() - t0
 
     t0 = time.perf_counter()
