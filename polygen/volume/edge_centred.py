@@ -141,6 +141,25 @@ def canonical_order(iso):
         triangles=new_id[iso.triangles[tri_order]], triangle_cells=iso.triangle_cells[tri_order])
 
 
+def _drop_at_nodes(any_node, tri, tri_cell, keys, vend, n_edges):
+    """After a query with vertices exactly on nodes: a face at ``C`` kept once, unused vertices dropped.
+
+    Returns ``(tri, tri_cell, keys, vend, collapsed)``; ``collapsed`` holds the
+    end nodes of the vertices dropped (registered for polygons that
+    collapsed onto nodes, used by no triangle).
+    """
+    collapsed = vend[:0].copy()
+    if not any_node:
+        return tri, tri_cell, keys, vend, collapsed
+    # a face exactly at C between two cells: keep it once (as every method does)
+    tri, tri_cell = drop_double_faces(keys, tri, tri_cell, n_edges)
+    tri, keep = drop_unreferenced(tri, keys.shape[0])  # vertices of polygons collapsed onto nodes
+    if keep is not None:
+        collapsed = np.delete(vend, keep, axis=0)
+        keys, vend = keys[keep], np.ascontiguousarray(vend[keep])
+    return tri, tri_cell, keys, vend, collapsed
+
+
 class EdgeCentredTable:
     """Cell-edge-centred construction with a stored edge table, on one volume and field, reused across queries.
 
@@ -380,13 +399,8 @@ class EdgeCentredTable:
         tri_cell = self._tri_cell[:n_t].copy()
         keys = self._vkey[:n_v].copy()
         vend = self._vend[:n_v]
-        collapsed = vend[:0].copy()
-        if any_node:  # a face exactly at C between two cells: keep it once (as every method does)
-            tri, tri_cell = drop_double_faces(keys, tri, tri_cell, self.n_edges)
-            tri, keep = drop_unreferenced(tri, n_v)  # vertices of polygons collapsed onto nodes
-            if keep is not None:
-                collapsed = np.delete(vend, keep, axis=0)
-                keys, vend, n_v = keys[keep], vend[keep], keep.size
+        tri, tri_cell, keys, vend, collapsed = _drop_at_nodes(any_node, tri, tri_cell, keys, vend, self.n_edges)
+        n_v = keys.shape[0]
         t2 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
@@ -475,13 +489,8 @@ class EdgeCentredTable:
                           v_base, t_base, tri, tri_cell, keys, vend)
         keys = keys[:n_v]
         vend = vend[:n_v]
-        collapsed = vend[:0].copy()
-        if n_node_v:  # a face exactly at C between two cells: keep it once (as every method does)
-            tri, tri_cell = drop_double_faces(keys, tri, tri_cell, self.n_edges)
-            tri, keep = drop_unreferenced(tri, n_v)  # vertices of polygons collapsed onto nodes
-            if keep is not None:
-                collapsed = np.delete(vend, keep, axis=0)
-                keys, vend, n_v = keys[keep], vend[keep], keep.size
+        tri, tri_cell, keys, vend, collapsed = _drop_at_nodes(bool(n_node_v), tri, tri_cell, keys, vend, self.n_edges)
+        n_v = keys.shape[0]
         t2 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
@@ -734,13 +743,8 @@ class EdgeCentredWalk:
         tri_cell = self._tri_cell[:n_t].copy()
         pkeys = self._vkey[:n_v].copy()
         vend = self._vend[:n_v]
-        collapsed = vend[:0].copy()
-        if any_node:  # a face exactly at C between two cells: keep it once (as every method does)
-            tri, tri_cell = drop_double_faces(pkeys, tri, tri_cell, np.int64(self.n_points) * self.n_points)
-            tri, keep = drop_unreferenced(tri, n_v)  # vertices of polygons collapsed onto nodes
-            if keep is not None:
-                collapsed = np.delete(vend, keep, axis=0)
-                pkeys, vend = pkeys[keep], np.ascontiguousarray(vend[keep])
+        tri, tri_cell, pkeys, vend, collapsed = _drop_at_nodes(any_node, tri, tri_cell, pkeys, vend,
+                                                               np.int64(self.n_points) * self.n_points)
         t2 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
