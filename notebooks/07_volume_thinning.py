@@ -401,6 +401,16 @@ for r in rows_t:
 # that propagation registered.
 
 # %%
+def skeleton_row(m, vol):
+    """Table 7.1's skeleton columns; its ends counted from scratch: cells left with one non-removed neighbour."""
+    st, keep, nbr = m.skeleton.stats, m.skeleton.mask(), vol.face_neighbors
+    ends = np.flatnonzero(keep & (((nbr >= 0) & keep[np.maximum(nbr, 0)]).sum(axis=1) == 1))
+    return {"N_e2": st["skeleton_cells"], **{f"C{q}": st[f"C{q}"] for q in range(1, 5)},
+            "ns/cell": 1e9 * st["T_total"] / vol.n_cells, "ends": ends.size,
+            "ends marked": int(np.isin(ends, m.skeleton.marked).sum())}
+
+
+# %%
 rows = []
 for name in TABLE_DATA:
     vol = datasets.load(name)
@@ -419,12 +429,8 @@ for name in TABLE_DATA:
                     f"N_{key}": sw.seed_cells_tested + (n_ci if key in ("egra", "thin") else 0)})
         if key == "egra":
             row.update(N_ep=m.graph.stats["extrema"], N_e1=m.graph.stats["graph_cells"] + m.graph.stats["boundary_cells"])
-        if key == "thin":   # the skeleton's ends counted from scratch: cells left with one non-removed neighbour
-            st, keep, nbr = m.skeleton.stats, m.skeleton.mask(), vol.face_neighbors
-            ends = np.flatnonzero(keep & (((nbr >= 0) & keep[np.maximum(nbr, 0)]).sum(axis=1) == 1))
-            row.update({"N_e2": st["skeleton_cells"], **{f"C{q}": st[f"C{q}"] for q in range(1, 5)},
-                        "ns/cell": 1e9 * st["T_total"] / vol.n_cells, "ends": ends.size,
-                        "ends marked": int(np.isin(ends, m.skeleton.marked).sum())})
+        if key == "thin":
+            row.update(skeleton_row(m, vol))
     row["N_ci"] = n_ci
     rows.append(row)
     print(name, "done")
