@@ -167,6 +167,16 @@ class DaskPartitionedMethod:
                 raise _Lost(i, e) from e
         return out
 
+    def _calls(self, values, normals):
+        """One call per partition; an actor whose worker is already known lost raises at once (as ``_Lost``)."""
+        calls = []
+        for i, a in enumerate(self.actors):
+            try:
+                calls.append(a.extract_many(values, normals))
+            except Exception as e:  # noqa: BLE001  dask: "Worker holding Actor was lost"
+                raise _Lost(i, e) from e
+        return calls
+
     def _reprepare(self, lost):
         """Prepare the partitions ``lost`` (indices) again on the workers alive now."""
         alive = self._workers()
@@ -191,7 +201,7 @@ class DaskPartitionedMethod:
         t0 = time.perf_counter()
         for attempt in range(RETRIES + 1):
             try:
-                pieces = self._gather([a.extract_many(values, normals) for a in self.actors], what="query")
+                pieces = self._gather(self._calls(values, normals), what="query")
                 break
             except _Lost as lost:
                 if attempt == RETRIES:
