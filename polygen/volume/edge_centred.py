@@ -141,6 +141,22 @@ def canonical_order(iso):
         triangles=new_id[iso.triangles[tri_order]], triangle_cells=iso.triangle_cells[tri_order])
 
 
+def _output_buffers(m):
+    """The query buffers of a builder over ``m`` cells: queue, triangles, their cells, vertex keys and ends.
+
+    Sized so that the surfaces of a smooth field fit at the first query
+    (a queue of ``m / 16`` cells, ``m / 6`` triangles, ``m / 12`` vertices:
+    about 7 bytes per cell) -- an overflow makes the kernel stop, the buffer
+    double and the query start again, which costs that query a second
+    extraction (the slider of :mod:`polygen.widgets` felt it on data 4).
+    """
+    q_cap = max(1024, m // 16)
+    t_cap = max(2048, m // 6) + _m.MAX_TRIANGLES
+    v_cap = max(1024, m // 12)
+    return (np.empty(q_cap, np.int32), np.empty((t_cap, 3), np.int64), np.empty(t_cap, np.int64),
+            np.empty(v_cap, np.int64), np.empty((v_cap, 2), np.int32))
+
+
 def _drop_at_nodes(any_node, tri, tri_cell, keys, vend, n_edges):
     """After a query with vertices exactly on nodes: a face at ``C`` kept once, unused vertices dropped.
 
@@ -278,12 +294,7 @@ class EdgeCentredTable:
         self.generation = 0
         self._node_grad = None
         # buffers, grown by doubling when a query overflows one (the query is then redone)
-        cap = max(1024, m // 64)
-        self._queue = np.empty(cap, np.int32)
-        self._tris = np.empty((2 * cap + _m.MAX_TRIANGLES, 3), np.int64)
-        self._tri_cell = np.empty(2 * cap + _m.MAX_TRIANGLES, np.int64)
-        self._vkey = np.empty(cap, np.int64)
-        self._vend = np.empty((cap, 2), np.int32)
+        self._queue, self._tris, self._tri_cell, self._vkey, self._vend = _output_buffers(m)
         self.stats = {}
         self.preprocess_s = time.perf_counter() - t0
 
@@ -635,15 +646,10 @@ class EdgeCentredWalk:
         self.generation = 0
         self._node_grad = None
         self._labels = EdgeLabels(vol)
-        cap = max(1024, m // 64)
-        self._queue = np.empty(cap, np.int32)
-        self._tris = np.empty((2 * cap + _m.MAX_TRIANGLES, 3), np.int64)
-        self._tri_cell = np.empty(2 * cap + _m.MAX_TRIANGLES, np.int64)
-        self._vkey = np.empty(cap, np.int64)
-        self._vend = np.empty((cap, 2), np.int32)
+        self._queue, self._tris, self._tri_cell, self._vkey, self._vend = _output_buffers(m)
         self._around = np.empty(256, np.int32)
         self._around_local = np.empty(256, np.int32)
-        self._htable = np.zeros((2 * cap if self.search else 1, 2), np.int64)
+        self._htable = np.zeros((2 * self._vkey.shape[0] if self.search else 1, 2), np.int64)
         self.stats = {}
         self.preprocess_s = time.perf_counter() - t0
 
