@@ -42,6 +42,7 @@ import numpy as np
 from polygen import plotting
 from polygen.plotting import thinning as plot_thinning
 from polygen.volume import datasets, methods
+from polygen.volume.analysis import end_cells, first_removal_test, side_regions, unseeded_parts
 from polygen.volume.extrema_graph import build_extrema_graph
 from polygen.volume.isosurface import extract, same_surface
 from polygen.volume.propagate import Propagator
@@ -118,26 +119,8 @@ plot_thinning.plot_fig_7_1(vol1, graph_d, skel_d, full, from_arcs).show()
 # of the hollow cube (a void, no through-hole) and of the ring (one through-hole): regions =
 # connected groups of nodes on one side of C joined by volume edges (in a tetrahedron the
 # nodes on one side are joined by its edges), parts = connected parts of the surface, and the
-# parts no arc crosses (a part is crossed when one of its cells is a seed found on an arc).
-
-# %%
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-
-
-def regions(vol, s, v):
-    n = 0
-    for side in (s < v, s >= v):
-        e = vol.edges[side[vol.edges[:, 0]] & side[vol.edges[:, 1]]]
-        _, lab = connected_components(coo_matrix((np.ones(len(e)), tuple(e.T)), shape=(len(s),) * 2))
-        n += np.unique(lab[side]).size
-    return n
-
-
-def missed_parts(vol, graph, iso):
-    seeds = graph.seeds(iso.value)
-    comp = iso.triangle_components()
-    return np.setdiff1d(comp, comp[np.isin(iso.triangle_cells, seeds.cells[:seeds.n_from_arcs])]).size
+# parts no arc crosses (a part is crossed when one of its cells is a seed found on an arc):
+# `side_regions` and `unseeded_parts` of `polygen.volume.analysis`.
 
 # %%
 count_rows, worst = [], {}
@@ -145,9 +128,10 @@ for name in ["hollow_cube", "torus"]:
     vol, s = datasets.load(name), datasets.load(name).scalars()
     graph = build_extrema_graph(vol, s)
     for v in np.linspace(s.min(), s.max(), 62)[1:-1]:
-        iso = extract(vol, v)
-        r = {"data": name, "genus": vol.n_through_holes, "C": v, "regions": regions(vol, s, v),
-             "parts": iso.connected_components()[1], "missed": missed_parts(vol, graph, iso)}
+        iso, seeds = extract(vol, v), graph.seeds(v)
+        r = {"data": name, "genus": vol.n_through_holes, "C": v, "regions": side_regions(vol, s, v),
+             "parts": iso.connected_components()[1],
+             "missed": unseeded_parts(iso, seeds.cells[:seeds.n_from_arcs]).size}
         count_rows.append(r)
         worst[name] = max(worst.get(name, r), r, key=lambda x: (x["missed"], x["parts"]))
 for name in worst:
@@ -277,10 +261,9 @@ assert agree == len(rec1.decided_cell) and rec1.decided_removed.sum() == rec1.n_
 # removing it would open an incidental loop around the node (Fig. 7.4).
 
 # %%
-cls1, rem1 = rec1.decided_class, rec1.decided_removed
 picks = [(2, True, "Fig. 7.6 (a): C2, the walk closes: removed"), (2, False, "C2, the edge is open: kept"),
          (3, True, "Fig. 7.6 (b): C3, n_B = 0: removed"), (3, False, "Fig. 7.4: C3, n_B != 0: kept")]
-tests = [removal_test(vol1, rec1, np.flatnonzero((cls1 == q) & (rem1 == r))[0]) for q, r, _ in picks]
+tests = [first_removal_test(vol1, rec1, q, r) for q, r, _ in picks]
 plot_thinning.plot_removal_tests([(vol1, tst, title) for tst, (_, _, title) in zip(tests, picks)]).show()
 assert [t_.removed for t_ in tests] == [True, False, True, False]
 assert [bool(t_.on_boundary[t_.quad_nodes].any()) for t_ in tests[2:]] == [False, True]
@@ -298,18 +281,10 @@ c2 = [removal_test(volh1, rech, k) for k in np.flatnonzero(rech.decided_class ==
 opposite = [t_ for t_ in c2 if t_.shared_edges.shape[0] == 0]
 print(f"{len(c2)} C2 tests on hexa1, {len(opposite)} with the neighbours across opposite faces, all kept")
 assert opposite and not any(t_.removed for t_ in opposite)      # no triple-shared edge: E stays
-
-
-def first_test(q, removed, n_quad):
-    for k in np.flatnonzero((rech.decided_class == q) & (rech.decided_removed == removed)):
-        t_ = removal_test(volh1, rech, k)
-        if t_.quad_nodes.size == n_quad:
-            return t_
-
-
-tests_h = [(opposite[0], "(a) C2, opposite faces: kept"), (first_test(3, True, 1), "(b) C3, n_B = 0: removed"),
-           (first_test(4, True, 2), "(c) C4, two inner nodes: removed"),
-           (first_test(4, False, 0), "C4, opposite open faces: kept")]
+tests_h = [(opposite[0], "(a) C2, opposite faces: kept"),
+           (first_removal_test(volh1, rech, 3, True, n_quad=1), "(b) C3, n_B = 0: removed"),
+           (first_removal_test(volh1, rech, 4, True, n_quad=2), "(c) C4, two inner nodes: removed"),
+           (first_removal_test(volh1, rech, 4, False, n_quad=0), "C4, opposite open faces: kept")]
 plot_thinning.plot_removal_tests([(volh1, t_, title) for t_, title in tests_h]).show()
 
 # %% [markdown]
@@ -398,17 +373,8 @@ for r in rows_t:
 # the full scan's. N_e1 counts the cells on the extrema graph's arcs plus the boundary cells
 # (as in the thesis: 468 + 2048 = 2516 for its data 1); Table 7.5 counts as the thesis did:
 # the cells the search tested plus, for the extrema graph and thinning, the cells intersected
-# that propagation registered.
-
-# %%
-def skeleton_row(m, vol):
-    """Table 7.1's skeleton columns; its ends counted from scratch: cells left with one non-removed neighbour."""
-    st, keep, nbr = m.skeleton.stats, m.skeleton.mask(), vol.face_neighbors
-    ends = np.flatnonzero(keep & (((nbr >= 0) & keep[np.maximum(nbr, 0)]).sum(axis=1) == 1))
-    return {"N_e2": st["skeleton_cells"], **{f"C{q}": st[f"C{q}"] for q in range(1, 5)},
-            "ns/cell": 1e9 * st["T_total"] / vol.n_cells, "ends": ends.size,
-            "ends marked": int(np.isin(ends, m.skeleton.marked).sum())}
-
+# that propagation registered. The skeleton's ends (Table 7.2) are counted from scratch:
+# the skeleton cells with exactly one skeleton cell across a face (`analysis.end_cells`).
 
 # %%
 rows = []
@@ -429,9 +395,10 @@ for name in TABLE_DATA:
                     f"N_{key}": sw.seed_cells_tested + (n_ci if key in ("egra", "thin") else 0)})
         if key == "egra":
             row.update(N_ep=m.graph.stats["extrema"], N_e1=m.graph.stats["graph_cells"] + m.graph.stats["boundary_cells"])
-        if key == "thin":
-            row.update(skeleton_row(m, vol))
-    row["N_ci"] = n_ci
+    st, ends = m.skeleton.stats, end_cells(vol, m.skeleton.cells)   # m: thinning, the last method
+    row.update({"N_e2": st["skeleton_cells"], **{f"C{q}": st[f"C{q}"] for q in range(1, 5)}, "N_ci": n_ci,
+                "ns/cell": 1e9 * st["T_total"] / vol.n_cells, "ends": ends.size,
+                "ends marked": int(np.isin(ends, m.skeleton.marked).sum())})
     rows.append(row)
     print(name, "done")
 
