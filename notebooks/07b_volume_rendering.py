@@ -20,8 +20,8 @@
 # walks from cell to neighbouring cell, and at equally spaced samples computes an opacity
 # a(t) and a colour c(t) from the scalar, composited from the far end,
 #
-#   C_t = C_{t−1} (1 − a(t)) + c(t) a(t)          (7.1)
-#   c(t) = E + (G(t) · L) l r(t)                    (7.2)
+#     C_t = C_{t−1} (1 − a(t)) + c(t) a(t)          (7.1)
+#     c(t) = E + (G(t) · L) l r(t)                  (7.2)
 #
 # with G the scalar's gradient (node gradients interpolated like the scalar), L and l the
 # light's direction and energy, r the reflectance. Splatting (Fig. 7.8(b)) draws cells or
