@@ -251,8 +251,11 @@ def plot_fig_7_9(vol, renderers, *, titles=None, window_size=(1300, 480)):
         cells = vol.to_pyvista().extract_cells(sk.cells)
         # (not "distance": the data sets carry a point field of that name, which pyvista would pick)
         cells.cell_data["eye distance"] = sr.distance[vol.cells[sk.cells]].mean(axis=1)
+        # a bar per panel, beside the picture, not over its lower extrema; pyvista keys bars by title,
+        # so the titles differ by trailing spaces
         p.add_mesh(cells, scalars="eye distance", preference="cell", cmap="plasma", show_edges=False,
-                   scalar_bar_args={"title": f"distance from eye {i + 1}"})
+                   scalar_bar_args={"title": "distance" + " " * i, "vertical": True, "position_x": 0.88,
+                                    "position_y": 0.12, "height": 0.7, "width": 0.05, "fmt": "%.2f"})
         p.add_mesh(pv.PolyData(vol.points[sk.extrema.nodes]), color=_EXTREMUM_COLOR, point_size=12,
                    render_points_as_spheres=True)
         eye = np.array(sr.camera.eye)
