@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 
 from polygen.volume import VolumeError, datasets
-from polygen.volume.analysis import end_cells, first_removal_test, side_regions, unseeded_parts
+from polygen.volume.analysis import (
+    end_cells,
+    first_removal_test,
+    replay_tetra_decisions,
+    side_regions,
+    unseeded_parts,
+)
 from polygen.volume.extrema_graph import build_extrema_graph
 from polygen.volume.isosurface import extract
 from polygen.volume.thinning import ThinningError, removal_test, thin_volume
@@ -132,3 +138,31 @@ def test_first_removal_test_is_the_first_match_of_the_record(name, field):
     assert found >= 8          # the kinds above: several classes, both outcomes, 0-2 quadruple-shared nodes
     with pytest.raises(ThinningError, match="record=True"):
         first_removal_test(vol, dataclasses.replace(rec, decided_cell=None), 2, True)
+
+
+@pytest.mark.parametrize("name", ["genus3", "hollow_cube", "torus"])
+def test_replay_agrees_with_the_kernel_and_catches_a_changed_decision(name):
+    vol = datasets.load(name)
+    for field in vol.fields:
+        rec = thin_volume(vol, field, record=True).record
+        agree = replay_tetra_decisions(vol, rec)
+        assert agree.shape == rec.decided_cell.shape and agree.all(), field
+    # the state a test saw comes from the removal order, not from the decisions: flipping one
+    # decision, or its class, is caught at that decision and nowhere else
+    for k in (0, len(rec.decided_cell) // 2, len(rec.decided_cell) - 1):
+        flipped = rec.decided_removed.copy()
+        flipped[k] = ~flipped[k]
+        assert np.flatnonzero(~replay_tetra_decisions(vol, dataclasses.replace(rec, decided_removed=flipped))).tolist() == [k]
+        cls = rec.decided_class.copy()
+        cls[k] = 3 if cls[k] != 3 else 2
+        assert np.flatnonzero(~replay_tetra_decisions(vol, dataclasses.replace(rec, decided_class=cls))).tolist() == [k]
+
+
+def test_replay_names_what_it_cannot_replay():
+    hexes = datasets.load("genus3_hex")
+    with pytest.raises(VolumeError, match="tetrahedral"):
+        replay_tetra_decisions(hexes, thin_volume(hexes, record=True).record)
+    vol = datasets.load("genus3")
+    rec = thin_volume(vol, record=True).record
+    with pytest.raises(ThinningError, match="record=True"):
+        replay_tetra_decisions(vol, dataclasses.replace(rec, decided_cell=None))

@@ -10,7 +10,9 @@ These are the quantities notebook 07 counts against the thesis's claims, compute
 * :func:`end_cells` -- the cells of a set with exactly one face neighbour in it (Table 7.2: the
   skeleton's C1 cells are its ends, the marked cells at the extrema);
 * :func:`first_removal_test` -- the first recorded thinning decision of a given kind, rebuilt by
-  :func:`polygen.volume.thinning.removal_test` (Figs 7.6, 7.13).
+  :func:`polygen.volume.thinning.removal_test` (Figs 7.6, 7.13);
+* :func:`replay_tetra_decisions` -- every recorded decision of a tetrahedral thinning, checked
+  against the thesis's rules of 7.5.2 applied from scratch to the state it saw.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import numpy as np
 from polygen.volume.errors import VolumeError
 from polygen.volume.thinning import ThinningError, removal_test
 
-__all__ = ["side_regions", "unseeded_parts", "end_cells", "first_removal_test"]
+__all__ = ["side_regions", "unseeded_parts", "end_cells", "first_removal_test", "replay_tetra_decisions"]
 
 
 def _cell_ids(vol, cells, name):
@@ -157,3 +159,64 @@ def first_removal_test(vol, record, cls, removed, *, n_quad=None):
             return test
     raise ThinningError(f"no recorded C{cls} decision with removed={bool(removed)}"
                         + ("" if n_quad is None else f" and {n_quad} quadruple-shared nodes"))
+
+
+def replay_tetra_decisions(vol, record):
+    """Whether each recorded decision of a tetrahedral thinning is the thesis's rule (7.5.2).
+
+    Replayed in plain Python on the state each test saw -- the cells removed before it
+    (``record.decided_after``); ``n_B != 0`` for a node on the volume's boundary or on a removed
+    cell -- a decision agrees when the cell had as many non-removed neighbours as its class and:
+    C1 goes; C2 goes exactly when its triple-shared edge is inside the volume (not an edge of a
+    boundary face) and every cell around that edge is still there (the walk from E_a reaches
+    E_b); C3 goes exactly when its quadruple-shared node has ``n_B = 0``.
+
+    Parameters
+    ----------
+    vol : UnstructuredVolume
+        The tetrahedral volume that was thinned.
+    record : ThinningRecord
+        From ``thin_volume(vol, ..., record=True)``.
+
+    Returns
+    -------
+    (D,) bool
+        Per decision in ``record.decided_cell``: the replay agrees.
+
+    Raises
+    ------
+    VolumeError
+        A volume of hexahedra (their rules are others, Fig. 7.13).
+    ThinningError
+        A record without decisions.
+    """
+    if vol.cell_type != "tetra":
+        raise VolumeError(f"the replay knows the tetrahedral rules; got a volume of {vol.cell_type}")
+    if record.decided_cell is None:
+        raise ThinningError("this record has no decisions; thin with record=True")
+    off, node_cells = vol.node_cells
+    bf = vol.boundary_face_nodes
+    boundary_edges = {tuple(sorted(e)) for f in bf.tolist() for e in zip(f, f[1:] + f[:1])}
+    gone, on_b = np.zeros(vol.n_cells, bool), np.zeros(vol.n_points, bool)
+    on_b[bf.ravel()] = True
+    agree = np.zeros(record.decided_cell.shape[0], bool)
+    done = 0
+    for k, (c, q, removed) in enumerate(zip(record.decided_cell.tolist(), record.decided_class.tolist(),
+                                            record.decided_removed.tolist())):
+        for x in record.removal_order[done:record.decided_after[k]]:
+            gone[x], on_b[vol.cells[x]] = True, True
+        done = record.decided_after[k]
+        nb = [f for f in range(4) if vol.face_neighbors[c, f] >= 0 and not gone[vol.face_neighbors[c, f]]]
+        if len(nb) != q:
+            continue
+        faces = [set(vol.cells[c, vol.local_faces[f]].tolist()) for f in nb]
+        if q == 2:
+            a, b = sorted(faces[0] & faces[1])
+            around = np.intersect1d(node_cells[off[a]:off[a + 1]], node_cells[off[b]:off[b + 1]])
+            rule = (a, b) not in boundary_edges and not gone[around].any()
+        elif q == 3:
+            rule = not on_b[next(iter(faces[0] & faces[1] & faces[2]))]
+        else:
+            rule = q == 1
+        agree[k] = rule == removed
+    return agree
