@@ -42,7 +42,8 @@ import numpy as np
 from polygen import plotting
 from polygen.plotting import thinning as plot_thinning
 from polygen.volume import datasets, methods
-from polygen.volume.analysis import end_cells, first_removal_test, side_regions, unseeded_parts
+from polygen.volume.analysis import (end_cells, first_removal_test, replay_tetra_decisions, side_regions,
+                                     unseeded_parts)
 from polygen.volume.extrema_graph import build_extrema_graph
 from polygen.volume.isosurface import extract, same_surface
 from polygen.volume.propagate import Propagator
@@ -224,30 +225,15 @@ print(plotting.table(rows_r, ["data", "class", "taken", "removed"]))
 # n_B ≠ 0 for a node on the volume's boundary or on a removed cell), every decision is the
 # thesis's tetrahedral rule: C1 goes; C2 goes when its triple-shared edge is inside the
 # volume and every cell around it is still there (the walk from E_a reaches E_b); C3 goes
-# when its quadruple-shared node has n_B = 0.
+# when its quadruple-shared node has n_B = 0 (the replay, in plain Python apart from the
+# kernels: `analysis.replay_tetra_decisions`).
 
 # %%
 sk1r = thin_volume(vol1, record=True)
 rec1 = sk1r.record
-off1, nc1 = vol1.node_cells
-bf1 = vol1.boundary_face_nodes
-boundary_edges = {tuple(sorted(e)) for f in bf1.tolist() for e in zip(f, f[1:] + f[:1])}
-gone, on_b, done, agree = np.zeros(vol1.n_cells, bool), np.zeros(vol1.n_points, bool), 0, 0
-on_b[bf1.ravel()] = True
-for k, (c, q, removed) in enumerate(zip(rec1.decided_cell, rec1.decided_class, rec1.decided_removed)):
-    for x in rec1.removal_order[done:rec1.decided_after[k]]:
-        gone[x], on_b[vol1.cells[x]] = True, True
-    done = rec1.decided_after[k]
-    nb = [f for f in range(4) if vol1.face_neighbors[c, f] >= 0 and not gone[vol1.face_neighbors[c, f]]]
-    faces = [set(vol1.cells[c, vol1.local_faces[f]].tolist()) for f in nb]
-    if q == 2:
-        a, b = sorted(faces[0] & faces[1])
-        rule = (a, b) not in boundary_edges and not gone[np.intersect1d(nc1[off1[a]:off1[a + 1]], nc1[off1[b]:off1[b + 1]])].any()
-    else:
-        rule = q == 1 or not on_b[list(faces[0] & faces[1] & faces[2])[0]]
-    agree += len(nb) == q and rule == removed
-print(f"{agree} of {len(rec1.decided_cell)} decisions replayed alike")
-assert agree == len(rec1.decided_cell) and rec1.decided_removed.sum() == rec1.n_removed - sk1r.stats["prick_cells"]
+agree = replay_tetra_decisions(vol1, rec1)
+print(f"{agree.sum()} of {agree.size} decisions replayed alike")
+assert agree.all() and rec1.decided_removed.sum() == rec1.n_removed - sk1r.stats["prick_cells"]
 
 # %% [markdown]
 # Four of those tests, drawn from the record (E red when removed, orange when kept; its
