@@ -51,7 +51,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from _common import RESULTS, machine  # noqa: E402
+from _common import RESULTS, machine, vtk_contour  # noqa: E402
 from polygen.volume import UnstructuredVolume, datasets, isovalues, methods  # noqa: E402
 
 DATA = ["data4", "2M"]
@@ -79,31 +79,9 @@ def vtk_grid(points, cells, s):
 
 def vtk_filter(grid, label):
     """A configured filter and ``one(v) -> n_triangles``."""
-    import vtk
-
-    span = label.endswith("+SpanSpace")
-    if label.startswith("vtkContour3DLinearGrid"):
-        f = vtk.vtkContour3DLinearGrid()  # merges points always (VTK >= 9.7)
-        f.SetInterpolateAttributes(False)
-    else:
-        f = vtk.vtkContourFilter()
-    f.SetInputData(grid)
-    f.SetInputArrayToProcess(0, 0, 0, vtk.vtkDataObject.FIELD_ASSOCIATION_POINTS, FIELD)
-    f.ComputeNormalsOn()
-    f.ComputeScalarsOff()
-    if span:
-        f.SetScalarTree(vtk.vtkSpanSpace())
-        f.UseScalarTreeOn()
-    else:
-        f.UseScalarTreeOff()
-    f.SetNumberOfContours(1)
-
-    def one(v):
-        f.SetValue(0, float(v))
-        f.Update()
-        return f.GetOutput().GetNumberOfCells()
-
-    return f, one
+    f, one = vtk_contour(grid, FIELD, linear_grid=label.startswith("vtkContour3DLinearGrid"),
+                         span_space=label.endswith("+SpanSpace"))
+    return f, lambda v: one(v)[0]
 
 
 # ------------------------------------------------------------------ helpers

@@ -35,7 +35,7 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from _common import best_of, write_results  # noqa: E402
+from _common import best_of, vtk_contour, write_results  # noqa: E402
 from polygen.volume import datasets, isovalues, methods  # noqa: E402
 
 DATA = ["data1", "data2", "data3", "data4", "data5", "2M"]
@@ -63,26 +63,7 @@ def vtk_grid(vol, field):
 
 def run_vtk(grid, field, values, *, span_space, repeat):
     """(preprocess_s, query_s, triangles per value, vertices per value)."""
-    import vtk
-
-    f = vtk.vtkContourFilter()
-    f.SetInputData(grid)
-    f.SetInputArrayToProcess(0, 0, 0, vtk.vtkDataObject.FIELD_ASSOCIATION_POINTS, field)
-    f.ComputeNormalsOn()
-    f.ComputeScalarsOff()
-    if span_space:
-        f.SetScalarTree(vtk.vtkSpanSpace())
-        f.UseScalarTreeOn()
-    else:
-        f.UseScalarTreeOff()
-    f.SetNumberOfContours(1)
-
-    def one(v):
-        f.SetValue(0, float(v))
-        f.Update()
-        out = f.GetOutput()
-        return out.GetNumberOfCells(), out.GetNumberOfPoints()
-
+    f, one = vtk_contour(grid, field, span_space=span_space)
     # the first update builds the scalar tree (if any); the same value again does not
     t0 = time.perf_counter()
     one(values[0])

@@ -42,6 +42,8 @@ import numpy as np
 from polygen import plotting
 from polygen.plotting import thinning as plot_thinning
 from polygen.volume import datasets, methods
+from polygen.volume.analysis import (end_cells, first_removal_test, replay_tetra_decisions, side_regions,
+                                     unseeded_parts)
 from polygen.volume.extrema_graph import build_extrema_graph
 from polygen.volume.isosurface import extract, same_surface
 from polygen.volume.propagate import Propagator
@@ -118,26 +120,8 @@ plot_thinning.plot_fig_7_1(vol1, graph_d, skel_d, full, from_arcs).show()
 # of the hollow cube (a void, no through-hole) and of the ring (one through-hole): regions =
 # connected groups of nodes on one side of C joined by volume edges (in a tetrahedron the
 # nodes on one side are joined by its edges), parts = connected parts of the surface, and the
-# parts no arc crosses (a part is crossed when one of its cells is a seed found on an arc).
-
-# %%
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-
-
-def regions(vol, s, v):
-    n = 0
-    for side in (s < v, s >= v):
-        e = vol.edges[side[vol.edges[:, 0]] & side[vol.edges[:, 1]]]
-        _, lab = connected_components(coo_matrix((np.ones(len(e)), tuple(e.T)), shape=(len(s),) * 2))
-        n += np.unique(lab[side]).size
-    return n
-
-
-def missed_parts(vol, graph, iso):
-    seeds = graph.seeds(iso.value)
-    comp = iso.triangle_components()
-    return np.setdiff1d(comp, comp[np.isin(iso.triangle_cells, seeds.cells[:seeds.n_from_arcs])]).size
+# parts no arc crosses (a part is crossed when one of its cells is a seed found on an arc):
+# `side_regions` and `unseeded_parts` of `polygen.volume.analysis`.
 
 # %%
 count_rows, worst = [], {}
@@ -145,9 +129,10 @@ for name in ["hollow_cube", "torus"]:
     vol, s = datasets.load(name), datasets.load(name).scalars()
     graph = build_extrema_graph(vol, s)
     for v in np.linspace(s.min(), s.max(), 62)[1:-1]:
-        iso = extract(vol, v)
-        r = {"data": name, "genus": vol.n_through_holes, "C": v, "regions": regions(vol, s, v),
-             "parts": iso.connected_components()[1], "missed": missed_parts(vol, graph, iso)}
+        iso, seeds = extract(vol, v), graph.seeds(v)
+        r = {"data": name, "genus": vol.n_through_holes, "C": v, "regions": side_regions(vol, s, v),
+             "parts": iso.connected_components()[1],
+             "missed": unseeded_parts(iso, seeds.cells[:seeds.n_from_arcs]).size}
         count_rows.append(r)
         worst[name] = max(worst.get(name, r), r, key=lambda x: (x["missed"], x["parts"]))
 for name in worst:
@@ -240,30 +225,15 @@ print(plotting.table(rows_r, ["data", "class", "taken", "removed"]))
 # n_B ≠ 0 for a node on the volume's boundary or on a removed cell), every decision is the
 # thesis's tetrahedral rule: C1 goes; C2 goes when its triple-shared edge is inside the
 # volume and every cell around it is still there (the walk from E_a reaches E_b); C3 goes
-# when its quadruple-shared node has n_B = 0.
+# when its quadruple-shared node has n_B = 0 (the replay, in plain Python apart from the
+# kernels: `analysis.replay_tetra_decisions`).
 
 # %%
 sk1r = thin_volume(vol1, record=True)
 rec1 = sk1r.record
-off1, nc1 = vol1.node_cells
-bf1 = vol1.boundary_face_nodes
-boundary_edges = {tuple(sorted(e)) for f in bf1.tolist() for e in zip(f, f[1:] + f[:1])}
-gone, on_b, done, agree = np.zeros(vol1.n_cells, bool), np.zeros(vol1.n_points, bool), 0, 0
-on_b[bf1.ravel()] = True
-for k, (c, q, removed) in enumerate(zip(rec1.decided_cell, rec1.decided_class, rec1.decided_removed)):
-    for x in rec1.removal_order[done:rec1.decided_after[k]]:
-        gone[x], on_b[vol1.cells[x]] = True, True
-    done = rec1.decided_after[k]
-    nb = [f for f in range(4) if vol1.face_neighbors[c, f] >= 0 and not gone[vol1.face_neighbors[c, f]]]
-    faces = [set(vol1.cells[c, vol1.local_faces[f]].tolist()) for f in nb]
-    if q == 2:
-        a, b = sorted(faces[0] & faces[1])
-        rule = (a, b) not in boundary_edges and not gone[np.intersect1d(nc1[off1[a]:off1[a + 1]], nc1[off1[b]:off1[b + 1]])].any()
-    else:
-        rule = q == 1 or not on_b[list(faces[0] & faces[1] & faces[2])[0]]
-    agree += len(nb) == q and rule == removed
-print(f"{agree} of {len(rec1.decided_cell)} decisions replayed alike")
-assert agree == len(rec1.decided_cell) and rec1.decided_removed.sum() == rec1.n_removed - sk1r.stats["prick_cells"]
+agree = replay_tetra_decisions(vol1, rec1)
+print(f"{agree.sum()} of {agree.size} decisions replayed alike")
+assert agree.all() and rec1.decided_removed.sum() == rec1.n_removed - sk1r.stats["prick_cells"]
 
 # %% [markdown]
 # Four of those tests, drawn from the record (E red when removed, orange when kept; its
@@ -277,10 +247,9 @@ assert agree == len(rec1.decided_cell) and rec1.decided_removed.sum() == rec1.n_
 # removing it would open an incidental loop around the node (Fig. 7.4).
 
 # %%
-cls1, rem1 = rec1.decided_class, rec1.decided_removed
 picks = [(2, True, "Fig. 7.6 (a): C2, the walk closes: removed"), (2, False, "C2, the edge is open: kept"),
          (3, True, "Fig. 7.6 (b): C3, n_B = 0: removed"), (3, False, "Fig. 7.4: C3, n_B != 0: kept")]
-tests = [removal_test(vol1, rec1, np.flatnonzero((cls1 == q) & (rem1 == r))[0]) for q, r, _ in picks]
+tests = [first_removal_test(vol1, rec1, q, r) for q, r, _ in picks]
 plot_thinning.plot_removal_tests([(vol1, tst, title) for tst, (_, _, title) in zip(tests, picks)]).show()
 assert [t_.removed for t_ in tests] == [True, False, True, False]
 assert [bool(t_.on_boundary[t_.quad_nodes].any()) for t_ in tests[2:]] == [False, True]
@@ -298,18 +267,10 @@ c2 = [removal_test(volh1, rech, k) for k in np.flatnonzero(rech.decided_class ==
 opposite = [t_ for t_ in c2 if t_.shared_edges.shape[0] == 0]
 print(f"{len(c2)} C2 tests on hexa1, {len(opposite)} with the neighbours across opposite faces, all kept")
 assert opposite and not any(t_.removed for t_ in opposite)      # no triple-shared edge: E stays
-
-
-def first_test(q, removed, n_quad):
-    for k in np.flatnonzero((rech.decided_class == q) & (rech.decided_removed == removed)):
-        t_ = removal_test(volh1, rech, k)
-        if t_.quad_nodes.size == n_quad:
-            return t_
-
-
-tests_h = [(opposite[0], "(a) C2, opposite faces: kept"), (first_test(3, True, 1), "(b) C3, n_B = 0: removed"),
-           (first_test(4, True, 2), "(c) C4, two inner nodes: removed"),
-           (first_test(4, False, 0), "C4, opposite open faces: kept")]
+tests_h = [(opposite[0], "(a) C2, opposite faces: kept"),
+           (first_removal_test(volh1, rech, 3, True, n_quad=1), "(b) C3, n_B = 0: removed"),
+           (first_removal_test(volh1, rech, 4, True, n_quad=2), "(c) C4, two inner nodes: removed"),
+           (first_removal_test(volh1, rech, 4, False, n_quad=0), "C4, opposite open faces: kept")]
 plot_thinning.plot_removal_tests([(volh1, t_, title) for t_, title in tests_h]).show()
 
 # %% [markdown]
@@ -398,17 +359,8 @@ for r in rows_t:
 # the full scan's. N_e1 counts the cells on the extrema graph's arcs plus the boundary cells
 # (as in the thesis: 468 + 2048 = 2516 for its data 1); Table 7.5 counts as the thesis did:
 # the cells the search tested plus, for the extrema graph and thinning, the cells intersected
-# that propagation registered.
-
-# %%
-def skeleton_row(m, vol):
-    """Table 7.1's skeleton columns; its ends counted from scratch: cells left with one non-removed neighbour."""
-    st, keep, nbr = m.skeleton.stats, m.skeleton.mask(), vol.face_neighbors
-    ends = np.flatnonzero(keep & (((nbr >= 0) & keep[np.maximum(nbr, 0)]).sum(axis=1) == 1))
-    return {"N_e2": st["skeleton_cells"], **{f"C{q}": st[f"C{q}"] for q in range(1, 5)},
-            "ns/cell": 1e9 * st["T_total"] / vol.n_cells, "ends": ends.size,
-            "ends marked": int(np.isin(ends, m.skeleton.marked).sum())}
-
+# that propagation registered. The skeleton's ends (Table 7.2) are counted from scratch:
+# the skeleton cells with exactly one skeleton cell across a face (`analysis.end_cells`).
 
 # %%
 rows = []
@@ -429,9 +381,10 @@ for name in TABLE_DATA:
                     f"N_{key}": sw.seed_cells_tested + (n_ci if key in ("egra", "thin") else 0)})
         if key == "egra":
             row.update(N_ep=m.graph.stats["extrema"], N_e1=m.graph.stats["graph_cells"] + m.graph.stats["boundary_cells"])
-        if key == "thin":
-            row.update(skeleton_row(m, vol))
-    row["N_ci"] = n_ci
+    st, ends = m.skeleton.stats, end_cells(vol, m.skeleton.cells)   # m: thinning, the last method
+    row.update({"N_e2": st["skeleton_cells"], **{f"C{q}": st[f"C{q}"] for q in range(1, 5)}, "N_ci": n_ci,
+                "ns/cell": 1e9 * st["T_total"] / vol.n_cells, "ends": ends.size,
+                "ends marked": int(np.isin(ends, m.skeleton.marked).sum())})
     rows.append(row)
     print(name, "done")
 

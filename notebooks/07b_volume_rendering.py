@@ -20,8 +20,8 @@
 # walks from cell to neighbouring cell, and at equally spaced samples computes an opacity
 # a(t) and a colour c(t) from the scalar, composited from the far end,
 #
-#   C_t = C_{t−1} (1 − a(t)) + c(t) a(t)          (7.1)
-#   c(t) = E + (G(t) · L) l r(t)                    (7.2)
+#     C_t = C_{t−1} (1 − a(t)) + c(t) a(t)          (7.1)
+#     c(t) = E + (G(t) · L) l r(t)                  (7.2)
 #
 # with G the scalar's gradient (node gradients interpolated like the scalar), L and l the
 # light's direction and energy, r the reflectance. Splatting (Fig. 7.8(b)) draws cells or
@@ -56,7 +56,7 @@ from polygen import plotting
 from polygen.plotting import render as plot_render
 from polygen.volume import datasets
 from polygen.volume.render import (View, Lighting, RayCaster, ShellRenderer, TransferFunction,
-                                   psnr)
+                                   psnr, view_around)
 from polygen.volume.render.shells import render_shells_pyvista
 
 pv = plotting.setup_notebook()
@@ -66,20 +66,9 @@ IMAGE = 256 if FULL else 128          # pixels per side
 SAMPLES = 100                         # samples (and surfaces) per volume diagonal
 TET, HEX = "data4", ("hexa2" if FULL else "hexa1")
 PSNR_MIN = 35.0                       # dB: the agreement issue 16 asks of the two methods
-
-
-def view(vol, size=IMAGE, *, eye=(1.2, -1.6, 0.9), fov=35):
-    """A perspective camera looking at the middle of ``vol`` from ``eye`` (in diagonals)."""
-    lo, hi = vol.points.min(0), vol.points.max(0)
-    diag = float(np.linalg.norm(hi - lo))
-    return View(eye=(lo + hi) / 2 + diag * np.array(eye), target=(lo + hi) / 2, fov=fov,
-                  size=(size, size)), diag
-
-
-def ramp(vol, diag, cmap="viridis", lo=0.0, hi=0.9):
-    s = vol.scalars()
-    return TransferFunction.ramp(s.min(), s.max(), cmap=cmap, opacity=(lo, hi), unit=diag / 20)
-
+# cameras: view_around(points, eye=...) looks at the middle of the volume's box from `eye`
+# (in diagonals) and returns the diagonal too; transfer functions: a colour ramp over the FEM
+# field with the opacity rising from 0 to 0.9 per a twentieth of the diagonal
 
 # %% [markdown]
 # ## Fig. 7.8 — three ways to sample a volume, on a slice of data 1
@@ -110,10 +99,12 @@ plt.show()
 
 # %%
 vol4 = datasets.load(TET)
-cam4, diag4 = view(vol4)
+cam4, diag4 = view_around(vol4.points, size=IMAGE)
 step4 = diag4 / SAMPLES
+s4 = vol4.scalars()
+tf4 = TransferFunction.ramp(s4.min(), s4.max(), opacity=(0.0, 0.9), unit=diag4 / 20)
 rc4 = RayCaster(vol4)
-ray4 = rc4.render(cam4, ramp(vol4, diag4), step=step4)
+ray4 = rc4.render(cam4, tf4, step=step4)
 fig, ax = plt.subplots(1, 3, figsize=(12, 3.8))
 ax[0].imshow(np.clip(ray4.image, 0, 1)); ax[0].set_title(f"{TET}: ray casting, {ray4.seconds['total']:.2f} s")
 im = ax[1].imshow(ray4.length, cmap="magma"); ax[1].set_title("length inside material")
@@ -141,7 +132,7 @@ inner = np.flatnonzero(~np.isin(vol1.cells, vol1.boundary_face_nodes).any(axis=1
 c_in = vol1.points[vol1.cells[inner]].mean(axis=1)
 eye_in = c_in[np.argmin(np.linalg.norm(c_in - [2.6, 1.0, 0.5], axis=1))]
 cam_in = View(eye=eye_in, target=eye_in + [1.0, 0.3, 0.0], fov=60, size=(IMAGE, IMAGE))
-cam_out, diag1 = view(vol1, eye=(0.3, -0.45, 0.3))                 # just outside the block
+cam_out, diag1 = view_around(vol1.points, eye=(0.3, -0.45, 0.3), size=IMAGE)   # just outside the block
 sr_in, sr_out = ShellRenderer(vol1, cam_in), ShellRenderer(vol1, cam_out)
 plot_render.plot_fig_7_9(vol1, [sr_in, sr_out]).show()
 bnodes = np.unique(vol1.boundary_face_nodes)
@@ -175,7 +166,7 @@ assert np.isin(sr_out.extrema.nodes, bnodes).all()
 
 # %%
 shell4 = ShellRenderer(vol4, cam4)
-sh4 = shell4.render(ramp(vol4, diag4), step=step4)
+sh4 = shell4.render(tf4, step=step4)
 p4 = psnr(ray4.image, sh4.image)
 plot_render.plot_comparison([ray4.image, sh4.image], [f"{TET}: ray casting", f"equi-distance surfaces, "
                             f"{len(shell4.shells(step4).radii)} surfaces, PSNR {p4:.1f} dB"])
@@ -187,11 +178,13 @@ assert p4 >= PSNR_MIN
 
 # %%
 volh = datasets.load(HEX)
-camh, diagh = view(volh, eye=(0.9, -1.4, 1.3))
+camh, diagh = view_around(volh.points, eye=(0.9, -1.4, 1.3), size=IMAGE)
 steph = diagh / SAMPLES
-rayh = RayCaster(volh).render(camh, ramp(volh, diagh, "plasma"), step=steph)
+s_hex = volh.scalars()
+tfh = TransferFunction.ramp(s_hex.min(), s_hex.max(), cmap="plasma", opacity=(0.0, 0.9), unit=diagh / 20)
+rayh = RayCaster(volh).render(camh, tfh, step=steph)
 shellh = ShellRenderer(volh, camh)
-shh = shellh.render(ramp(volh, diagh, "plasma"), step=steph)
+shh = shellh.render(tfh, step=steph)
 ph = psnr(rayh.image, shh.image)
 plot_render.plot_comparison([rayh.image, shh.image], [f"{HEX} (hexahedra): ray casting",
                                                       f"equi-distance surfaces, PSNR {ph:.1f} dB"])
@@ -212,7 +205,7 @@ assert ph >= PSNR_MIN
 
 # %%
 t0 = time.perf_counter()
-vtk4 = render_shells_pyvista(shell4.shells(step4), cam4, ramp(vol4, diag4))
+vtk4 = render_shells_pyvista(shell4.shells(step4), cam4, tf4)
 t_vtk4 = time.perf_counter() - t0
 plot_render.plot_comparison([sh4.image, vtk4], ["equi-distance surfaces (ours)",
                             f"same surfaces, VTK depth peeling ({t_vtk4:.1f} s)"])
@@ -230,13 +223,13 @@ print(f"PSNR ours vs VTK depth peeling: {psnr(sh4.image, vtk4):.1f} dB")
 # alternating; the median per frame. `benchmarks/render.py` does this on data 1–5 at 256².
 
 # %%
-vtk_rc = plot_render.VtkUgridRayCaster(vol4, cam4, ramp(vol4, diag4))
+vtk_rc = plot_render.VtkUgridRayCaster(vol4, cam4, tf4)
 vtk_rc.render()
 ours_t, vtk_t = [], []
 for _ in range(3):
     rc4._bins = None                                  # a new view each frame
     t0 = time.perf_counter()
-    flat = rc4.render(cam4, ramp(vol4, diag4), step=diag4 / 200, lighting=Lighting(shade=False))
+    flat = rc4.render(cam4, tf4, step=diag4 / 200, lighting=Lighting(shade=False))
     ours_t.append(time.perf_counter() - t0)
     img_vtk, t = vtk_rc.render()
     vtk_t.append(t)
@@ -259,7 +252,7 @@ print(f"PSNR ours vs VTK: {psnr(flat.image, img_vtk):.1f} dB")
 # skeleton), a moved eye (everything again) — against casting the rays again.
 
 # %%
-tf2 = ramp(vol4, diag4, "magma", 0.5, 0.05)
+tf2 = TransferFunction.ramp(s4.min(), s4.max(), cmap="magma", opacity=(0.5, 0.05), unit=diag4 / 20)
 rows, before = [], shell4.rebuilds
 t0 = time.perf_counter(); rc4.render(cam4, tf2, step=step4); t_cast = time.perf_counter() - t0
 work = (shell4.shell_builds, shell4.fragment_builds)
@@ -286,24 +279,9 @@ assert work == (0, 0)
 # builds new surfaces from the same skeleton). In a static rendering the first image shows.
 
 # %%
-cam1, diag1 = view(vol1)
-sr1 = ShellRenderer(vol1, cam1)
-s1 = vol1.scalars()
-
-
-def show(cmap="viridis", opacity_low=0.0, opacity_high=0.6, surfaces=SAMPLES):
-    tf = TransferFunction.ramp(s1.min(), s1.max(), cmap=cmap, opacity=(opacity_low, opacity_high),
-                               unit=diag1 / 20)
-    res = sr1.render(tf, step=diag1 / surfaces)
-    fig, ax = plt.subplots(1, 2, figsize=(9, 3.6), gridspec_kw={"width_ratios": [1, 1.4]})
-    ax[0].imshow(np.clip(res.image, 0, 1)); ax[0].axis("off")
-    ax[0].set_title(f"{surfaces} surfaces per diagonal, {res.seconds['total'] * 1e3:.0f} ms")
-    plot_render.plot_transfer_function(tf, ax=ax[1])
-    plt.tight_layout()
-    plt.show()
-
-
-ipywidgets.interact(show, cmap=["viridis", "magma", "coolwarm", "plasma"],
+sr1 = ShellRenderer(vol1, view_around(vol1.points, size=IMAGE)[0])
+ipywidgets.interact(plot_render.show_shell_render, renderer=ipywidgets.fixed(sr1),
+                    cmap=["viridis", "magma", "coolwarm", "plasma"],
                     opacity_low=ipywidgets.FloatSlider(value=0.0, min=0, max=1, step=0.05),
                     opacity_high=ipywidgets.FloatSlider(value=0.6, min=0, max=1, step=0.05),
                     surfaces=ipywidgets.IntSlider(value=SAMPLES, min=10, max=300, step=10,
@@ -320,7 +298,7 @@ ipywidgets.interact(show, cmap=["viridis", "magma", "coolwarm", "plasma"],
 rows = []
 for name in (["data1", "data2", "hexa1", "data4"] + (["data3", "data5", "hexa2", "hexa3"] if FULL else [])):
     vol = vol1 if name == "data1" else vol4 if name == TET else datasets.load(name)
-    cam, diag = view(vol, 8)
+    cam, diag = view_around(vol.points, size=8)
     sr = ShellRenderer(vol, cam)
     sr.set_camera(cam.replace(eye=tuple(np.array(cam.eye) + [0.1 * diag, 0, 0])))
     rows.append({"data": name, "cells": vol.n_cells, "T_eye_moved (s)": sr.skeleton_s,

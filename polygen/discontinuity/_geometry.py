@@ -105,11 +105,14 @@ def polytope_vertices(planes, tol):
     return V, np.stack([i, j], axis=1).astype(np.int64), on
 
 
-def clip_polygon_2d(poly, a, c, tol=0.0):
-    """Sutherland-Hodgman: the part of convex polygon ``poly (k, 2)`` where ``a . x <= c``."""
+def clip_polygon(poly, n, d, tol=0.0):
+    """Sutherland-Hodgman: the part of a planar convex polygon ``poly (k, 2|3)`` where ``n . x <= d``.
+
+    Returned unchanged when every vertex has ``n . x - d <= tol``.
+    """
     if len(poly) == 0:
         return poly
-    s = poly @ a - c
+    s = poly @ n - d
     if np.all(s <= tol):
         return poly
     out = []
@@ -121,26 +124,17 @@ def clip_polygon_2d(poly, a, c, tol=0.0):
             out.append(p)
         if (sp < 0.0 < sq) or (sq < 0.0 < sp):
             out.append(p + (q - p) * (sp / (sp - sq)))
-    return np.asarray(out, dtype=np.float64).reshape(-1, 2)
+    return np.asarray(out, dtype=np.float64).reshape(-1, np.shape(poly)[1])
+
+
+def clip_polygon_2d(poly, a, c, tol=0.0):
+    """:func:`clip_polygon` of a polygon ``poly (k, 2)`` in the plane: where ``a . x <= c``."""
+    return clip_polygon(poly, a, c, tol)
 
 
 def clip_polygon_3d(poly, n, d):
-    """The part of a planar convex polygon ``poly (k, 3)`` where ``n . x <= d``."""
-    if len(poly) == 0:
-        return poly
-    s = poly @ n - d
-    if np.all(s <= 0.0):
-        return poly
-    out = []
-    k = len(poly)
-    for i in range(k):
-        p, q = poly[i], poly[(i + 1) % k]
-        sp, sq = s[i], s[(i + 1) % k]
-        if sp <= 0.0:
-            out.append(p)
-        if (sp < 0.0 < sq) or (sq < 0.0 < sp):
-            out.append(p + (q - p) * (sp / (sp - sq)))
-    return np.asarray(out, dtype=np.float64).reshape(-1, 3)
+    """:func:`clip_polygon` of a planar polygon ``poly (k, 3)`` in space: where ``n . x <= d``."""
+    return clip_polygon(poly, n, d)
 
 
 def clean_ring(poly, tol):

@@ -13,7 +13,8 @@ import numpy as np
 from polygen.plotting._common import EXTREMUM_COLOR as _EXTREMUM_COLOR
 from polygen.plotting._common import _plotter, boundary_mesh
 
-__all__ = ["VtkUgridRayCaster", "plot_fig_7_8", "plot_fig_7_9", "plot_comparison", "plot_transfer_function"]
+__all__ = ["VtkUgridRayCaster", "plot_fig_7_8", "plot_fig_7_9", "plot_comparison", "plot_transfer_function",
+           "plot_shell_render", "show_shell_render"]
 
 
 class VtkUgridRayCaster:
@@ -103,6 +104,57 @@ def plot_transfer_function(tf, *, ax=None, title=None):
     ax.set_xlabel("scalar S")
     ax.set_title(title or f"transfer function (opacity curve, max {a.max():.2f} per {tf.unit:.3g})")
     return ax
+
+
+def plot_shell_render(renderer, tf, *, step, axes=None):
+    """The image of ``renderer.render(tf, step=step)`` beside the transfer function.
+
+    Parameters
+    ----------
+    renderer : polygen.volume.render.ShellRenderer
+    tf : polygen.volume.render.TransferFunction
+    step : float
+        The spacing of the equi-distance surfaces.
+    axes : (2,) matplotlib Axes, optional
+        Image, transfer function; a new figure by default.
+
+    Returns
+    -------
+    fig : matplotlib Figure
+    result : RenderResult
+    """
+    import matplotlib.pyplot as plt
+
+    res = renderer.render(tf, step=step)
+    if axes is None:
+        _, axes = plt.subplots(1, 2, figsize=(9, 3.6), gridspec_kw={"width_ratios": [1, 1.4]})
+    axes[0].imshow(np.clip(res.image, 0, 1))
+    axes[0].axis("off")
+    diag = float(np.linalg.norm(np.ptp(renderer.vol.points, axis=0)))
+    axes[0].set_title(f"{diag / step:.0f} surfaces per diagonal, {res.seconds['total'] * 1e3:.0f} ms")
+    plot_transfer_function(tf, ax=axes[1])
+    return axes[0].figure, res
+
+
+def show_shell_render(renderer, cmap="viridis", opacity_low=0.0, opacity_high=0.6, surfaces=100):
+    """The transfer-function editor's callback (7.8.3): re-render with a new colour map, opacity or count.
+
+    A colour ramp over the renderer's field, the opacity linear from ``opacity_low`` to
+    ``opacity_high`` per a twentieth of the volume's diagonal, ``surfaces`` equi-distance surfaces
+    per diagonal; drawn by :func:`plot_shell_render` and shown. Meant for
+    ``ipywidgets.interact(show_shell_render, renderer=fixed(renderer), cmap=[...], ...)``: the
+    skeleton is built once per eye, so only a new count builds new surfaces.
+    """
+    import matplotlib.pyplot as plt
+
+    from polygen.volume.render import TransferFunction
+
+    s = renderer.values
+    diag = float(np.linalg.norm(np.ptp(renderer.vol.points, axis=0)))
+    tf = TransferFunction.ramp(s.min(), s.max(), cmap=cmap, opacity=(opacity_low, opacity_high), unit=diag / 20)
+    plot_shell_render(renderer, tf, step=diag / surfaces)
+    plt.tight_layout()
+    plt.show()
 
 
 def _slice_polys(vol, origin, normal):
@@ -199,8 +251,11 @@ def plot_fig_7_9(vol, renderers, *, titles=None, window_size=(1300, 480)):
         cells = vol.to_pyvista().extract_cells(sk.cells)
         # (not "distance": the data sets carry a point field of that name, which pyvista would pick)
         cells.cell_data["eye distance"] = sr.distance[vol.cells[sk.cells]].mean(axis=1)
+        # a bar per panel, beside the picture, not over its lower extrema; pyvista keys bars by title,
+        # so the titles differ by trailing spaces
         p.add_mesh(cells, scalars="eye distance", preference="cell", cmap="plasma", show_edges=False,
-                   scalar_bar_args={"title": f"distance from eye {i + 1}"})
+                   scalar_bar_args={"title": "distance" + " " * i, "vertical": True, "position_x": 0.88,
+                                    "position_y": 0.12, "height": 0.7, "width": 0.05, "fmt": "%.2f"})
         p.add_mesh(pv.PolyData(vol.points[sk.extrema.nodes]), color=_EXTREMUM_COLOR, point_size=12,
                    render_points_as_spheres=True)
         eye = np.array(sr.camera.eye)

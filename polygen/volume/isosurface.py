@@ -44,6 +44,7 @@ from polygen.volume.surface import (
 __all__ = ["IsoSurface", "extract", "IsoSurfaceError", "same_surface"]
 
 _CHUNK = 8192
+_NO_CELL_EDGES = np.zeros((0, 6), np.int64)  # the unprepared scan keys by node pairs: no edge table
 
 
 def _classify(cells, s, value, cell_type, table, count, local_edges, faces):
@@ -80,8 +81,8 @@ def _scan(vol, value, field, normals, node_grad=None):
     n_ic, n_t = int(ch_cells.sum()), int(tri_off[-1])
     tri_keys = np.empty((n_t, 3), np.int64)
     tri_cell = np.empty(n_t, np.int64)
-    _m._scan_fill(cells, s, value, cell_edges, n_edges, table, count, local_edges, _CHUNK,
-                  cases, tri_off, tri_keys, tri_cell)
+    _m._scan_fill(cells, s, value, cell_edges, n_edges, points.shape[0], False, table, count, local_edges,
+                  _CHUNK, cases, tri_off, tri_keys, tri_cell)
     n_keys = n_edges + points.shape[0]
     tri = np.empty((n_t, 3), np.int64)
     if n_t:
@@ -126,8 +127,8 @@ def _scan_unprepared(vol, value, field, normals, node_grad=None):
     n_ic, n_t = int(ch_cells.sum()), int(tri_off[-1])
     tri_codes = np.empty((n_t, 3), np.int64)
     tri_cell = np.empty(n_t, np.int64)
-    _m._scan_fill_pairs(cells, s, value, n_points, table, count, local_edges, _CHUNK,
-                        cases, tri_off, tri_codes, tri_cell)
+    _m._scan_fill(cells, s, value, _NO_CELL_EDGES, 0, n_points, True, table, count, local_edges, _CHUNK,
+                  cases, tri_off, tri_codes, tri_cell)
     tri = np.empty((n_t, 3), np.int64)
     v_max = 3 * n_t
     bits = max(4, int(2 * v_max).bit_length())  # load factor <= 1/2

@@ -451,6 +451,20 @@ def _code_key(code, cell, cells, cell_edges, n_edges):
 
 
 @njit
+def _pair_code(code, c, cells, local_edges, n_points):
+    """Node-pair key of a local vertex code: ``a * N + b`` (``a < b``) for the crossing on edge
+    ``(a, b)``, ``p * N + p`` for node ``p`` itself. Needs no edge table."""
+    if code >= 16:
+        p = cells[c, code - 16]
+        return p * n_points + p
+    a = cells[c, local_edges[code, 0]]
+    b = cells[c, local_edges[code, 1]]
+    if a < b:
+        return a * n_points + b
+    return b * n_points + a
+
+
+@njit
 def _n_distinct_codes(tris, k):
     """How many distinct codes the first ``k`` triangles use (codes are < 24)."""
     mask = 0
@@ -512,9 +526,11 @@ def _scan_count(cells, s, value, faces, tri_table, tri_count, n_crossed, local_e
 
 
 @njit(parallel=True)
-def _scan_fill(cells, s, value, cell_edges, n_edges, tri_table, tri_count, local_edges, chunk,
+def _scan_fill(cells, s, value, cell_edges, n_edges, n_points, pairs, tri_table, tri_count, local_edges, chunk,
                cases, tri_off, tri_keys, tri_cell):
-    # pass 2 (t2): emit the triangles of the intersected cells as global vertex keys
+    # pass 2 (t2): emit the triangles of the intersected cells, each corner as a global vertex key --
+    # an edge id or n_edges + node (_code_key), or with ``pairs`` the node pair of its edge, which
+    # needs no edge table (_pair_code; ``cell_edges`` is then unread and may be empty)
     m = cells.shape[0]
     nch = tri_off.shape[0] - 1
     for ch in prange(nch):
@@ -529,7 +545,10 @@ def _scan_fill(cells, s, value, cell_edges, n_edges, tri_table, tri_count, local
             k = _cell_codes(cells, c, s, value, case, tri_table, tri_count, local_edges, tris)
             for t in range(k):
                 for j in range(3):
-                    tri_keys[it, j] = _code_key(tris[t, j], c, cells, cell_edges, n_edges)
+                    if pairs:
+                        tri_keys[it, j] = _pair_code(tris[t, j], c, cells, local_edges, n_points)
+                    else:
+                        tri_keys[it, j] = _code_key(tris[t, j], c, cells, cell_edges, n_edges)
                 tri_cell[it] = c
                 it += 1
 
@@ -684,43 +703,6 @@ def _node_gradients(points, cells, s, hex_dn, out):
 
 
 # ------------------------------------------- the scan without prepared topology
-@njit
-def _pair_code(code, c, cells, local_edges, n_points):
-    """Node-pair key of a local vertex code: ``a * N + b`` (``a < b``) for the crossing on edge
-    ``(a, b)``, ``p * N + p`` for node ``p`` itself. Needs no edge table."""
-    if code >= 16:
-        p = cells[c, code - 16]
-        return p * n_points + p
-    a = cells[c, local_edges[code, 0]]
-    b = cells[c, local_edges[code, 1]]
-    if a < b:
-        return a * n_points + b
-    return b * n_points + a
-
-
-@njit(parallel=True)
-def _scan_fill_pairs(cells, s, value, n_points, tri_table, tri_count, local_edges, chunk,
-                     cases, tri_off, tri_codes, tri_cell):
-    # pass 2 of the scan, keyed by the node pairs of the crossed edges instead of edge ids
-    m = cells.shape[0]
-    nch = tri_off.shape[0] - 1
-    for ch in prange(nch):
-        lo = ch * chunk
-        hi = min(m, lo + chunk)
-        tris = np.empty((MAX_TRIANGLES, 3), np.int64)
-        it = tri_off[ch]
-        for c in range(lo, hi):
-            case = cases[c]
-            if case < 0:
-                continue
-            k = _cell_codes(cells, c, s, value, case, tri_table, tri_count, local_edges, tris)
-            for t in range(k):
-                for j in range(3):
-                    tri_codes[it, j] = _pair_code(tris[t, j], c, cells, local_edges, n_points)
-                tri_cell[it] = c
-                it += 1
-
-
 @njit
 def _number_pair_codes(tri_codes, n_points, shift, table_keys, table_vals, codes, tris, edges, keys):
     """One vertex per distinct node-pair code, numbered in order of first use (as

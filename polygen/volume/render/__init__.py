@@ -13,7 +13,7 @@
   the view and the transfer functions.
 """
 
-from polygen.volume.render.view import View, RenderError
+from polygen.volume.render.view import View, RenderError, view_around
 from polygen.volume.render.raycast import RayCaster, RenderResult, boundary_triangles, raycast
 from polygen.volume.render.shells import ShellRenderer, Shells, eye_distance, psnr
 from polygen.volume.render.transfer import Lighting, TransferFunction
@@ -21,6 +21,7 @@ from polygen.volume.render.transfer import Lighting, TransferFunction
 __all__ = [
     "RenderError",
     "View",
+    "view_around",
     "TransferFunction",
     "Lighting",
     "RenderResult",

@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["RenderError", "View", "check_view", "check_step", "check_background"]
+__all__ = ["RenderError", "View", "view_around", "check_view", "check_step", "check_background"]
 
 
 class RenderError(ValueError):
@@ -154,6 +154,50 @@ class View:
         f, r, u = self.basis()
         hw, hh = self.half_extent()
         return np.array(self.eye), f, r, u, hw, hh, self.size[0], self.size[1], self.ortho
+
+
+def view_around(points, *, eye=(1.2, -1.6, 0.9), fov=35.0, size=128):
+    """A perspective view of the box around ``points`` from a direction, and the box's diagonal.
+
+    The view looks at the centre ``c`` of the bounding box from ``c + D * eye``, ``D`` the box's
+    diagonal: the eye's place is given in diagonals, so one ``eye`` frames volumes of any size
+    alike. ``D`` is returned too: sample spacings and opacity units are set per diagonal.
+
+    Parameters
+    ----------
+    points : (N, 3) float
+        E.g. ``vol.points``.
+    eye : (3,) float, keyword-only
+        Eye minus centre, in diagonals (not zero).
+    fov : float, keyword-only
+        Vertical field of view in degrees.
+    size : int or (int, int), keyword-only
+        Pixels per side, or ``(width, height)``.
+
+    Returns
+    -------
+    view : View
+    diagonal : float
+        ``|max - min|`` of the points' bounding box.
+
+    Raises
+    ------
+    RenderError
+        No points or not (N, 3) finite, a zero ``eye``, a box of zero size, or a bad ``fov``/``size``.
+    """
+    p = np.asarray(points, dtype=np.float64)
+    if p.ndim != 2 or p.shape[0] == 0 or p.shape[1] != 3 or not np.all(np.isfinite(p)):
+        raise RenderError(f"points must be (N, 3) finite coordinates with N >= 1; got shape {p.shape}")
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    diag = float(np.linalg.norm(hi - lo))
+    if not diag > 0:
+        raise RenderError("the points' bounding box has zero size: nothing to frame")
+    direction = _vec3(eye, "eye")
+    if not np.linalg.norm(direction) > 0:
+        raise RenderError("eye must be a non-zero direction from the centre (in diagonals)")
+    size = (size, size) if np.ndim(size) == 0 else tuple(size)
+    centre = (lo + hi) / 2
+    return View(eye=centre + diag * direction, target=centre, fov=fov, size=size), diag
 
 
 # ------------------------------------------------------------------ validation shared by the renderers
