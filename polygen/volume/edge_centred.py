@@ -649,7 +649,7 @@ class EdgeCentredWalk:
         self._queue, self._tris, self._tri_cell, self._vkey, self._vend = _output_buffers(m)
         self._around = np.empty(256, np.int32)
         self._around_local = np.empty(256, np.int32)
-        self._htable = np.zeros((2 * self._vkey.shape[0] if self.search else 1, 2), np.int64)
+        self._htable = np.zeros((1 << (2 * self._vkey.shape[0] - 1).bit_length() if self.search else 1, 2), np.int64)  # a power of two: the probe wraps by a mask
         self.stats = {}
         self.preprocess_s = time.perf_counter() - t0
 
