@@ -313,7 +313,7 @@ def _solve(mesh, solve):
 def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
                           element_levels=1, nu=0.3, seed=0, solve=None,
                           adaptive_threshold=None, solve_adaptive=False, first=None,
-                          segments=None):
+                          segments=None, improve=0):
     """The two-pass loop of Fig. 4.3.
 
     Parameters
@@ -358,6 +358,12 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
         (:func:`polygon_size_grids`), so that no size is smoothed across a
         line.  :func:`polygen.discontinuity.combined.combined_bubble_mesh` is this
         with the scene's own lines (the thesis's future work, 4.5).
+    improve : int, keyword-only
+        Rounds of the bubble mesh's quality improvement on the second mesh
+        (:func:`polygen.mesh2d.bubble_mesh`'s ``improve``: a bubble at the
+        circumcentre of each triangle under 30 degrees, Laplacian smoothing
+        of the face bubbles, a round kept only if it is better); 0 (the
+        default) is the thesis's bubble mesh alone.
 
     Returns
     -------
@@ -411,7 +417,8 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
     clock.stop("size_function")
 
     clock.start()
-    second = mesh_scene(scene, grids, element_levels=element_levels, mesher=mesher,
+    mesher2 = mesher if not improve else _seeded(seed, improve=int(improve))
+    second = mesh_scene(scene, grids, element_levels=element_levels, mesher=mesher2,
                         segments=segments)
     clock.stop("second_mesh")
 
@@ -430,12 +437,13 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
             clock.stop("adaptive_radiosity")
     params = {"size_initial": si, "size_min": smin, "size_max": smax, "grid": grid,
               "element_levels": element_levels, "nu": nu, "seed": seed, "solve": solve,
-              "adaptive_threshold": adaptive_threshold, "segments": segments}
+              "adaptive_threshold": adaptive_threshold, "segments": segments,
+              "improve": int(improve)}
     return IntensityMesh(first, r1, b1, inten, d, fsize, grids, second, r2, b2, clock.wall,
                          clock.cpu, ada, ada_b, params)
 
 
-def _seeded(seed):
+def _seeded(seed, **kwargs):
     import functools
 
-    return functools.partial(bubble_mesher, seed=int(seed))
+    return functools.partial(bubble_mesher, seed=int(seed), **kwargs)
