@@ -930,7 +930,10 @@ def _improve_packing(xy, n_fixed, triangulate, sizef, admissible, *, rounds, ang
                 add = cen[near >= 0.5 * sz]
         cand = np.concatenate([xy, add])
         for _pass in range(3):
-            ctri = triangulate(cand)
+            try:
+                ctri = triangulate(cand)
+            except ValueError:  # a move met another bubble: score() rejects this round
+                break
             e, _ = triangle_edges(ctri)
             nb_sum = np.zeros_like(cand)
             nb_cnt = np.zeros(len(cand))
