@@ -83,7 +83,8 @@ def ideal_counts(size, n=400):
 # (face, edge, neighbours): the default first, the thesis's recipe (4.3.3) last
 PLACEMENTS = [("lattice", "quantile", "range"), ("lattice", "tree", "range"),
               ("quadtree", "quantile", "range"), ("quadtree", "tree", "range"),
-              ("lattice", "quantile", "delaunay"), ("quadtree", "tree", "delaunay")]
+              ("lattice", "quantile", "delaunay"), ("quadtree", "tree", "delaunay"),
+              ("lattice", "quantile", "range", 3)]   # + improve=3 (insertion and smoothing)
 
 
 def graded_placements(repeat=1):
@@ -91,12 +92,14 @@ def graded_placements(repeat=1):
     for name, fn in GRADED_FIELDS.items():
         grid = GridSize.from_function(fn, (0, 0, 1, 1), (33, 33))
         area_ideal, ideal = ideal_counts(grid)
-        for init, edge_init, nb in PLACEMENTS:
+        for init, edge_init, nb, *imp in PLACEMENTS:
+            improve = imp[0] if imp else 0
             t, bm = best_of(lambda: bubble_mesh(SQUARE, (), grid, init=init, edge_init=edge_init,
-                                                neighbours=nb, seed=0), repeat)
+                                                neighbours=nb, seed=0, improve=improve), repeat)
             qs = quality_summary(bm.nodes, bm.triangles)
             rows.append({
                 "field": name, "face": init, "edge": edge_init, "neighbours": nb,
+                "improve": improve,
                 "ideal_area": round(area_ideal), "ideal": round(ideal),
                 "initial": len(bm.initial), "final": len(bm.nodes),
                 "edge_bubbles_final": int((bm.kind == 1).sum()),
@@ -147,7 +150,7 @@ def graded_main():
     from scipy.stats import spearmanr
 
     rows = graded_placements()
-    cols = ["field", "face", "edge", "neighbours", "ideal_area", "ideal", "initial", "final", "edge_bubbles_final",
+    cols = ["field", "face", "edge", "neighbours", "improve", "ideal_area", "ideal", "initial", "final", "edge_bubbles_final",
             "edge_steps", "face_steps", "inserted", "removed", "q_mean", "angle_min", "seconds"]
     thm = theorem41_family() + theorem41_family("quadtree", "tree")
     tcols = ["placement", "slope", "triangles", "t_median", "t_max", "ratio_median", "ratio_p95", "ratio_max",

@@ -43,19 +43,17 @@ from pathlib import Path
 
 FULL = os.environ.get("POLYGEN_FULL") == "1"   # thesis-like sizes when set
 
-import ipywidgets
 import matplotlib.pyplot as plt
 import numpy as np
 
 from polygen.mesh2d import element_size_grid
-from polygen.mesh2d.plate import plate_edge_dofs, solve_plate
+from polygen.mesh2d.plate import square_plate_centre
 from polygen.plotting import intensity as plot_intensity
 from polygen.plotting import radiosity as plot_radiosity
 from polygen.plotting import table
-from polygen.radiosity import (Camera, Scene, bubble_mesher, intensity_bubble_mesh, mesh_scene,
-                               polygon_size_grids, scenes, size_function)
+from polygen.radiosity import Camera, intensity_bubble_mesh, scenes
 from polygen.radiosity.error import shade
-from polygen.radiosity.intensity import PHASES
+from polygen.radiosity.intensity import PHASES, error_at_elements
 
 # %%
 SIZE_INITIAL = 1.7 if FULL else 2.4   # patch size of the first mesh (1.7: 2056 elements)
@@ -80,14 +78,8 @@ THESIS_4_2 = dict(zip(PHASES, (31.51, 277.31, 171.75, 42.23, 225.54)))   # secon
 # Richardson's extrapolation from 16 and 32.
 
 # %%
-def centre(support, m):
-    n = m + 1
-    u = solve_plate((n, n), (1 / m, 1 / m), fixed_dofs=plate_edge_dofs((n, n), support), load=1.0)
-    return u[m // 2, m // 2, 0]
-
-
 ms = [4, 8, 16, 32]
-w = {s: np.array([centre(s, m) for m in ms]) for s in TIMOSHENKO}
+w = {s: np.array([square_plate_centre(s, m) for m in ms]) for s in TIMOSHENKO}
 rows = []
 for s, ref in TIMOSHENKO.items():
     rich = (4 * w[s][-1] - w[s][-2]) / 3
@@ -219,28 +211,47 @@ plt.show()
 # ## Mesh quality of the second mesh
 #
 # Issue 15 asks for a mean radius ratio q ≥ 0.93 and a smallest angle ≥ 25° on the second
-# mesh. Each element is measured in its polygon's plane from its own face (a back face's
-# elements are clockwise there and used to score 0°). Measured at Table 4.1's parameters
-# (benchmark, `size_initial` 1.7): the first mesh has q 0.952 and 31.0°, the second 0.872
-# and 24.4° — and a **uniform** bubble mesh of patch size 3.3, the second mesh's size on the
-# walls, has the same, 0.861 and 24.2°. Sizes 2.6–3.4 on the 10 × 10 walls mean three
-# patches across a wall, and the light and the rectangles (2–3 units) get one or two
-# patches (q about 0.81): the coarse packing that a large `size_min` asks for, not the size
-# grid's variation, limits the quality. The binary-tree/quadtree placement gives 0.869 /
-# 24.4°, no better; capping the size at a quarter of each polygon's side 0.909 / 11.0°,
-# worse. Uniform bubble meshes of this scene reach q 0.935 at patch size 2.4 (3.0: 0.921);
-# with the same ratios from `size_initial` 1.2 (`size_min` 2.4) the second mesh has q 0.926.
-# **At Table 4.1's ratios the issue's thresholds are not met** (kept as a strict xfail,
-# `test_graded_mesh_quality`). With a finer `size_min` they are: the benchmark's sweep point
-# `size_min` = 1.25 `size_initial` (2.125, 1520 elements) has q 0.936 and 33.1° (a guard
-# test, parameters picked after that measurement). Here, at this notebook's size:
+# mesh (the thesis says only that the smooth size function gives little distortion, 4.5).
+# Each element is measured in its polygon's plane from its own face. At Table 4.1's
+# parameters (`size_initial` 1.7; tests/test_intensity_mesh.py) the second mesh had q 0.872
+# and 24.4°, whatever the seed. Per polygon, the causes:
+#
+# * **24.4°: the ceiling.** Around the light (2 × 2) the ceiling is a channel 4 wide where
+#   the size grid asks for 3.3: the light's sides get no edge bubble, relaxation pushes the
+#   channel's face bubbles against the walls, and the Delaunay joins a light side to a wall
+#   node (24.5°). The mesher's fault, and now optional: `improve=3` inserts a bubble at the
+#   circumcentre of every triangle under 30° and smooths the face bubbles (Laplacian, with
+#   Delaunay reconnection), keeping a round only if it is better. With it the smallest angle
+#   is **30.2°** (test), q **0.888**. Every polygon corner of this scene is 90°, so 25° can
+#   hold everywhere.
+# * **q: polygons smaller than their size.** The light, the tilted and the upright rectangle
+#   (2–3 units) are asked for 3.0–3.4: their corners alone, two right triangles each, q
+#   0.828 / 0.828 / 0.774 = 2(a + b − c)/c, the best any mesh of a rectangle by its corners
+#   can have (test). With three patches across a 10 × 10 wall, every 90° wall corner is a
+#   right triangle too (q ≤ 0.828). Walls 0.885 → 0.904, the small polygons 0.807.
+#
+# So the mean q of 0.93 is **not met** at Table 4.1's ratios (strict xfail,
+# `test_graded_mesh_quality`): the coarseness that `size_min` = 2 `size_initial` asks of this
+# scene, not the grading — a *uniform* bubble mesh of the walls' size (3.3) has 0.861, and
+# the mesher meets 0.93 on graded ratio-8 fields (0.958) and at `size_min` = 1.25
+# `size_initial` (0.936, 33.1°). The improvement is opt-in (`bubble_mesh(improve=)`,
+# `intensity_bubble_mesh(improve=)`): it raises the smallest angle but can lower the mean q
+# (one seed of the channel: 0.822 → 0.795), so it is not an improvement everywhere and the
+# defaults stay the thesis's bubble mesh. Here, at this notebook's size, with and without:
 
 # %%
+improved = intensity_bubble_mesh(scene, size_initial=SIZE_INITIAL, size_min=SIZE_MIN,
+                                 size_max=SIZE_MAX, first=run, improve=3)
+quality = {}
 for name, m in (("first mesh", run.first_mesh), ("adaptive re-mesh", run.adaptive_mesh),
-                ("this method", run.second_mesh)):
-    ang, q = m.element_quality()
-    print(f"{name:17s} {m.n_elements:5d} elements: mean q {q.mean():.3f}, "
+                ("this method", run.second_mesh), ("this method, improve=3", improved.second_mesh)):
+    quality[name] = m.element_quality()
+    ang, q = quality[name]
+    print(f"{name:22s} {m.n_elements:5d} elements: mean q {q.mean():.3f}, "
           f"smallest angle {ang.min():.1f} deg, {100 * np.mean(ang < 25):.1f} % below 25 deg")
+# issue 15's smallest angle (>= 25 deg) on the improved second mesh; its mean q (0.93) is not
+# asserted: not met, for the reasons above
+assert quality["this method, improve=3"][0].min() >= 25.0
 
 # %% [markdown]
 # ## Theorem 4.1 — the sharper the size variation, the skinnier the triangles
@@ -302,9 +313,8 @@ assert all(a < b for a, b in zip(med, med[1:]))
 
 # %%
 graded = json.loads((Path("..") / "benchmarks" / "results" / "mesh2d_graded.json").read_text())
-print(table([{k: r[k] for k in ("field", "face", "edge", "neighbours", "ideal", "final",
-                                "q_mean", "angle_min")} for r in graded["rows"]],
-            ["field", "face", "edge", "neighbours", "ideal", "final", "q_mean", "angle_min"]))
+cols = ["field", "face", "edge", "neighbours", "improve", "ideal", "final", "q_mean", "angle_min"]
+print(table([{k: r.get(k, 0) for k in cols} for r in graded["rows"]], cols))
 steep = GridSize.from_function(lambda xy: 0.0125 + 0.0875 * 0.5 * (
     1 + np.tanh((xy[:, 0] - 0.5) / 0.05)), (0, 0, 1, 1), (33, 33))
 fig, axes = plt.subplots(1, 2, figsize=(11, 5))
@@ -381,11 +391,30 @@ plt.show()
 #
 # What the last run says:
 #
-# * **This method does not reach adaptive subdivision's error with fewer elements.** It lies
-#   on the uniform meshes' line (0.044 with 1080 elements, uniform 0.041 with 1064); its
-#   best, 0.0285 with 1520 elements, is above adaptive subdivision's 0.023 with 2020 and
-#   0.015 with 3109. The thesis's claim of a better picture with fewer elements is not
-#   reproduced on our scene at these sizes.
+# * **Does the comparison follow the thesis?** Both re-meshes start from the same first mesh
+#   and solution (`first=`; the adaptive one refines that mesh by that solution), the sizes
+#   are (4.2)–(4.4)'s, and both errors are measured alike. What the thesis leaves open is
+#   `size_min`, `size_max` and the grid. The grid step barely matters: from the first
+#   solution of 1.7, steps 0.85 / 0.425 / 0.2 give 624 / 600 / 600 elements (1544 / 1520 /
+#   1552 at `size_min` 1.25×): f(D) fixes the sizes at the nodes, the grid only interpolates.
+#   But Requirement 4.1 says the *first mesh must be fine*, so that small shadows are found,
+#   and the second coarsens where the intensity varies little; Table 4.1's second mesh keeps
+#   71 % of the first's elements. Our Table 4.1 setting (`size_min` 2×) keeps 29 %; 1.25×
+#   keeps 74 %, the thesis-like proportion.
+# * **From the coarse first mesh (1.7) this method does not reach adaptive subdivision's
+#   error with fewer elements.** It lies on the uniform meshes' line (0.044 with 1080
+#   elements, uniform 0.041 with 1064); its best, 0.0285 with 1520, is above adaptive
+#   subdivision's 0.023 with 2020 and 0.015 with 3109 — and above its own first mesh (0.024
+#   with 2056): where most of the first mesh's nodes are coarsened, the shadows lose too.
+# * **From a fine first mesh (1.2, 3832 elements; `benchmarks/intensity_mesh.py
+#   --fine-first`) at the thesis-like 1.25× it does, narrowly**: 3088 elements with 0.0145,
+#   below every adaptive point with as many elements or more up to 3109 (0.0148 with 3109,
+#   0.020 with 3015) and below the uniform line there (about 0.016 interpolated at 3088).
+#   Against its *own* adaptive re-mesh (Table 4.1's comparison: 4872 elements, 0.0098) it
+#   has 37 % fewer elements and 48 % more error — neither dominates. At 2× from the same
+#   first mesh: 1240 elements, 0.039, on the uniform line again. So the claim holds where
+#   the first mesh is fine and the second keeps the thesis's proportion of it, not at
+#   Table 4.1's 2× coarsening, and by a margin of 1–2 %.
 # * **The combination beats both parents at equal element count at one of its four points.**
 #   With 1240 elements it has 0.033, against 0.037 for this method and 0.042 for simplified DM
 #   interpolated there; with 1648 elements 0.031 against simplified DM's 0.034 (this method's
@@ -403,25 +432,26 @@ METHODS = {"uniform": ["uniform"], "adaptive subdivision": ["adaptive"],
            "combination": ["combination", "combination, smaller size_min"]}
 curves = {m: sorted((p["n_elements"], p["error"]) for k in keys for p in res["curves"].get(k, []))
           for m, keys in METHODS.items()}
+fine = json.loads((Path("..") / "benchmarks" / "results" /
+                   "intensity_mesh_fine_first.json").read_text())["rows"]
+curves["this method, fine first mesh"] = sorted(
+    (r["elements"], r["rms_error"]) for r in fine if r["mesh"].startswith("this method"))
+curves["adaptive subdivision"] = sorted(curves["adaptive subdivision"] + [
+    (r["elements"], r["rms_error"]) for r in fine if r["mesh"] == "adaptive re-mesh"])
 plot_intensity.plot_error_curves(
     curves, title=f"Fig. 4.8 scene (reference: {res['reference_elements']} elements)")
 plt.show()
 print(table([{"method": name, "mesh": p["label"], "elements": p["n_elements"],
               "error": round(p["error"], 4)} for name, pts in res["curves"].items() for p in pts],
             ["method", "mesh", "elements", "error"]))
+print("\nfrom a fine first mesh (size_initial 1.2; --fine-first)")
+print(table(fine, ["mesh", "elements", "rms_error", "mean_q", "min_angle"]))
 
 # %%
-def error_at(curve, n):
-    """Error of a curve at n elements, log-log interpolated; None outside its range."""
-    c = np.array(curve, dtype=float)
-    if not c[0, 0] <= n <= c[-1, 0]:
-        return None
-    return float(np.exp(np.interp(np.log(n), np.log(c[:, 0]), np.log(c[:, 1]))))
-
-
 rows = []
 for n, e in curves["combination"]:
-    ours, dm = error_at(curves["this method"], n), error_at(curves["simplified DM"], n)
+    ours = error_at_elements(curves["this method"], n)
+    dm = error_at_elements(curves["simplified DM"], n)
     rows.append({"elements": n, "combination": round(e, 4),
                  "this method": "-" if ours is None else round(ours, 4),
                  "simplified DM": "-" if dm is None else round(dm, 4)})
@@ -436,24 +466,4 @@ print(table(rows, ["elements", "combination", "this method", "simplified DM"]))
 # notebook shows the defaults.
 
 # %%
-def floor_mesh(size_min, size_max):
-    if not size_max < SIZE_INITIAL < size_min:
-        print(f"(4.3) needs size_max < {SIZE_INITIAL} < size_min")
-        return
-    sizes = size_function(run.variation, size_min=size_min, size_max=size_max)
-    grids = polygon_size_grids(run.first_mesh, sizes, grid=size_max / 2)
-    m = mesh_scene(Scene([scene.polygons[floor]]), [grids[floor]], mesher=bubble_mesher)
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    plot_intensity.plot_size_grid(grids[floor], scene.polygons[floor], ax=axes[0],
-                                  title=f"size grid, {size_max:.2f}..{size_min:.2f}")
-    plot_radiosity.plot_polygon_mesh(m, 0, ax=axes[1])
-    plt.show()
-
-
-ipywidgets.interact(
-    floor_mesh,
-    size_min=ipywidgets.FloatSlider(value=SIZE_MIN, min=SIZE_INITIAL * 1.1, max=SIZE_INITIAL * 4,
-                                    step=0.1, continuous_update=False),
-    size_max=ipywidgets.FloatSlider(value=SIZE_MAX, min=SIZE_INITIAL / 4, max=SIZE_INITIAL * 0.9,
-                                    step=0.05, continuous_update=False),
-);
+plot_intensity.remesh_sliders(run, floor)

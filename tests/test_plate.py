@@ -18,6 +18,7 @@ from polygen.mesh2d.plate import (
     plate_element_load,
     plate_element_stiffness,
     solve_plate,
+    square_plate_centre,
 )
 from polygen.mesh2d.size_grid import assign_grid_sizes, element_size_grid, grid_lattice
 
@@ -234,3 +235,13 @@ def test_size_grid_bad_input():
         element_size_grid(np.zeros((3, 3)), [1.0, 1.0, 1.0], (0, 0, 1, 1), grid=0.5)
     with pytest.raises(ValueError, match="bounds"):
         element_size_grid(np.zeros((3, 2)), [1.0, 1.0, 1.0], (0, 0, 0, 1), grid=0.5)
+
+
+@pytest.mark.parametrize("support", list(TIMOSHENKO))
+def test_square_plate_centre(support):
+    """The package's helper is the full-plate solve above, and within 1 % of the textbook at 16."""
+    assert square_plate_centre(support, 8) == _centre_full(support, 8)
+    assert square_plate_centre(support, 16) == pytest.approx(TIMOSHENKO[support], rel=0.01)
+    for bad in (3, 0, 2.0):
+        with pytest.raises(PlateError, match="even int"):
+            square_plate_centre(support, bad)

@@ -849,10 +849,122 @@ def _boundary_edges(n_vertex, seg, eseg):
     return np.concatenate([head, inner, tail]).astype(np.int64)
 
 
+def _cdt_inside(xy, cons, internal, dom, h_min):
+    """Triangles of the constrained Delaunay of ``xy`` inside the domain (as the final mesh)."""
+    mesh = constrained_delaunay(xy, cons, erase_outside=not internal)
+    tri = mesh.triangles
+    if internal:
+        cen = xy[tri].mean(axis=1)
+        a, b, c = (xy[tri[:, k]] for k in range(3))
+        area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+        inside = shapely.contains_xy(dom.polygon, cen[:, 0], cen[:, 1])
+        tri = tri[inside & (np.abs(area2) > 1e-8 * h_min * h_min)]
+    return tri
+
+
+def _circumcentres(xy, tri):
+    """(T, 2) circumcentres and (T,) circumradii."""
+    a, b, c = (xy[tri[:, k]] for k in range(3))
+    b = b - a
+    c = c - a
+    d = 2.0 * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0])
+    bb = (b * b).sum(axis=1)
+    cc = (c * c).sum(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ux = (c[:, 1] * bb - b[:, 1] * cc) / d
+        uy = (b[:, 0] * cc - c[:, 0] * bb) / d
+    return a + np.stack([ux, uy], axis=1), np.hypot(ux, uy)
+
+
+def _improve_packing(xy, n_fixed, triangulate, sizef, admissible, *, rounds, angle, groups=None):
+    """Insertion at bad triangles and Laplacian smoothing of the face bubbles, kept only if better.
+
+    Where the size field asks for bubbles larger than the domain's features (a hole or a
+    channel narrower than the size), relaxation pushes the few face bubbles against the
+    boundary and the Delaunay joins the boundary nodes by skinny triangles. Each round
+    inserts a bubble at the circumcentre of every triangle with a smallest angle below
+    ``angle`` (when admissible: inside, off the segments, in its region, and at least half
+    its size from every node), then moves every face bubble to the mean of its Delaunay
+    neighbours (three passes, reconnecting by Delaunay after each; a move that is not
+    admissible is not made). A round is kept only if it raises the smallest angle, or
+    keeps it at or above ``min(smallest, angle)`` and raises the mean radius ratio.
+
+    Returns
+    -------
+    xy : (K, 2) float64
+        The bubbles, the first ``n_fixed`` unchanged.
+    n_inserted : int
+    """
+    from scipy.spatial import cKDTree
+
+    from polygen.mesh2d.quality import triangle_quality
+
+    def score(q):
+        try:
+            tri = triangulate(q)
+        except ValueError:  # two bubbles met: not a candidate
+            return (-np.inf, -np.inf), np.zeros((0, 3), np.int64)
+        if not len(tri):
+            return (-1.0, -1.0), tri
+        ang, qq = triangle_quality(q, tri)
+        return (float(ang.min()), float(qq.mean())), tri
+
+    best, tri = score(xy)
+    n_inserted = 0
+    for _ in range(rounds):
+        ang, _q = triangle_quality(xy, tri)
+        cen, rad = _circumcentres(xy, tri[ang < angle])
+        ok = np.isfinite(rad)
+        cen, rad = cen[ok], rad[ok]
+        add = np.zeros((0, 2))
+        if len(cen):
+            sz = sizef(cen)
+            keep = admissible(cen, None) & (rad >= 0.5 * sz)
+            cen, sz = cen[keep], sz[keep]
+            if len(cen):
+                gaps = np.concatenate([cen, sz[:, None]], axis=1)
+                sel = np.ones(len(gaps), np.bool_)
+                _dedupe_kernel(gaps, sel, 0.5)
+                cen, sz = cen[sel], sz[sel]
+                near, _ = cKDTree(xy).query(cen)
+                add = cen[near >= 0.5 * sz]
+        cand = np.concatenate([xy, add])
+        for _pass in range(3):
+            try:
+                ctri = triangulate(cand)
+            except ValueError:  # a move met another bubble: score() rejects this round
+                break
+            e, _ = triangle_edges(ctri)
+            nb_sum = np.zeros_like(cand)
+            nb_cnt = np.zeros(len(cand))
+            np.add.at(nb_sum, e[:, 0], cand[e[:, 1]])
+            np.add.at(nb_sum, e[:, 1], cand[e[:, 0]])
+            np.add.at(nb_cnt, e[:, 0], 1.0)
+            np.add.at(nb_cnt, e[:, 1], 1.0)
+            mov = np.flatnonzero(nb_cnt[n_fixed:] > 0) + n_fixed
+            if not len(mov):
+                break
+            target = nb_sum[mov] / nb_cnt[mov, None]
+            ok = admissible(target, None if groups is None else groups(cand[mov]))
+            cand = cand.copy()
+            cand[mov[ok]] = target[ok]
+        got, ctri = score(cand)
+        # better: a larger smallest angle, or one still at or above min(smallest, angle) with a
+        # larger mean radius ratio
+        if got[0] > best[0] + 1e-9 or (got[0] >= min(best[0], angle) - 1e-9
+                                         and got[1] > best[1] + 1e-12):
+            xy, tri, best = cand, ctri, got
+            n_inserted += len(add)
+        else:
+            break
+    return xy, n_inserted
+
+
 def bubble_mesh(outer, holes=(), size=None, *, init="lattice", edge_init="quantile", neighbours="range",
                 n_cycles=4, steps_per_cycle=150,
                 final_steps=200, dt=0.3, mass=1.0, damping=1.5, tol=1e-3, remove_below=0.6,
-                insert_above=0.85, resize_every=10, seed=0, progress=False):
+                insert_above=0.85, resize_every=10, seed=0, progress=False, improve=0,
+                improve_angle=30.0):
     """Bubble mesh of a polygon with holes (thesis 2.3.3).
 
     Parameters
@@ -895,6 +1007,15 @@ def bubble_mesh(outer, holes=(), size=None, *, init="lattice", edge_init="quanti
         Seed of the initial placement.
     progress : bool
         Show a tqdm bar over the cycles.
+    improve : int
+        Rounds of quality improvement after the relaxation (0: none, the default): a bubble
+        at the circumcentre of each triangle with a smallest angle below ``improve_angle``,
+        then Laplacian smoothing of the face bubbles with Delaunay reconnection; a round is
+        kept only if it raises the smallest angle, or keeps it and raises the mean radius
+        ratio. For size fields larger than the domain's features (a channel or a hole
+        narrower than the size), where the packing alone leaves skinny triangles.
+    improve_angle : float
+        Smallest angle (degrees) below which a triangle gets a bubble at its circumcentre.
 
     Returns
     -------
@@ -914,7 +1035,7 @@ def bubble_mesh(outer, holes=(), size=None, *, init="lattice", edge_init="quanti
                         steps_per_cycle=steps_per_cycle, final_steps=final_steps, dt=dt,
                         mass=mass, damping=damping, tol=tol, remove_below=remove_below,
                         insert_above=insert_above, resize_every=resize_every, seed=seed,
-                        progress=progress)
+                        progress=progress, improve=improve, improve_angle=improve_angle)
 
 
 def _bubble_core(dom, pts, seg, size, internal, *, regions=None, **kwargs):
@@ -943,7 +1064,8 @@ def _bubble_core(dom, pts, seg, size, internal, *, regions=None, **kwargs):
 def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, neighbours, n_cycles,
                        steps_per_cycle, final_steps,
                        dt, mass, damping, tol, remove_below, insert_above, resize_every, seed, progress,
-                       near_segment=0.35, bare=False, fixed_size=None, regions=None):
+                       near_segment=0.35, bare=False, fixed_size=None, regions=None, improve=0,
+                       improve_angle=30.0):
     # pts: fixed vertex bubbles; seg: segments carrying edge bubbles (the domain
     # boundary, plus internal segments when `internal`); `bare` (bool or (S,)
     # mask): segments whose nodes are already all in `pts` (no edge bubbles);
@@ -1142,6 +1264,23 @@ def _bubble_core_local(dom, pts, seg, size, internal, *, init, edge_init, neighb
         vel = np.concatenate([vel[~removed], np.zeros((len(gaps), 2))])
         tri = None  # the population changed: triangulate again
 
+    if improve:
+        def admissible(q, first_group):
+            sz = sizef(q)
+            ok, d = loc.locate(q)
+            if internal:
+                d = np.minimum(d, seg_index.distance(q))
+            ok &= d >= near_segment * sz
+            if regions is not None and first_group is not None:
+                ok &= regions(q) == first_group
+            return ok
+
+        xy, n_imp = _improve_packing(
+            xy, n_fixed, lambda q: _cdt_inside(q, cons, internal, dom, h_min), sizef, admissible,
+            rounds=int(improve), angle=float(improve_angle),
+            groups=None if regions is None else (lambda q: regions(q)))
+        n_ins += n_imp
+        history.append(("improve", int(improve), n_imp))
     mesh = constrained_delaunay(xy, cons, erase_outside=not internal)
     if internal:
         # internal constraints defeat the parity rule: keep triangles by centroid.
@@ -1313,7 +1452,7 @@ def _bubble_opts(kwargs):
     opts = dict(init="lattice", edge_init="quantile", neighbours="range", n_cycles=4, steps_per_cycle=150,
                 final_steps=200, dt=0.3, mass=1.0,
                 damping=1.5, tol=1e-3, remove_below=0.6, insert_above=0.85, resize_every=10,
-                progress=False)
+                progress=False, improve=0, improve_angle=30.0)
     unknown = set(kwargs) - set(opts)
     if unknown:
         raise TypeError(f"unexpected keyword arguments {sorted(unknown)}")

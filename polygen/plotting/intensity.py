@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["plot_size_function", "plot_size_grid", "plot_plate_surface", "plot_error_curves",
-           "plot_plate_convergence"]
+           "plot_plate_convergence", "plot_polygon_remesh", "remesh_sliders"]
 
 
 def _axes(ax, figsize=(5, 4), **kw):
@@ -124,3 +124,63 @@ def plot_plate_convergence(h, errors, *, ax=None, title="ACM plate element: cent
     ax.grid(True, which="both", alpha=0.3)
     ax.set_title(title, fontsize=10)
     return fig
+
+
+def plot_polygon_remesh(run, polygon, size_min, size_max, *, figsize=(10, 4)):
+    """The size grid and the bubble mesh of one polygon for other sizes (the notebook's sliders).
+
+    Calls :func:`polygen.radiosity.intensity.remesh_polygon`; sizes that break (4.3) draw the
+    message instead of the mesh.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib.pyplot as plt
+
+    from polygen.plotting.radiosity import plot_polygon_mesh
+    from polygen.radiosity.intensity import remesh_polygon
+    from polygen.radiosity.mesh import MeshError
+
+    fig, axes = plt.subplots(1, 2, figsize=figsize)
+    try:
+        grid, mesh = remesh_polygon(run, polygon, size_min=size_min, size_max=size_max)
+    except MeshError as exc:
+        for ax in axes:
+            ax.set_axis_off()
+        axes[0].text(0.0, 0.5, str(exc), wrap=True, fontsize=9)
+        return fig
+    poly = run.first_mesh.scene.polygons[polygon]
+    plot_size_grid(grid, poly, ax=axes[0], title=f"size grid, {size_max:.2f}..{size_min:.2f}")
+    plot_polygon_mesh(mesh, 0, ax=axes[1])
+    axes[1].set_title(f"{mesh.n_elements} elements", fontsize=9)
+    return fig
+
+
+def remesh_sliders(run, polygon):
+    """Sliders for ``size_min`` / ``size_max`` redrawing :func:`plot_polygon_remesh`.
+
+    Ranges around the run's ``size_initial`` (``size_min`` 1.1-4 times it, ``size_max``
+    0.25-0.9 times), starting at the run's sizes; the drawing happens once at once, so a
+    static rendering of a notebook shows the run's sizes.
+
+    Returns
+    -------
+    ipywidgets.Widget
+    """
+    import ipywidgets
+    import matplotlib.pyplot as plt
+
+    p = run.parameters
+    si = p["size_initial"]
+
+    def draw(size_min, size_max):
+        plot_polygon_remesh(run, polygon, size_min, size_max)
+        plt.show()
+
+    return ipywidgets.interactive(
+        draw,
+        size_min=ipywidgets.FloatSlider(value=p["size_min"], min=si * 1.1, max=si * 4, step=0.1,
+                                        continuous_update=False),
+        size_max=ipywidgets.FloatSlider(value=p["size_max"], min=si / 4, max=si * 0.9,
+                                        step=0.05, continuous_update=False))

@@ -37,7 +37,8 @@ from polygen.radiosity.scene import Scene, SceneError
 from polygen.radiosity.solve import progressive_refinement
 
 __all__ = ["IntensityMesh", "intensity_variation", "size_function", "check_size_parameters",
-           "polygon_size_grids", "intensity_bubble_mesh", "bright_scale", "PHASES"]
+           "polygon_size_grids", "intensity_bubble_mesh", "bright_scale", "PHASES",
+           "remesh_polygon", "error_at_elements"]
 
 #: Table 4.2's five phases, the keys of :attr:`IntensityMesh.seconds`.
 PHASES = ("first_mesh", "first_radiosity", "size_function", "second_mesh", "second_radiosity")
@@ -313,7 +314,7 @@ def _solve(mesh, solve):
 def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
                           element_levels=1, nu=0.3, seed=0, solve=None,
                           adaptive_threshold=None, solve_adaptive=False, first=None,
-                          segments=None):
+                          segments=None, improve=0):
     """The two-pass loop of Fig. 4.3.
 
     Parameters
@@ -358,6 +359,12 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
         (:func:`polygon_size_grids`), so that no size is smoothed across a
         line.  :func:`polygen.discontinuity.combined.combined_bubble_mesh` is this
         with the scene's own lines (the thesis's future work, 4.5).
+    improve : int, keyword-only
+        Rounds of the bubble mesh's quality improvement on the second mesh
+        (:func:`polygen.mesh2d.bubble_mesh`'s ``improve``: a bubble at the
+        circumcentre of each triangle under 30 degrees, Laplacian smoothing
+        of the face bubbles, a round kept only if it is better); 0 (the
+        default) is the thesis's bubble mesh alone.
 
     Returns
     -------
@@ -411,7 +418,8 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
     clock.stop("size_function")
 
     clock.start()
-    second = mesh_scene(scene, grids, element_levels=element_levels, mesher=mesher,
+    mesher2 = mesher if not improve else _seeded(seed, improve=int(improve))
+    second = mesh_scene(scene, grids, element_levels=element_levels, mesher=mesher2,
                         segments=segments)
     clock.stop("second_mesh")
 
@@ -430,12 +438,84 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
             clock.stop("adaptive_radiosity")
     params = {"size_initial": si, "size_min": smin, "size_max": smax, "grid": grid,
               "element_levels": element_levels, "nu": nu, "seed": seed, "solve": solve,
-              "adaptive_threshold": adaptive_threshold, "segments": segments}
+              "adaptive_threshold": adaptive_threshold, "segments": segments,
+              "improve": int(improve)}
     return IntensityMesh(first, r1, b1, inten, d, fsize, grids, second, r2, b2, clock.wall,
                          clock.cpu, ada, ada_b, params)
 
 
-def _seeded(seed):
+def _seeded(seed, **kwargs):
     import functools
 
-    return functools.partial(bubble_mesher, seed=int(seed))
+    return functools.partial(bubble_mesher, seed=int(seed), **kwargs)
+
+
+def remesh_polygon(run, polygon, *, size_min, size_max, grid=None):
+    """One polygon's second mesh for other sizes, from an earlier run's first solution.
+
+    The size function (4.4) with these sizes, the polygon's size grid
+    (4.3.2) and its bubble mesh alone (the rest of the scene is not
+    meshed): what the notebook's sliders show.
+
+    Parameters
+    ----------
+    run : IntensityMesh
+    polygon : int
+        Index of the polygon in the run's scene.
+    size_min, size_max : float, keyword-only
+        As :func:`intensity_bubble_mesh`; checked against the run's
+        ``size_initial`` by (4.3).
+    grid : float or (m, n) ints, keyword-only
+        Size-grid step; default ``size_max / 2**element_levels`` as the loop's.
+
+    Returns
+    -------
+    size_grid : GridSize or RegionSize
+        The polygon's size grid.
+    mesh : RadiosityMesh
+        The polygon meshed alone (a scene of that one polygon, index 0), with
+        the run's ``element_levels`` and ``seed``.
+
+    Raises
+    ------
+    MeshError
+        Sizes out of the order (4.3), a bad polygon index or run.
+    """
+    if not isinstance(run, IntensityMesh):
+        raise MeshError(f"run must be an IntensityMesh, got {type(run).__name__}")
+    p = run.parameters
+    check_size_parameters(p["size_initial"], size_min, size_max)
+    scene = run.first_mesh.scene
+    if not (isinstance(polygon, (int, np.integer)) and 0 <= polygon < len(scene.polygons)):
+        raise MeshError(f"polygon must be an index in [0, {len(scene.polygons)}), got {polygon!r}")
+    levels = p["element_levels"]
+    grid = float(size_max) / 2 ** int(levels) if grid is None else grid
+    sizes = size_function(run.variation, size_min=size_min, size_max=size_max)
+    grids = polygon_size_grids(run.first_mesh, sizes, grid=grid, nu=p["nu"])
+    mesher = bubble_mesher if p["seed"] == 0 else _seeded(p["seed"])
+    mesh = mesh_scene(Scene([scene.polygons[polygon]]), [grids[polygon]], element_levels=levels,
+                      mesher=mesher)
+    return grids[polygon], mesh
+
+
+def error_at_elements(curve, n):
+    """An error curve's value at ``n`` elements, interpolated linearly in log-log.
+
+    Parameters
+    ----------
+    curve : (K, 2) array_like
+        ``(elements, error)`` points, elements increasing, all > 0.
+    n : float
+        Element count.
+
+    Returns
+    -------
+    float or None
+        None when ``n`` lies outside the curve's element range (no extrapolation).
+    """
+    c = np.asarray(curve, dtype=np.float64).reshape(-1, 2)
+    if len(c) == 0 or np.any(c <= 0) or np.any(np.diff(c[:, 0]) < 0):
+        raise MeshError("curve must be (elements, error) pairs, elements increasing, all > 0")
+    if not c[0, 0] <= n <= c[-1, 0]:
+        return None
+    return float(np.exp(np.interp(np.log(n), np.log(c[:, 0]), np.log(c[:, 1]))))
