@@ -28,6 +28,7 @@ __all__ = ["UnstructuredVolume", "VolumeError", "VolumeWarning", "TET_FACES", "H
 _CELL_TYPES = {4: "tetra", 8: "hexa"}
 # relative tolerance on |6V| / longest_edge**3 below which a cell is degenerate
 _DEGENERATE_RTOL = 1e-10
+_INT32_MAX = np.iinfo(np.int32).max
 
 
 
@@ -492,29 +493,65 @@ class UnstructuredVolume:
         return out
 
     # ------------------------------------------------------------- adjacency
-    def _face_table(self):
-        # not kept: face_neighbors is all that is needed from it (48 bytes per tetrahedron less held)
-        faces = _k.gather_local(self.cells, self.local_faces)
-        _k.sort_rows(faces)
-        ids, first = _k.match_rows(faces, self.n_points)
-        return ids, first
+    def _incidence(self):
+        """The node -> cells lists: the cached :attr:`node_cells`, else a temporary copy not kept.
+
+        Face neighbours and edges are matched in the bucket of their smallest
+        node, found among the cells around that node. Who asks for only one
+        of them (a scan's edge ids, say) does not keep the lists; the
+        preparation (:meth:`build_topology`) builds them once for all.
+        """
+        nc = self.__dict__.get("node_cells")
+        return nc if nc is not None else _k.node_cells_csr(self.cells, self.n_points)
+
+    def build_topology(self):
+        """Build the tables the prepared isosurface methods start from, sharing the work between them.
+
+        ``node_cells`` first (the others are matched through it), then
+        ``face_neighbors``, the edge table and ``cell_components``. Each is
+        also built on its own when first read; this only avoids building the
+        node -> cells lists more than once.
+        """
+        self.node_cells
+        self.face_neighbors
+        self._edge_table
+        self.cell_components
+
+    def release_preparation_tables(self):
+        """Drop the tables only a preparation reads: ``node_cells``, ``cell_components`` and ``cell_edges``.
+
+        The prepared default method keeps what it needs in its own records
+        and reads only :attr:`edges` from the volume afterwards, so
+        :meth:`isosurface` calls this once it has prepared it (``edges``,
+        ``face_neighbors`` and the boundary tables stay). A later reader of a
+        dropped table builds it again.
+        """
+        with self._iso_lock:
+            for attr in ("node_cells", "cell_components"):
+                self.__dict__.pop(attr, None)
+            table = self.__dict__.get("_edge_table")
+            if table is not None and table[1] is not None:
+                self.__dict__["_edge_table"] = (table[0], None)
 
     @functools.cached_property
     def face_neighbors(self) -> np.ndarray:
-        """(M, F) int64: the cell across each local face, -1 on the boundary (Def. 5.1).
+        """(M, F) int32 (int64 past 2**31 cells): the cell across each local face, -1 on the boundary (Def. 5.1).
 
         Cells are neighbours only when their faces have the same nodes.
         """
-        ids, first = self._face_table()
+        off, nc = self._incidence()
         nf = self.local_faces.shape[0]
-        neighbors, bad = _k.face_neighbors_from_ids(ids, nf, first.shape[0])
+        out = np.full((self.n_cells, nf), -1, np.int32 if self.n_cells < _INT32_MAX else np.int64)
+        bad = _k.face_neighbors_by_node(self.cells, self.local_faces, off, nc, out)
         if bad >= 0:
-            shared = np.flatnonzero(ids == ids[bad]) // nf
+            face = self.cells[bad // nf, self.local_faces[bad % nf]]
+            around = nc[off[face.min()]:off[face.min() + 1]]
+            shared = around[np.isin(self.cells[around], face).sum(axis=1) == face.size]
             raise VolumeError(
                 f"a face is shared by {shared.size} cells {_examples(shared)}; "
                 "a volume's face belongs to at most two cells"
             )
-        return neighbors
+        return out
 
     @functools.cached_property
     def boundary_faces(self) -> np.ndarray:
@@ -535,20 +572,25 @@ class UnstructuredVolume:
 
     @functools.cached_property
     def _edge_table(self):
-        edges = _k.gather_local(self.cells, self.local_edges)
-        _k.sort_rows(edges)
-        ids, first = _k.match_rows(edges, self.n_points)
-        return edges[first], ids.reshape(self.n_cells, -1)
+        off, nc = self._incidence()
+        ne = self.local_edges.shape[0]
+        cell_edges = np.empty((self.n_cells, ne), np.int32 if self.n_cells * ne < _INT32_MAX else np.int64)
+        edges = _k.edges_by_node(self.cells, self.local_edges, off, nc, cell_edges)
+        return edges, cell_edges
 
     @property
     def edges(self) -> np.ndarray:
-        """(E, 2) int64 distinct cell edges, ``a < b``."""
+        """(E, 2) int64 distinct cell edges, ``a < b``, numbered by ``a`` then ``b``."""
         return self._edge_table[0]
 
     @property
     def cell_edges(self) -> np.ndarray:
-        """(M, 6|12) int64 id (row of :attr:`edges`) of each local edge of each cell."""
-        return self._edge_table[1]
+        """(M, 6|12) int32 (int64 past 2**31 cell edges) id (row of :attr:`edges`) of each local edge of each cell."""
+        edges, cell_edges = self._edge_table
+        if cell_edges is None:  # dropped after a preparation (release_preparation_tables): build it again
+            self.__dict__.pop("_edge_table", None)
+            edges, cell_edges = self._edge_table
+        return cell_edges
 
     @functools.cached_property
     def cell_records(self) -> np.ndarray:
@@ -568,14 +610,19 @@ class UnstructuredVolume:
 
     @functools.cached_property
     def node_cells(self):
-        """CSR ``(offsets (N+1,), cells)``: the cells using each node."""
-        offsets, order = _k.csr_from_keys(self.cells.ravel(), self.n_points)
-        return offsets, order // self.cells.shape[1]
+        """CSR ``(offsets (N+1,) int64, cells (4M|8M,) int32)``: the cells using each node, ascending.
+
+        int64 cells past 2**31 cells.
+        """
+        return _k.node_cells_csr(self.cells, self.n_points)
 
     @functools.cached_property
     def cell_components(self):
-        """``(labels (M,), n)``: connected parts of the volume through face neighbours."""
-        return _k.cell_components(self.face_neighbors)
+        """``(labels (M,) int32, n)``: connected parts of the volume through face neighbours (int64 labels
+        past 2**31 cells)."""
+        if self.n_cells >= _INT32_MAX:  # pragma: no cover - 2**31 cells
+            return _k.cell_components(self.face_neighbors)
+        return _k.cell_components_int32(self.face_neighbors)
 
     # ------------------------------------------------------- boundary groups
     @functools.cached_property
