@@ -716,11 +716,24 @@ def _sort_by_keys(k1, k2, idx, n):
         idx[j + 1] = ai
 
 
+def local_incidence(local, k):
+    """For each local node ``i`` of a cell with ``k`` nodes, the rows of ``local`` (faces or edges)
+    that contain it: ``(rows (k, R) int64, -1 padded, masks (len(local),) int64 node bitmask of each row)``."""
+    masks = np.array([sum(1 << int(j) for j in row) for row in local], np.int64)
+    per = [[r for r in range(len(local)) if i in set(int(j) for j in local[r])] for i in range(k)]
+    width = max(len(p) for p in per)
+    rows = np.full((k, width), -1, np.int64)
+    for i, p in enumerate(per):
+        rows[i, :len(p)] = p
+    return rows, masks
+
+
 @njit(parallel=True)
-def face_neighbors_by_node(cells, local_faces, nc_off, nc, out):
+def face_neighbors_by_node(cells, local_faces, node_faces, face_masks, nc_off, nc, out):
     """Fill ``out (M, F)`` (preset to -1) with the cell across each local face; the faces are matched
     in the bucket of their smallest node.
 
+    ``node_faces``, ``face_masks``: :func:`local_incidence` of ``local_faces``.
     Returns a slot ``c * F + f`` of a face shared by more than two cells, or -1.
     """
     m, k = cells.shape
@@ -733,40 +746,46 @@ def face_neighbors_by_node(cells, local_faces, nc_off, nc, out):
         big = 0
         for a in range(bounds[ch], bounds[ch + 1]):
             big = max(big, nc_off[a + 1] - nc_off[a])
-        cap = big * nf
+        cap = big * node_faces.shape[1]
         k1 = np.empty(cap, np.int64)
-        k2 = np.empty(cap, np.int64)
+        k2 = np.zeros(cap, np.int64)
         slot = np.empty(cap, np.int64)
         other = np.empty(4, np.int64)
         for a in range(bounds[ch], bounds[ch + 1]):
             n = 0
             for p in range(nc_off[a], nc_off[a + 1]):
                 c = nc[p]
-                for f in range(nf):
-                    has = False
-                    smallest = True
+                gt = 0
+                ia = 0
+                for j in range(k):
+                    v = cells[c, j]
+                    gt |= (v > a) << j
+                    ia += j * (v == a)
+                for t in range(node_faces.shape[1]):
+                    f = node_faces[ia, t]
+                    if f < 0:
+                        break
+                    rest = face_masks[f] & ~(1 << ia)
+                    if rest & gt != rest:
+                        continue  # a node of this face is smaller than a: not a's bucket
                     no = 0
                     for j in range(w):
                         v = cells[c, local_faces[f, j]]
-                        if v == a:
-                            has = True
-                        else:
-                            if v < a:
-                                smallest = False
+                        if v != a:
                             other[no] = v
                             no += 1
-                    if not (has and smallest):
-                        continue
-                    # the other nodes, ascending (two for a triangle, three for a quadrilateral)
-                    for i in range(1, no):
-                        v = other[i]
-                        j = i - 1
-                        while j >= 0 and other[j] > v:
-                            other[j + 1] = other[j]
-                            j -= 1
-                        other[j + 1] = v
-                    k1[n] = other[0] * n_nodes + other[1]
-                    k2[n] = other[2] if no > 2 else 0
+                    if no == 2:
+                        k1[n] = min(other[0], other[1]) * n_nodes + max(other[0], other[1])
+                    else:  # a quadrilateral: its other three nodes, ascending
+                        for i in range(1, no):
+                            v = other[i]
+                            j = i - 1
+                            while j >= 0 and other[j] > v:
+                                other[j + 1] = other[j]
+                                j -= 1
+                            other[j + 1] = v
+                        k1[n] = other[0] * n_nodes + other[1]
+                        k2[n] = other[2]
                     slot[n] = c * nf + f
                     n += 1
             _sort_by_keys(k1, k2, slot, n)
@@ -789,10 +808,27 @@ def face_neighbors_by_node(cells, local_faces, nc_off, nc, out):
     return -1
 
 
+@njit
+def _sort_packed(keys, n):
+    """Sort ``keys[:n]`` ascending (insertion sort; numpy's sort first when long)."""
+    if n > 48:
+        keys[:n] = np.sort(keys[:n])
+        return
+    for i in range(1, n):
+        v = keys[i]
+        j = i - 1
+        while j >= 0 and keys[j] > v:
+            keys[j + 1] = keys[j]
+            j -= 1
+        keys[j + 1] = v
+
+
 @njit(parallel=True)
-def edges_by_node(cells, local_edges, nc_off, nc, cell_edges):
+def edges_by_node(cells, local_edges, node_edges, nc_off, nc, cell_edges):
     """Number the distinct edges by smallest node, then largest; fill ``cell_edges (M, L)``.
 
+    ``node_edges``: :func:`local_incidence` of ``local_edges``. Each bucket
+    sorts ``other_node << 32 | slot`` (slots ``c * L + e`` below 2**32).
     Returns ``edges (E, 2) int64``, ``a < b``, in that order (the order of
     sorted node-pair codes ``a * N + b``).
     """
@@ -802,36 +838,36 @@ def edges_by_node(cells, local_edges, nc_off, nc, cell_edges):
     n_chunks = min(_N_CHUNKS, max(n_nodes, 1))
     bounds = _chunk_bounds(n_nodes, n_chunks)
     count = np.zeros(n_nodes + 1, np.int64)
+    low = np.int64(0xFFFFFFFF)
     for ch in prange(n_chunks):
         big = 0
         for a in range(bounds[ch], bounds[ch + 1]):
             big = max(big, nc_off[a + 1] - nc_off[a])
-        cap = big * ne
-        k1 = np.empty(cap, np.int64)
-        k2 = np.zeros(cap, np.int64)
-        slot = np.empty(cap, np.int64)
+        keys = np.empty(big * node_edges.shape[1], np.int64)
         for a in range(bounds[ch], bounds[ch + 1]):
             n = 0
             for p in range(nc_off[a], nc_off[a + 1]):
                 c = nc[p]
-                for e in range(ne):
-                    u = cells[c, local_edges[e, 0]]
-                    v = cells[c, local_edges[e, 1]]
-                    if u == a and v > a:
-                        k1[n] = v
-                    elif v == a and u > a:
-                        k1[n] = u
-                    else:
-                        continue
-                    k2[n] = 0
-                    slot[n] = c * ne + e
-                    n += 1
-            _sort_by_keys(k1, k2, slot, n)
+                ia = 0
+                for j in range(k):
+                    ia += j * (cells[c, j] == a)
+                for t in range(node_edges.shape[1]):
+                    e = node_edges[ia, t]
+                    if e < 0:
+                        break
+                    b = cells[c, local_edges[e, 0]] + cells[c, local_edges[e, 1]] - a
+                    if b > a:
+                        keys[n] = (b << 32) | (c * ne + e)
+                        n += 1
+            _sort_packed(keys, n)
             r = -1
+            prev = np.int64(-1)
             for i in range(n):
-                if i == 0 or k1[i] != k1[i - 1]:
+                b = keys[i] >> 32
+                if b != prev:
                     r += 1
-                s = slot[i]
+                    prev = b
+                s = keys[i] & low
                 cell_edges[s // ne, s % ne] = r
             count[a + 1] = r + 1
     for a in range(n_nodes):

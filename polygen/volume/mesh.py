@@ -69,6 +69,14 @@ class _Fields(collections.abc.MutableMapping):
 PREPARATION_POLICIES = ("background", "now", "never")
 
 
+@functools.cache
+def _local_incidence(cell_type, what):
+    """:func:`polygen.volume._topology.local_incidence` of a cell type's faces or edges."""
+    local = {"faces": TET_FACES if cell_type == "tetra" else HEX_FACES,
+             "edges": TET_EDGES if cell_type == "tetra" else HEX_EDGES}[what]
+    return _k.local_incidence(local, 4 if cell_type == "tetra" else 8)
+
+
 def _nbytes(obj):
     """Bytes of the numpy arrays in ``obj`` (an array or a tuple of them)."""
     if isinstance(obj, np.ndarray):
@@ -441,6 +449,8 @@ class UnstructuredVolume:
             if prepared is None:
                 # the registry, not the methods: they sit above the mesh and register themselves there
                 prepared = self._iso_methods[key] = _registry.get_method(method)(self, field=name)
+                if method == _registry.DEFAULT_METHOD:
+                    self.release_preparation_tables()
         return prepared
 
     def _prepare_in_background(self, key):
@@ -466,6 +476,8 @@ class UnstructuredVolume:
             if self.fields._data.get(name) is prepared._field_values and key not in self._iso_methods:
                 self._iso_methods[key] = prepared
             self._iso_pending.pop(key, None)
+            if method == _registry.DEFAULT_METHOD:
+                self.release_preparation_tables()
 
     def wait_prepared(self, timeout=None):
         """Wait for the background preparations started by :meth:`isosurface`; True when none is left."""
@@ -518,16 +530,17 @@ class UnstructuredVolume:
         self.cell_components
 
     def release_preparation_tables(self):
-        """Drop the tables only a preparation reads: ``node_cells``, ``cell_components`` and ``cell_edges``.
+        """Drop the tables only a preparation reads: ``node_cells``, ``cell_components``, ``face_neighbors``
+        and ``cell_edges`` (about 60 bytes per tetrahedron).
 
         The prepared default method keeps what it needs in its own records
         and reads only :attr:`edges` from the volume afterwards, so
-        :meth:`isosurface` calls this once it has prepared it (``edges``,
-        ``face_neighbors`` and the boundary tables stay). A later reader of a
-        dropped table builds it again.
+        :meth:`isosurface` calls this once it has prepared it (``edges`` and
+        the boundary tables stay). A later reader of a dropped table builds
+        it again (the same values).
         """
         with self._iso_lock:
-            for attr in ("node_cells", "cell_components"):
+            for attr in ("node_cells", "cell_components", "face_neighbors"):
                 self.__dict__.pop(attr, None)
             table = self.__dict__.get("_edge_table")
             if table is not None and table[1] is not None:
@@ -542,7 +555,8 @@ class UnstructuredVolume:
         off, nc = self._incidence()
         nf = self.local_faces.shape[0]
         out = np.full((self.n_cells, nf), -1, np.int32 if self.n_cells < _INT32_MAX else np.int64)
-        bad = _k.face_neighbors_by_node(self.cells, self.local_faces, off, nc, out)
+        bad = _k.face_neighbors_by_node(self.cells, self.local_faces, *_local_incidence(self.cell_type, "faces"),
+                                        off, nc, out)
         if bad >= 0:
             face = self.cells[bad // nf, self.local_faces[bad % nf]]
             around = nc[off[face.min()]:off[face.min() + 1]]
@@ -574,8 +588,14 @@ class UnstructuredVolume:
     def _edge_table(self):
         off, nc = self._incidence()
         ne = self.local_edges.shape[0]
+        if self.n_cells * ne >= 1 << 32:  # pragma: no cover - the buckets pack cell slots into 32 bits
+            edges = _k.gather_local(self.cells, self.local_edges)
+            _k.sort_rows(edges)
+            ids, first = _k.match_rows(edges, self.n_points)
+            return edges[first], ids.reshape(self.n_cells, -1)
         cell_edges = np.empty((self.n_cells, ne), np.int32 if self.n_cells * ne < _INT32_MAX else np.int64)
-        edges = _k.edges_by_node(self.cells, self.local_edges, off, nc, cell_edges)
+        edges = _k.edges_by_node(self.cells, self.local_edges, _local_incidence(self.cell_type, "edges")[0], off, nc,
+                                 cell_edges)
         return edges, cell_edges
 
     @property
