@@ -491,10 +491,14 @@ class UnstructuredVolume:
     def memory_bytes(self):
         """Bytes of the derived tables this volume holds (topology, incidence), by name.
 
-        Only what has been computed is counted (the tables are built lazily):
-        ``face_neighbors``, the edge table (``edges`` and
-        ``cell_edges``), ``cell_records``, ``edge_cells``, ``node_cells`` and
-        the locator. The points, cells and fields themselves are not counted.
+        Only what is held now is counted (the tables are built lazily, and
+        the preparation of the default method drops those only it reads:
+        :meth:`release_preparation_tables`): ``face_neighbors`` (int32, 16
+        bytes per tetrahedron), the edge table (``edges`` int64 and
+        ``cell_edges`` int32), ``cell_records``, ``edge_cells``,
+        ``node_cells`` (int32 cells), ``cell_components``, the boundary
+        tables and the locator. The points, cells and fields themselves are
+        not counted.
         """
         out = {}
         for attr in ("face_neighbors", "boundary_faces", "_edge_table", "cell_records",
@@ -669,8 +673,11 @@ class UnstructuredVolume:
         labels, n_groups = _k.union_find_rows(edge_ids, nb, owner)
         # Euler number V + F - E of each group (Def. 5.7)
         faces_per = np.bincount(labels, minlength=n_groups)
-        edge_group = np.unique(labels[owner] * (edge_ids.max() + 1) + edge_ids) // (edge_ids.max() + 1)
-        edges_per = np.bincount(edge_group, minlength=n_groups)
+        # the faces around an edge are joined, so each edge has one group: count it at one of its faces
+        # (np.unique of (group, edge) codes gave the same counts at 0.15 s on 2M)
+        rep = np.empty(int(edge_ids.max()) + 1, np.int64)
+        rep[edge_ids] = owner
+        edges_per = np.bincount(labels[rep], minlength=n_groups)
         node_group = np.unique(np.repeat(labels, k) * self.n_points + bfn.ravel()) // self.n_points
         nodes_per = np.bincount(node_group, minlength=n_groups)
         euler = nodes_per + faces_per - edges_per
