@@ -592,7 +592,7 @@ class UnstructuredVolume:
     def _edge_table(self):
         off, nc = self._incidence()
         ne = self.local_edges.shape[0]
-        if self.n_cells * ne >= 1 << 32:  # pragma: no cover - the buckets pack cell slots into 32 bits
+        if self.n_cells * ne >= 1 << 32 or self.n_points >= 1 << 31:  # pragma: no cover - packed keys overflow
             edges = _k.gather_local(self.cells, self.local_edges)
             _k.sort_rows(edges)
             ids, first = _k.match_rows(edges, self.n_points)
