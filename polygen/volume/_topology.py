@@ -7,6 +7,7 @@ counting sort and matched inside the bucket, which is linear in the number
 of rows and needs neither a global sort nor a Python loop.
 """
 
+import numba
 import numpy as np
 
 from polygen._jit import njit, prange
@@ -27,13 +28,18 @@ def sort_rows(rows):
             rows[r, j + 1] = v
 
 
-@njit
 def csr_from_keys(keys, n_keys):
-    """Group ``arange(len(keys))`` by ``keys``: returns ``(offsets, order)``.
+    """Group ``arange(len(keys))`` by ``keys``: returns ``(offsets (n_keys+1,) int64, order int64)``.
 
     ``order[offsets[k]:offsets[k+1]]`` are the positions holding key ``k``,
-    in increasing position (a stable counting sort).
+    in increasing position (a stable counting sort, parallel: :func:`stable_csr`).
     """
+    return stable_csr(keys, n_keys)
+
+
+@njit
+def _csr_serial(keys, n_keys):
+    """:func:`csr_from_keys` in one thread, for the kernels."""
     offsets = np.zeros(n_keys + 1, np.int64)
     for i in range(keys.shape[0]):
         offsets[keys[i] + 1] += 1
@@ -61,7 +67,7 @@ def match_rows(rows, n_nodes):
     """
     n = rows.shape[0]
     k = rows.shape[1]
-    offsets, order = csr_from_keys(rows[:, 0], n_nodes)
+    offsets, order = _csr_serial(rows[:, 0], n_nodes)
     ids = np.empty(n, np.int64)
     first = np.empty(n, np.int64)
     key = np.empty(n, np.int64)
@@ -599,3 +605,308 @@ def cell_records(cells, face_nb, cell_edges):
     rec[:, nn:nn + face_nb.shape[1]] = face_nb
     rec[:, nn + face_nb.shape[1]:nn + face_nb.shape[1] + cell_edges.shape[1]] = cell_edges
     return rec
+
+
+# ---------------------------------------------------------------- topology from node -> cells
+#
+# The tables below are built bucket by bucket, one bucket per node: the faces (edges) whose
+# smallest node is ``a`` are found among the cells around ``a`` (the node -> cells lists),
+# sorted by the rest of their nodes and matched there. Buckets are independent, so the
+# nodes are split into chunks that run in parallel, each with its own scratch sized for its
+# largest bucket; every output entry is written by exactly one bucket, so the result does
+# not depend on the number of threads.
+
+_N_CHUNKS = 256  # node ranges handed to the threads (more than threads: a rough balance)
+
+
+@njit
+def _chunk_bounds(n, n_chunks):
+    bounds = np.empty(n_chunks + 1, np.int64)
+    for i in range(n_chunks + 1):
+        bounds[i] = (n * i) // n_chunks
+    return bounds
+
+
+_SERIAL_BELOW = 1 << 17  # fewer entries than this: one thread (a parallel launch costs more than the work)
+
+
+def stable_csr(keys, n_keys):
+    """Group ``arange(len(keys))`` by ``keys``, in parallel: ``(offsets (n_keys+1,) int64, order int64)``.
+
+    ``order[offsets[k]:offsets[k+1]]`` are the positions holding key ``k``
+    in increasing position: a stable counting sort whose result does not
+    depend on the number of threads. The positions are cut into a few
+    slabs (at most 8, one per thread), each counted and scattered by one
+    thread; slab t of key k goes after every key < k and after slabs < t.
+    """
+    if keys.shape[0] < _SERIAL_BELOW:
+        return _csr_serial(keys, n_keys)
+    order = np.empty(keys.shape[0], np.int64)
+    return _stable_csr(keys, n_keys, numba.get_num_threads(), order, 1), order
+
+
+def node_cells_csr(cells, n_nodes):
+    """The cells using each node: ``(offsets (N+1,) int64, cells int32|int64)``, ascending cell ids per node.
+
+    :func:`stable_csr` of the flattened cells, storing the cell id (int32
+    while the cell ids fit) instead of the position.
+    """
+    k = cells.shape[1]
+    out = np.empty(cells.size, np.int32 if cells.shape[0] < np.iinfo(np.int32).max else np.int64)
+    flat = cells.reshape(-1)
+    if flat.shape[0] < _SERIAL_BELOW:
+        offsets, order = _csr_serial(flat, n_nodes)
+        out[:] = order // k
+        return offsets, out
+    return _stable_csr(flat, n_nodes, numba.get_num_threads(), out, k), out
+
+
+@njit(parallel=True)
+def _stable_csr(keys, n_keys, n_threads, out, divide):
+    """Fill ``out`` with ``position // divide`` grouped by key (stable); return the offsets."""
+    n = keys.shape[0]
+    n_slabs = max(1, min(n_threads, 8, n // 65536))
+    sb = _chunk_bounds(n, n_slabs)
+    counts = np.zeros((n_slabs, n_keys), np.int64)
+    for t in prange(n_slabs):
+        for i in range(sb[t], sb[t + 1]):
+            counts[t, keys[i]] += 1
+    offsets = np.empty(n_keys + 1, np.int64)
+    s = np.int64(0)
+    for k in range(n_keys):
+        offsets[k] = s
+        for u in range(n_slabs):
+            c = counts[u, k]
+            counts[u, k] = s
+            s += c
+    offsets[n_keys] = s
+    for t in prange(n_slabs):
+        for i in range(sb[t], sb[t + 1]):
+            k = keys[i]
+            out[counts[t, k]] = i // divide
+            counts[t, k] += 1
+    return offsets
+
+
+@njit
+def _sort_by_keys(k1, k2, idx, n):
+    """Order ``idx[:n]`` by ``(k1, k2)`` of its entries (insertion sort; a merge sort on k1 first when long)."""
+    if n > 48:
+        perm = np.argsort(k1[:n], kind="mergesort")
+        tmp = idx[:n].copy()
+        for i in range(n):
+            idx[i] = tmp[perm[i]]
+        t1 = k1[:n].copy()
+        t2 = k2[:n].copy()
+        for i in range(n):
+            k1[i] = t1[perm[i]]
+            k2[i] = t2[perm[i]]
+    for i in range(1, n):
+        a1 = k1[i]
+        a2 = k2[i]
+        ai = idx[i]
+        j = i - 1
+        while j >= 0 and (k1[j] > a1 or (k1[j] == a1 and (k2[j] > a2 or (k2[j] == a2 and idx[j] > ai)))):
+            k1[j + 1] = k1[j]
+            k2[j + 1] = k2[j]
+            idx[j + 1] = idx[j]
+            j -= 1
+        k1[j + 1] = a1
+        k2[j + 1] = a2
+        idx[j + 1] = ai
+
+
+def local_incidence(local, k):
+    """For each local node ``i`` of a cell with ``k`` nodes, the rows of ``local`` (faces or edges)
+    that contain it: ``(rows (k, R) int64, -1 padded, masks (len(local),) int64 node bitmask of each row)``."""
+    masks = np.array([sum(1 << int(j) for j in row) for row in local], np.int64)
+    per = [[r for r in range(len(local)) if i in set(int(j) for j in local[r])] for i in range(k)]
+    width = max(len(p) for p in per)
+    rows = np.full((k, width), -1, np.int64)
+    for i, p in enumerate(per):
+        rows[i, :len(p)] = p
+    return rows, masks
+
+
+@njit(parallel=True)
+def face_neighbors_by_node(cells, local_faces, node_faces, face_masks, nc_off, nc, out):
+    """Fill ``out (M, F)`` (preset to -1) with the cell across each local face; the faces are matched
+    in the bucket of their smallest node.
+
+    ``node_faces``, ``face_masks``: :func:`local_incidence` of ``local_faces``.
+    Returns a slot ``c * F + f`` of a face shared by more than two cells, or -1.
+    """
+    m, k = cells.shape
+    nf, w = local_faces.shape
+    n_nodes = nc_off.shape[0] - 1
+    n_chunks = min(_N_CHUNKS, max(n_nodes, 1))
+    bounds = _chunk_bounds(n_nodes, n_chunks)
+    bad = np.full(n_chunks, -1, np.int64)
+    for ch in prange(n_chunks):
+        big = 0
+        for a in range(bounds[ch], bounds[ch + 1]):
+            big = max(big, nc_off[a + 1] - nc_off[a])
+        cap = big * node_faces.shape[1]
+        k1 = np.empty(cap, np.int64)
+        k2 = np.zeros(cap, np.int64)
+        slot = np.empty(cap, np.int64)
+        other = np.empty(4, np.int64)
+        for a in range(bounds[ch], bounds[ch + 1]):
+            n = 0
+            for p in range(nc_off[a], nc_off[a + 1]):
+                c = nc[p]
+                gt = 0
+                ia = 0
+                for j in range(k):
+                    v = cells[c, j]
+                    gt |= (v > a) << j
+                    ia += j * (v == a)
+                for t in range(node_faces.shape[1]):
+                    f = node_faces[ia, t]
+                    if f < 0:
+                        break
+                    rest = face_masks[f] & ~(1 << ia)
+                    if rest & gt != rest:
+                        continue  # a node of this face is smaller than a: not a's bucket
+                    no = 0
+                    for j in range(w):
+                        v = cells[c, local_faces[f, j]]
+                        if v != a:
+                            other[no] = v
+                            no += 1
+                    if no == 2:
+                        k1[n] = min(other[0], other[1]) * n_nodes + max(other[0], other[1])
+                    else:  # a quadrilateral: its other three nodes, ascending
+                        for i in range(1, no):
+                            v = other[i]
+                            j = i - 1
+                            while j >= 0 and other[j] > v:
+                                other[j + 1] = other[j]
+                                j -= 1
+                            other[j + 1] = v
+                        k1[n] = other[0] * n_nodes + other[1]
+                        k2[n] = other[2]
+                    slot[n] = c * nf + f
+                    n += 1
+            _sort_by_keys(k1, k2, slot, n)
+            i = 0
+            while i < n:
+                j = i + 1
+                while j < n and k1[j] == k1[i] and k2[j] == k2[i]:
+                    j += 1
+                if j - i == 2:
+                    s0 = slot[i]
+                    s1 = slot[i + 1]
+                    out[s0 // nf, s0 % nf] = s1 // nf
+                    out[s1 // nf, s1 % nf] = s0 // nf
+                elif j - i > 2 and bad[ch] < 0:
+                    bad[ch] = slot[i]
+                i = j
+    for ch in range(n_chunks):
+        if bad[ch] >= 0:
+            return bad[ch]
+    return -1
+
+
+@njit
+def _sort_packed(keys, n):
+    """Sort ``keys[:n]`` ascending (insertion sort; numpy's sort first when long)."""
+    if n > 48:
+        keys[:n] = np.sort(keys[:n])
+        return
+    for i in range(1, n):
+        v = keys[i]
+        j = i - 1
+        while j >= 0 and keys[j] > v:
+            keys[j + 1] = keys[j]
+            j -= 1
+        keys[j + 1] = v
+
+
+@njit(parallel=True)
+def edges_by_node(cells, local_edges, node_edges, nc_off, nc, cell_edges):
+    """Number the distinct edges by smallest node, then largest; fill ``cell_edges (M, L)``.
+
+    ``node_edges``: :func:`local_incidence` of ``local_edges``. Each bucket
+    sorts ``other_node << 32 | slot`` (slots ``c * L + e`` below 2**32).
+    Returns ``edges (E, 2) int64``, ``a < b``, in that order (the order of
+    sorted node-pair codes ``a * N + b``).
+    """
+    m, k = cells.shape
+    ne = local_edges.shape[0]
+    n_nodes = nc_off.shape[0] - 1
+    n_chunks = min(_N_CHUNKS, max(n_nodes, 1))
+    bounds = _chunk_bounds(n_nodes, n_chunks)
+    count = np.zeros(n_nodes + 1, np.int64)
+    low = np.int64(0xFFFFFFFF)
+    for ch in prange(n_chunks):
+        big = 0
+        for a in range(bounds[ch], bounds[ch + 1]):
+            big = max(big, nc_off[a + 1] - nc_off[a])
+        keys = np.empty(big * node_edges.shape[1], np.int64)
+        for a in range(bounds[ch], bounds[ch + 1]):
+            n = 0
+            for p in range(nc_off[a], nc_off[a + 1]):
+                c = nc[p]
+                ia = 0
+                for j in range(k):
+                    ia += j * (cells[c, j] == a)
+                for t in range(node_edges.shape[1]):
+                    e = node_edges[ia, t]
+                    if e < 0:
+                        break
+                    b = cells[c, local_edges[e, 0]] + cells[c, local_edges[e, 1]] - a
+                    if b > a:
+                        keys[n] = (b << 32) | (c * ne + e)
+                        n += 1
+            _sort_packed(keys, n)
+            r = -1
+            prev = np.int64(-1)
+            for i in range(n):
+                b = keys[i] >> 32
+                if b != prev:
+                    r += 1
+                    prev = b
+                s = keys[i] & low
+                cell_edges[s // ne, s % ne] = r
+            count[a + 1] = r + 1
+    for a in range(n_nodes):
+        count[a + 1] += count[a]
+    n_edges = count[n_nodes]
+    edges = np.empty((n_edges, 2), np.int64)
+    for c in prange(m):
+        for e in range(ne):
+            u = cells[c, local_edges[e, 0]]
+            v = cells[c, local_edges[e, 1]]
+            a = min(u, v)
+            i = cell_edges[c, e] + count[a]
+            cell_edges[c, e] = i
+            edges[i, 0] = a  # every cell around the edge writes the same two values
+            edges[i, 1] = max(u, v)
+    return edges
+
+
+@njit
+def cell_components_int32(neighbors):
+    """Connected components of cells through face neighbours: ``(labels (M,) int32, n)``."""
+    m, f = neighbors.shape
+    labels = np.full(m, -1, np.int32)
+    stack = np.empty(m, np.int32)
+    n_comp = 0
+    for s in range(m):
+        if labels[s] >= 0:
+            continue
+        labels[s] = n_comp
+        stack[0] = s
+        top = 1
+        while top > 0:
+            top -= 1
+            c = stack[top]
+            for i in range(f):
+                d = neighbors[c, i]
+                if d >= 0 and labels[d] < 0:
+                    labels[d] = n_comp
+                    stack[top] = d
+                    top += 1
+        n_comp += 1
+    return labels, n_comp
