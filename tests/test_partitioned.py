@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from polygen.volume import datasets, isovalues
-from polygen.volume.partitioned import PartitionedVolume, PartitionError, stitch
+from polygen.volume.partitioned import PartitionedVolume, PartitionError, reduce_tree, stitch, tree_stitch
 from polygen.volume.surface import IsoSurfaceError
 
 N_VALUES = 200  # the issue's sweep, without Dask
@@ -178,6 +178,32 @@ def test_2M_split_stitched_equals_single(k):
     prepared = PartitionedVolume.split(vol, k).prepare()
     for v in isovalues(vol.scalars(), N_VALUES):
         assert_same_as_single(vol, vol.isosurface(v), prepared.extract(v))
+
+
+def _same_arrays(a, b):
+    for f in ("vertex_keys", "vertices", "triangles", "triangle_cells", "normals"):
+        np.testing.assert_array_equal(getattr(a, f), getattr(b, f), err_msg=f)
+    assert a.seam_vertices == b.seam_vertices and a.partitions == b.partitions
+
+
+def test_tree_stitch_equals_client_stitch(data3):
+    """Pairwise merges up the tree of neighbours (5 partitions: an odd one goes up a level) = all at once."""
+    prepared = PartitionedVolume.split(data3, 5).prepare()
+    values = isovalues(data3.scalars(), 7)
+    for v in values:
+        pieces = [p.extract(v) for p in prepared.partitions]
+        flat = stitch(v, pieces, n_ids=prepared.n_ids)
+        tree = tree_stitch(v, pieces, n_ids=prepared.n_ids)
+        _same_arrays(flat, tree)
+        assert_same_as_single(data3, data3.isosurface(v), tree)
+        assert tree.seam_vertices > 0 and len(tree.partitions) == 5
+
+
+def test_reduce_tree_pairs_neighbours():
+    assert reduce_tree("abcde", lambda a, b: f"({a}{b})") == "(((ab)(cd))e)"
+    assert reduce_tree(["a"], lambda a, b: a + b) == "a"
+    with pytest.raises(PartitionError, match="no pieces"):
+        reduce_tree([], lambda a, b: a)
 
 
 # ------------------------------------------------------------------ bad input

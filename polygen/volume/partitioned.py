@@ -39,10 +39,14 @@ one volume). Mean normals are computed on the stitched surface (a seam
 vertex's triangles lie on both sides); ``normals="gradient"`` is refused
 (a seam node's gradient needs the cells of both sides).
 
-:class:`PartitionedMethod` runs the partitions here, one after the other;
-:mod:`polygen.volume.distributed` runs the same partitions on Dask workers
-(``distributed.prepare(pvol, client=...)``). This module does not import
-dask.
+:func:`merge` turns pieces into one piece again, so the stitch can be done
+all at once (:func:`stitch`: what :class:`PartitionedMethod` does here, one
+partition after the other) or pairwise up a tree of neighbouring partitions
+(:func:`reduce_tree`, :func:`tree_stitch`): what
+:mod:`polygen.volume.distributed` does on the Dask workers
+(``distributed.prepare(pvol, client=...)``), so that only the stitched
+surface reaches the client. Both give the same arrays. This module does not
+import dask.
 """
 
 from __future__ import annotations
@@ -65,7 +69,7 @@ from polygen.volume.thinning import ThinningWarning
 from polygen.volume.surface import IsoSurface, IsoSurfaceError, check_normals, check_value
 
 __all__ = ["PartitionedVolume", "PartitionedMethod", "PartitionError", "StitchedIsoSurface", "GLOBAL_IDS",
-           "stitch"]
+           "stitch", "tree_stitch", "merge", "finish", "reduce_tree"]
 
 #: the point array that numbers the nodes globally (as ParaView's D3 filter and VTK's redistribution name it)
 GLOBAL_IDS = "GlobalNodeId"
@@ -346,7 +350,9 @@ class StitchedIsoSurface(IsoSurface):
     seam_vertices : int
         Vertices made by more than one partition (kept once).
     stitch_s : float
-        Seconds to stitch (and to compute the mean normals) here.
+        Seconds of merging (summed over the merges of a tree) and of the
+        mean normals: on the client for :func:`stitch`, on the workers for
+        the stitch on Dask.
     n_ids : int
         The number of global node ids (the base of the keys).
     """
@@ -357,25 +363,57 @@ class StitchedIsoSurface(IsoSurface):
     n_ids: int = 0
 
 
-def stitch(value, pieces, *, n_ids, normals="mean"):
-    """One surface from the partitions' pieces (dicts of :meth:`PreparedPartition.extract`).
+_COUNTERS = ("cells_tested", "cells_intersected", "vertex_lookups", "seam_seeds", "t1", "t2", "t3")
+
+
+def _parts(piece):
+    """The per-partition counters a piece carries: its own (a partition's piece) or its partitions' (merged)."""
+    if "parts" in piece:
+        return list(piece["parts"])
+    return [{k: piece[k] for k in _COUNTERS}
+            | {"n_triangles": int(piece["triangles"].shape[0]), "n_vertices": int(piece["keys"].shape[0])}]
+
+
+def merge(pieces, *, n_ids):
+    """One piece from neighbouring pieces of one value (dicts of :meth:`PreparedPartition.extract` or of ``merge``).
 
     Vertices with the same global key are one vertex (the first piece's
     position: both sides compute it from the same edge end, bit for bit);
     triangles are kept in piece order, except a triangle lying in a shared
     face at ``C`` (three node vertices) made by two cells, kept once from the
-    lower global cell id; mean normals are computed on the stitched surface.
+    lower global cell id. The result is a piece again (keys sorted and
+    unique), so pieces can be merged in any grouping of consecutive pieces
+    -- all at once (:func:`stitch`) or pairwise up a tree
+    (:func:`reduce_tree`, on the Dask workers) -- with the same arrays.
+
+    Parameters
+    ----------
+    pieces : list of dict
+        ``keys`` (n_i,) int64, ``vertices`` (n_i, 3) float64, ``triangles``
+        (m_i, 3) int32/int64, ``triangle_cells`` (m_i,) int64, ``fallback``
+        (keys, directions) or None, the counters.
+    n_ids : int
+        The number of global node ids (the base of the keys).
+
+    Returns
+    -------
+    dict
+        The same fields, ``parts`` (each partition's counters, in piece
+        order), ``seam_vertices`` (vertices merged away so far) and
+        ``merge_s`` (seconds of merging so far, summed over the tree).
     """
     t0 = time.perf_counter()
-    keys = np.concatenate([p["keys"] for p in pieces]) if pieces else np.zeros(0, np.int64)
+    if not pieces:
+        return {"keys": np.zeros(0, np.int64), "vertices": np.zeros((0, 3)), "triangles": np.zeros((0, 3), np.int32),
+                "triangle_cells": np.zeros(0, np.int64), "fallback": None, "parts": [], "seam_vertices": 0,
+                "merge_s": 0.0, "method": ""}
+    keys = np.concatenate([p["keys"] for p in pieces])
     offsets = np.cumsum([0] + [p["keys"].shape[0] for p in pieces])
     uniq, first, inv = np.unique(keys, return_index=True, return_inverse=True)
     inv = inv.ravel()
-    verts = np.concatenate([p["vertices"] for p in pieces])[first] if pieces else np.zeros((0, 3))
-    tri = np.concatenate([inv[p["triangles"].astype(np.int64) + o] for p, o in zip(pieces, offsets)]) \
-        if pieces else np.zeros((0, 3), np.int64)
-    tri = tri.reshape(-1, 3)
-    tcell = np.concatenate([p["triangle_cells"] for p in pieces]) if pieces else np.zeros(0, np.int64)
+    verts = np.concatenate([p["vertices"] for p in pieces])[first]
+    tri = np.concatenate([inv[p["triangles"].astype(np.int64) + o] for p, o in zip(pieces, offsets)]).reshape(-1, 3)
+    tcell = np.concatenate([p["triangle_cells"] for p in pieces]).astype(np.int64, copy=False)
     # the shared-face-at-C triangles: all three vertices on nodes
     node_vertex = (uniq // n_ids) == (uniq % n_ids) if n_ids else np.zeros(uniq.shape, bool)
     if node_vertex.any():
@@ -388,33 +426,80 @@ def stitch(value, pieces, *, n_ids, normals="mean"):
                 keep[cand] = False
                 keep[cand[keep_first]] = True
                 tri, tcell = tri[keep], tcell[keep]
+    fb = [p["fallback"] for p in pieces if p.get("fallback") is not None]
+    fallback = (np.concatenate([f[0] for f in fb]), np.concatenate([f[1] for f in fb]).reshape(-1, 3)) if fb else None
+    return {"keys": uniq, "vertices": verts, "triangles": tri.astype(np.int32) if uniq.shape[0] < 2**31 else tri,
+            "triangle_cells": tcell, "fallback": fallback, "parts": [c for p in pieces for c in _parts(p)],
+            "seam_vertices": sum(p.get("seam_vertices", 0) for p in pieces) + int(keys.shape[0] - uniq.shape[0]),
+            "merge_s": sum(p.get("merge_s", 0.0) for p in pieces) + time.perf_counter() - t0,
+            "method": pieces[0]["method"]}
+
+
+def reduce_tree(items, combine):
+    """``items`` combined pairwise up a binary tree of neighbours: ``combine(a, b)`` of items 0-1, 2-3, ...
+
+    then of those results in pairs, and so on (an odd item out goes up a
+    level as it is); the root. Partitions are consecutive Morton ranges, so
+    neighbours in this order share seams and each merge removes the seam
+    vertices between them. The one reduction of the local tree stitch
+    (:func:`tree_stitch`) and of the stitch on Dask workers
+    (:mod:`polygen.volume.distributed`).
+    """
+    items = list(items)
+    if not items:
+        raise PartitionError("nothing to reduce: no pieces")
+    while len(items) > 1:
+        items = [combine(items[i], items[i + 1]) if i + 1 < len(items) else items[i] for i in range(0, len(items), 2)]
+    return items[0]
+
+
+def finish(value, piece, *, n_ids, normals="mean"):
+    """The :class:`StitchedIsoSurface` of a piece holding every partition's part (the root of the merges).
+
+    Mean normals are computed here, on the whole surface (a seam vertex's
+    triangles lie on both sides); a vertex whose triangles all have zero
+    area takes its edge's direction from a partition that has it.
+    """
+    t0 = time.perf_counter()
+    if "parts" not in piece:
+        piece = merge([piece], n_ids=n_ids)
+    verts, uniq = piece["vertices"], piece["keys"]
+    tri = np.ascontiguousarray(piece["triangles"], np.int64)
     nrm = None
-    if normals is not None and pieces:
+    if normals is not None and piece["parts"]:
         nrm = np.empty_like(verts)
         if verts.shape[0]:
-            _m._mean_normals(verts, np.ascontiguousarray(tri, np.int64), nrm)
-            # a vertex whose triangles all have zero area keeps its partition's fallback (its edge's direction)
-            # a vertex whose triangles all have zero area: its edge's direction, from a partition that has it
-            fk = np.concatenate([p["fallback"][0] for p in pieces])
-            if fk.size:
-                fd = np.concatenate([p["fallback"][1] for p in pieces])
+            _m._mean_normals(verts, tri, nrm)
+            if piece["fallback"] is not None and piece["fallback"][0].size:
+                fk, fd = piece["fallback"]
                 at = np.searchsorted(uniq, fk)
                 zero = ~(np.abs(nrm[at]).sum(axis=1) > 0.0)
                 nrm[at[zero]] = fd[zero]
-    parts = tuple({k: p[k] for k in ("cells_tested", "cells_intersected", "vertex_lookups", "seam_seeds",
-                                     "t1", "t2", "t3")}
-                  | {"n_triangles": int(p["triangles"].shape[0]), "n_vertices": int(p["keys"].shape[0])}
-                  for p in pieces)
-    total = {k: sum(p[k] for p in pieces) for k in ("cells_tested", "cells_intersected", "vertex_lookups",
-                                                    "t1", "t2", "t3")}
-    method = pieces[0]["method"] if pieces else ""
+    parts = tuple(piece["parts"])
+    total = {k: sum(p[k] for p in parts) for k in ("cells_tested", "cells_intersected", "vertex_lookups",
+                                                   "t1", "t2", "t3")}
     return StitchedIsoSurface(
-        value=value, vertices=verts, triangles=np.ascontiguousarray(tri, np.int64), normals=nrm,
-        vertex_keys=uniq, triangle_cells=tcell.astype(np.int64), method=method,
+        value=value, vertices=verts, triangles=tri, normals=nrm, vertex_keys=uniq,
+        triangle_cells=piece["triangle_cells"], method=piece["method"],
         cells_tested=int(total["cells_tested"]), cells_intersected=int(total["cells_intersected"]),
         vertex_lookups=int(total["vertex_lookups"]), t1=total["t1"], t2=total["t2"], t3=total["t3"],
-        partitions=parts, seam_vertices=int(keys.shape[0] - uniq.shape[0]),
-        stitch_s=time.perf_counter() - t0, n_ids=int(n_ids))
+        partitions=parts, seam_vertices=int(piece["seam_vertices"]),
+        stitch_s=piece["merge_s"] + time.perf_counter() - t0, n_ids=int(n_ids))
+
+
+def stitch(value, pieces, *, n_ids, normals="mean"):
+    """One surface from the partitions' pieces (dicts of :meth:`PreparedPartition.extract`), merged at once.
+
+    :func:`merge` of all pieces, then :func:`finish`: what the client does
+    with every piece in hand (the local path, :class:`PartitionedMethod`).
+    """
+    return finish(value, merge(list(pieces), n_ids=n_ids), n_ids=n_ids, normals=normals)
+
+
+def tree_stitch(value, pieces, *, n_ids, normals="mean"):
+    """The same surface as :func:`stitch`, merged pairwise up :func:`reduce_tree` (as the Dask workers do)."""
+    root = reduce_tree(pieces, lambda a, b: merge([a, b], n_ids=n_ids))
+    return finish(value, root, n_ids=n_ids, normals=normals)
 
 
 def check_partitions(infos):
