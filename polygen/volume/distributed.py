@@ -3,9 +3,17 @@
 Each partition of a :class:`~polygen.volume.partitioned.PartitionedVolume`
 becomes a Dask **actor** (:class:`~polygen.volume.partitioned.PreparedPartition`
 on a worker): the piece is read (or, for a split volume, sent) once, the
-method is prepared there and kept; a query is one small call per partition,
-and only the partition's triangles (global vertex keys, positions, triangles,
-global cell ids) travel back to be stitched here.
+method is prepared there and kept; a query is one small task per partition and
+chunk of values, which asks the partition's actor on its own worker for its
+pieces (global vertex keys, positions, triangles, global cell ids); the
+pieces are then merged pairwise **on the workers**, up a tree of neighbouring
+partitions (:func:`~polygen.volume.partitioned.reduce_tree`, Morton order:
+each merge removes the seam vertices between its two sides), the root
+computes the normals, and only the stitched surface travels to the client.
+Neighbouring partitions are placed on the same worker (blocks of the Morton
+order), so the lower merges move nothing between workers; the values are
+cut into as many chunks as there are workers and each chunk's root merge
+runs on another worker, so the stitch is shared out.
 
 Faults: when a worker is lost (its process killed, its machine gone), the
 calls to its actors fail; the partitions it held are prepared again on the
@@ -26,7 +34,7 @@ import uuid
 import numpy as np
 
 from polygen.volume.partitioned import (PartitionError, PreparedPartition, _check_normals, check_partitions,
-                                        stitch)
+                                        finish, merge, reduce_tree)
 from polygen.volume.surface import check_value
 
 __all__ = ["DaskPartitionedMethod", "prepare", "local_client", "require_distributed"]
@@ -82,7 +90,8 @@ class DaskPartitionedMethod:
     pvol : PartitionedVolume
     field, method : str, optional
     client : dask.distributed.Client, keyword-only
-        Partitions go round-robin to its workers (sorted by address).
+        Partitions go to its workers (sorted by address) in blocks of
+        consecutive partitions (neighbours on one worker).
     **params
         The method's parameters.
 
@@ -99,9 +108,13 @@ class DaskPartitionedMethod:
     reprepared : int
         Partitions prepared again after a worker was lost.
     bytes_last : int
-        Bytes of the arrays that came back for the last query.
+        Bytes of the arrays that came back to the client for the last query
+        (the stitched surfaces: vertices, normals, triangles, keys, cells).
+    bytes_workers_last : int
+        Bytes of pieces the last query moved from one worker to another
+        (merge inputs made elsewhere).
     wait_last : float
-        Seconds the last query waited for the partitions (calls, work, transfer; the stitch excluded).
+        Seconds the last query waited for its surfaces (calls, work, merges, transfer).
 
     Notes
     -----
@@ -116,14 +129,16 @@ class DaskPartitionedMethod:
         self.field, self.method, self.params = field, method, params
         self.reprepared = 0
         self.bytes_last = 0
+        self.bytes_workers_last = 0
         self.wait_last = 0.0
         t0 = time.perf_counter()
         workers = self._workers()
         self._futures = [None] * len(self.pieces)
         self.actors = [None] * len(self.pieces)
         self.placement = [None] * len(self.pieces)
-        for i, w in zip(range(len(self.pieces)), itertools.cycle(workers)):
-            self._start(i, w)
+        k = len(self.pieces)
+        for i in range(k):  # blocks of neighbours: partition i on worker i * W // k
+            self._start(i, workers[i * len(workers) // k])
         try:
             infos = self._gather([a.get_info() for a in self.actors], what="prepare")
             self.infos = infos
@@ -167,16 +182,6 @@ class DaskPartitionedMethod:
                 raise _Lost(i, e) from e
         return out
 
-    def _calls(self, values, normals):
-        """One call per partition; an actor whose worker is already known lost raises at once (as ``_Lost``)."""
-        calls = []
-        for i, a in enumerate(self.actors):
-            try:
-                calls.append(a.extract_many(values, normals))
-            except Exception as e:  # noqa: BLE001  dask: "Worker holding Actor was lost"
-                raise _Lost(i, e) from e
-        return calls
-
     def _reprepare(self, lost):
         """Prepare the partitions ``lost`` (indices) again on the workers alive now."""
         alive = self._workers()
@@ -194,14 +199,62 @@ class DaskPartitionedMethod:
             self.reprepared += 1
 
     # ------------------------------------------------------------ queries
+    def _submit_query(self, values, normals):
+        """The tasks of one query: per chunk of values, a leaf per partition, the merges, the root's finish."""
+        submit, uid = self.client.submit, uuid.uuid4().hex
+        n_chunks = max(1, min(len(set(self.placement)), len(values)))
+        leaves, roots = [], []
+        for c, idx in enumerate(np.array_split(np.arange(len(values)), n_chunks)):
+            vals = [values[j] for j in idx]
+            lv = [submit(_leaf, a, vals, normals, workers=[w], allow_other_workers=True, pure=False,
+                         key=f"polygen-leaf-{i}-{c}-{uid}")
+                  for i, (a, w) in enumerate(zip(self.actors, self.placement))]
+            leaves.append(lv)
+            count = itertools.count()
+
+            def combine(x, y, c=c, count=count):
+                # on one of the two sides' workers; across workers, the root of odd chunks on the right side's
+                (fx, wx), (fy, wy) = x, y
+                w = wx if wx == wy or c % 2 == 0 else wy
+                return submit(_merge, self.n_ids, fx, fy, workers=[w], allow_other_workers=True, pure=False,
+                              key=f"polygen-merge-{c}-{next(count)}-{uid}"), w
+
+            root, w = reduce_tree(list(zip(lv, self.placement)), combine)
+            roots.append(submit(_finish, vals, self.n_ids, normals, root, workers=[w], allow_other_workers=True,
+                                pure=False, key=f"polygen-finish-{c}-{uid}"))
+        return leaves, roots
+
+    def _run_query(self, values, normals):
+        """The stitched surfaces, or ``_Lost`` naming a partition whose actor could not answer."""
+        distributed = require_distributed()
+        leaves, roots = self._submit_query(values, normals)
+        distributed.wait(roots)
+        if all(r.status == "finished" for r in roots):
+            out = self.client.gather(roots)
+            return [s for o in out for s in o["surfaces"]], sum(o["moved"] for o in out)
+        # a leaf failed: our own error as it is, anything else (a worker or actor lost) as a lost partition
+        for lv in leaves:
+            for i, f in enumerate(lv):
+                if f.status == "error":
+                    e = f.exception()
+                    if isinstance(e, (PartitionError, ValueError)):
+                        raise e
+                    raise _Lost(i, e)
+                if f.status != "finished":
+                    raise _Lost(i, RuntimeError(f"its task ended as {f.status!r}"))
+        for r in roots:
+            if r.status == "error":
+                raise r.exception()
+        raise PartitionError("a query's merges did not finish; no surface returned")
+
     def extract_many(self, values, *, normals="mean"):
-        """The stitched surfaces of ``values`` (one call per partition for all values)."""
+        """The stitched surfaces of ``values`` (one task per partition and chunk of values, merged on the workers)."""
         values = [check_value(v) for v in values]
         _check_normals(normals)
         t0 = time.perf_counter()
         for attempt in range(RETRIES + 1):
             try:
-                pieces = self._gather(self._calls(values, normals), what="query")
+                surfaces, moved = self._run_query(values, normals)
                 break
             except _Lost as lost:
                 if attempt == RETRIES:
@@ -215,9 +268,9 @@ class DaskPartitionedMethod:
                                          f"could not be prepared again ({type(e).__name__}: {e}); no surface "
                                          "returned") from e
         self.wait_last = time.perf_counter() - t0
-        self.bytes_last = sum(_nbytes(p) for per in pieces for p in per)
-        return [stitch(v, [per[j] for per in pieces], n_ids=self.n_ids, normals=normals)
-                for j, v in enumerate(values)]
+        self.bytes_workers_last = int(moved)
+        self.bytes_last = sum(_surface_nbytes(s) for s in surfaces)
+        return surfaces
 
     def extract(self, value, *, normals="mean"):
         """The stitched surface ``S = value``."""
@@ -239,7 +292,49 @@ class _Lost(Exception):
 
 
 def _nbytes(piece):
-    return int(sum(v.nbytes for v in piece.values() if isinstance(v, np.ndarray)))
+    """Bytes of a piece's arrays (its fallback rows included)."""
+    fb = piece.get("fallback")
+    return int(sum(v.nbytes for v in piece.values() if isinstance(v, np.ndarray))
+               + (fb[0].nbytes + fb[1].nbytes if fb is not None else 0))
+
+
+def _surface_nbytes(s):
+    return int(sum(a.nbytes for a in (s.vertices, s.normals, s.triangles, s.vertex_keys, s.triangle_cells)
+                   if a is not None))
+
+
+def _here():
+    from distributed import get_worker
+
+    return get_worker().address
+
+
+def _leaf(actor, values, normals):
+    """On a worker: the partition's pieces of ``values`` from its actor (on this worker unless it moved)."""
+    pieces = actor.extract_many(values, normals).result()
+    here = _here()
+    moved = sum(_nbytes(p) for p in pieces) if getattr(actor, "_address", here) != here else 0
+    return {"where": here, "moved": moved, "pieces": pieces}
+
+
+def _moved_in(*nodes):
+    here = _here()
+    return here, sum(n["moved"] + (sum(_nbytes(p) for p in n["pieces"]) if n["where"] != here else 0)
+                     for n in nodes)
+
+
+def _merge(n_ids, left, right):
+    """On a worker: two neighbouring nodes of the tree merged, value by value."""
+    here, moved = _moved_in(left, right)
+    return {"where": here, "moved": moved,
+            "pieces": [merge([a, b], n_ids=n_ids) for a, b in zip(left["pieces"], right["pieces"])]}
+
+
+def _finish(values, n_ids, normals, root):
+    """On a worker: the root's pieces made surfaces (normals on the whole surface)."""
+    here, moved = _moved_in(root)
+    return {"moved": moved, "surfaces": [finish(v, p, n_ids=n_ids, normals=normals)
+                                         for v, p in zip(values, root["pieces"])]}
 
 
 def _takes_n_workers(client):
