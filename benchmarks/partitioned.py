@@ -10,9 +10,12 @@ construction from the thinning skeleton) on every partition; twenty values
   values by ``extract_many`` (the issue's yardstick) and one by one;
 * **k partitions**: splitting here, preparation on the workers (wall clock,
   and each partition's own time), the twenty values by one
-  ``extract_many`` call (one actor call per partition, the stitch here),
-  the bytes of arrays that came back, the work per partition (t1 + t2 + t3
-  summed over its pieces) and the stitch time;
+  ``extract_many`` call (a task per partition and chunk of values, the
+  pieces merged pairwise on the workers up the tree of Morton neighbours,
+  the stitched surfaces to the client), the bytes that came to the client
+  and the bytes moved between workers, the work per partition (t1 + t2 +
+  t3 summed over its pieces) and the stitch work (merges and normals, on
+  the workers);
 * every stitched surface is checked against the single volume's (triangle
   and vertex counts).
 
@@ -20,8 +23,8 @@ Query times are the best of two sweeps. Results go to
 ``benchmarks/results/partitioned.{json,md}``; the markdown also carries a
 model on paper of a 1B-cell volume on 64 workers built from these numbers.
 
-    python benchmarks/partitioned.py            # 2M
-    python benchmarks/partitioned.py 10M        # another data set (results/partitioned_10M.*)
+    python benchmarks/partitioned.py            # 2M, 2, 4 and 8 partitions
+    python benchmarks/partitioned.py 10M 2      # another data set and partition counts (results/partitioned_10M.*)
 """
 
 import os
@@ -40,7 +43,8 @@ PARTITIONS = (2, 4, 8)
 WORKERS = 2
 
 
-def main(name="2M"):
+def main(name="2M", parts=None):
+    parts = PARTITIONS if parts is None else tuple(int(k) for k in parts.split(","))
     from polygen.volume import datasets, isovalues, methods
     from polygen.volume.distributed import local_client
     from polygen.volume.distributed import prepare as dask_prepare
@@ -69,7 +73,7 @@ def main(name="2M"):
 
     client = local_client(WORKERS)
     try:
-        for k in PARTITIONS:
+        for k in parts:
             t0 = time.perf_counter()
             pvol = PartitionedVolume.split(vol, k)
             split_s = time.perf_counter() - t0
@@ -91,6 +95,9 @@ def main(name="2M"):
                    "wait_s": wait,
                    "bytes_per_query": prepared.bytes_last / SWEEP,
                    "bytes_per_triangle": prepared.bytes_last / max(tris, 1),
+                   "bytes_workers_per_query": prepared.bytes_workers_last / SWEEP,
+                   "bytes_pieces_per_query": prepared.bytes_pieces_last / SWEEP,
+                   "crossed": sum(s.cells_intersected for s in surfaces),
                    "work_part_max_s": float(work.max()), "work_part_sum_s": float(work.sum()),
                    "stitch_s": sum(s.stitch_s for s in surfaces), "seam_vertices": sum(s.seam_vertices for s in surfaces),
                    "seam_seeds": sum(p["seam_seeds"] for s in surfaces for p in s.partitions),
@@ -113,18 +120,20 @@ def _timed(fn):
 
 def _write(name, vol, rows):
     cols = ["run", "prepare_s", "prepare_part_max_s", "query_s", "vs_single", "wait_s", "bytes_per_query",
-            "work_part_max_s",
+            "bytes_workers_per_query", "work_part_max_s",
             "stitch_s", "seam_vertices", "seam_seeds", "triangles", "same_as_single"]
     notes = [f"{name}: {vol.n_cells} {vol.cell_type} cells, {vol.n_points} nodes; {SWEEP} values "
              "linspace(min, max, 22)[1:-1], mean normals, the default method (edge-centred) on every partition",
              "single volume: prepare_s = topology + method preparation here; query_s = extract_many of the 20 values",
              f"k partitions: LocalCluster(n_workers={WORKERS}, threads_per_worker=1, processes=True); prepare_s = "
              "wall clock of preparing every partition on the workers (pieces sent from here) and checking the seams; "
-             "query_s = one extract_many of the 20 values (one actor call per partition, the stitch here), best of 2",
-             "bytes_per_query: arrays that came back per value (global vertex keys, positions, "
-             "triangles as int32, global cell ids; normals are made here); work_part_max_s: the busiest partition's t1 + t2 + t3 over "
-             "the 20 values; wait_s: the query's wait for the partitions (calls, work, transfer); stitch_s: the stitch "
-             "here over the 20 values"]
+             "query_s = one extract_many of the 20 values (a task per partition and chunk of values, the pieces merged "
+             "pairwise on the workers, the normals at the root), best of 2",
+             "bytes_per_query: the stitched surface that came to the client per value (positions, normals, "
+             "triangles, global vertex keys, global cell ids); bytes_workers_per_query: pieces moved between workers "
+             "per value (merge inputs made on the other worker); work_part_max_s: the busiest partition's t1 + t2 + t3 "
+             "over the 20 values; wait_s: the query's wait for its surfaces; stitch_s: the merges and normals on the "
+             "workers over the 20 values (work, summed)"]
     path = write_results("partitioned" if name == "2M" else f"partitioned_{name}", rows, cols,
                          title=f"Partitioned volumes on Dask: {name}", notes=notes)
     model = _model(vol, rows)
@@ -133,45 +142,44 @@ def _write(name, vol, rows):
 
 
 def _model(vol, rows):
-    """A 1B-cell volume on 64 workers, on paper, from the measured rates."""
-    single = rows[0]
-    k8 = max(rows[1:], key=lambda r: r["partitions"])
-    n, big, workers = vol.n_cells, 1e9, 64
-    cells_w = big / workers
-    prep_rate = k8["prepare_part_sum_s"] / n  # seconds of preparation per cell (one worker thread)
-    # a surface's triangles grow as (cells)^(2/3) for the same field shape on a finer mesh
-    grow = (big / n) ** (2 / 3)
-    tri_q = single["triangles"] / SWEEP
-    tri_big = tri_q * grow
-    work_q = k8["work_part_sum_s"] / SWEEP  # seconds of extraction per value, all partitions together
-    stitch_q = k8["stitch_s"] / SWEEP
-    bytes_tri = k8["bytes_per_query"] / tri_q
-    lat_workers = work_q * grow / workers
-    stitch_big = stitch_q * grow
-    net = tri_big * bytes_tri
+    """A 1B-cell volume on 64 workers, on paper (``polygen.volume.partitioned.scale_model``), from the 2-partition run."""
+    from polygen.volume.partitioned import scale_model
+
+    r = next(r for r in rows if r["partitions"] == 2) if any(r["partitions"] == 2 for r in rows) else rows[1]
+    n, tri = vol.n_cells, r["triangles"] / SWEEP
+    levels = max(1, int(np.ceil(np.log2(r["partitions"]))))
+    rates = dict(n_cells=n, crossed_per_value=r["crossed"] / SWEEP, triangles_per_value=tri,
+                 prepare_s_per_cell=r["prepare_part_sum_s"] / n, query_s_per_crossed_cell=r["work_part_sum_s"] / r["crossed"],
+                 stitch_s_per_triangle=r["stitch_s"] / SWEEP / tri / levels,
+                 piece_bytes_per_triangle=r["bytes_pieces_per_query"] / tri,
+                 surface_bytes_per_triangle=r["bytes_per_query"] / tri)
+    m = scale_model(**rates)
     lines = [
         "## Model: 1B cells on 64 workers (on paper, from the rates above)", "",
-        f"Measured on {n} cells ({k8['partitions']} partitions): preparation {prep_rate * 1e6:.3g} s per million "
-        f"cells on one worker thread; {tri_q:.0f} triangles per value; extraction {work_q:.3g} s per value over "
-        f"all partitions; stitch {stitch_q:.3g} s per value here; {bytes_tri:.1f} bytes per triangle back.", "",
-        "Assumptions: 64 workers of one thread, 1e9 / 64 = 15.6M cells each, pieces read where they live "
-        "(no transfer of the volume); a surface of the same field shape on a finer mesh has (cells)^(2/3) as "
-        f"many triangles (x{grow:.0f}); extraction work and bytes scale with triangles; work spreads evenly.", "",
+        f"Measured on {n} cells in {r['partitions']} partitions: preparation {rates['prepare_s_per_cell'] * 1e6:.3g} s "
+        f"per million cells on one worker thread; {rates['crossed_per_value']:.0f} crossed cells and {tri:.0f} triangles "
+        f"per value; extraction {rates['query_s_per_crossed_cell'] * 1e6:.3g} us per crossed cell; stitch (merge + "
+        f"normals) {rates['stitch_s_per_triangle'] * 1e9:.3g} ns per triangle; pieces "
+        f"{rates['piece_bytes_per_triangle']:.1f} B and stitched surfaces {rates['surface_bytes_per_triangle']:.1f} B "
+        "per triangle.", "",
+        "Assumptions (`scale_model`): the same field shape on a finer mesh, so a surface crosses (cells)^(2/3) as many "
+        f"cells and has as many more triangles (x{m['growth']:.0f}); one partition per worker, read where it lives; costs "
+        "per cell and per crossed cell as measured, spread evenly; the stitch a tree of pairwise merges on the workers "
+        f"({m['levels']} levels; the merges on the critical path handle 2 - 2/64 surfaces, the pieces moved along it one "
+        "surface); 10 Gb/s links.", "",
         "| quantity | 1B cells on 64 workers |", "|---|---|",
-        f"| preparation (per worker, in parallel) | {prep_rate * cells_w:.0f} s (+ reading 15.6M cells, ~0.5 GB per worker) |",
-        f"| triangles per value | {tri_big:.3g} |",
-        f"| extraction per value (per worker) | {lat_workers:.3g} s |",
-        f"| bytes back per value | {net / 1e6:.0f} MB ({net * 8 / 10e9:.2f} s on 10 Gb/s into one client) |",
-        f"| stitch per value on one client | {stitch_big:.3g} s |",
-        f"| latency per value | ~{lat_workers + net * 8 / 10e9 + stitch_big:.3g} s (workers + network + stitch) |", "",
-        "The client's stitch and its network link carry every triangle: at 1B cells they, not the workers, "
-        "set the latency. A tree reduction (stitching pairs of neighbouring partitions on the workers, only "
-        "seam vertices crossing) or leaving the surface distributed (one piece per worker, written or rendered "
-        "there) would remove that bottleneck; this implementation stitches on the client.",
+        f"| preparation (per worker, in parallel) | {m['prepare_s']:.0f} s (+ reading 15.6M cells, ~0.5 GB per worker) |",
+        f"| triangles per value | {m['triangles']:.3g} |",
+        f"| extraction per value (per worker) | {m['extract_s']:.3g} s |",
+        f"| stitch per value (merges on the critical path) | {m['stitch_s']:.3g} s |",
+        f"| transfers on the critical path + to the client | {m['transfer_s']:.3g} s |",
+        f"| bytes between workers per value | {m['bytes_between_workers'] / 1e6:.0f} MB |",
+        f"| bytes to the client per value | {m['bytes_to_client'] / 1e6:.0f} MB |",
+        f"| latency per value | ~{m['latency_s']:.3g} s |", "",
     ]
     return "\n".join(lines) + "\n"
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:2])
+    main(*sys.argv[1:3])
     print(f"results in {RESULTS}/partitioned.md; {machine()}")

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from polygen.volume import datasets, isovalues
-from polygen.volume.partitioned import PartitionedVolume, PartitionError, reduce_tree, stitch, tree_stitch
+from polygen.volume.partitioned import (PartitionedVolume, PartitionError, reduce_tree, scale_model, stitch,
+                                        tree_stitch)
 from polygen.volume.surface import IsoSurfaceError
 
 N_VALUES = 200  # the issue's sweep, without Dask
@@ -206,6 +207,28 @@ def test_reduce_tree_pairs_neighbours():
         reduce_tree([], lambda a, b: a)
 
 
+def test_scale_model_closed_form():
+    """512x the cells: 64x the crossed cells and triangles; 64 workers: 6 levels; the formulas by hand."""
+    rates = dict(n_cells=1e9 / 512, crossed_per_value=1000.0, triangles_per_value=2000.0, prepare_s_per_cell=1e-6,
+                 query_s_per_crossed_cell=1e-6, stitch_s_per_triangle=1e-7, piece_bytes_per_triangle=40.0,
+                 surface_bytes_per_triangle=60.0)
+    m = scale_model(**rates, bandwidth_bytes_s=1e9)
+    assert m["growth"] == pytest.approx(64) and m["levels"] == 6
+    assert m["triangles"] == pytest.approx(128000) and m["crossed"] == pytest.approx(64000)
+    assert m["prepare_s"] == pytest.approx(1e9 / 64 * 1e-6)
+    assert m["extract_s"] == pytest.approx(64000 * 1e-6 / 64)
+    assert m["stitch_s"] == pytest.approx(1e-7 * 128000 * (2 - 2 / 64))
+    assert m["bytes_between_workers"] == pytest.approx(40 * 128000 * 3)
+    assert m["bytes_to_client"] == pytest.approx(60 * 128000)
+    assert m["transfer_s"] == pytest.approx((40 * 128000 * 63 / 64 + 60 * 128000) / 1e9)
+    assert m["latency_s"] == pytest.approx(m["extract_s"] + m["stitch_s"] + m["transfer_s"])
+    # the measured volume on one worker: the measured costs back, nothing merged or moved between workers
+    one = scale_model(**rates, target_cells=1e9 / 512, workers=1)
+    assert one["extract_s"] == pytest.approx(1000 * 1e-6) and one["stitch_s"] == 0 and one["bytes_between_workers"] == 0
+    with pytest.raises(PartitionError, match="power of two"):
+        scale_model(**rates, workers=48)
+
+
 # ------------------------------------------------------------------ bad input
 
 def _tiny_pvtu(tmp_path, k=3):
@@ -354,6 +377,27 @@ def test_dask_stitched_equals_single_and_local(client, name, k, request):
         np.testing.assert_array_equal(here.vertex_keys, s.vertex_keys)
         np.testing.assert_array_equal(here.vertices, s.vertices)
         np.testing.assert_array_equal(here.triangles, s.triangles)
+    on_dask.close()
+
+
+def test_dask_stitch_on_workers_bytes(client, data3):
+    """Stitched on the workers: the client gets the surfaces; one side of the root merge crossed between workers."""
+    from polygen.volume.distributed import _nbytes
+
+    values = list(isovalues(data3.scalars(), 6))
+    pvol = PartitionedVolume.split(data3, 2)
+    on_dask = dask_prepare(pvol, client=client)
+    assert on_dask.placement[0] != on_dask.placement[1]
+    surfaces = on_dask.extract_many(values)
+    local = pvol.prepare()
+    pieces = [[p.extract(v) for p in local.partitions] for v in values]
+    made = sum(_nbytes(p) for per in pieces for p in per)
+    assert on_dask.bytes_pieces_last == made
+    # two chunks of values, each root on another worker: each moved the other partition's pieces of its chunk
+    moved = sum(_nbytes(per[1]) for per in pieces[:3]) + sum(_nbytes(per[0]) for per in pieces[3:])
+    assert on_dask.bytes_workers_last == moved
+    assert on_dask.bytes_last == sum(s.vertices.nbytes + s.normals.nbytes + s.triangles.nbytes + s.vertex_keys.nbytes
+                                     + s.triangle_cells.nbytes for s in surfaces)
     on_dask.close()
 
 

@@ -113,6 +113,8 @@ class DaskPartitionedMethod:
     bytes_workers_last : int
         Bytes of pieces the last query moved from one worker to another
         (merge inputs made elsewhere).
+    bytes_pieces_last : int
+        Bytes of all the partitions' pieces of the last query (moved or not).
     wait_last : float
         Seconds the last query waited for its surfaces (calls, work, merges, transfer).
 
@@ -130,6 +132,7 @@ class DaskPartitionedMethod:
         self.reprepared = 0
         self.bytes_last = 0
         self.bytes_workers_last = 0
+        self.bytes_pieces_last = 0
         self.wait_last = 0.0
         t0 = time.perf_counter()
         workers = self._workers()
@@ -163,6 +166,8 @@ class DaskPartitionedMethod:
 
     def _start(self, i, worker):
         piece = self.pieces[i]
+        if not hasattr(piece, "path"):  # a piece in memory: sent to its worker as data, not inside the task graph
+            piece = self.client.scatter(piece, workers=[worker], hash=False)
         key = f"polygen-partition-{i}-{uuid.uuid4().hex}"
         fut = self.client.submit(PreparedPartition, piece, i, self.field, self.method, self.params, actor=True,
                                  workers=[worker], allow_other_workers=True, key=key)
@@ -231,7 +236,7 @@ class DaskPartitionedMethod:
         distributed.wait(roots)
         if all(r.status == "finished" for r in roots):
             out = self.client.gather(roots)
-            return [s for o in out for s in o["surfaces"]], sum(o["moved"] for o in out)
+            return [s for o in out for s in o["surfaces"]], sum(o["moved"] for o in out), sum(o["made"] for o in out)
         # a leaf failed: our own error as it is, anything else (a worker or actor lost) as a lost partition
         for lv in leaves:
             for i, f in enumerate(lv):
@@ -254,7 +259,7 @@ class DaskPartitionedMethod:
         t0 = time.perf_counter()
         for attempt in range(RETRIES + 1):
             try:
-                surfaces, moved = self._run_query(values, normals)
+                surfaces, moved, made = self._run_query(values, normals)
                 break
             except _Lost as lost:
                 if attempt == RETRIES:
@@ -269,6 +274,7 @@ class DaskPartitionedMethod:
                                          "returned") from e
         self.wait_last = time.perf_counter() - t0
         self.bytes_workers_last = int(moved)
+        self.bytes_pieces_last = int(made)
         self.bytes_last = sum(_surface_nbytes(s) for s in surfaces)
         return surfaces
 
@@ -313,8 +319,9 @@ def _leaf(actor, values, normals):
     """On a worker: the partition's pieces of ``values`` from its actor (on this worker unless it moved)."""
     pieces = actor.extract_many(values, normals).result()
     here = _here()
-    moved = sum(_nbytes(p) for p in pieces) if getattr(actor, "_address", here) != here else 0
-    return {"where": here, "moved": moved, "pieces": pieces}
+    made = sum(_nbytes(p) for p in pieces)
+    return {"where": here, "moved": made if getattr(actor, "_address", here) != here else 0, "made": made,
+            "pieces": pieces}
 
 
 def _moved_in(*nodes):
@@ -326,14 +333,14 @@ def _moved_in(*nodes):
 def _merge(n_ids, left, right):
     """On a worker: two neighbouring nodes of the tree merged, value by value."""
     here, moved = _moved_in(left, right)
-    return {"where": here, "moved": moved,
+    return {"where": here, "moved": moved, "made": left["made"] + right["made"],
             "pieces": [merge([a, b], n_ids=n_ids) for a, b in zip(left["pieces"], right["pieces"])]}
 
 
 def _finish(values, n_ids, normals, root):
     """On a worker: the root's pieces made surfaces (normals on the whole surface)."""
     here, moved = _moved_in(root)
-    return {"moved": moved, "surfaces": [finish(v, p, n_ids=n_ids, normals=normals)
+    return {"moved": moved, "made": root["made"], "surfaces": [finish(v, p, n_ids=n_ids, normals=normals)
                                          for v, p in zip(values, root["pieces"])]}
 
 

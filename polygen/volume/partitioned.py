@@ -69,7 +69,7 @@ from polygen.volume.thinning import ThinningWarning
 from polygen.volume.surface import IsoSurface, IsoSurfaceError, check_normals, check_value
 
 __all__ = ["PartitionedVolume", "PartitionedMethod", "PartitionError", "StitchedIsoSurface", "GLOBAL_IDS",
-           "stitch", "tree_stitch", "merge", "finish", "reduce_tree"]
+           "stitch", "tree_stitch", "merge", "finish", "reduce_tree", "scale_model"]
 
 #: the point array that numbers the nodes globally (as ParaView's D3 filter and VTK's redistribution name it)
 GLOBAL_IDS = "GlobalNodeId"
@@ -615,6 +615,16 @@ class PartitionedVolume:
                 fields={n: v[nodes] for n, v in vol.fields.items()}, global_ids=nodes, cell_ids=chunk))
         return cls(pieces)
 
+    def partition_of_cells(self):
+        """(n_cells,) int32: the partition holding each global cell (a volume from :meth:`split`)."""
+        if not all(isinstance(p, _MemoryPiece) for p in self.pieces):
+            raise PartitionError("partition_of_cells needs the pieces of split(): pieces from files are numbered "
+                                 "piece after piece when prepared")
+        out = np.empty(sum(p.cell_ids.shape[0] for p in self.pieces), np.int32)
+        for i, p in enumerate(self.pieces):
+            out[p.cell_ids] = i
+        return out
+
     @classmethod
     def from_files(cls, paths, *, global_ids=GLOBAL_IDS):
         """Pieces in mesh files (any format :meth:`UnstructuredVolume.read` reads), each with a point
@@ -728,3 +738,72 @@ def _check_normals(normals):
     if normals == "gradient":
         raise IsoSurfaceError("normals='gradient' is not available across partitions (a seam node's gradient "
                               "needs the cells of both sides); use 'mean' or None")
+
+
+# ----------------------------------------------------------------- a model on paper
+
+def scale_model(*, n_cells, crossed_per_value, triangles_per_value, prepare_s_per_cell, query_s_per_crossed_cell,
+                stitch_s_per_triangle, piece_bytes_per_triangle, surface_bytes_per_triangle,
+                target_cells=1e9, workers=64, bandwidth_bytes_s=10e9 / 8):
+    """Preparation, per-query latency and network volume of a bigger volume, from costs measured on a small one.
+
+    A model on paper, with these assumptions: the big volume holds the
+    same field shape on a finer mesh, so a surface crosses
+    ``g = (target_cells / n_cells) ** (2/3)`` times as many cells and has
+    ``g`` times as many triangles (surface area grows as n^(2/3)); one
+    partition per worker (``workers`` a power of two), each prepared where
+    its piece lives (no volume moves); preparation and extraction cost the
+    same per cell and per crossed cell as measured, and spread evenly over
+    the workers; the stitch is a tree of pairwise merges on the workers
+    (:func:`reduce_tree`), a merge at level ``l = 1 .. L`` (``L =
+    log2(workers)``) handling ``2**l / workers`` of the surface, each
+    costing at most what one :func:`stitch` of that share costs, so the
+    merges on the critical path handle ``2 - 2 / workers`` surfaces; the
+    pieces moved up that path add up to one surface of pieces (half of each
+    merged node travels), the network volume between workers is ``L / 2``
+    surfaces of pieces, and the stitched surface crosses the client's link
+    once; every link carries ``bandwidth_bytes_s``.
+
+    Parameters
+    ----------
+    n_cells : int
+        Cells of the measured volume.
+    crossed_per_value, triangles_per_value : float
+        Cells crossed and triangles per value, measured.
+    prepare_s_per_cell : float
+        Seconds of preparation per cell (all partitions' preparation summed, over ``n_cells``).
+    query_s_per_crossed_cell : float
+        Seconds of extraction per crossed cell (t1 + t2 + t3 of the partitions, summed).
+    stitch_s_per_triangle : float
+        Seconds of one stitch (merge + normals) per triangle of the surface.
+    piece_bytes_per_triangle, surface_bytes_per_triangle : float
+        Bytes per triangle of the partitions' pieces, and of a stitched surface.
+    target_cells, workers, bandwidth_bytes_s : float
+        The volume modelled, its workers (a power of two), each link's bytes per second.
+
+    Returns
+    -------
+    dict
+        ``growth``, ``crossed``, ``triangles`` (per value), ``prepare_s``
+        (per worker, in parallel), ``extract_s``, ``stitch_s``,
+        ``transfer_s`` (critical path between workers + client link),
+        ``latency_s`` (their sum, per value), ``bytes_between_workers``,
+        ``bytes_to_client`` (per value), ``levels``.
+    """
+    levels = int(round(np.log2(workers)))
+    if workers < 1 or 2**levels != workers:
+        raise PartitionError(f"workers must be a power of two; got {workers}")
+    if min(n_cells, target_cells) <= 0:
+        raise PartitionError(f"cell counts must be positive; got {n_cells}, {target_cells}")
+    g = (target_cells / n_cells) ** (2 / 3)
+    crossed, tri = crossed_per_value * g, triangles_per_value * g
+    prepare_s = prepare_s_per_cell * target_cells / workers
+    extract_s = query_s_per_crossed_cell * crossed / workers
+    stitch_s = stitch_s_per_triangle * tri * (2 - 2 / workers)
+    pieces_path = piece_bytes_per_triangle * tri * (1 - 1 / workers)
+    to_client = surface_bytes_per_triangle * tri
+    transfer_s = (pieces_path + to_client) / bandwidth_bytes_s
+    return {"growth": g, "crossed": crossed, "triangles": tri, "levels": levels, "prepare_s": prepare_s,
+            "extract_s": extract_s, "stitch_s": stitch_s, "transfer_s": transfer_s,
+            "latency_s": extract_s + stitch_s + transfer_s,
+            "bytes_between_workers": piece_bytes_per_triangle * tri * levels / 2, "bytes_to_client": to_client}
