@@ -398,7 +398,14 @@ def test_dask_stitch_on_workers_bytes(client, data3):
     assert on_dask.bytes_workers_last == moved
     assert on_dask.bytes_last == sum(s.vertices.nbytes + s.normals.nbytes + s.triangles.nbytes + s.vertex_keys.nbytes
                                      + s.triangle_cells.nbytes for s in surfaces)
+    # stitched on the client instead: every piece comes here, the same arrays
+    on_dask.stitch_on = "client"
+    for a, b in zip(on_dask.extract_many(values), surfaces):
+        _same_arrays(a, b)
+    assert on_dask.bytes_last == made and on_dask.bytes_workers_last == 0
     on_dask.close()
+    with pytest.raises(PartitionError, match="stitch_on"):
+        dask_prepare(pvol, client=client, stitch_on="here")
 
 
 def test_dask_pvtu_pieces_read_on_workers(client, tmp_path, data3):

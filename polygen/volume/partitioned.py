@@ -353,6 +353,9 @@ class StitchedIsoSurface(IsoSurface):
         Seconds of merging (summed over the merges of a tree) and of the
         mean normals: on the client for :func:`stitch`, on the workers for
         the stitch on Dask.
+    stitch_cpu_s : float
+        The same in CPU seconds of the threads that did it (on a shared
+        machine, the wall clock also counts waiting for a core).
     n_ids : int
         The number of global node ids (the base of the keys).
     """
@@ -360,6 +363,7 @@ class StitchedIsoSurface(IsoSurface):
     partitions: tuple = ()
     seam_vertices: int = 0
     stitch_s: float = 0.0
+    stitch_cpu_s: float = 0.0
     n_ids: int = 0
 
 
@@ -399,14 +403,15 @@ def merge(pieces, *, n_ids):
     -------
     dict
         The same fields, ``parts`` (each partition's counters, in piece
-        order), ``seam_vertices`` (vertices merged away so far) and
-        ``merge_s`` (seconds of merging so far, summed over the tree).
+        order), ``seam_vertices`` (vertices merged away so far), ``merge_s``
+        and ``merge_cpu_s`` (seconds of merging so far, wall clock and the
+        merging thread's CPU time, summed over the tree).
     """
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.thread_time()
     if not pieces:
         return {"keys": np.zeros(0, np.int64), "vertices": np.zeros((0, 3)), "triangles": np.zeros((0, 3), np.int32),
                 "triangle_cells": np.zeros(0, np.int64), "fallback": None, "parts": [], "seam_vertices": 0,
-                "merge_s": 0.0, "method": ""}
+                "merge_s": 0.0, "merge_cpu_s": 0.0, "method": ""}
     keys = np.concatenate([p["keys"] for p in pieces])
     offsets = np.cumsum([0] + [p["keys"].shape[0] for p in pieces])
     uniq, first, inv = np.unique(keys, return_index=True, return_inverse=True)
@@ -432,6 +437,7 @@ def merge(pieces, *, n_ids):
             "triangle_cells": tcell, "fallback": fallback, "parts": [c for p in pieces for c in _parts(p)],
             "seam_vertices": sum(p.get("seam_vertices", 0) for p in pieces) + int(keys.shape[0] - uniq.shape[0]),
             "merge_s": sum(p.get("merge_s", 0.0) for p in pieces) + time.perf_counter() - t0,
+            "merge_cpu_s": sum(p.get("merge_cpu_s", 0.0) for p in pieces) + time.thread_time() - c0,
             "method": pieces[0]["method"]}
 
 
@@ -460,7 +466,7 @@ def finish(value, piece, *, n_ids, normals="mean"):
     triangles lie on both sides); a vertex whose triangles all have zero
     area takes its edge's direction from a partition that has it.
     """
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.thread_time()
     if "parts" not in piece:
         piece = merge([piece], n_ids=n_ids)
     verts, uniq = piece["vertices"], piece["keys"]
@@ -484,7 +490,8 @@ def finish(value, piece, *, n_ids, normals="mean"):
         cells_tested=int(total["cells_tested"]), cells_intersected=int(total["cells_intersected"]),
         vertex_lookups=int(total["vertex_lookups"]), t1=total["t1"], t2=total["t2"], t3=total["t3"],
         partitions=parts, seam_vertices=int(piece["seam_vertices"]),
-        stitch_s=piece["merge_s"] + time.perf_counter() - t0, n_ids=int(n_ids))
+        stitch_s=piece["merge_s"] + time.perf_counter() - t0,
+        stitch_cpu_s=piece["merge_cpu_s"] + time.thread_time() - c0, n_ids=int(n_ids))
 
 
 def stitch(value, pieces, *, n_ids, normals="mean"):
