@@ -149,7 +149,7 @@ def _write(name, vol, rows):
              "merged pairwise on the workers, the normals at the root, the surfaces to the client",
              "bytes_per_query: what came to the client per value -- stitched on the client: the pieces (global vertex "
              "keys, positions, triangles as int32, global cell ids); on the workers: the stitched surface (positions, "
-             "normals, triangles as int64, global vertex keys, global cell ids); bytes_workers_per_query: pieces moved between workers "
+             "normals, triangles and global cell ids as int32, global vertex keys); bytes_workers_per_query: pieces moved between workers "
              "per value (merge inputs made on the other worker); work_part_max_s: the busiest partition's t1 + t2 + t3 "
              "over the 20 values; wait_s: the query's wait for its surfaces; stitch_s / stitch_cpu_s: the merges and "
              "normals over the 20 values (work summed over the merges; wall clock / CPU time of their threads)"]
