@@ -195,7 +195,14 @@ def _model(vol, rows):
         f"| transfers on the critical path + to the client | {m['transfer_s']:.3g} s |",
         f"| bytes between workers per value | {m['bytes_between_workers'] / 1e6:.0f} MB |",
         f"| bytes to the client per value | {m['bytes_to_client'] / 1e6:.0f} MB |",
-        f"| latency per value | ~{m['latency_s']:.3g} s |", "",
+        f"| latency per value | ~{m['latency_s']:.3g} s |",
+        f"| stitch, sweep of {SWEEP} values: tree on the workers / one client | {m['sweep_stitch_workers_s']:.3g} s / "
+        f"{m['sweep_stitch_client_s']:.3g} s |",
+        f"| client link, sweep of {SWEEP} values: stitched surfaces / every piece | {m['sweep_client_link_s'][0]:.3g} s / "
+        f"{m['sweep_client_link_s'][1]:.3g} s |", "",
+        "For one value the tree is no faster than one stitch on the client (its root merges the whole surface after "
+        "the levels below); over a sweep it spreads the stitch over the workers, and the client's link carries "
+        "stitched surfaces only.", "",
     ]
     return "\n".join(lines) + "\n"
 

@@ -224,6 +224,11 @@ def test_scale_model_closed_form():
     assert m["bytes_to_client"] == pytest.approx(60 * 128000)
     assert m["transfer_s"] == pytest.approx((40 * 128000 * 63 / 64 + 60 * 128000) / 1e9)
     assert m["latency_s"] == pytest.approx(m["extract_s"] + m["stitch_s"] + m["transfer_s"])
+    # a sweep of 20 values: 20 * 6 / 64 < 2 - 2/64 stitches on the workers; 20 on one client
+    assert m["sweep_stitch_workers_s"] == pytest.approx(1e-7 * 128000 * (2 - 2 / 64))
+    assert m["sweep_stitch_client_s"] == pytest.approx(1e-7 * 128000 * 20)
+    assert m["sweep_client_link_s"] == pytest.approx((20 * 60 * 128000 / 1e9, 20 * 40 * 128000 / 1e9))
+    assert scale_model(**rates, sweep=64)["sweep_stitch_workers_s"] == pytest.approx(1e-7 * 128000 * 6)
     # the measured volume on one worker: the measured costs back, nothing merged or moved between workers
     one = scale_model(**rates, target_cells=1e9 / 512, workers=1)
     assert one["extract_s"] == pytest.approx(1000 * 1e-6) and one["stitch_s"] == 0 and one["bytes_between_workers"] == 0

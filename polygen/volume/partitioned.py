@@ -751,7 +751,7 @@ def _check_normals(normals):
 
 def scale_model(*, n_cells, crossed_per_value, triangles_per_value, prepare_s_per_cell, query_s_per_crossed_cell,
                 stitch_s_per_triangle, piece_bytes_per_triangle, surface_bytes_per_triangle,
-                target_cells=1e9, workers=64, bandwidth_bytes_s=10e9 / 8):
+                target_cells=1e9, workers=64, bandwidth_bytes_s=10e9 / 8, sweep=20):
     """Preparation, per-query latency and network volume of a bigger volume, from costs measured on a small one.
 
     A model on paper, with these assumptions: the big volume holds the
@@ -771,6 +771,12 @@ def scale_model(*, n_cells, crossed_per_value, triangles_per_value, prepare_s_pe
     surfaces of pieces, and the stitched surface crosses the client's link
     once; every link carries ``bandwidth_bytes_s``.
 
+    For a sweep of ``sweep`` values the tree's merges (``L`` surfaces of
+    work per value) spread over the workers, each value's root on another
+    worker: ``max(sweep * L / workers, 2 - 2 / workers)`` stitches, where one
+    client stitching every value merges ``sweep`` surfaces, one after
+    another, and takes in every piece through its one link.
+
     Parameters
     ----------
     n_cells : int
@@ -787,6 +793,8 @@ def scale_model(*, n_cells, crossed_per_value, triangles_per_value, prepare_s_pe
         Bytes per triangle of the partitions' pieces, and of a stitched surface.
     target_cells, workers, bandwidth_bytes_s : float
         The volume modelled, its workers (a power of two), each link's bytes per second.
+    sweep : int
+        Values in a sweep (``extract_many``).
 
     Returns
     -------
@@ -795,7 +803,10 @@ def scale_model(*, n_cells, crossed_per_value, triangles_per_value, prepare_s_pe
         (per worker, in parallel), ``extract_s``, ``stitch_s``,
         ``transfer_s`` (critical path between workers + client link),
         ``latency_s`` (their sum, per value), ``bytes_between_workers``,
-        ``bytes_to_client`` (per value), ``levels``.
+        ``bytes_to_client`` (per value), ``levels``; for a sweep,
+        ``sweep_stitch_workers_s`` and ``sweep_stitch_client_s`` (the tree on
+        the workers, one client stitching all) and ``sweep_client_link_s``
+        (the client's link: the stitched surfaces, or every piece).
     """
     levels = int(round(np.log2(workers)))
     if workers < 1 or 2**levels != workers:
@@ -810,7 +821,12 @@ def scale_model(*, n_cells, crossed_per_value, triangles_per_value, prepare_s_pe
     pieces_path = piece_bytes_per_triangle * tri * (1 - 1 / workers)
     to_client = surface_bytes_per_triangle * tri
     transfer_s = (pieces_path + to_client) / bandwidth_bytes_s
-    return {"growth": g, "crossed": crossed, "triangles": tri, "levels": levels, "prepare_s": prepare_s,
+    one = stitch_s_per_triangle * tri
+    sweep_out = {"sweep_stitch_workers_s": one * max(sweep * levels / workers, 2 - 2 / workers),
+                 "sweep_stitch_client_s": one * sweep,
+                 "sweep_client_link_s": (sweep * to_client / bandwidth_bytes_s,
+                                         sweep * piece_bytes_per_triangle * tri / bandwidth_bytes_s)}
+    return sweep_out | {"growth": g, "crossed": crossed, "triangles": tri, "levels": levels, "prepare_s": prepare_s,
             "extract_s": extract_s, "stitch_s": stitch_s, "transfer_s": transfer_s,
             "latency_s": extract_s + stitch_s + transfer_s,
             "bytes_between_workers": piece_bytes_per_triangle * tri * levels / 2, "bytes_to_client": to_client}
