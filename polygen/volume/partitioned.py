@@ -54,6 +54,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import pathlib
+import threading
 import time
 import warnings
 import xml.etree.ElementTree as ET
@@ -188,6 +189,7 @@ class PreparedPartition:
             warnings.simplefilter("ignore", ThinningWarning)
             self.method = _registry.get_method(method)(self.vol, field=self.field, **(params or {}))
         self._propagator = None
+        self._lock = threading.Lock()
         self.seam_cells = np.zeros(0, np.int64)
         bnodes = np.unique(self.vol.boundary_face_nodes)
         self.info = {
@@ -276,7 +278,9 @@ class PreparedPartition:
                 "t1": iso.t1 + t_seam, "t2": iso.t2, "t3": iso.t3, "method": iso.method}
 
     def extract_many(self, values, normals="mean"):
-        return [self.extract(v, normals) for v in values]
+        """:meth:`extract` of each value, one caller at a time (a worker's task threads and its actor's share it)."""
+        with self._lock:
+            return [self.extract(v, normals) for v in values]
 
     def _fallback(self, iso, gkeys):
         """``(keys, directions)`` of the vertices on an edge that touch a zero-area triangle here.
