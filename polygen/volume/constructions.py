@@ -5,13 +5,12 @@ separate the two things that could make a construction fast -- removing
 the vertex search and storing the cell edges -- (notebook 08,
 ``benchmarks/fast_construction.py``):
 
-==========  ==============================================================
-``hash``    propagation + a hash on node pairs (the paper's old method)
-``array``   propagation + the vertex id in an array indexed by edge id
-``walk-*``  edge-centred, cells round an edge found by walking (the paper's
-            new method), FIFO or LIFO
-``table-*`` edge-centred with an edge table and edge -> cells index
-==========  ==============================================================
+* ``hash``: propagation + a hash on node pairs (the paper's old method);
+* ``array``: propagation + the vertex id in an array indexed by edge id;
+* ``walk-fifo``, ``walk-lifo``: edge-centred, the cells round an edge found
+  by walking (the paper's new method);
+* ``table-fifo``, ``table-lifo``: edge-centred with an edge table and an
+  edge -> cells index.
 """
 
 from __future__ import annotations
