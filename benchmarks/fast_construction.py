@@ -61,8 +61,8 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 from _common import RESULTS, machine  # noqa: E402
-from polygen.volume import datasets, isovalues, methods  # noqa: E402
-from polygen.volume.propagate import Propagator  # noqa: E402
+from polygen.volume import datasets, isovalues  # noqa: E402
+from polygen.volume.constructions import CONSTRUCTIONS, builder_of, prepare_construction  # noqa: E402
 from polygen.volume.surface import same_surface  # noqa: E402
 
 DATA = ["data1", "data2", "data3", "data4", "data5", "2M", "10M"]
@@ -147,32 +147,8 @@ def vtk_times(vol, field, values, repeat):
     return out
 
 
-#: the constructions compared, all from the thinning skeleton's seeds: label -> (method, params, propagator search)
-CONSTRUCTIONS = {
-    "hash": ("thinning", {}, "hash"),                                   # (a) reference [12]
-    "array": ("thinning", {}, "array"),                                 # (b) if edges were stored
-    "walk-fifo": ("edge-centred", {"order": "fifo"}, None),             # (c) the paper, no stored edges
-    "walk-lifo": ("edge-centred", {"order": "lifo"}, None),
-    "table-fifo": ("edge-centred-table", {"order": "fifo"}, None),      # (d) with the edge table
-    "table-lifo": ("edge-centred-table", {"order": "lifo"}, None),
-}
-
-
-def prepare(label, vol, field):
-    """The method of ``label`` prepared on ``vol`` (for ``array`` its propagator searches an edge-id array)."""
-    if label == "scan":
-        return methods.get("scan")(vol, field=field)
-    name, params, search = CONSTRUCTIONS[label]
-    m = methods.get(name)(vol, field=field, **params)
-    if search == "array":
-        t0 = time.perf_counter()
-        m.propagator = Propagator(vol, field, vertex_search="array")
-        m.preprocess_s += time.perf_counter() - t0
-    return m
-
-
-def builder_of(m):
-    return getattr(m, "builder", None) or getattr(m, "propagator", None)
+# the constructions compared, all from the thinning skeleton's seeds (as notebook 08 prepares them)
+prepare = prepare_construction
 
 
 def warm_up():

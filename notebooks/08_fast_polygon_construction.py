@@ -51,10 +51,11 @@ import numpy as np
 import polygen
 from polygen import plotting
 from polygen.plotting import volume as plot_volume
-from polygen.volume import datasets, methods
+from polygen.volume import datasets, isovalues, methods
+from polygen.volume.constructions import builder_of as builder
+from polygen.volume.constructions import prepare_construction, timed_sweep
 from polygen.volume.edge_centred import EdgeCentredWalk
 from polygen.volume.isosurface import extract, same_surface
-from polygen.volume.propagate import Propagator
 
 import numba
 
@@ -77,25 +78,9 @@ PAPER_T2 = {  # Table 2: n_c, n_t, n_v, t_p old, t_p new, total old, total new
     "data5": (458664, 494480, 251506, 21.35, 15.72, 26.65, 20.61),
     "data4": (557868, 1164616, 588796, 49.80, 36.20, 60.81, 46.80),
 }
-CONSTRUCTIONS = {  # label -> (registered method, its parameters, the propagator's vertex search)
-    "hash": ("thinning", {}, "hash"), "array": ("thinning", {}, "array"),
-    "walk": ("edge-centred", {"order": "fifo"}, None), "table": ("edge-centred-table", {"order": "fifo"}, None),
-}
-
-
-# %%
-def prepare(label, vol, field="fem"):
-    name, params, search = CONSTRUCTIONS[label]
-    m = methods.get(name)(vol, field=field, **params)
-    if search == "array":                     # the same thinning seeds, the vertex found by edge id
-        m.propagator = Propagator(vol, field, vertex_search="array")
-    return m
-
-
-def builder(m):
-    """What builds the polygons: the edge-centred builder or the propagator (None for the scan)."""
-    return getattr(m, "builder", None) or getattr(m, "propagator", None)
-
+# our label -> the construction (polygen.volume.constructions): method, parameters, the propagator's vertex search;
+# "array": the same thinning seeds, the vertex found by its edge id
+CONSTRUCTIONS = {"hash": "hash", "array": "array", "walk": "walk-fifo", "table": "table-fifo"}
 
 # %% [markdown]
 # ## Figs 1 and 4 — a search per polygon against a registration per cell
@@ -113,7 +98,7 @@ def builder(m):
 vol = datasets.load("data1")
 s = vol.scalars("fem")
 value = float(np.linspace(s.min(), s.max(), 22)[10])
-ms = {label: prepare(label, vol) for label in CONSTRUCTIONS}
+ms = {label: prepare_construction(c, vol) for label, c in CONSTRUCTIONS.items()}
 isos = {label: m.extract(value) for label, m in ms.items()}
 seeds = ms["walk"].source.query(value).cells
 searching = EdgeCentredWalk(vol, "fem", order="fifo", search=True).extract(value, seeds)
@@ -171,33 +156,14 @@ assert len(set(labels[np.isin(scan.triangle_cells, seeds)])) == n_parts   # a se
 # 8.30 s and 0.57 s of 42.23 s, about 1 % — and with it the total, from 12.86 s to 4.29 s.
 
 # %%
-def timed_sweep(m, values):
-    """Surfaces of the last repeat; (V, 3) t1, t2, t3 at their minimum over REPEATS; the last repeat's hash probes."""
-    times = np.full((len(values), 3), np.inf)
-    for _ in range(REPEATS):
-        isos, probes = [], 0
-        for i, v in enumerate(values):
-            iso = m.extract(v)
-            times[i] = np.minimum(times[i], [iso.t1, iso.t2, iso.t3])
-            isos.append(iso)
-            probes += builder(m).stats.get("probes", 0) if builder(m) is not None else 0
-    return isos, times, probes
-
-
-def values_of(v):
-    sv = v.scalars("fem")
-    return np.linspace(sv.min(), sv.max(), 22)[1:-1]
-
-
-# %%
 rows1, t1_data = [], {}
 for name in TABLE1_DATA:
     v = datasets.load(name)
-    values = values_of(v)
+    values = isovalues(v.scalars("fem"), 20)
     sc = methods.get("scan")(v, field="fem")
     th = methods.get("thinning")(v, field="fem")
     th.extract(values[0])
-    (sc_isos, sc_t, _), (th_isos, th_t, th_probes) = timed_sweep(sc, values), timed_sweep(th, values)
+    (sc_isos, sc_t, _), (th_isos, th_t, th_probes) = (timed_sweep(x, values, repeat=REPEATS) for x in (sc, th))
     assert all(same_surface(a_, b_) for a_, b_ in zip(sc_isos, th_isos))
     seed_tests = sum(th.source.query(x).n_tested for x in values)   # t1's work: the skeleton's cells tested
     t1_data[name] = dict(scan_tests=20 * v.n_cells, seed_tests=seed_tests, scan=sc_t.sum(axis=0),
@@ -257,14 +223,14 @@ for name, d in t1_data.items():
 rows2, res2, n_cells = [], {}, {}
 for name in TABLE2_DATA:
     v = datasets.load(name)
-    values = values_of(v)
+    values = isovalues(v.scalars("fem"), 20)
     n_cells[name] = v.n_cells
     scan_isos = [extract(v, x, field="fem") for x in values]
     out = {}
     for label in CONSTRUCTIONS:
-        m = prepare(label, v)
+        m = prepare_construction(CONSTRUCTIONS[label], v)
         m.extract(values[len(values) // 2])
-        isos2, t, probes = timed_sweep(m, values)
+        isos2, t, probes = timed_sweep(m, values, repeat=REPEATS)
         assert all(same_surface(a_, b_) for a_, b_ in zip(scan_isos, isos2))
         mem = builder(m).memory_bytes()
         out[label] = dict(t=t.sum(axis=0), lookups=sum(i.vertex_lookups for i in isos2), probes=probes,
@@ -359,11 +325,11 @@ for name, out in res2.items():
 rows_h = []
 for name in HEX_DATA:
     v = datasets.load(name)
-    values = values_of(v)
+    values = isovalues(v.scalars("fem"), 20)
     ref = [extract(v, x, field="fem") for x in values]
     got = {}
     for label in ("hash", "walk", "table"):
-        m = prepare(label, v)
+        m = prepare_construction(CONSTRUCTIONS[label], v)
         got[label] = ([m.extract(x) for x in values], [dict(m.stats) for x in values])
     (old, _), (new, st), (tab, _) = got["hash"], got["walk"], got["table"]
     assert all(same_surface(a_, b_) and same_surface(a_, c_) and same_surface(a_, d_)
@@ -411,3 +377,118 @@ if len(rows_b) >= 2:
     ax.set_ylabel("CPU ms per isovalue (mean of 20, recorded)")
     ax.legend(fontsize=8)
     plt.show()
+
+# %% [markdown]
+# ## Volumes larger than one machine
+#
+# A billion-cell result does not fit one machine (its cell indices alone are ≈ 32 GB), and
+# solvers that run on clusters write it in pieces anyway. `PartitionedVolume` holds such
+# pieces (or splits one volume into `K` Morton ranges of cells); each partition is prepared
+# once on a Dask worker and kept there (an actor), every partition extracts its part of a
+# surface, and the parts are **stitched on the workers**: merged pairwise up a tree of
+# neighbouring partitions, a vertex on a seam edge named by the pair of *global* node ids of
+# its edge and kept once, the normals made at the root — only the stitched surface travels
+# to the client. Here data 3 in four partitions on a `LocalCluster` of two worker processes,
+# twenty values, against the single volume.
+
+# %%
+from polygen.volume.distributed import local_client
+from polygen.volume.distributed import prepare as dask_prepare
+from polygen.volume.partitioned import PartitionedVolume, scale_model
+
+big = datasets.load("data3")
+values_p = isovalues(big.scalars("fem"), 20)
+single_p = methods.get(methods.DEFAULT)(big, field="fem").extract_many(values_p)
+pvol = PartitionedVolume.split(big, 4)
+client = local_client(2)                       # 2 worker processes, 1 thread each
+on_dask = dask_prepare(pvol, "fem", client=client)
+stitched = on_dask.extract_many(values_p)
+for a_, b_ in zip(single_p, stitched):         # the stitched surface is the single volume's
+    assert (b_.n_triangles, b_.n_vertices) == (a_.n_triangles, a_.n_vertices)
+    assert abs(b_.area() - a_.area()) <= 1e-9 * a_.area()
+print(f"{len(values_p)} values: {sum(s.n_triangles for s in stitched)} triangles, "
+      f"{sum(s.n_vertices for s in stitched)} vertices, as the single volume; "
+      f"{sum(s.seam_vertices for s in stitched)} seam vertices made on two sides and kept once")
+
+# %% [markdown]
+# What each partition did over the twenty values (its worker, its preparation there, the
+# cells its surface parts crossed, its extraction work t1 + t2 + t3, the crossed seam cells
+# it propagated from), and the bytes one query moved: the pieces the partitions made, the
+# part of them that crossed from one worker to the other to be merged, and the stitched
+# surfaces that reached the client.
+
+# %%
+rows_p = [{"partition": i, "worker": on_dask.placement[i].rsplit(":", 1)[-1], "cells": inf["n_cells"],
+           "prepare s": on_dask.prepare_s[i], "crossed": sum(s.partitions[i]["cells_intersected"] for s in stitched),
+           "triangles": sum(s.partitions[i]["n_triangles"] for s in stitched),
+           "work s": sum(s.partitions[i]["t1"] + s.partitions[i]["t2"] + s.partitions[i]["t3"] for s in stitched),
+           "seam seeds": sum(s.partitions[i]["seam_seeds"] for s in stitched)} for i, inf in enumerate(on_dask.infos)]
+print(plotting.table(rows_p, list(rows_p[0])))
+n_tri = sum(s.n_triangles for s in stitched)
+print(f"per query of {len(values_p)} values: pieces made {on_dask.bytes_pieces_last / 1e6:.2f} MB, "
+      f"between workers {on_dask.bytes_workers_last / 1e6:.2f} MB, to the client {on_dask.bytes_last / 1e6:.2f} MB "
+      f"({on_dask.bytes_pieces_last / n_tri:.1f}, {on_dask.bytes_workers_last / n_tri:.1f}, "
+      f"{on_dask.bytes_last / n_tri:.1f} bytes per triangle); stitch work on the workers "
+      f"{sum(s.stitch_s for s in stitched):.3f} s ({sum(s.stitch_cpu_s for s in stitched):.3f} s of CPU)")
+# neighbours share a worker: the lower merges move nothing, the root merges one side
+assert 0 < on_dask.bytes_workers_last < on_dask.bytes_pieces_last
+
+# %%
+plot_volume.plot_partitions(big, stitched[9], pvol.partition_of_cells()).show()
+
+# %% [markdown]
+# ### The 1B-cell volume on 64 workers, on paper
+#
+# From the costs measured in this run — preparation seconds per cell `p` (the partitions'
+# own preparation on their workers, summed, over the cells), extraction seconds per crossed
+# cell `q`, stitch (merge + normals) seconds per triangle `s`, bytes per triangle of the
+# pieces `b_p` and of the stitched surface `b_s` — and with `X`, `T` the crossed cells and
+# triangles per value here (`n` cells), a volume of `N = 10⁹` cells on `W = 64` workers:
+#
+# * surfaces grow with area: `g = (N / n)^(2/3)`, so `X' = g X`, `T' = g T`;
+# * preparation, each worker its own `N / W` cells, in parallel: `p N / W`;
+# * extraction per value, spread evenly: `q X' / W`;
+# * stitch per value, a tree of `log₂ W = 6` levels whose merge at level `l` handles
+#   `2^l / W` of the surface: `s T' (2 − 2/W)` on the critical path;
+# * network per value: `b_p T' log₂W / 2` between workers (half of each level moves), of which
+#   `b_p T' (1 − 1/W)` on the critical path, and `b_s T'` to the client, at 10 Gb/s;
+# * a sweep of `V = 20` values: the tree's merges spread over the workers, each value's root on
+#   another worker, `s T' max(V log₂W / W, 2 − 2/W)`, where one client stitching every value
+#   needs `s T' V` and takes in every piece (`V b_p T'`) through its one link.
+#
+# For one value the tree is no faster than a stitch on the client (its root merges the whole
+# surface, after the levels below it); what it removes is the client as the place every value's
+# stitch and every piece must pass through.
+#
+# Assumed: the same field shape on a finer mesh; one partition per worker, read where it lives
+# (no volume moves); costs per cell as measured here on one thread, whatever the partition
+# size; no imbalance between workers. The stitch rate `s` is this run's merge work per triangle
+# (CPU time: this machine is shared) per triangle and per tree level (two levels for four partitions).
+
+# %%
+levels_p = int(np.log2(pvol.n_partitions))
+rates = dict(n_cells=big.n_cells, crossed_per_value=sum(s.cells_intersected for s in stitched) / len(values_p),
+             triangles_per_value=n_tri / len(values_p), prepare_s_per_cell=sum(on_dask.prepare_s) / big.n_cells,
+             query_s_per_crossed_cell=sum(r["work s"] for r in rows_p) / sum(r["crossed"] for r in rows_p),
+             stitch_s_per_triangle=sum(s.stitch_cpu_s for s in stitched) / n_tri / levels_p,
+             piece_bytes_per_triangle=on_dask.bytes_pieces_last / n_tri,
+             surface_bytes_per_triangle=on_dask.bytes_last / n_tri)
+model = scale_model(**rates, target_cells=1e9, workers=64)
+print(plotting.table([{"rate": k, "measured here": v} for k, v in rates.items()], ["rate", "measured here"]))
+print(plotting.table([
+    {"1e9 cells, 64 workers": "triangles per value", "predicted": model["triangles"]},
+    {"1e9 cells, 64 workers": "preparation s (per worker, in parallel)", "predicted": model["prepare_s"]},
+    {"1e9 cells, 64 workers": "extraction s per value", "predicted": model["extract_s"]},
+    {"1e9 cells, 64 workers": "stitch s per value (critical path)", "predicted": model["stitch_s"]},
+    {"1e9 cells, 64 workers": "transfer s per value (critical path + client)", "predicted": model["transfer_s"]},
+    {"1e9 cells, 64 workers": "latency s per value", "predicted": model["latency_s"]},
+    {"1e9 cells, 64 workers": "stitch s, sweep of 20: tree on the workers", "predicted": model["sweep_stitch_workers_s"]},
+    {"1e9 cells, 64 workers": "stitch s, sweep of 20: one client", "predicted": model["sweep_stitch_client_s"]},
+    {"1e9 cells, 64 workers": "MB between workers per value", "predicted": model["bytes_between_workers"] / 1e6},
+    {"1e9 cells, 64 workers": "MB to the client per value", "predicted": model["bytes_to_client"] / 1e6},
+], ["1e9 cells, 64 workers", "predicted"]))
+
+# %%
+on_dask.close()
+client.close()
+client.cluster.close()

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from polygen.volume import datasets, isovalues
-from polygen.volume.partitioned import PartitionedVolume, PartitionError, stitch
+from polygen.volume.partitioned import (PartitionedVolume, PartitionError, reduce_tree, scale_model, stitch,
+                                        tree_stitch)
 from polygen.volume.surface import IsoSurfaceError
 
 N_VALUES = 200  # the issue's sweep, without Dask
@@ -180,6 +181,61 @@ def test_2M_split_stitched_equals_single(k):
         assert_same_as_single(vol, vol.isosurface(v), prepared.extract(v))
 
 
+def _same_arrays(a, b, counters=True):
+    for f in ("vertex_keys", "vertices", "triangles", "triangle_cells", "normals"):
+        np.testing.assert_array_equal(getattr(a, f), getattr(b, f), err_msg=f)
+    assert a.seam_vertices == b.seam_vertices
+    if counters:  # the same pieces: the same counters and stage times
+        assert a.partitions == b.partitions
+
+
+def test_tree_stitch_equals_client_stitch(data3):
+    """Pairwise merges up the tree of neighbours (5 partitions: an odd one goes up a level) = all at once."""
+    prepared = PartitionedVolume.split(data3, 5).prepare()
+    values = isovalues(data3.scalars(), 7)
+    for v in values:
+        pieces = [p.extract(v) for p in prepared.partitions]
+        flat = stitch(v, pieces, n_ids=prepared.n_ids)
+        tree = tree_stitch(v, pieces, n_ids=prepared.n_ids)
+        _same_arrays(flat, tree)
+        assert_same_as_single(data3, data3.isosurface(v), tree)
+        assert tree.seam_vertices > 0 and len(tree.partitions) == 5
+
+
+def test_reduce_tree_pairs_neighbours():
+    assert reduce_tree("abcde", lambda a, b: f"({a}{b})") == "(((ab)(cd))e)"
+    assert reduce_tree(["a"], lambda a, b: a + b) == "a"
+    with pytest.raises(PartitionError, match="no pieces"):
+        reduce_tree([], lambda a, b: a)
+
+
+def test_scale_model_closed_form():
+    """512x the cells: 64x the crossed cells and triangles; 64 workers: 6 levels; the formulas by hand."""
+    rates = dict(n_cells=1e9 / 512, crossed_per_value=1000.0, triangles_per_value=2000.0, prepare_s_per_cell=1e-6,
+                 query_s_per_crossed_cell=1e-6, stitch_s_per_triangle=1e-7, piece_bytes_per_triangle=40.0,
+                 surface_bytes_per_triangle=60.0)
+    m = scale_model(**rates, bandwidth_bytes_s=1e9)
+    assert m["growth"] == pytest.approx(64) and m["levels"] == 6
+    assert m["triangles"] == pytest.approx(128000) and m["crossed"] == pytest.approx(64000)
+    assert m["prepare_s"] == pytest.approx(1e9 / 64 * 1e-6)
+    assert m["extract_s"] == pytest.approx(64000 * 1e-6 / 64)
+    assert m["stitch_s"] == pytest.approx(1e-7 * 128000 * (2 - 2 / 64))
+    assert m["bytes_between_workers"] == pytest.approx(40 * 128000 * 3)
+    assert m["bytes_to_client"] == pytest.approx(60 * 128000)
+    assert m["transfer_s"] == pytest.approx((40 * 128000 * 63 / 64 + 60 * 128000) / 1e9)
+    assert m["latency_s"] == pytest.approx(m["extract_s"] + m["stitch_s"] + m["transfer_s"])
+    # a sweep of 20 values: 20 * 6 / 64 < 2 - 2/64 stitches on the workers; 20 on one client
+    assert m["sweep_stitch_workers_s"] == pytest.approx(1e-7 * 128000 * (2 - 2 / 64))
+    assert m["sweep_stitch_client_s"] == pytest.approx(1e-7 * 128000 * 20)
+    assert m["sweep_client_link_s"] == pytest.approx((20 * 60 * 128000 / 1e9, 20 * 40 * 128000 / 1e9))
+    assert scale_model(**rates, sweep=64)["sweep_stitch_workers_s"] == pytest.approx(1e-7 * 128000 * 6)
+    # the measured volume on one worker: the measured costs back, nothing merged or moved between workers
+    one = scale_model(**rates, target_cells=1e9 / 512, workers=1)
+    assert one["extract_s"] == pytest.approx(1000 * 1e-6) and one["stitch_s"] == 0 and one["bytes_between_workers"] == 0
+    with pytest.raises(PartitionError, match="power of two"):
+        scale_model(**rates, workers=48)
+
+
 # ------------------------------------------------------------------ bad input
 
 def _tiny_pvtu(tmp_path, k=3):
@@ -329,6 +385,36 @@ def test_dask_stitched_equals_single_and_local(client, name, k, request):
         np.testing.assert_array_equal(here.vertices, s.vertices)
         np.testing.assert_array_equal(here.triangles, s.triangles)
     on_dask.close()
+
+
+def test_dask_stitch_on_workers_bytes(client, data3):
+    """Stitched on the workers: the client gets the surfaces; one side of the root merge crossed between workers."""
+    from polygen.volume.distributed import _nbytes
+
+    values = list(isovalues(data3.scalars(), 6))
+    pvol = PartitionedVolume.split(data3, 2)
+    on_dask = dask_prepare(pvol, client=client)
+    assert on_dask.placement[0] != on_dask.placement[1]
+    surfaces = on_dask.extract_many(values)
+    local = pvol.prepare()
+    pieces = [[p.extract(v) for p in local.partitions] for v in values]
+    made = sum(_nbytes(p) for per in pieces for p in per)
+    assert on_dask.bytes_pieces_last == made
+    # two chunks of values, each root on another worker: each moved the other partition's pieces of its chunk
+    moved = sum(_nbytes(per[1]) for per in pieces[:3]) + sum(_nbytes(per[0]) for per in pieces[3:])
+    assert on_dask.bytes_workers_last == moved
+    # the surfaces travelled with int32 triangles and cell ids
+    assert on_dask.bytes_last == sum(s.vertices.nbytes + s.normals.nbytes + s.triangles.nbytes // 2
+                                     + s.vertex_keys.nbytes + s.triangle_cells.nbytes // 2 for s in surfaces)
+    assert all(s.triangles.dtype == np.int64 and s.triangle_cells.dtype == np.int64 for s in surfaces)
+    # stitched on the client instead: every piece comes here, the same arrays
+    on_dask.stitch_on = "client"
+    for a, b in zip(on_dask.extract_many(values), surfaces):
+        _same_arrays(a, b, counters=False)
+    assert on_dask.bytes_last == made and on_dask.bytes_workers_last == 0
+    on_dask.close()
+    with pytest.raises(PartitionError, match="stitch_on"):
+        dask_prepare(pvol, client=client, stitch_on="here")
 
 
 def test_dask_pvtu_pieces_read_on_workers(client, tmp_path, data3):

@@ -434,3 +434,25 @@ def plot_span_space(cmin, cmax, value, span_space, lattice, *, kd_depth=5, max_p
     axes[0].set_ylim(lo, hi)
     fig.tight_layout()
     return fig
+
+
+def plot_partitions(vol, iso, cell_partition, *, cmap="tab10"):
+    """A stitched isosurface coloured by the partition that made each triangle, over the volume's outline.
+
+    Parameters
+    ----------
+    iso : IsoSurface
+        A surface whose ``triangle_cells`` are global cell ids.
+    cell_partition : (n_cells,) int
+        The partition of each cell (``PartitionedVolume.partition_of_cells()``).
+    """
+    p = _plotter()
+    p.add_mesh(boundary_surface(vol), color="lightgray", opacity=0.1)
+    poly = iso.to_pyvista()
+    part = np.asarray(cell_partition)[iso.triangle_cells]
+    poly.cell_data["partition"] = part
+    k = int(np.max(cell_partition)) + 1
+    p.add_mesh(poly, scalars="partition", cmap=cmap, n_colors=k, clim=(-0.5, k - 0.5), show_edges=False)
+    p.add_text(f"C = {iso.value:.4g}: {iso.n_triangles} triangles from {k} partitions", font_size=9)
+    p.view_isometric()
+    return p

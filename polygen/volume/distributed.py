@@ -3,9 +3,17 @@
 Each partition of a :class:`~polygen.volume.partitioned.PartitionedVolume`
 becomes a Dask **actor** (:class:`~polygen.volume.partitioned.PreparedPartition`
 on a worker): the piece is read (or, for a split volume, sent) once, the
-method is prepared there and kept; a query is one small call per partition,
-and only the partition's triangles (global vertex keys, positions, triangles,
-global cell ids) travel back to be stitched here.
+method is prepared there and kept; a query is one small task per partition and
+chunk of values, which asks the partition's actor on its own worker for its
+pieces (global vertex keys, positions, triangles, global cell ids); the
+pieces are then merged pairwise **on the workers**, up a tree of neighbouring
+partitions (:func:`~polygen.volume.partitioned.reduce_tree`, Morton order:
+each merge removes the seam vertices between its two sides), the root
+computes the normals, and only the stitched surface travels to the client.
+Neighbouring partitions are placed on the same worker (blocks of the Morton
+order), so the lower merges move nothing between workers; the values are
+cut into as many chunks as there are workers and each chunk's root merge
+runs on another worker, so the stitch is shared out.
 
 Faults: when a worker is lost (its process killed, its machine gone), the
 calls to its actors fail; the partitions it held are prepared again on the
@@ -19,6 +27,7 @@ it when it is used, with a clear message when it is missing.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import time
 import uuid
@@ -26,7 +35,7 @@ import uuid
 import numpy as np
 
 from polygen.volume.partitioned import (PartitionError, PreparedPartition, _check_normals, check_partitions,
-                                        stitch)
+                                        finish, merge, reduce_tree, stitch)
 from polygen.volume.surface import check_value
 
 __all__ = ["DaskPartitionedMethod", "prepare", "local_client", "require_distributed"]
@@ -45,14 +54,14 @@ def require_distributed():
     return distributed
 
 
-def prepare(pvol, field=None, method=None, *, client, **params):
+def prepare(pvol, field=None, method=None, *, client, stitch_on="workers", **params):
     """Prepare ``method`` on every partition of ``pvol`` on the workers of ``client``, and keep them there.
 
     Returns a :class:`DaskPartitionedMethod` (``extract``, ``extract_many``,
     ``close``); ``client`` is a ``dask.distributed.Client`` (see
     :func:`local_client`).
     """
-    return DaskPartitionedMethod(pvol, field, method, client=client, **params)
+    return DaskPartitionedMethod(pvol, field, method, client=client, stitch_on=stitch_on, **params)
 
 
 def local_client(n_workers=2, *, threads_per_worker=1, processes=True, scheduler=None):
@@ -69,8 +78,13 @@ def local_client(n_workers=2, *, threads_per_worker=1, processes=True, scheduler
         # one numba thread per Dask thread: the workers share the machine's cores (two workers of two
         # numba threads each on two cores took 2x the work per partition, measured on 2M)
         kwargs["env"] = {"NUMBA_NUM_THREADS": str(int(threads_per_worker))}
-    cluster = distributed.LocalCluster(n_workers=int(n_workers), threads_per_worker=int(threads_per_worker),
-                                       processes=processes, dashboard_address=":0", **kwargs)
+    import dask
+
+    # no work stealing: a query's tasks are placed beside the partitions and pieces they read (stolen, they
+    # fetched the pieces across workers: measured on data 4 in 4 partitions, 86 % of the pieces moved, not 50 %)
+    with dask.config.set({"distributed.scheduler.work-stealing": False}):
+        cluster = distributed.LocalCluster(n_workers=int(n_workers), threads_per_worker=int(threads_per_worker),
+                                           processes=processes, dashboard_address=":0", **kwargs)
     return distributed.Client(cluster)
 
 
@@ -81,8 +95,14 @@ class DaskPartitionedMethod:
     ----------
     pvol : PartitionedVolume
     field, method : str, optional
+    stitch_on : {"workers", "client"}, keyword-only
+        Where the pieces are stitched: merged up the tree on the workers
+        (the default; only stitched surfaces reach the client), or all
+        sent to the client and stitched there (:func:`~polygen.volume.partitioned.stitch`;
+        the same arrays).
     client : dask.distributed.Client, keyword-only
-        Partitions go round-robin to its workers (sorted by address).
+        Partitions go to its workers (sorted by address) in blocks of
+        consecutive partitions (neighbours on one worker).
     **params
         The method's parameters.
 
@@ -99,9 +119,16 @@ class DaskPartitionedMethod:
     reprepared : int
         Partitions prepared again after a worker was lost.
     bytes_last : int
-        Bytes of the arrays that came back for the last query.
+        Bytes of the arrays that came back to the client for the last query
+        (the stitched surfaces: vertices, normals, triangles and cell ids as
+        int32, keys; with ``stitch_on="client"``, the pieces).
+    bytes_workers_last : int
+        Bytes of pieces the last query moved from one worker to another
+        (merge inputs made elsewhere).
+    bytes_pieces_last : int
+        Bytes of all the partitions' pieces of the last query (moved or not).
     wait_last : float
-        Seconds the last query waited for the partitions (calls, work, transfer; the stitch excluded).
+        Seconds the last query waited for its surfaces (calls, work, merges, transfer).
 
     Notes
     -----
@@ -109,21 +136,27 @@ class DaskPartitionedMethod:
     worker). The partitions are read once; nothing invalidates them.
     """
 
-    def __init__(self, pvol, field=None, method=None, *, client, **params):
+    def __init__(self, pvol, field=None, method=None, *, client, stitch_on="workers", **params):
         require_distributed()
+        if stitch_on not in ("workers", "client"):
+            raise PartitionError(f"stitch_on must be 'workers' or 'client'; got {stitch_on!r}")
+        self.stitch_on = stitch_on
         self.client = client
         self.pieces = list(pvol.pieces)
         self.field, self.method, self.params = field, method, params
         self.reprepared = 0
         self.bytes_last = 0
+        self.bytes_workers_last = 0
+        self.bytes_pieces_last = 0
         self.wait_last = 0.0
         t0 = time.perf_counter()
         workers = self._workers()
         self._futures = [None] * len(self.pieces)
         self.actors = [None] * len(self.pieces)
         self.placement = [None] * len(self.pieces)
-        for i, w in zip(range(len(self.pieces)), itertools.cycle(workers)):
-            self._start(i, w)
+        k = len(self.pieces)
+        for i in range(k):  # blocks of neighbours: partition i on worker i * W // k
+            self._start(i, workers[i * len(workers) // k])
         try:
             infos = self._gather([a.get_info() for a in self.actors], what="prepare")
             self.infos = infos
@@ -148,6 +181,8 @@ class DaskPartitionedMethod:
 
     def _start(self, i, worker):
         piece = self.pieces[i]
+        if not hasattr(piece, "path"):  # a piece in memory: sent to its worker as data, not inside the task graph
+            piece = self.client.scatter(piece, workers=[worker], hash=False)
         key = f"polygen-partition-{i}-{uuid.uuid4().hex}"
         fut = self.client.submit(PreparedPartition, piece, i, self.field, self.method, self.params, actor=True,
                                  workers=[worker], allow_other_workers=True, key=key)
@@ -167,16 +202,6 @@ class DaskPartitionedMethod:
                 raise _Lost(i, e) from e
         return out
 
-    def _calls(self, values, normals):
-        """One call per partition; an actor whose worker is already known lost raises at once (as ``_Lost``)."""
-        calls = []
-        for i, a in enumerate(self.actors):
-            try:
-                calls.append(a.extract_many(values, normals))
-            except Exception as e:  # noqa: BLE001  dask: "Worker holding Actor was lost"
-                raise _Lost(i, e) from e
-        return calls
-
     def _reprepare(self, lost):
         """Prepare the partitions ``lost`` (indices) again on the workers alive now."""
         alive = self._workers()
@@ -194,14 +219,89 @@ class DaskPartitionedMethod:
             self.reprepared += 1
 
     # ------------------------------------------------------------ queries
+    def _submit_query(self, values, normals):
+        """The tasks of one query: per chunk of values, a leaf per partition, the merges, the root's finish."""
+        submit, uid = self.client.submit, uuid.uuid4().hex
+        n_chunks = max(1, min(len(set(self.placement)), len(values)))
+        chunks = [[values[j] for j in idx] for idx in np.array_split(np.arange(len(values)), n_chunks)]
+        # where each chunk's root merge runs (as combine below places it)
+        root_w = [reduce_tree(self.placement, lambda x, y, c=c: x if x == y or c % 2 == 0 else y)
+                  for c in range(n_chunks)]
+        # a worker first makes the pieces that another worker's root waits for, then those its own roots
+        # need (submitted in that order, and prioritised so); merges and finishes go before a ready leaf
+        leaves = [[None] * len(self.actors) for _ in chunks]
+        for first in (True, False):
+            for c, vals in enumerate(chunks):
+                for i, (a, f, w) in enumerate(zip(self.actors, self._futures, self.placement)):
+                    if (w != root_w[c]) == first:
+                        leaves[c][i] = submit(_leaf, a, f.key, vals, normals, workers=[w], allow_other_workers=True,
+                                              pure=False, priority=1 if first else 0,
+                                              key=f"polygen-leaf-{i}-{c}-{uid}")
+        roots = []
+        for c, vals in enumerate(chunks):
+            count = itertools.count()
+
+            def combine(x, y, c=c, count=count):
+                # on one of the two sides' workers; across workers, the root of odd chunks on the right side's
+                (fx, wx), (fy, wy) = x, y
+                w = wx if wx == wy or c % 2 == 0 else wy
+                return submit(_merge, self.n_ids, fx, fy, workers=[w], allow_other_workers=True, pure=False,
+                              priority=2, key=f"polygen-merge-{c}-{next(count)}-{uid}"), w
+
+            root, w = reduce_tree(list(zip(leaves[c], self.placement)), combine)
+            roots.append(submit(_finish, vals, self.n_ids, normals, root, workers=[w], allow_other_workers=True,
+                                pure=False, priority=2, key=f"polygen-finish-{c}-{uid}"))
+        return leaves, roots
+
+    def _run_on_client(self, values, normals):
+        """All pieces sent here (one actor call per partition) and stitched here."""
+        calls = []
+        for i, a in enumerate(self.actors):
+            try:
+                calls.append(a.extract_many(values, normals))
+            except Exception as e:  # noqa: BLE001  dask: "Worker holding Actor was lost"
+                raise _Lost(i, e) from e
+        pieces = self._gather(calls, what="query")
+        made = sum(_nbytes(p) for per in pieces for p in per)
+        surfaces = [stitch(v, [per[j] for per in pieces], n_ids=self.n_ids, normals=normals)
+                    for j, v in enumerate(values)]
+        return surfaces, 0, made
+
+    def _run_query(self, values, normals):
+        """The stitched surfaces, or ``_Lost`` naming a partition whose actor could not answer."""
+        if self.stitch_on == "client":
+            return self._run_on_client(values, normals)
+        distributed = require_distributed()
+        leaves, roots = self._submit_query(values, normals)
+        distributed.wait(roots)
+        if all(r.status == "finished" for r in roots):
+            out = self.client.gather(roots)
+            self._sent = sum(o["sent"] for o in out)
+            return ([_widen(s) for o in out for s in o["surfaces"]], sum(o["moved"] for o in out),
+                    sum(o["made"] for o in out))
+        # a leaf failed: our own error as it is, anything else (a worker or actor lost) as a lost partition
+        for lv in leaves:
+            for i, f in enumerate(lv):
+                if f.status == "error":
+                    e = f.exception()
+                    if isinstance(e, (PartitionError, ValueError)):
+                        raise e
+                    raise _Lost(i, e)
+                if f.status != "finished":
+                    raise _Lost(i, RuntimeError(f"its task ended as {f.status!r}"))
+        for r in roots:
+            if r.status == "error":
+                raise r.exception()
+        raise PartitionError("a query's merges did not finish; no surface returned")
+
     def extract_many(self, values, *, normals="mean"):
-        """The stitched surfaces of ``values`` (one call per partition for all values)."""
+        """The stitched surfaces of ``values`` (one task per partition and chunk of values, merged on the workers)."""
         values = [check_value(v) for v in values]
         _check_normals(normals)
         t0 = time.perf_counter()
         for attempt in range(RETRIES + 1):
             try:
-                pieces = self._gather(self._calls(values, normals), what="query")
+                surfaces, moved, made = self._run_query(values, normals)
                 break
             except _Lost as lost:
                 if attempt == RETRIES:
@@ -215,9 +315,10 @@ class DaskPartitionedMethod:
                                          f"could not be prepared again ({type(e).__name__}: {e}); no surface "
                                          "returned") from e
         self.wait_last = time.perf_counter() - t0
-        self.bytes_last = sum(_nbytes(p) for per in pieces for p in per)
-        return [stitch(v, [per[j] for per in pieces], n_ids=self.n_ids, normals=normals)
-                for j, v in enumerate(values)]
+        self.bytes_workers_last = int(moved)
+        self.bytes_pieces_last = int(made)
+        self.bytes_last = made if self.stitch_on == "client" else self._sent
+        return surfaces
 
     def extract(self, value, *, normals="mean"):
         """The stitched surface ``S = value``."""
@@ -239,7 +340,81 @@ class _Lost(Exception):
 
 
 def _nbytes(piece):
-    return int(sum(v.nbytes for v in piece.values() if isinstance(v, np.ndarray)))
+    """Bytes of a piece's arrays (its fallback rows included)."""
+    fb = piece.get("fallback")
+    return int(sum(v.nbytes for v in piece.values() if isinstance(v, np.ndarray))
+               + (fb[0].nbytes + fb[1].nbytes if fb is not None else 0))
+
+
+def _surface_nbytes(s):
+    return int(sum(a.nbytes for a in (s.vertices, s.normals, s.triangles, s.vertex_keys, s.triangle_cells)
+                   if a is not None))
+
+
+def _here():
+    from distributed import get_worker
+
+    return get_worker().address
+
+
+def _leaf(actor, key, values, normals):
+    """On a worker: the partition's pieces of ``values``.
+
+    The partition lives on this worker (the task is placed beside it): it is
+    called here, in this task's thread -- an actor call from a task goes
+    through the worker's RPC and the actor's own thread, and two threads of
+    one process then take turns at the GIL with the merges (measured on
+    data 4: a merge's wall clock 20x its CPU time). If the partition is
+    elsewhere (the task ran on another worker), it is asked through its
+    actor, and its pieces count as moved.
+    """
+    from distributed import get_worker
+
+    w = get_worker()
+    here = w.address
+    part = w.state.actors.get(key)
+    if isinstance(part, PreparedPartition):
+        pieces, moved = part.extract_many(values, normals), False
+    else:
+        pieces, moved = actor.extract_many(values, normals).result(), True
+    made = sum(_nbytes(p) for p in pieces)
+    return {"where": here, "moved": made if moved else 0, "made": made, "pieces": pieces}
+
+
+def _moved_in(*nodes):
+    here = _here()
+    return here, sum(n["moved"] + (sum(_nbytes(p) for p in n["pieces"]) if n["where"] != here else 0)
+                     for n in nodes)
+
+
+def _merge(n_ids, left, right):
+    """On a worker: two neighbouring nodes of the tree merged, value by value."""
+    here, moved = _moved_in(left, right)
+    return {"where": here, "moved": moved, "made": left["made"] + right["made"],
+            "pieces": [merge([a, b], n_ids=n_ids) for a, b in zip(left["pieces"], right["pieces"])]}
+
+
+def _finish(values, n_ids, normals, root):
+    """On a worker: the root's pieces made surfaces (normals on the whole surface).
+
+    Triangles and cell ids travel to the client as int32 when they fit
+    (:func:`_widen` restores int64 there): 16 of ~60 bytes per triangle.
+    """
+    here, moved = _moved_in(root)
+    out = []
+    for v, p in zip(values, root["pieces"]):
+        s = finish(v, p, n_ids=n_ids, normals=normals)
+        if s.n_vertices < 2**31 and (s.triangle_cells.size == 0 or s.triangle_cells.max() < 2**31):
+            s = dataclasses.replace(s, triangles=s.triangles.astype(np.int32),
+                                    triangle_cells=s.triangle_cells.astype(np.int32))
+        out.append(s)
+    return {"moved": moved, "made": root["made"], "sent": sum(_surface_nbytes(s) for s in out), "surfaces": out}
+
+
+def _widen(s):
+    """A surface from :func:`_finish` with int64 triangles and cell ids again."""
+    return dataclasses.replace(s, triangles=s.triangles.astype(np.int64),
+                               triangle_cells=s.triangle_cells.astype(np.int64))
 
 
 def _takes_n_workers(client):

@@ -39,10 +39,14 @@ one volume). Mean normals are computed on the stitched surface (a seam
 vertex's triangles lie on both sides); ``normals="gradient"`` is refused
 (a seam node's gradient needs the cells of both sides).
 
-:class:`PartitionedMethod` runs the partitions here, one after the other;
-:mod:`polygen.volume.distributed` runs the same partitions on Dask workers
-(``distributed.prepare(pvol, client=...)``). This module does not import
-dask.
+:func:`merge` turns pieces into one piece again, so the stitch can be done
+all at once (:func:`stitch`: what :class:`PartitionedMethod` does here, one
+partition after the other) or pairwise up a tree of neighbouring partitions
+(:func:`reduce_tree`, :func:`tree_stitch`): what
+:mod:`polygen.volume.distributed` does on the Dask workers
+(``distributed.prepare(pvol, client=...)``), so that only the stitched
+surface reaches the client. Both give the same arrays. This module does not
+import dask.
 """
 
 from __future__ import annotations
@@ -50,6 +54,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import pathlib
+import threading
 import time
 import warnings
 import xml.etree.ElementTree as ET
@@ -65,7 +70,7 @@ from polygen.volume.thinning import ThinningWarning
 from polygen.volume.surface import IsoSurface, IsoSurfaceError, check_normals, check_value
 
 __all__ = ["PartitionedVolume", "PartitionedMethod", "PartitionError", "StitchedIsoSurface", "GLOBAL_IDS",
-           "stitch"]
+           "stitch", "tree_stitch", "merge", "finish", "reduce_tree", "scale_model"]
 
 #: the point array that numbers the nodes globally (as ParaView's D3 filter and VTK's redistribution name it)
 GLOBAL_IDS = "GlobalNodeId"
@@ -184,6 +189,7 @@ class PreparedPartition:
             warnings.simplefilter("ignore", ThinningWarning)
             self.method = _registry.get_method(method)(self.vol, field=self.field, **(params or {}))
         self._propagator = None
+        self._lock = threading.Lock()
         self.seam_cells = np.zeros(0, np.int64)
         bnodes = np.unique(self.vol.boundary_face_nodes)
         self.info = {
@@ -272,7 +278,9 @@ class PreparedPartition:
                 "t1": iso.t1 + t_seam, "t2": iso.t2, "t3": iso.t3, "method": iso.method}
 
     def extract_many(self, values, normals="mean"):
-        return [self.extract(v, normals) for v in values]
+        """:meth:`extract` of each value, one caller at a time (a worker's task threads and its actor's share it)."""
+        with self._lock:
+            return [self.extract(v, normals) for v in values]
 
     def _fallback(self, iso, gkeys):
         """``(keys, directions)`` of the vertices on an edge that touch a zero-area triangle here.
@@ -346,7 +354,12 @@ class StitchedIsoSurface(IsoSurface):
     seam_vertices : int
         Vertices made by more than one partition (kept once).
     stitch_s : float
-        Seconds to stitch (and to compute the mean normals) here.
+        Seconds of merging (summed over the merges of a tree) and of the
+        mean normals: on the client for :func:`stitch`, on the workers for
+        the stitch on Dask.
+    stitch_cpu_s : float
+        The same in CPU seconds of the threads that did it (on a shared
+        machine, the wall clock also counts waiting for a core).
     n_ids : int
         The number of global node ids (the base of the keys).
     """
@@ -354,28 +367,62 @@ class StitchedIsoSurface(IsoSurface):
     partitions: tuple = ()
     seam_vertices: int = 0
     stitch_s: float = 0.0
+    stitch_cpu_s: float = 0.0
     n_ids: int = 0
 
 
-def stitch(value, pieces, *, n_ids, normals="mean"):
-    """One surface from the partitions' pieces (dicts of :meth:`PreparedPartition.extract`).
+_COUNTERS = ("cells_tested", "cells_intersected", "vertex_lookups", "seam_seeds", "t1", "t2", "t3")
+
+
+def _parts(piece):
+    """The per-partition counters a piece carries: its own (a partition's piece) or its partitions' (merged)."""
+    if "parts" in piece:
+        return list(piece["parts"])
+    return [{k: piece[k] for k in _COUNTERS}
+            | {"n_triangles": int(piece["triangles"].shape[0]), "n_vertices": int(piece["keys"].shape[0])}]
+
+
+def merge(pieces, *, n_ids):
+    """One piece from neighbouring pieces of one value (dicts of :meth:`PreparedPartition.extract` or of ``merge``).
 
     Vertices with the same global key are one vertex (the first piece's
     position: both sides compute it from the same edge end, bit for bit);
     triangles are kept in piece order, except a triangle lying in a shared
     face at ``C`` (three node vertices) made by two cells, kept once from the
-    lower global cell id; mean normals are computed on the stitched surface.
+    lower global cell id. The result is a piece again (keys sorted and
+    unique), so pieces can be merged in any grouping of consecutive pieces
+    -- all at once (:func:`stitch`) or pairwise up a tree
+    (:func:`reduce_tree`, on the Dask workers) -- with the same arrays.
+
+    Parameters
+    ----------
+    pieces : list of dict
+        ``keys`` (n_i,) int64, ``vertices`` (n_i, 3) float64, ``triangles``
+        (m_i, 3) int32/int64, ``triangle_cells`` (m_i,) int64, ``fallback``
+        (keys, directions) or None, the counters.
+    n_ids : int
+        The number of global node ids (the base of the keys).
+
+    Returns
+    -------
+    dict
+        The same fields, ``parts`` (each partition's counters, in piece
+        order), ``seam_vertices`` (vertices merged away so far), ``merge_s``
+        and ``merge_cpu_s`` (seconds of merging so far, wall clock and the
+        merging thread's CPU time, summed over the tree).
     """
-    t0 = time.perf_counter()
-    keys = np.concatenate([p["keys"] for p in pieces]) if pieces else np.zeros(0, np.int64)
+    t0, c0 = time.perf_counter(), time.thread_time()
+    if not pieces:
+        return {"keys": np.zeros(0, np.int64), "vertices": np.zeros((0, 3)), "triangles": np.zeros((0, 3), np.int32),
+                "triangle_cells": np.zeros(0, np.int64), "fallback": None, "parts": [], "seam_vertices": 0,
+                "merge_s": 0.0, "merge_cpu_s": 0.0, "method": ""}
+    keys = np.concatenate([p["keys"] for p in pieces])
     offsets = np.cumsum([0] + [p["keys"].shape[0] for p in pieces])
     uniq, first, inv = np.unique(keys, return_index=True, return_inverse=True)
     inv = inv.ravel()
-    verts = np.concatenate([p["vertices"] for p in pieces])[first] if pieces else np.zeros((0, 3))
-    tri = np.concatenate([inv[p["triangles"].astype(np.int64) + o] for p, o in zip(pieces, offsets)]) \
-        if pieces else np.zeros((0, 3), np.int64)
-    tri = tri.reshape(-1, 3)
-    tcell = np.concatenate([p["triangle_cells"] for p in pieces]) if pieces else np.zeros(0, np.int64)
+    verts = np.concatenate([p["vertices"] for p in pieces])[first]
+    tri = np.concatenate([inv[p["triangles"].astype(np.int64) + o] for p, o in zip(pieces, offsets)]).reshape(-1, 3)
+    tcell = np.concatenate([p["triangle_cells"] for p in pieces]).astype(np.int64, copy=False)
     # the shared-face-at-C triangles: all three vertices on nodes
     node_vertex = (uniq // n_ids) == (uniq % n_ids) if n_ids else np.zeros(uniq.shape, bool)
     if node_vertex.any():
@@ -388,33 +435,82 @@ def stitch(value, pieces, *, n_ids, normals="mean"):
                 keep[cand] = False
                 keep[cand[keep_first]] = True
                 tri, tcell = tri[keep], tcell[keep]
+    fb = [p["fallback"] for p in pieces if p.get("fallback") is not None]
+    fallback = (np.concatenate([f[0] for f in fb]), np.concatenate([f[1] for f in fb]).reshape(-1, 3)) if fb else None
+    return {"keys": uniq, "vertices": verts, "triangles": tri.astype(np.int32) if uniq.shape[0] < 2**31 else tri,
+            "triangle_cells": tcell, "fallback": fallback, "parts": [c for p in pieces for c in _parts(p)],
+            "seam_vertices": sum(p.get("seam_vertices", 0) for p in pieces) + int(keys.shape[0] - uniq.shape[0]),
+            "merge_s": sum(p.get("merge_s", 0.0) for p in pieces) + time.perf_counter() - t0,
+            "merge_cpu_s": sum(p.get("merge_cpu_s", 0.0) for p in pieces) + time.thread_time() - c0,
+            "method": pieces[0]["method"]}
+
+
+def reduce_tree(items, combine):
+    """``items`` combined pairwise up a binary tree of neighbours: ``combine(a, b)`` of items 0-1, 2-3, ...
+
+    then of those results in pairs, and so on (an odd item out goes up a
+    level as it is); the root. Partitions are consecutive Morton ranges, so
+    neighbours in this order share seams and each merge removes the seam
+    vertices between them. The one reduction of the local tree stitch
+    (:func:`tree_stitch`) and of the stitch on Dask workers
+    (:mod:`polygen.volume.distributed`).
+    """
+    items = list(items)
+    if not items:
+        raise PartitionError("nothing to reduce: no pieces")
+    while len(items) > 1:
+        items = [combine(items[i], items[i + 1]) if i + 1 < len(items) else items[i] for i in range(0, len(items), 2)]
+    return items[0]
+
+
+def finish(value, piece, *, n_ids, normals="mean"):
+    """The :class:`StitchedIsoSurface` of a piece holding every partition's part (the root of the merges).
+
+    Mean normals are computed here, on the whole surface (a seam vertex's
+    triangles lie on both sides); a vertex whose triangles all have zero
+    area takes its edge's direction from a partition that has it.
+    """
+    t0, c0 = time.perf_counter(), time.thread_time()
+    if "parts" not in piece:
+        piece = merge([piece], n_ids=n_ids)
+    verts, uniq = piece["vertices"], piece["keys"]
+    tri = np.ascontiguousarray(piece["triangles"], np.int64)
     nrm = None
-    if normals is not None and pieces:
+    if normals is not None and piece["parts"]:
         nrm = np.empty_like(verts)
         if verts.shape[0]:
-            _m._mean_normals(verts, np.ascontiguousarray(tri, np.int64), nrm)
-            # a vertex whose triangles all have zero area keeps its partition's fallback (its edge's direction)
-            # a vertex whose triangles all have zero area: its edge's direction, from a partition that has it
-            fk = np.concatenate([p["fallback"][0] for p in pieces])
-            if fk.size:
-                fd = np.concatenate([p["fallback"][1] for p in pieces])
+            _m._mean_normals(verts, tri, nrm)
+            if piece["fallback"] is not None and piece["fallback"][0].size:
+                fk, fd = piece["fallback"]
                 at = np.searchsorted(uniq, fk)
                 zero = ~(np.abs(nrm[at]).sum(axis=1) > 0.0)
                 nrm[at[zero]] = fd[zero]
-    parts = tuple({k: p[k] for k in ("cells_tested", "cells_intersected", "vertex_lookups", "seam_seeds",
-                                     "t1", "t2", "t3")}
-                  | {"n_triangles": int(p["triangles"].shape[0]), "n_vertices": int(p["keys"].shape[0])}
-                  for p in pieces)
-    total = {k: sum(p[k] for p in pieces) for k in ("cells_tested", "cells_intersected", "vertex_lookups",
-                                                    "t1", "t2", "t3")}
-    method = pieces[0]["method"] if pieces else ""
+    parts = tuple(piece["parts"])
+    total = {k: sum(p[k] for p in parts) for k in ("cells_tested", "cells_intersected", "vertex_lookups",
+                                                   "t1", "t2", "t3")}
     return StitchedIsoSurface(
-        value=value, vertices=verts, triangles=np.ascontiguousarray(tri, np.int64), normals=nrm,
-        vertex_keys=uniq, triangle_cells=tcell.astype(np.int64), method=method,
+        value=value, vertices=verts, triangles=tri, normals=nrm, vertex_keys=uniq,
+        triangle_cells=piece["triangle_cells"], method=piece["method"],
         cells_tested=int(total["cells_tested"]), cells_intersected=int(total["cells_intersected"]),
         vertex_lookups=int(total["vertex_lookups"]), t1=total["t1"], t2=total["t2"], t3=total["t3"],
-        partitions=parts, seam_vertices=int(keys.shape[0] - uniq.shape[0]),
-        stitch_s=time.perf_counter() - t0, n_ids=int(n_ids))
+        partitions=parts, seam_vertices=int(piece["seam_vertices"]),
+        stitch_s=piece["merge_s"] + time.perf_counter() - t0,
+        stitch_cpu_s=piece["merge_cpu_s"] + time.thread_time() - c0, n_ids=int(n_ids))
+
+
+def stitch(value, pieces, *, n_ids, normals="mean"):
+    """One surface from the partitions' pieces (dicts of :meth:`PreparedPartition.extract`), merged at once.
+
+    :func:`merge` of all pieces, then :func:`finish`: what the client does
+    with every piece in hand (the local path, :class:`PartitionedMethod`).
+    """
+    return finish(value, merge(list(pieces), n_ids=n_ids), n_ids=n_ids, normals=normals)
+
+
+def tree_stitch(value, pieces, *, n_ids, normals="mean"):
+    """The same surface as :func:`stitch`, merged pairwise up :func:`reduce_tree` (as the Dask workers do)."""
+    root = reduce_tree(pieces, lambda a, b: merge([a, b], n_ids=n_ids))
+    return finish(value, root, n_ids=n_ids, normals=normals)
 
 
 def check_partitions(infos):
@@ -530,6 +626,16 @@ class PartitionedVolume:
                 fields={n: v[nodes] for n, v in vol.fields.items()}, global_ids=nodes, cell_ids=chunk))
         return cls(pieces)
 
+    def partition_of_cells(self):
+        """(n_cells,) int32: the partition holding each global cell (a volume from :meth:`split`)."""
+        if not all(isinstance(p, _MemoryPiece) for p in self.pieces):
+            raise PartitionError("partition_of_cells needs the pieces of split(): pieces from files are numbered "
+                                 "piece after piece when prepared")
+        out = np.empty(sum(p.cell_ids.shape[0] for p in self.pieces), np.int32)
+        for i, p in enumerate(self.pieces):
+            out[p.cell_ids] = i
+        return out
+
     @classmethod
     def from_files(cls, paths, *, global_ids=GLOBAL_IDS):
         """Pieces in mesh files (any format :meth:`UnstructuredVolume.read` reads), each with a point
@@ -643,3 +749,88 @@ def _check_normals(normals):
     if normals == "gradient":
         raise IsoSurfaceError("normals='gradient' is not available across partitions (a seam node's gradient "
                               "needs the cells of both sides); use 'mean' or None")
+
+
+# ----------------------------------------------------------------- a model on paper
+
+def scale_model(*, n_cells, crossed_per_value, triangles_per_value, prepare_s_per_cell, query_s_per_crossed_cell,
+                stitch_s_per_triangle, piece_bytes_per_triangle, surface_bytes_per_triangle,
+                target_cells=1e9, workers=64, bandwidth_bytes_s=10e9 / 8, sweep=20):
+    """Preparation, per-query latency and network volume of a bigger volume, from costs measured on a small one.
+
+    A model on paper, with these assumptions: the big volume holds the
+    same field shape on a finer mesh, so a surface crosses
+    ``g = (target_cells / n_cells) ** (2/3)`` times as many cells and has
+    ``g`` times as many triangles (surface area grows as n^(2/3)); one
+    partition per worker (``workers`` a power of two), each prepared where
+    its piece lives (no volume moves); preparation and extraction cost the
+    same per cell and per crossed cell as measured, and spread evenly over
+    the workers; the stitch is a tree of pairwise merges on the workers
+    (:func:`reduce_tree`), a merge at level ``l = 1 .. L`` (``L =
+    log2(workers)``) handling ``2**l / workers`` of the surface, each
+    costing at most what one :func:`stitch` of that share costs, so the
+    merges on the critical path handle ``2 - 2 / workers`` surfaces; the
+    pieces moved up that path add up to one surface of pieces (half of each
+    merged node travels), the network volume between workers is ``L / 2``
+    surfaces of pieces, and the stitched surface crosses the client's link
+    once; every link carries ``bandwidth_bytes_s``.
+
+    For a sweep of ``sweep`` values the tree's merges (``L`` surfaces of
+    work per value) spread over the workers, each value's root on another
+    worker: ``max(sweep * L / workers, 2 - 2 / workers)`` stitches, where one
+    client stitching every value merges ``sweep`` surfaces, one after
+    another, and takes in every piece through its one link.
+
+    Parameters
+    ----------
+    n_cells : int
+        Cells of the measured volume.
+    crossed_per_value, triangles_per_value : float
+        Cells crossed and triangles per value, measured.
+    prepare_s_per_cell : float
+        Seconds of preparation per cell (all partitions' preparation summed, over ``n_cells``).
+    query_s_per_crossed_cell : float
+        Seconds of extraction per crossed cell (t1 + t2 + t3 of the partitions, summed).
+    stitch_s_per_triangle : float
+        Seconds of one stitch (merge + normals) per triangle of the surface.
+    piece_bytes_per_triangle, surface_bytes_per_triangle : float
+        Bytes per triangle of the partitions' pieces, and of a stitched surface.
+    target_cells, workers, bandwidth_bytes_s : float
+        The volume modelled, its workers (a power of two), each link's bytes per second.
+    sweep : int
+        Values in a sweep (``extract_many``).
+
+    Returns
+    -------
+    dict
+        ``growth``, ``crossed``, ``triangles`` (per value), ``prepare_s``
+        (per worker, in parallel), ``extract_s``, ``stitch_s``,
+        ``transfer_s`` (critical path between workers + client link),
+        ``latency_s`` (their sum, per value), ``bytes_between_workers``,
+        ``bytes_to_client`` (per value), ``levels``; for a sweep,
+        ``sweep_stitch_workers_s`` and ``sweep_stitch_client_s`` (the tree on
+        the workers, one client stitching all) and ``sweep_client_link_s``
+        (the client's link: the stitched surfaces, or every piece).
+    """
+    levels = int(round(np.log2(workers)))
+    if workers < 1 or 2**levels != workers:
+        raise PartitionError(f"workers must be a power of two; got {workers}")
+    if min(n_cells, target_cells) <= 0:
+        raise PartitionError(f"cell counts must be positive; got {n_cells}, {target_cells}")
+    g = (target_cells / n_cells) ** (2 / 3)
+    crossed, tri = crossed_per_value * g, triangles_per_value * g
+    prepare_s = prepare_s_per_cell * target_cells / workers
+    extract_s = query_s_per_crossed_cell * crossed / workers
+    stitch_s = stitch_s_per_triangle * tri * (2 - 2 / workers)
+    pieces_path = piece_bytes_per_triangle * tri * (1 - 1 / workers)
+    to_client = surface_bytes_per_triangle * tri
+    transfer_s = (pieces_path + to_client) / bandwidth_bytes_s
+    one = stitch_s_per_triangle * tri
+    sweep_out = {"sweep_stitch_workers_s": one * max(sweep * levels / workers, 2 - 2 / workers),
+                 "sweep_stitch_client_s": one * sweep,
+                 "sweep_client_link_s": (sweep * to_client / bandwidth_bytes_s,
+                                         sweep * piece_bytes_per_triangle * tri / bandwidth_bytes_s)}
+    return sweep_out | {"growth": g, "crossed": crossed, "triangles": tri, "levels": levels, "prepare_s": prepare_s,
+            "extract_s": extract_s, "stitch_s": stitch_s, "transfer_s": transfer_s,
+            "latency_s": extract_s + stitch_s + transfer_s,
+            "bytes_between_workers": piece_bytes_per_triangle * tri * levels / 2, "bytes_to_client": to_client}
