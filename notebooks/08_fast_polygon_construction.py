@@ -342,14 +342,14 @@ print(plotting.table(rows_h, list(rows_h[0])))
 assert all(r["look-ups hash"] > 0 and r["look-ups walk / table"] == "0 / 0" for r in rows_h)
 
 # %% [markdown]
-# ## The benchmark: data 1–5 and 2M, and VTK
+# ## The benchmark: data 1–5, 2M and 10M, and VTK
 #
-# `benchmarks/fast_construction.py` runs the same comparison on all five volumes and the
-# 2-million-cell one, with `vtkContourFilter` beside (results committed in
+# `benchmarks/fast_construction.py` runs the same comparison on all five volumes, the
+# 2-million-cell one and the 10-million-cell one (its analytic field `gaussians`: no FEM
+# solve at that size), with `vtkContourFilter` beside (results committed in
 # `benchmarks/results/fast_construction.md`; polygen's times there are CPU seconds on one
 # thread, since the machine is shared, VTK's wall seconds on two). They are shown here as
-# recorded, for reading; nothing above rests on them, and no assert reads them. The 10M volume
-# is not in this run: it did not build within the time allowed here.
+# recorded, for reading; nothing above rests on them, and no assert reads them.
 
 # %%
 RESULTS = Path(polygen.__file__).resolve().parents[1] / "benchmarks" / "results" / "fast_construction.json"
@@ -389,7 +389,10 @@ if len(rows_b) >= 2:
 # neighbouring partitions, a vertex on a seam edge named by the pair of *global* node ids of
 # its edge and kept once, the normals made at the root — only the stitched surface travels
 # to the client. Here data 3 in four partitions on a `LocalCluster` of two worker processes,
-# twenty values, against the single volume.
+# twenty values, against the single volume, stitched on the workers as a cluster would
+# (`stitch_on="workers"`; by default, `"auto"`, a cluster whose workers all run on the
+# client's machine stitches on the client instead: on two cores the tree measured 1.3–2.3×
+# slower than one stitch on the client, `benchmarks/results/partitioned.md`).
 
 # %%
 from polygen.volume.distributed import local_client
@@ -401,7 +404,7 @@ values_p = isovalues(big.scalars("fem"), 20)
 single_p = methods.get(methods.DEFAULT)(big, field="fem").extract_many(values_p)
 pvol = PartitionedVolume.split(big, 4)
 client = local_client(2)                       # 2 worker processes, 1 thread each
-on_dask = dask_prepare(pvol, "fem", client=client)
+on_dask = dask_prepare(pvol, "fem", client=client, stitch_on="workers")
 stitched = on_dask.extract_many(values_p)
 for a_, b_ in zip(single_p, stitched):         # the stitched surface is the single volume's
     assert (b_.n_triangles, b_.n_vertices) == (a_.n_triangles, a_.n_vertices)

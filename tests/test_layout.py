@@ -34,7 +34,7 @@ VOLUME_LAYERS = [
     ("search structures", ["seeds"]),
     ("constructions", ["propagate", "isosurface"]),
     ("methods", ["methods"]),
-    ("chapter methods", ["homology", "extrema_graph", "thinning", "edge_centred", "analysis"]),
+    ("chapter methods", ["homology", "extrema_graph", "thinning", "edge_centred", "analysis", "constructions"]),
     ("applications", ["render"]),
     ("partitioned volumes", ["partitioned", "distributed"]),
 ]

@@ -393,7 +393,10 @@ def test_dask_stitch_on_workers_bytes(client, data3):
 
     values = list(isovalues(data3.scalars(), 6))
     pvol = PartitionedVolume.split(data3, 2)
-    on_dask = dask_prepare(pvol, client=client)
+    auto = dask_prepare(pvol, client=client)
+    assert auto.stitch_on == "client"  # "auto" on a LocalCluster: every worker on this machine
+    auto.close()
+    on_dask = dask_prepare(pvol, client=client, stitch_on="workers")
     assert on_dask.placement[0] != on_dask.placement[1]
     surfaces = on_dask.extract_many(values)
     local = pvol.prepare()

@@ -27,6 +27,7 @@ it when it is used, with a clear message when it is missing.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import itertools
 import time
@@ -54,7 +55,7 @@ def require_distributed():
     return distributed
 
 
-def prepare(pvol, field=None, method=None, *, client, stitch_on="workers", **params):
+def prepare(pvol, field=None, method=None, *, client, stitch_on="auto", **params):
     """Prepare ``method`` on every partition of ``pvol`` on the workers of ``client``, and keep them there.
 
     Returns a :class:`DaskPartitionedMethod` (``extract``, ``extract_many``,
@@ -88,6 +89,22 @@ def local_client(n_workers=2, *, threads_per_worker=1, processes=True, scheduler
     return distributed.Client(cluster)
 
 
+def _workers_are_local(client):
+    """Whether every worker of ``client`` runs on this machine (loopback, in-process or this host's name)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    here = {"127.0.0.1", "localhost", "::1", socket.gethostname()}
+    with contextlib.suppress(OSError):
+        here.add(socket.gethostbyname(socket.gethostname()))
+    for address in client.scheduler_info()["workers"]:
+        if address.startswith("inproc://"):
+            continue
+        if urlsplit(address).hostname not in here:
+            return False
+    return True
+
+
 class DaskPartitionedMethod:
     """A method prepared on every partition, each kept on a Dask worker as an actor.
 
@@ -95,11 +112,15 @@ class DaskPartitionedMethod:
     ----------
     pvol : PartitionedVolume
     field, method : str, optional
-    stitch_on : {"workers", "client"}, keyword-only
+    stitch_on : {"auto", "workers", "client"}, keyword-only
         Where the pieces are stitched: merged up the tree on the workers
-        (the default; only stitched surfaces reach the client), or all
-        sent to the client and stitched there (:func:`~polygen.volume.partitioned.stitch`;
-        the same arrays).
+        (only stitched surfaces reach the client), or all sent to the
+        client and stitched there (:func:`~polygen.volume.partitioned.stitch`);
+        the same arrays either way. ``"auto"`` (the default) stitches on the
+        client when every worker runs on this machine (a ``LocalCluster``:
+        nothing is gained by moving pieces between processes that share
+        the client's cores -- measured 1.3-2.3x slower on 2 cores,
+        ``benchmarks/results/partitioned.md``) and on the workers otherwise.
     client : dask.distributed.Client, keyword-only
         Partitions go to its workers (sorted by address) in blocks of
         consecutive partitions (neighbours on one worker).
@@ -136,10 +157,12 @@ class DaskPartitionedMethod:
     worker). The partitions are read once; nothing invalidates them.
     """
 
-    def __init__(self, pvol, field=None, method=None, *, client, stitch_on="workers", **params):
+    def __init__(self, pvol, field=None, method=None, *, client, stitch_on="auto", **params):
         require_distributed()
-        if stitch_on not in ("workers", "client"):
-            raise PartitionError(f"stitch_on must be 'workers' or 'client'; got {stitch_on!r}")
+        if stitch_on not in ("auto", "workers", "client"):
+            raise PartitionError(f"stitch_on must be 'auto', 'workers' or 'client'; got {stitch_on!r}")
+        if stitch_on == "auto":
+            stitch_on = "client" if _workers_are_local(client) else "workers"
         self.stitch_on = stitch_on
         self.client = client
         self.pieces = list(pvol.pieces)
