@@ -378,18 +378,6 @@ def _uses(st, w, nn):
 
 
 @njit(inline="always")
-def _start(starts, ec_off, ids, c, w):
-    """Where the list of the cells around local edge ``w`` of cell ``c`` starts in ``ec``.
-
-    From the records (``starts``), or, with no records (``starts`` empty),
-    from the edge's id and ``ec_off``.
-    """
-    if starts.shape[0] > 0:
-        return starts[c, w]
-    return ec_off[ids[c, w]]
-
-
-@njit(inline="always")
 def _exact_of(st, nn):
     return (st >> 16) & ((1 << nn) - 1)
 
@@ -412,6 +400,20 @@ def _construct_polygon(dyn, ds, c, case, exact, nn, n_slots, vals, value, tri_ta
     dyn[c, R_STATE] = st
     for w in range(n_slots):
         dyn[c, ds + w] = -1
+
+
+# Why construct's hot loop writes _construct_polygon, _register and the edge-list start out instead of
+# calling them: an ``inline="always"`` helper is inlined in numba IR, where every array argument becomes
+# a new reference (NRT_incref at the call, NRT_decref after), and numba's refcount pruning removes such
+# pairs only when they are not split by branches. Those helpers branch (tetrahedron or not, a node at the
+# isovalue or not), so each call cost up to ~14 atomic reference-count updates per cell: on data 4 the
+# construction went from 56 to 84 ms for 20 surfaces (the records and slots themselves cost nothing).
+# Written out (the rare path, a node at the isovalue, in the non-inlined _exact_mask), it is 52 ms.
+@njit
+def _exact_mask(case, exact, vals, value, tri_table, tri_count, local_edges, codes):
+    """The vertex codes (bits) of a polygon with a node at the isovalue (the rare path, not inlined)."""
+    _, mask = _polygon_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
+    return mask
 
 
 @njit(inline="always")
@@ -575,7 +577,7 @@ def construct(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
             w = _ctz(pre)
             pre &= pre - 1
             if dyn[c, ds + _slot(st, w, nn)] < 0:
-                _prefetch_item(ec, _start(starts, ec_off, ids, c, w))
+                _prefetch_item(ec, (starts[c, w] if starts.shape[0] > 0 else ec_off[ids[c, w]]))
         # for-loop (2): the vertices of P_i not registered yet
         while todo:
             w = _ctz(todo)
@@ -589,7 +591,7 @@ def construct(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
             v = n_v
             n_v += 1
             if w < ne:  # a vertex on cell edge E_n: its cells, straight from the edge's list
-                lo = _start(starts, ec_off, ids, c, w)
+                lo = (starts[c, w] if starts.shape[0] > 0 else ec_off[ids[c, w]])
                 vkey[v] = ec[lo - 1]  # the edge's id, just before its list
                 x = nodes[c, local_edges[w, 0]]
                 y = nodes[c, local_edges[w, 1]]
@@ -617,17 +619,38 @@ def construct(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
                         cj, xj = _values_of(nodes, j, nn, s, value, faces, vals)
                         if tail == cap_q:
                             return FULL_QUEUE, n_p, n_t, n_v, node_vertices > 0
-                        _construct_polygon(dyn, ds, j, cj, xj, nn, n_slots, vals, value, tri_table, tri_count,
-                                           case_mask, local_edges, codes_j)  # construct P_j
+                        stj = cj | (xj << 16)  # construct P_j (_construct_polygon, written out)
+                        if nn == 4:
+                            if xj == 0:
+                                stj |= case_mask[cj] << MASK_SHIFT
+                            else:
+                                stj |= _exact_mask(cj, xj, vals, value, tri_table, tri_count, local_edges,
+                                                   codes_j) << MASK_SHIFT
+                        dyn[j, R_STATE] = stj
+                        for w2 in range(n_slots):
+                            dyn[j, ds + w2] = -1
                         n_p += 1
                         queue[tail] = j  # insert C_j into the FIFO
                         tail += 1
                     elif dyn[j, R_STATE] == QUEUED:  # a seed still in the FIFO: construct P_j, it is queued
                         cj, xj = _values_of(nodes, j, nn, s, value, faces, vals)
-                        _construct_polygon(dyn, ds, j, cj, xj, nn, n_slots, vals, value, tri_table, tri_count,
-                                           case_mask, local_edges, codes_j)
+                        stj = cj | (xj << 16)
+                        if nn == 4:
+                            if xj == 0:
+                                stj |= case_mask[cj] << MASK_SHIFT
+                            else:
+                                stj |= _exact_mask(cj, xj, vals, value, tri_table, tri_count, local_edges,
+                                                   codes_j) << MASK_SHIFT
+                        dyn[j, R_STATE] = stj
+                        for w2 in range(n_slots):
+                            dyn[j, ds + w2] = -1
                         n_p += 1
-                    _register(dyn, ds, j, packed & LOCAL, v, nn)  # register V_n into P_j
+                    lw = packed & LOCAL  # register V_n into P_j (_register, written out)
+                    stj = dyn[j, R_STATE]
+                    if nn != 4:
+                        dyn[j, ds + lw] = v
+                    elif (stj >> (MASK_SHIFT + lw)) & 1 == 1:
+                        dyn[j, ds + _POPCOUNT[(stj >> MASK_SHIFT) & ((1 << lw) - 1)]] = v
             else:  # a crossing exactly on a node: shared by every cell around the node
                 node = nodes[c, w - ne]
                 vkey[v] = n_edges + node
@@ -769,14 +792,14 @@ def propagate_parallel(nodes, ids, starts, dyn, nn, s, value, faces, tri_table, 
             while pre:
                 w = _ctz(pre)
                 pre &= pre - 1
-                _prefetch_item(ec, _start(starts, ec_off, ids, c, w))
+                _prefetch_item(ec, (starts[c, w] if starts.shape[0] > 0 else ec_off[ids[c, w]]))
             if sp > 0:
                 _prefetch_row(nodes, stack[t, sp - 1])
             while todo and not full:
                 w = _ctz(todo)
                 todo &= todo - 1
                 if w < ne:  # for-loop (3) over the cells around the edge: all crossed
-                    lo = _start(starts, ec_off, ids, c, w)
+                    lo = (starts[c, w] if starts.shape[0] > 0 else ec_off[ids[c, w]])
                     q = lo
                     while True:  # their stamps, fetched together before they are read
                         packed = ec[q]
