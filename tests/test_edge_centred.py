@@ -51,7 +51,15 @@ def expected_visits(vol, iso, collapsed=None):
     return int(np.sum(np.diff(e_off)[k[on_edge]]) + np.sum(np.diff(n_off)[k[~on_edge] - ne]))
 
 
-BUILDERS = [EdgeCentredWalk, EdgeCentredTable]
+class EdgeCentredTableOtherLayout(EdgeCentredTable):
+    """The table variant with the layout that is not its default (``records`` <-> ``volume``)."""
+
+    def __init__(self, vol, field=None, **kw):
+        other = {"records": "volume", "volume": "records"}[EdgeCentredTable.DEFAULT_LAYOUT]
+        super().__init__(vol, field, layout=other, **kw)
+
+
+BUILDERS = [EdgeCentredWalk, EdgeCentredTable, EdgeCentredTableOtherLayout]
 METHODS = ["edge-centred", "edge-centred-table"]
 
 
@@ -310,7 +318,12 @@ def test_extract_many_two_at_a_time_gives_the_same_surfaces(tets, method):
     one = [m.extract(v) for v in values]
     stats_one = [m.extract(v) and dict(m.stats) for v in values]  # counters of each query
     many = m.extract_many(values, threads=2)
-    assert len(m._builders) == 2 and m._builders[1].rec is not m.builder.rec
+    assert len(m._builders) == 2
+    # the records are shared; the copy keeps its own stamps, states and slots (tetrahedra: 4 slots with the table)
+    assert m._builders[1].rec is m.builder.rec and m._builders[1].dyn is not m.builder.dyn
+    slots = 4 if tets and method == "edge-centred-table" else (10 if tets else 20)
+    assert m._builders[1].dyn.shape == (vol.n_cells, 2 + slots)
+    assert m._builders[1].memory_bytes()["query_state"] == vol.n_cells * (2 + slots) * 4
     for a, b, st_a, st_b in zip(one, many, stats_one, m.stats_many):
         assert_same_surface(a, b)
         np.testing.assert_array_equal(a.triangles, b.triangles)  # the same order, too
@@ -347,7 +360,7 @@ def test_walk_stores_no_edges(tets):
     # the table variant holds the stored edges
     table = EdgeCentredTable(vol, s)
     assert table.memory_bytes()["edge_list"] == vol.edges.nbytes
-    assert table.memory_bytes()["edge_cells"] == vol.n_cells * (6 if tets else 12) * 4
+    assert table.memory_bytes()["edge_cells"] == (vol.n_cells * (6 if tets else 12) + vol.edges.shape[0]) * 4
 
 
 @pytest.mark.parametrize("tets", [True, False])
@@ -501,3 +514,35 @@ def test_fallback_kernels_give_the_same_surfaces(tmp_path):
             np.testing.assert_array_equal([m.stats["visits"], m.stats["constructed"]], theirs[f"{name}-{i}-visits"])
             n += iso.n_triangles
     assert n > 0
+
+
+# ------------------------------------------------------------------ memory of the table variant
+@pytest.mark.parametrize("tets", [True, False])
+def test_table_memory_per_cell(tets):
+    """Records of whole cache lines (tetrahedra: 64 bytes), or none (layout "volume": stamps, states and
+    slots only); 32-bit lists of the cells around the edges; the cells around the nodes built at the first
+    crossing exactly on a node."""
+    vol = grid_volume((8, 7, 6), tets=tets)
+    s = np.random.default_rng(3).integers(0, 5, vol.n_points).astype(float)
+    m, nn, ne = vol.n_cells, (4 if tets else 8), (6 if tets else 12)
+    slots = 4 if tets else ne + nn
+    rec = EdgeCentredTable(vol, s, layout="records")
+    flat = EdgeCentredTable(vol, s, layout="volume")
+    assert rec.memory_bytes()["records"] == m * (16 if tets else 48) * 4 and "query_state" not in rec.memory_bytes()
+    assert flat.memory_bytes()["records"] == 0 and flat.memory_bytes()["query_state"] == m * (2 + slots) * 4
+    assert rec.copy().memory_bytes()["query_state"] == m * (2 + slots) * 4  # a copy shares the records
+    for b in (rec, flat):
+        mem = b.memory_bytes()
+        assert mem["edge_cells"] == 4 * (m * ne + vol.edges.shape[0])  # each list after its edge id
+        # where each edge's cell list starts: in the records, else one int32 per edge
+        assert mem.get("edge_cells_offsets", 0) == (0 if b is rec else 4 * vol.edges.shape[0])
+        assert "node_cells" not in mem
+        assert_same_surface(extract(vol, 2.5, field=s), b.extract(2.5, np.arange(m)))
+        assert "node_cells" not in b.memory_bytes()  # no node at 2.5
+        assert_same_surface(extract(vol, 2.0, field=s), b.extract(2.0, np.arange(m)))
+        assert b.stats["restarts"] == 1 and b.stats["node_vertices"] > 0  # the query that built them
+        assert b.memory_bytes()["node_cells"] == 4 * (vol.n_points + 1) + 4 * m * nn
+        b.extract(2.0, np.arange(m))
+        assert b.stats["restarts"] == 0
+    with pytest.raises(IsoSurfaceError, match="layout"):
+        EdgeCentredTable(vol, s, layout="rows")

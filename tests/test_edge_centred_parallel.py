@@ -200,7 +200,7 @@ def test_lists_grow_and_queries_repeat():
     assert par.stats["restarts"] == 0
     assert_same_as_serial(iso, again)
     mem = par.memory_bytes()
-    assert mem["parallel"] == 4 * (vol.edges.shape[0] + 2 * vol.n_points) + 2 * par._log.nbytes
+    assert mem["parallel"] == 4 * (vol.edges.shape[0] + 2 * vol.n_points) + 2 * par._log.nbytes + 6 * vol.n_cells
     assert "parallel" not in ser.memory_bytes()
 
 

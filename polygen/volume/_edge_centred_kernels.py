@@ -5,9 +5,9 @@ and the JIT options. See :mod:`polygen.volume.edge_centred` for the
 algorithm.
 
 Everything a query needs to know about a cell sits in one *record*, a row
-of ``rec`` (M, R) int32 in whole 64-byte cache lines (R = 32 for
-tetrahedra, 64 for hexahedra), so that visiting a cell touches one line
-(tetrahedra) or two:
+of ``rec`` (M, R) int32 in whole 64-byte cache lines (R = 16 for
+tetrahedra: 64 bytes, one line; 48 for hexahedra), so that visiting a cell
+touches one line (tetrahedra):
 
 ``rec[c, R_GEN]``
     generation stamp: the query that last touched the cell;
@@ -15,22 +15,34 @@ tetrahedra, 64 for hexahedra), so that visiting a cell touches one line
     its state in that query: ``NOT_CROSSED``, ``QUEUED`` (a crossed seed
     whose polygon is not constructed yet) or, ``>= 0``, the constructed
     polygon: marching case ``| exact << 16`` (bit ``i`` of ``exact``: node
-    ``i`` lies exactly at the isovalue);
+    ``i`` lies exactly at the isovalue), and for tetrahedra ``| mask <<
+    MASK_SHIFT``, the polygon's vertex codes as bits (see below);
 ``rec[c, R_NODES:R_NODES+nn]``
     the node ids;
 ``rec[c, os:os+W]`` with ``os = R_NODES + nn``
-    the polygon's vertex slots, ``W = n_local_edges + nn``: slot ``e`` holds
-    the vertex on local edge ``e``, slot ``n_local_edges + i`` the vertex
-    that is node ``i`` itself (a crossing exactly on a node). The slots are
+    the polygon's vertex slots. A vertex *code* is ``e`` for the vertex on
+    local edge ``e`` and ``n_local_edges + i`` for the vertex that is node
+    ``i`` itself (a crossing exactly on a node). Hexahedra keep one slot per
+    code (``W = 12 + 8``); a tetrahedron's polygon has at most four
+    vertices, so it keeps four slots (``W = 4``) and code ``w`` lives in slot
+    ``popcount(mask & ((1 << w) - 1))`` (:func:`_slot`). The slots are
     cleared when the polygon is constructed, so they are valid only in the
     query that constructed it;
-``rec[c, oe:oe+ne]`` with ``oe = os + W``
+``rec[c, ost:ost+ne]`` with ``ost = os + W``
     per local edge, where the list of the cells around it starts in ``ec``,
-    so that creating a vertex goes from the cell straight to its neighbours;
-``rec[c, oe+ne:oe+2*ne]``
-    the edge ids (the vertex keys), on the same cache line.
+    so that creating a vertex goes from the cell straight to its
+    neighbours. The edge ids themselves (the vertex keys, needed once per
+    vertex) are read from the volume's ``cell_edges``, which it keeps.
 
-The cells around an edge (``ec``) and around a node (``nc``) are stored
+The stamp, state and slots are the only fields a query writes. A second
+builder on the same records (:meth:`EdgeCentredTable.copy`, one per thread
+of ``extract_many``) reads the shared records and keeps those three fields
+in its own array ``dyn`` (M, 2 + W) int32: every kernel takes ``dyn`` and
+the column ``ds`` of its slots (``dyn = rec, ds = os`` for the builder
+that owns the records).
+
+The cells around an edge (``ec``) and around a node (``nc``, built at the
+first query that meets a crossing exactly on a node) are stored
 as ``cell << 5 | last << 4 | local``: the cell, whether it ends the list,
 and the local index of the edge (node) in that cell. Registering a vertex
 into a polygon is one store into the slot of that local index; nothing is
@@ -53,8 +65,8 @@ from polygen.volume import marching as _m
 
 NOT_CROSSED = -1
 QUEUED = -2
-#: kernel status codes: 0 done, else the buffer that overflowed
-OK, FULL_QUEUE, FULL_TRIANGLES, FULL_VERTICES = 0, 1, 2, 3
+#: kernel status codes: 0 done, 1-3 the buffer that overflowed, 4 the cells around the nodes are needed
+OK, FULL_QUEUE, FULL_TRIANGLES, FULL_VERTICES, NEED_NODE_CELLS = 0, 1, 2, 3, 4
 #: counters written by :func:`construct` (indices into ``counters``)
 C_POPS, C_VISITS, C_TOUCHED, C_CONSTRUCTED, C_NODE_TESTS, C_NODE_VERTICES, C_LOOKUPS = 0, 1, 2, 3, 4, 5, 6
 N_COUNTERS = 7
@@ -66,12 +78,22 @@ R_GEN, R_STATE, R_NODES = 0, 1, 2
 CELL_SHIFT = 5
 LAST = 16
 LOCAL = 15
+#: where a tetrahedron's state keeps the bits of its polygon's vertex codes
+MASK_SHIFT = 20
+#: bits set in each 10-bit number (a tetrahedron's slot of code ``w``: the codes below ``w`` in its mask)
+_POPCOUNT = np.array([bin(i).count("1") for i in range(1 << 10)], np.int32)
 
 
-def record_width(n_nodes, n_local_edges):
-    """Record length in int32: stamp, state, nodes, slots, edge lists, edge ids, in whole 64-byte lines."""
-    need = 2 + n_nodes + (n_local_edges + n_nodes) + 2 * n_local_edges
-    return -(-need // 16) * 16
+def record_layout(n_nodes, n_local_edges):
+    """``(os, n_slots, ost, width)``: where the slots and the edge-list starts are, and the record length in int32.
+
+    Stamp, state, nodes, slots (four for a tetrahedron, one per vertex code
+    otherwise), edge-list starts, in whole 64-byte lines.
+    """
+    n_slots = 4 if n_nodes == 4 else n_local_edges + n_nodes
+    os_ = R_NODES + n_nodes
+    ost = os_ + n_slots
+    return os_, n_slots, ost, -(-(ost + n_local_edges) // 16) * 16
 
 
 def case_masks(tri_table, tri_count):
@@ -211,41 +233,48 @@ def pack_incidence(offsets, order, width):
 
 
 @njit
-def fill_records(rec, cells, cell_edges, ec_off, oe):
-    """Node ids, edge-list starts and edge ids into the records (stamps and slots zeroed)."""
+def pack_edge_lists(offsets, order, width):
+    """:func:`pack_incidence` for the cells around the edges, each edge's list preceded by the edge's id.
+
+    Returns ``(ec, starts)``: the list of edge ``e`` is ``ec[starts[e]:]`` up
+    to the entry with ``LAST`` set, and ``ec[starts[e] - 1] == e``, on the
+    same cache line as the list's first entry most of the time, so the
+    vertex key costs no extra memory access.
+    """
+    n = offsets.shape[0] - 1
+    out = np.empty(order.shape[0] + n, np.int32)
+    starts = np.empty(n, np.int32)
+    for k in range(n):
+        h = offsets[k] + k
+        out[h] = k
+        starts[k] = h + 1
+        for q in range(offsets[k], offsets[k + 1]):
+            flat = order[q]
+            last = LAST if q == offsets[k + 1] - 1 else 0
+            out[q + k + 1] = np.int32(((flat // width) << CELL_SHIFT) | last | (flat % width))
+    return out, starts
+
+
+@njit
+def fill_records(rec, cells, cell_edges, ec_off, os_, ost):
+    """Node ids and edge-list starts into the records (stamps and states zeroed, slots cleared)."""
     nn = cells.shape[1]
     ne = cell_edges.shape[1]
     for c in range(rec.shape[0]):
-        rec[c, R_GEN] = 0
-        rec[c, R_STATE] = 0
+        for w in range(rec.shape[1]):
+            rec[c, w] = 0
         for i in range(nn):
             rec[c, R_NODES + i] = cells[c, i]
-        for w in range(ne + nn):
-            rec[c, R_NODES + nn + w] = -1
+        for w in range(os_, ost):
+            rec[c, w] = -1
         for w in range(ne):
-            e = cell_edges[c, w]
-            rec[c, oe + w] = np.int32(ec_off[e])
-            rec[c, oe + ne + w] = np.int32(e)
+            rec[c, ost + w] = ec_off[cell_edges[c, w]]
 
 
 # ------------------------------------------------------------------ cells
 @njit(inline="always")
-def _node_values(rec, c, nn, s, value, faces, vals):
-    """Node values of cell ``c`` into ``vals``; returns ``(case, exact)``.
-
-    ``case`` is :func:`polygen.volume.marching._cell_case`'s (-1: not
-    crossed), from values read once; bit ``i`` of ``exact``: node ``i`` is
-    exactly at ``value``.
-    """
-    case = 0
-    exact = 0
-    for i in range(nn):
-        x = s[rec[c, R_NODES + i]]
-        vals[i] = x
-        if x >= value:
-            case |= 1 << i
-        if x == value:
-            exact |= 1 << i
+def _face_bits(case, exact, nn, vals, value, faces):
+    """``(case, exact)`` from the corner bits: -1 when not crossed, else with the ambiguous faces' bits."""
     if case == 0 or case == (1 << nn) - 1:
         return -1, exact
     for f in range(faces.shape[0]):
@@ -259,6 +288,41 @@ def _node_values(rec, c, nn, s, value, faces, vals):
             if _m._sorted_sum4(a, b, d, e) * 0.25 >= value:
                 case |= 1 << (8 + f)
     return case, exact
+
+
+@njit(inline="always")
+def _values_of(nodes, c, nn, s, value, faces, vals):
+    """Node values of cell ``c`` (nodes ``nodes[c]``) into ``vals``; returns ``(case, exact)``.
+
+    ``case`` is :func:`polygen.volume.marching._cell_case`'s (-1: not
+    crossed), from values read once; bit ``i`` of ``exact``: node ``i`` is
+    exactly at ``value``.
+    """
+    case = 0
+    exact = 0
+    for i in range(nn):
+        x = s[nodes[c, i]]
+        vals[i] = x
+        if x >= value:
+            case |= 1 << i
+        if x == value:
+            exact |= 1 << i
+    return _face_bits(case, exact, nn, vals, value, faces)
+
+
+@njit(inline="always")
+def _node_values(rec, c, nn, s, value, faces, vals):
+    """:func:`_values_of` with the nodes in a record (``rec[c, R_NODES:R_NODES+nn]``)."""
+    case = 0
+    exact = 0
+    for i in range(nn):
+        x = s[rec[c, R_NODES + i]]
+        vals[i] = x
+        if x >= value:
+            case |= 1 << i
+        if x == value:
+            exact |= 1 << i
+    return _face_bits(case, exact, nn, vals, value, faces)
 
 
 @njit(inline="always")
@@ -297,8 +361,71 @@ def _make_polygon(rec, c, case, exact, n_slots, os_):
         rec[c, os_ + w] = -1
 
 
+@njit(inline="always")
+def _slot(st, w, nn):
+    """The slot of vertex code ``w`` in a polygon of state ``st`` (tetrahedra: its rank in the mask)."""
+    if nn == 4:
+        return _POPCOUNT[(st >> MASK_SHIFT) & ((1 << w) - 1)]
+    return w
+
+
+@njit(inline="always")
+def _uses(st, w, nn):
+    """Whether the polygon of state ``st`` has vertex code ``w`` (always, for a polygon with a slot per code)."""
+    if nn == 4:
+        return (st >> (MASK_SHIFT + w)) & 1 == 1
+    return True
+
+
+@njit(inline="always")
+def _exact_of(st, nn):
+    return (st >> 16) & ((1 << nn) - 1)
+
+
+@njit(inline="always")
+def _construct_polygon(dyn, ds, c, case, exact, nn, n_slots, vals, value, tri_table, tri_count, case_mask,
+                       local_edges, codes):
+    """Construct P_c: its state (tetrahedra: with its vertex codes), its vertex slots cleared.
+
+    ``vals`` holds the cell's node values (:func:`_node_values`); ``codes``
+    is scratch, overwritten for a polygon with a node at the isovalue.
+    """
+    st = case | (exact << 16)
+    if nn == 4:
+        if exact == 0:
+            mask = case_mask[case]
+        else:
+            _, mask = _polygon_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
+        st |= mask << MASK_SHIFT
+    dyn[c, R_STATE] = st
+    for w in range(n_slots):
+        dyn[c, ds + w] = -1
+
+
+# Why construct's hot loop writes _construct_polygon, _register and the edge-list start out instead of
+# calling them: an ``inline="always"`` helper is inlined in numba IR, where every array argument becomes
+# a new reference (NRT_incref at the call, NRT_decref after), and numba's refcount pruning removes such
+# pairs only when they are not split by branches. Those helpers branch (tetrahedron or not, a node at the
+# isovalue or not), so each call cost up to ~14 atomic reference-count updates per cell: on data 4 the
+# construction went from 56 to 84 ms for 20 surfaces (the records and slots themselves cost nothing).
+# Written out (the rare path, a node at the isovalue, in the non-inlined _exact_mask), it is 52 ms.
 @njit
-def test_seeds(rec, nn, s, value, faces, seeds, gen, queue):
+def _exact_mask(case, exact, vals, value, tri_table, tri_count, local_edges, codes):
+    """The vertex codes (bits) of a polygon with a node at the isovalue (the rare path, not inlined)."""
+    _, mask = _polygon_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
+    return mask
+
+
+@njit(inline="always")
+def _register(dyn, ds, j, w, v, nn):
+    """Register vertex ``v`` into P_j as its vertex code ``w`` (a code P_j does not use is skipped)."""
+    st = dyn[j, R_STATE]
+    if _uses(st, w, nn):
+        dyn[j, ds + _slot(st, w, nn)] = v
+
+
+@njit
+def test_seeds(nodes, dyn, nn, s, value, faces, seeds, gen, queue):
     """t1: test each seed once, queue the crossed ones. Returns ``(tested, queued)``.
 
     A crossed seed is ``QUEUED``: its polygon is constructed when it is taken
@@ -309,64 +436,67 @@ def test_seeds(rec, nn, s, value, faces, seeds, gen, queue):
     n = 0
     for i in range(seeds.shape[0]):
         c = seeds[i]
-        if rec[c, R_GEN] == gen:
+        if dyn[c, R_GEN] == gen:
             continue
-        rec[c, R_GEN] = gen
+        dyn[c, R_GEN] = gen
         tested += 1
-        case, _ = _node_values(rec, c, nn, s, value, faces, vals)
+        case, _ = _values_of(nodes, c, nn, s, value, faces, vals)
         if case >= 0:
-            rec[c, R_STATE] = QUEUED
+            dyn[c, R_STATE] = QUEUED
             queue[n] = c
             n += 1
         else:
-            rec[c, R_STATE] = NOT_CROSSED
+            dyn[c, R_STATE] = NOT_CROSSED
     return tested, n
 
 
 @njit
-def _node_vertex(rec, nn, n_slots, s, value, faces, ne, nc_off, nc, node, v, gen, queue, tail):
+def _node_vertex(nodes, dyn, ds, nn, n_slots, s, value, faces, tri_table, tri_count, case_mask, local_edges, ne,
+                 nc_off, nc, node, v, gen, queue, tail):
     """For-loop (3) for a vertex that is ``node`` itself: register it in every crossed cell around the node.
 
     A cell around the node may lie wholly above the isovalue, so each cell
     seen for the first time is tested. Returns ``(status, tail, tested,
     constructed)``.
     """
-    os_ = R_NODES + nn
     vals = np.empty(8, np.float64)
+    codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
     tested = 0
     made = 0
     for q in range(nc_off[node], nc_off[node + 1]):
         packed = nc[q]
         j = packed >> CELL_SHIFT
-        if rec[j, R_GEN] != gen:
-            rec[j, R_GEN] = gen
+        if dyn[j, R_GEN] != gen:
+            dyn[j, R_GEN] = gen
             tested += 1
-            cj, xj = _node_values(rec, j, nn, s, value, faces, vals)
+            cj, xj = _values_of(nodes, j, nn, s, value, faces, vals)
             if cj < 0:
-                rec[j, R_STATE] = NOT_CROSSED
+                dyn[j, R_STATE] = NOT_CROSSED
                 continue
             if tail == queue.shape[0]:
                 return FULL_QUEUE, tail, tested, made
-            _make_polygon(rec, j, cj, xj, n_slots, os_)
+            _construct_polygon(dyn, ds, j, cj, xj, nn, n_slots, vals, value, tri_table, tri_count, case_mask,
+                               local_edges, codes)
             made += 1
             queue[tail] = j
             tail += 1
         else:
-            sj = rec[j, R_STATE]
+            sj = dyn[j, R_STATE]
             if sj == NOT_CROSSED:
                 continue
             if sj == QUEUED:
-                cj, xj = _node_values(rec, j, nn, s, value, faces, vals)
-                _make_polygon(rec, j, cj, xj, n_slots, os_)
+                cj, xj = _values_of(nodes, j, nn, s, value, faces, vals)
+                _construct_polygon(dyn, ds, j, cj, xj, nn, n_slots, vals, value, tri_table, tri_count, case_mask,
+                                   local_edges, codes)
                 made += 1
-        rec[j, os_ + ne + (packed & LOCAL)] = v
+        _register(dyn, ds, j, ne + (packed & LOCAL), v, nn)
     return OK, tail, tested, made
 
 
 # ------------------------------------------------------------------ the construction
 @njit(cache=_KCACHE)
-def construct(rec, nn, s, value, faces, tri_table, tri_count, case_mask, local_edges, n_edges,
-              ec, nc_off, nc, gen, queue, n_queued, lifo, tris, tri_cell, vkey, vend, counters):
+def construct(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_count, case_mask, local_edges, n_edges,
+              ec_off, ec, nc_off, nc, gen, queue, n_queued, lifo, tris, tri_cell, vkey, vend, counters):
     """t2: the cell-edge-centred construction (Fig. 5, for-loops (1)-(3)).
 
     ``queue`` holds the ``n_queued`` crossed seeds (marked ``QUEUED``);
@@ -375,22 +505,26 @@ def construct(rec, nn, s, value, faces, tri_table, tri_count, case_mask, local_e
     vertex ids, when it is taken from the queue: by then every vertex of
     its polygon has been registered. Vertex ``v`` gets its key ``vkey[v]``
     and the ends of its edge ``vend[v]`` (smaller node id first; the node
-    twice for a crossing on a node).
+    twice for a crossing on a node). A cell's nodes are ``nodes[c]``, its
+    edge ids ``ids[c]``, its edge-list starts ``starts[c]`` (or, ``starts``
+    empty, ``ec_off[ids[c]]``; an edge's id is the entry before its list:
+    :func:`pack_edge_lists`): all read only; stamps, states and slots are
+    written into ``dyn`` (slots from column ``ds``).
 
     Returns ``(status, n_polygons, n_triangles, n_vertices,
     any_node_vertex)``; ``status != OK`` names the buffer that was too
-    small (the caller grows it and starts the query again under a new
-    generation).
+    small, or asks for the cells around the nodes (``nc_off`` empty: not
+    built yet); the caller grows or builds it and starts the query again
+    under a new generation.
     """
     ne = local_edges.shape[0]
-    n_slots = ne + nn
-    os_ = R_NODES + nn
-    oe = os_ + n_slots
+    n_slots = 4 if nn == 4 else ne + nn
     cap_t = tris.shape[0] - _m.MAX_TRIANGLES
     cap_v = vkey.shape[0]
     cap_q = queue.shape[0]
     vals = np.empty(8, np.float64)
-    codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+    codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)  # the polygon of the cell taken
+    codes_j = np.empty((_m.MAX_TRIANGLES, 3), np.int64)  # scratch for the polygons constructed around it
     n_p = 0
     n_t = 0
     n_v = 0
@@ -410,51 +544,64 @@ def construct(rec, nn, s, value, faces, tri_table, tri_count, case_mask, local_e
             c = queue[head]
             head += 1
             if head + LOOKAHEAD < tail:
-                _prefetch_row(rec, queue[head + LOOKAHEAD])
+                _prefetch_row(nodes, queue[head + LOOKAHEAD])
+                _prefetch_row(dyn, queue[head + LOOKAHEAD])
         pops += 1
-        st = rec[c, R_STATE]
+        st = dyn[c, R_STATE]
         if st == QUEUED:  # a seed nobody reached before: construct P_i
-            case, exact = _node_values(rec, c, nn, s, value, faces, vals)
-            _make_polygon(rec, c, case, exact, n_slots, os_)
+            case, exact = _values_of(nodes, c, nn, s, value, faces, vals)
+            _construct_polygon(dyn, ds, c, case, exact, nn, n_slots, vals, value, tri_table, tri_count, case_mask,
+                               local_edges, codes)
             n_p += 1
-            st = rec[c, R_STATE]
+            st = dyn[c, R_STATE]
         case = st & 0xFFFF
-        exact = st >> 16
+        exact = _exact_of(st, nn)
         if exact == 0:
             k = tri_count[case]
             todo = case_mask[case]
         else:  # a node at the isovalue: node codes, zero-area triangles dropped
             for i in range(nn):
-                vals[i] = s[rec[c, R_NODES + i]]
+                vals[i] = s[nodes[c, i]]
             k, todo = _polygon_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
         # the cell lists of its open edges, fetched together before for-loop (2) walks them one by one
+        # (without records: first where each list starts, then the lists)
+        if starts.shape[0] == 0:
+            pre = todo & ((1 << ne) - 1)
+            while pre:
+                w = _ctz(pre)
+                pre &= pre - 1
+                if dyn[c, ds + _slot(st, w, nn)] < 0:
+                    _prefetch_item(ec_off, ids[c, w])
         pre = todo & ((1 << ne) - 1)
         while pre:
             w = _ctz(pre)
             pre &= pre - 1
-            if rec[c, os_ + w] < 0:
-                _prefetch_item(ec, rec[c, oe + w])
+            if dyn[c, ds + _slot(st, w, nn)] < 0:
+                _prefetch_item(ec, (starts[c, w] if starts.shape[0] > 0 else ec_off[ids[c, w]]))
         # for-loop (2): the vertices of P_i not registered yet
         while todo:
             w = _ctz(todo)
             todo &= todo - 1
-            if rec[c, os_ + w] >= 0:
+            if dyn[c, ds + _slot(st, w, nn)] >= 0:
                 continue
             if n_v == cap_v:
                 return FULL_VERTICES, n_p, n_t, n_v, node_vertices > 0
+            if w >= ne and nc_off.shape[0] == 0:
+                return NEED_NODE_CELLS, n_p, n_t, n_v, True
             v = n_v
             n_v += 1
-            if w < ne:  # a vertex on cell edge E_n: its cells, straight from the record
-                vkey[v] = rec[c, oe + ne + w]
-                x = rec[c, R_NODES + local_edges[w, 0]]
-                y = rec[c, R_NODES + local_edges[w, 1]]
+            if w < ne:  # a vertex on cell edge E_n: its cells, straight from the edge's list
+                lo = (starts[c, w] if starts.shape[0] > 0 else ec_off[ids[c, w]])
+                vkey[v] = ec[lo - 1]  # the edge's id, just before its list
+                x = nodes[c, local_edges[w, 0]]
+                y = nodes[c, local_edges[w, 1]]
                 vend[v, 0] = min(x, y)
                 vend[v, 1] = max(x, y)
-                lo = rec[c, oe + w]
                 q = lo
-                while True:
+                while True:  # their rows, fetched together before the stamps are read
                     packed = ec[q]
-                    _prefetch_row(rec, packed >> CELL_SHIFT)
+                    _prefetch_row(nodes, packed >> CELL_SHIFT)
+                    _prefetch_row(dyn, packed >> CELL_SHIFT)
                     q += 1
                     if packed & LAST:
                         break
@@ -464,29 +611,55 @@ def construct(rec, nn, s, value, faces, tri_table, tri_count, case_mask, local_e
                 for q in range(lo, end):
                     packed = ec[q]
                     j = packed >> CELL_SHIFT
-                    if rec[j, R_GEN] != gen:
-                        rec[j, R_GEN] = gen
+                    if dyn[j, R_GEN] != gen:
+                        dyn[j, R_GEN] = gen
                         touched += 1
-                        cj, xj = _node_values(rec, j, nn, s, value, faces, vals)
+                        if starts.shape[0] == 0:
+                            _prefetch_row(ids, j)  # read when P_j is taken from the queue
+                        cj, xj = _values_of(nodes, j, nn, s, value, faces, vals)
                         if tail == cap_q:
                             return FULL_QUEUE, n_p, n_t, n_v, node_vertices > 0
-                        _make_polygon(rec, j, cj, xj, n_slots, os_)  # construct P_j
+                        stj = cj | (xj << 16)  # construct P_j (_construct_polygon, written out)
+                        if nn == 4:
+                            if xj == 0:
+                                stj |= case_mask[cj] << MASK_SHIFT
+                            else:
+                                stj |= _exact_mask(cj, xj, vals, value, tri_table, tri_count, local_edges,
+                                                   codes_j) << MASK_SHIFT
+                        dyn[j, R_STATE] = stj
+                        for w2 in range(n_slots):
+                            dyn[j, ds + w2] = -1
                         n_p += 1
                         queue[tail] = j  # insert C_j into the FIFO
                         tail += 1
-                    elif rec[j, R_STATE] == QUEUED:  # a seed still in the FIFO: construct P_j, it is queued
-                        cj, xj = _node_values(rec, j, nn, s, value, faces, vals)
-                        _make_polygon(rec, j, cj, xj, n_slots, os_)
+                    elif dyn[j, R_STATE] == QUEUED:  # a seed still in the FIFO: construct P_j, it is queued
+                        cj, xj = _values_of(nodes, j, nn, s, value, faces, vals)
+                        stj = cj | (xj << 16)
+                        if nn == 4:
+                            if xj == 0:
+                                stj |= case_mask[cj] << MASK_SHIFT
+                            else:
+                                stj |= _exact_mask(cj, xj, vals, value, tri_table, tri_count, local_edges,
+                                                   codes_j) << MASK_SHIFT
+                        dyn[j, R_STATE] = stj
+                        for w2 in range(n_slots):
+                            dyn[j, ds + w2] = -1
                         n_p += 1
-                    rec[j, os_ + (packed & LOCAL)] = v  # register V_n into P_j
+                    lw = packed & LOCAL  # register V_n into P_j (_register, written out)
+                    stj = dyn[j, R_STATE]
+                    if nn != 4:
+                        dyn[j, ds + lw] = v
+                    elif (stj >> (MASK_SHIFT + lw)) & 1 == 1:
+                        dyn[j, ds + _POPCOUNT[(stj >> MASK_SHIFT) & ((1 << lw) - 1)]] = v
             else:  # a crossing exactly on a node: shared by every cell around the node
-                node = rec[c, R_NODES + w - ne]
+                node = nodes[c, w - ne]
                 vkey[v] = n_edges + node
                 vend[v, 0] = node
                 vend[v, 1] = node
                 node_vertices += 1
                 visits += nc_off[node + 1] - nc_off[node]
-                status, tail, tested, made = _node_vertex(rec, nn, n_slots, s, value, faces, ne, nc_off, nc, node,
+                status, tail, tested, made = _node_vertex(nodes, dyn, ds, nn, n_slots, s, value, faces, tri_table,
+                                                          tri_count, case_mask, local_edges, ne, nc_off, nc, node,
                                                           v, gen, queue, tail)
                 node_tests += tested
                 touched += tested
@@ -499,13 +672,13 @@ def construct(rec, nn, s, value, faces, tri_table, tri_count, case_mask, local_e
         if exact == 0:
             for t in range(k):
                 for jj in range(3):
-                    tris[n_t, jj] = rec[c, os_ + tri_table[case, 3 * t + jj]]
+                    tris[n_t, jj] = dyn[c, ds + _slot(st, tri_table[case, 3 * t + jj], nn)]
                 tri_cell[n_t] = c
                 n_t += 1
         else:
             for t in range(k):
                 for jj in range(3):
-                    tris[n_t, jj] = rec[c, os_ + codes[t, jj]]
+                    tris[n_t, jj] = dyn[c, ds + _slot(st, codes[t, jj], nn)]
                 tri_cell[n_t] = c
                 n_t += 1
     counters[C_POPS] = pops
@@ -536,23 +709,23 @@ def positions(vend, n_v, points, s, value, out):
 
 
 # ------------------------------------------------------------------ the parallel construction
-def owned_edges(ec, ec_off, cell_edges):
-    """(M,) int32: bit ``w`` set when cell ``c`` is the first in the cell list of its local edge ``w``.
+def owned_edges(ec, cell_starts):
+    """(M,) int16: bit ``w`` set when cell ``c`` is the first in the cell list of its local edge ``w``.
 
-    Every cell around a crossed edge is reached, so the first one numbers
-    the edge's vertex; stored in a free field of the records, so that
+    ``cell_starts[c, w]``: where that list starts in ``ec``. Every cell
+    around a crossed edge is reached, so the first one numbers the edge's
+    vertex; kept per cell (built at the first parallel query), so that
     numbering reads no cell list.
     """
-    first = ec[ec_off[:-1]] >> CELL_SHIFT
-    mine = first[cell_edges] == np.arange(cell_edges.shape[0])[:, None]
-    return (mine.astype(np.int32) << np.arange(cell_edges.shape[1], dtype=np.int32)).sum(axis=1).astype(np.int32)
+    mine = (ec[cell_starts] >> CELL_SHIFT) == np.arange(cell_starts.shape[0])[:, None]
+    return (mine.astype(np.int32) << np.arange(cell_starts.shape[1], dtype=np.int32)).sum(axis=1).astype(np.int16)
 
 
 # No compare-and-swap: the threads claim cells with plain stores and sort out the rare double
 # claims afterwards. Thread ``t`` starts from every ``T``-th crossed seed and runs the same
 # propagation as :func:`construct` (for-loops (1) and (3), newest cell first) on its own stack,
-# marking a cell it reaches for the first time (``rec[j, R_GEN] = gen``) and writing its own number
-# into the cell's claim field (the record's last, otherwise unused, int32). Two threads may both
+# marking a cell it reaches for the first time (``dyn[j, R_GEN] = gen``) and writing its own number
+# into the cell's claim (``claim[j]``, one int32 per cell, made at the first parallel query). Two threads may both
 # see a cell unmarked and both take it; each then processes it (same polygon, same neighbours),
 # and after the pass only the thread whose number stayed in the claim field keeps it. Every
 # marked cell is on the stack of a thread that marks all its neighbours, so the cells kept are
@@ -563,34 +736,34 @@ def owned_edges(ec, ec_off, cell_edges):
 
 
 @njit(inline="always")
-def _polygon_mask(rec, c, nn, s, value, st, tri_table, tri_count, case_mask, local_edges, vals, codes):
+def _polygon_mask(nodes, c, nn, s, value, st, tri_table, tri_count, case_mask, local_edges, vals, codes):
     """``(case, exact, k, mask)`` of a constructed cell from its state (``codes`` filled when ``exact``)."""
     case = st & 0xFFFF
-    exact = st >> 16
+    exact = _exact_of(st, nn)
     if exact == 0:
         return case, exact, tri_count[case], case_mask[case]
     for i in range(nn):
-        vals[i] = s[rec[c, R_NODES + i]]
+        vals[i] = s[nodes[c, i]]
     k, mask = _polygon_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
     return case, exact, k, mask
 
 
 @njit(parallel=True, cache=_KCACHE)
-def propagate_parallel(rec, nn, s, value, faces, tri_table, tri_count, case_mask, local_edges, ec, nc_off, nc,
-                       gen, queue, n_queued, claim, stack, log, n_log, status):
+def propagate_parallel(nodes, ids, starts, dyn, nn, s, value, faces, tri_table, tri_count, case_mask, local_edges,
+                       ec_off, ec, nc_off, nc, gen, queue, n_queued, claim, stack, log, n_log, status):
     """The cells the surface crosses, reached from the ``n_queued`` crossed seeds in ``queue``, by ``T`` threads.
 
     ``stack`` and ``log`` are (T, cap) int32 scratch; thread ``t`` lists the
     cells it took in ``log[t, :n_log[t]]`` (a cell may be in two lists: it
-    belongs to the thread ``rec[c, claim]``) and leaves each one's state in
-    its record as :func:`construct` does. ``status[t]`` is ``OK`` or
+    belongs to the thread ``claim[c]``) and leaves each one's state in
+    ``dyn`` as :func:`construct` does (without the slots: this construction
+    numbers vertices by edge). ``status[t]`` is ``OK`` or
     ``FULL_QUEUE`` (the caller grows ``cap`` and starts again under a new
     generation).
     """
     n_thr = stack.shape[0]
     cap = stack.shape[1]
     ne = local_edges.shape[0]
-    oe = R_NODES + nn + ne + nn
     for t in prange(n_thr):
         vals = np.empty(8, np.float64)
         codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
@@ -602,7 +775,7 @@ def propagate_parallel(rec, nn, s, value, faces, tri_table, tri_count, case_mask
                 full = True
                 break
             c = queue[i]
-            rec[c, claim] = t
+            claim[c] = t
             stack[t, sp] = c
             sp += 1
             log[t, nl] = c
@@ -610,61 +783,57 @@ def propagate_parallel(rec, nn, s, value, faces, tri_table, tri_count, case_mask
         while sp > 0 and not full:
             sp -= 1
             c = stack[t, sp]
-            case, exact = _node_values(rec, c, nn, s, value, faces, vals)
+            case, exact = _values_of(nodes, c, nn, s, value, faces, vals)
             st = case | (exact << 16)
-            rec[c, R_STATE] = st
-            _, _, _, todo = _polygon_mask(rec, c, nn, s, value, st, tri_table, tri_count, case_mask, local_edges,
+            dyn[c, R_STATE] = st
+            _, _, _, todo = _polygon_mask(nodes, c, nn, s, value, st, tri_table, tri_count, case_mask, local_edges,
                                           vals, codes)
             pre = todo & ((1 << ne) - 1)  # the cell lists of its edges, fetched together (as in construct)
             while pre:
                 w = _ctz(pre)
                 pre &= pre - 1
-                _prefetch_item(ec, rec[c, oe + w])
+                _prefetch_item(ec, (starts[c, w] if starts.shape[0] > 0 else ec_off[ids[c, w]]))
             if sp > 0:
-                _prefetch_row(rec, stack[t, sp - 1])
+                _prefetch_row(nodes, stack[t, sp - 1])
             while todo and not full:
                 w = _ctz(todo)
                 todo &= todo - 1
                 if w < ne:  # for-loop (3) over the cells around the edge: all crossed
-                    lo = rec[c, oe + w]
+                    lo = (starts[c, w] if starts.shape[0] > 0 else ec_off[ids[c, w]])
                     q = lo
-                    while True:  # their records, fetched together before the stamps are read
+                    while True:  # their stamps, fetched together before they are read
                         packed = ec[q]
-                        _prefetch_row(rec, packed >> CELL_SHIFT)
+                        _prefetch_row(dyn, packed >> CELL_SHIFT)
                         q += 1
                         if packed & LAST:
                             break
-                    q = lo
-                    while True:
-                        packed = ec[q]
-                        j = packed >> CELL_SHIFT
-                        if rec[j, R_GEN] != gen:
+                    end = q
+                    for q in range(lo, end):
+                        j = ec[q] >> CELL_SHIFT
+                        if dyn[j, R_GEN] != gen:
                             if nl == cap:
                                 full = True
                                 break
-                            rec[j, R_GEN] = gen
-                            rec[j, claim] = t
+                            dyn[j, R_GEN] = gen
+                            claim[j] = t
                             stack[t, sp] = j
                             sp += 1
                             log[t, nl] = j
                             nl += 1
-                        if packed & LAST:
-                            break
-                        q += 1
                 else:  # a vertex on a node: the crossed cells around the node
-                    node = rec[c, R_NODES + w - ne]
+                    node = nodes[c, w - ne]
                     for q in range(nc_off[node], nc_off[node + 1]):
                         j = nc[q] >> CELL_SHIFT
-                        if rec[j, R_GEN] == gen:
+                        if dyn[j, R_GEN] == gen:
                             continue
-                        cj, _ = _node_values(rec, j, nn, s, value, faces, vals)
+                        cj, _ = _values_of(nodes, j, nn, s, value, faces, vals)
                         if cj < 0:
                             continue
                         if nl == cap:
                             full = True
                             break
-                        rec[j, R_GEN] = gen
-                        rec[j, claim] = t
+                        dyn[j, R_GEN] = gen
+                        claim[j] = t
                         stack[t, sp] = j
                         sp += 1
                         log[t, nl] = j
@@ -674,19 +843,19 @@ def propagate_parallel(rec, nn, s, value, faces, tri_table, tri_count, case_mask
 
 
 @njit(parallel=True, cache=_KCACHE)
-def number_parallel(rec, nn, s, value, tri_table, tri_count, case_mask, local_edges, owned, claim, log, n_log,
+def number_parallel(nodes, ids, dyn, nn, s, value, tri_table, tri_count, case_mask, local_edges, owned, claim, log,
+                    n_log,
                     vid, exact_cells, counts):
     """Per thread: its kept cells' triangles counted, the edge vertices it owns numbered.
 
     ``vid[edge]`` gets ``local * (T + 1) + t`` for the ``local``-th vertex
     thread ``t`` owns (a vertex on an edge belongs to the edge's first cell:
-    bit ``w`` of ``rec[c, owned]``, see :func:`owned_edges`); ``exact_cells[t, :counts[t, 2]]`` lists its kept cells
+    bit ``w`` of ``owned[c]``, see :func:`owned_edges`); ``exact_cells[t, :counts[t, 2]]`` lists its kept cells
     with a node at the isovalue; ``counts[t] = (triangles, vertices,
     exact cells, cells kept)``.
     """
     n_thr = log.shape[0]
     ne = local_edges.shape[0]
-    oe = R_NODES + nn + ne + nn
     for t in prange(n_thr):
         vals = np.empty(8, np.float64)
         codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
@@ -696,20 +865,20 @@ def number_parallel(rec, nn, s, value, tri_table, tri_count, case_mask, local_ed
         n_c = 0
         for i in range(n_log[t]):
             c = log[t, i]
-            if rec[c, claim] != t:
+            if claim[c] != t:
                 continue
             n_c += 1
-            _, exact, k, mask = _polygon_mask(rec, c, nn, s, value, rec[c, R_STATE], tri_table, tri_count,
+            _, exact, k, mask = _polygon_mask(nodes, c, nn, s, value, dyn[c, R_STATE], tri_table, tri_count,
                                               case_mask, local_edges, vals, codes)
             n_t += k
             if exact:
                 exact_cells[t, n_x] = c
                 n_x += 1
-            mask &= rec[c, owned]  # the vertices on the edges whose first cell is c
+            mask &= owned[c]  # the vertices on the edges whose first cell is c
             while mask:
                 w = _ctz(mask)
                 mask &= mask - 1
-                vid[rec[c, oe + ne + w]] = n_v * (n_thr + 1) + t
+                vid[ids[c, w]] = n_v * (n_thr + 1) + t
                 n_v += 1
         counts[t, 0] = n_t
         counts[t, 1] = n_v
@@ -718,7 +887,8 @@ def number_parallel(rec, nn, s, value, tri_table, tri_count, case_mask, local_ed
 
 
 @njit(cache=_KCACHE)
-def number_nodes(rec, nn, s, value, tri_table, tri_count, case_mask, local_edges, n_edges, exact_cells, counts,
+def number_nodes(nodes, ids, dyn, nn, s, value, tri_table, tri_count, case_mask, local_edges, n_edges, exact_cells,
+                 counts,
                  vid, node_gen, gen, v0, vkey, vend):
     """Vertices on nodes, numbered from ``v0`` in one thread (key and ends written); returns their count."""
     n_thr = exact_cells.shape[0]
@@ -729,13 +899,13 @@ def number_nodes(rec, nn, s, value, tri_table, tri_count, case_mask, local_edges
     for t in range(n_thr):
         for i in range(counts[t, 2]):
             c = exact_cells[t, i]
-            _, _, _, mask = _polygon_mask(rec, c, nn, s, value, rec[c, R_STATE], tri_table, tri_count, case_mask,
+            _, _, _, mask = _polygon_mask(nodes, c, nn, s, value, dyn[c, R_STATE], tri_table, tri_count, case_mask,
                                           local_edges, vals, codes)
             mask >>= ne
             while mask:
                 w = _ctz(mask)
                 mask &= mask - 1
-                node = rec[c, R_NODES + w]
+                node = nodes[c, w]
                 if node_gen[node] == gen:
                     continue
                 node_gen[node] = gen
@@ -748,12 +918,12 @@ def number_nodes(rec, nn, s, value, tri_table, tri_count, case_mask, local_edges
 
 
 @njit(parallel=True, cache=_KCACHE)
-def write_parallel(rec, nn, s, value, tri_table, tri_count, case_mask, local_edges, n_edges, owned, claim, log,
+def write_parallel(nodes, ids, dyn, nn, s, value, tri_table, tri_count, case_mask, local_edges, n_edges, owned, claim,
+                   log,
                    n_log, vid, v_base, t_base, tris, tri_cell, vkey, vend):
     """Per thread: its kept cells' triangles (as final vertex ids) from ``t_base[t]``, its vertices' keys and ends."""
     n_thr = log.shape[0]
     ne = local_edges.shape[0]
-    oe = R_NODES + nn + ne + nn
     for t in prange(n_thr):
         vals = np.empty(8, np.float64)
         codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
@@ -761,24 +931,24 @@ def write_parallel(rec, nn, s, value, tri_table, tri_count, case_mask, local_edg
         n_v = v_base[t]
         for i in range(n_log[t]):
             c = log[t, i]
-            if rec[c, claim] != t:
+            if claim[c] != t:
                 continue
-            case, exact, k, mask = _polygon_mask(rec, c, nn, s, value, rec[c, R_STATE], tri_table, tri_count,
+            case, exact, k, mask = _polygon_mask(nodes, c, nn, s, value, dyn[c, R_STATE], tri_table, tri_count,
                                                  case_mask, local_edges, vals, codes)
-            mask &= rec[c, owned]
+            mask &= owned[c]
             while mask:
                 w = _ctz(mask)
                 mask &= mask - 1
-                vkey[n_v] = rec[c, oe + ne + w]
-                x = rec[c, R_NODES + local_edges[w, 0]]
-                y = rec[c, R_NODES + local_edges[w, 1]]
+                vkey[n_v] = ids[c, w]
+                x = nodes[c, local_edges[w, 0]]
+                y = nodes[c, local_edges[w, 1]]
                 vend[n_v, 0] = min(x, y)
                 vend[n_v, 1] = max(x, y)
                 n_v += 1
             for tt in range(k):
                 for jj in range(3):
                     w = tri_table[case, 3 * tt + jj] if exact == 0 else codes[tt, jj]
-                    key = rec[c, oe + ne + w] if w < ne else n_edges + rec[c, R_NODES + w - ne]
+                    key = ids[c, w] if w < ne else n_edges + nodes[c, w - ne]
                     code = vid[key]
                     owner = code % (n_thr + 1)
                     tris[n_t, jj] = v_base[owner] + code // (n_thr + 1)

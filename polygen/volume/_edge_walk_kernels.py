@@ -118,33 +118,33 @@ def fill_records(rec, cells, neighbors):
 
 
 @njit(inline="always")
-def _visit(rec, j, slot, v, nn, n_slots, os_, s, value, faces, vals, gen, queue, tail):
+def _visit(rec, dyn, ds, j, slot, v, nn, n_slots, s, value, faces, vals, gen, queue, tail):
     """For-loop (3) on cell ``j`` around a crossed edge: construct and queue ``P_j`` if missing, register ``v``.
 
     Returns ``(ok, tail, touched, made)``; ``ok`` is False when the queue is full.
     """
     touched = 0
     made = 0
-    if rec[j, R_GEN] != gen:
-        rec[j, R_GEN] = gen
+    if dyn[j, R_GEN] != gen:
+        dyn[j, R_GEN] = gen
         touched = 1
         cj, xj = _node_values(rec, j, nn, s, value, faces, vals)
         if tail == queue.shape[0]:
             return False, tail, touched, made
-        _make_polygon(rec, j, cj, xj, n_slots, os_)  # construct P_j
+        _make_polygon(dyn, j, cj, xj, n_slots, ds)  # construct P_j
         made = 1
         queue[tail] = j  # insert C_j into the FIFO
         tail += 1
-    elif rec[j, R_STATE] == QUEUED:  # a seed still in the FIFO: construct P_j, it is queued already
+    elif dyn[j, R_STATE] == QUEUED:  # a seed still in the FIFO: construct P_j, it is queued already
         cj, xj = _node_values(rec, j, nn, s, value, faces, vals)
-        _make_polygon(rec, j, cj, xj, n_slots, os_)
+        _make_polygon(dyn, j, cj, xj, n_slots, ds)
         made = 1
-    rec[j, os_ + slot] = v  # register V_n into P_j
+    dyn[j, ds + slot] = v  # register V_n into P_j
     return True, tail, touched, made
 
 
 @njit
-def _node_vertex(rec, nn, on, os_, n_slots, ne, s, value, faces, node_faces, c, node, v, gen, queue, tail,
+def _node_vertex(rec, dyn, ds, nn, on, n_slots, ne, s, value, faces, node_faces, c, node, v, gen, queue, tail,
                  around, around_local):
     """For-loop (3) for a vertex that is ``node`` itself: every cell around the node, by a flood fill over faces.
 
@@ -191,33 +191,33 @@ def _node_vertex(rec, nn, on, os_, n_slots, ne, s, value, faces, node_faces, c, 
     made = 0
     for q in range(n):
         j = around[q]
-        if rec[j, R_GEN] != gen:
-            rec[j, R_GEN] = gen
+        if dyn[j, R_GEN] != gen:
+            dyn[j, R_GEN] = gen
             tested += 1
             cj, xj = _node_values(rec, j, nn, s, value, faces, vals)
             if cj < 0:
-                rec[j, R_STATE] = NOT_CROSSED
+                dyn[j, R_STATE] = NOT_CROSSED
                 continue
             if tail == queue.shape[0]:
                 return FULL_QUEUE, tail, n, tested, made
-            _make_polygon(rec, j, cj, xj, n_slots, os_)
+            _make_polygon(dyn, j, cj, xj, n_slots, ds)
             made += 1
             queue[tail] = j
             tail += 1
         else:
-            sj = rec[j, R_STATE]
+            sj = dyn[j, R_STATE]
             if sj == NOT_CROSSED:
                 continue
             if sj == QUEUED:
                 cj, xj = _node_values(rec, j, nn, s, value, faces, vals)
-                _make_polygon(rec, j, cj, xj, n_slots, os_)
+                _make_polygon(dyn, j, cj, xj, n_slots, ds)
                 made += 1
-        rec[j, os_ + ne + around_local[q]] = v
+        dyn[j, ds + ne + around_local[q]] = v
     return OK, tail, n, tested, made
 
 
 @njit
-def construct(rec, nn, nf, n_points, s, value, faces, tri_table, tri_count, case_mask, local_edges, edge_faces,
+def construct(rec, dyn, ds, nn, nf, n_points, s, value, faces, tri_table, tri_count, case_mask, local_edges, edge_faces,
               edge_of, node_faces, gen, queue, n_queued, lifo, tris, tri_cell, vkey, vend, around, around_local,
               search, htable, counters):
     """t2: the cell-edge-centred construction, the cells around an edge found by walking (Fig. 5).
@@ -241,7 +241,6 @@ def construct(rec, nn, nf, n_points, s, value, faces, tri_table, tri_count, case
     ne = local_edges.shape[0]
     n_slots = ne + nn
     on = R_NODES + nn
-    os_ = on + nf
     cap_t = tris.shape[0] - _m.MAX_TRIANGLES
     cap_v = vkey.shape[0]
     cap_h = htable.shape[0]
@@ -269,12 +268,12 @@ def construct(rec, nn, nf, n_points, s, value, faces, tri_table, tri_count, case
             c = queue[head]
             head += 1
         pops += 1
-        st = rec[c, R_STATE]
+        st = dyn[c, R_STATE]
         if st == QUEUED:  # a seed nobody reached before: construct P_i
             case, exact = _node_values(rec, c, nn, s, value, faces, vals)
-            _make_polygon(rec, c, case, exact, n_slots, os_)
+            _make_polygon(dyn, c, case, exact, n_slots, ds)
             n_p += 1
-            st = rec[c, R_STATE]
+            st = dyn[c, R_STATE]
         case = st & 0xFFFF
         exact = st >> 16
         if exact == 0:
@@ -288,7 +287,7 @@ def construct(rec, nn, nf, n_points, s, value, faces, tri_table, tri_count, case
         while todo:
             w = _ctz(todo)
             todo &= todo - 1
-            if rec[c, os_ + w] >= 0:
+            if dyn[c, ds + w] >= 0:
                 continue
             if n_v == cap_v:
                 return FULL_VERTICES, n_p, n_t, n_v, node_vertices > 0
@@ -305,7 +304,7 @@ def construct(rec, nn, nf, n_points, s, value, faces, tri_table, tri_count, case
                 vend[v, 1] = b
                 vkey[v] = pair_key(a, b, n_points)
                 # for-loop (3): every cell C_j sharing E_n, C_i first, then walking round E_n both ways
-                ok, tail, t_, m_ = _visit(rec, c, w, v, nn, n_slots, os_, s, value, faces, vals, gen, queue, tail)
+                ok, tail, t_, m_ = _visit(rec, dyn, ds, c, w, v, nn, n_slots, s, value, faces, vals, gen, queue, tail)
                 around_n = 1
                 for d in range(2):
                     prev = c
@@ -324,7 +323,7 @@ def construct(rec, nn, nf, n_points, s, value, faces, tri_table, tri_count, case
                         if le < 0 or around_n > MAX_RING:
                             counters[C_BAD_CELL] = j
                             return BAD_MESH, n_p, n_t, n_v, node_vertices > 0
-                        ok, tail, t_, m_ = _visit(rec, j, le, v, nn, n_slots, os_, s, value, faces, vals, gen,
+                        ok, tail, t_, m_ = _visit(rec, dyn, ds, j, le, v, nn, n_slots, s, value, faces, vals, gen,
                                                   queue, tail)
                         if not ok:
                             return FULL_QUEUE, n_p, n_t, n_v, node_vertices > 0
@@ -347,7 +346,7 @@ def construct(rec, nn, nf, n_points, s, value, faces, tri_table, tri_count, case
                 vend[v, 1] = node
                 node_vertices += 1
                 status, tail, n_around, tested, made = _node_vertex(
-                    rec, nn, on, os_, n_slots, ne, s, value, faces, node_faces, c, node, v, gen, queue, tail,
+                    rec, dyn, ds, nn, on, n_slots, ne, s, value, faces, node_faces, c, node, v, gen, queue, tail,
                     around, around_local)
                 if status == BAD_MESH:
                     counters[C_BAD_CELL] = c
@@ -376,7 +375,7 @@ def construct(rec, nn, nf, n_points, s, value, faces, tri_table, tri_count, case
                     probes += p
                     tris[n_t, jj] = vid
                 else:
-                    tris[n_t, jj] = rec[c, os_ + w]
+                    tris[n_t, jj] = dyn[c, ds + w]
             tri_cell[n_t] = c
             n_t += 1
     counters[C_POPS] = pops

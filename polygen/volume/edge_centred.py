@@ -141,20 +141,32 @@ def canonical_order(iso):
         triangles=new_id[iso.triangles[tri_order]], triangle_cells=iso.triangle_cells[tri_order])
 
 
-def _output_buffers(m):
+def _output_buffers(m, key_dtype=np.int32):
     """The query buffers of a builder over ``m`` cells: queue, triangles, their cells, vertex keys and ends.
 
     Sized so that the surfaces of a smooth field fit at the first query
-    (a queue of ``m / 16`` cells, ``m / 6`` triangles, ``m / 12`` vertices:
-    about 7 bytes per cell) -- an overflow makes the kernel stop, the buffer
-    double and the query start again, which costs that query a second
-    extraction (the slider of :mod:`polygen.widgets` felt it on data 4).
+    (a queue of ``m / 16`` cells, ``m / 6`` triangles, ``m / 12`` vertices;
+    32-bit ids: about 4 bytes per cell with 32-bit keys) -- an overflow makes
+    the kernel stop, the buffer double and the query start again, which
+    costs that query a second extraction (the slider of
+    :mod:`polygen.widgets` felt it on data 4). The results are copied out as
+    int64, the :class:`~polygen.volume.surface.IsoSurface` convention.
     """
     q_cap = max(1024, m // 16)
     t_cap = max(2048, m // 6) + _m.MAX_TRIANGLES
     v_cap = max(1024, m // 12)
-    return (np.empty(q_cap, np.int32), np.empty((t_cap, 3), np.int64), np.empty(t_cap, np.int64),
-            np.empty(v_cap, np.int64), np.empty((v_cap, 2), np.int32))
+    return (np.empty(q_cap, np.int32), np.empty((t_cap, 3), np.int32), np.empty(t_cap, np.int32),
+            np.empty(v_cap, key_dtype), np.empty((v_cap, 2), np.int32))
+
+
+_EMPTY_I32 = np.empty(0, np.int32)
+
+
+def _aligned_records(m, width):
+    """(m, width) int32 records starting on a 64-byte boundary (a tetrahedron's record is one cache line)."""
+    raw = np.empty(m * width + 16, np.int32)
+    start = (-(raw.ctypes.data // 4)) % 16
+    return raw[start:start + m * width].reshape(m, width)
 
 
 def _drop_at_nodes(any_node, tri, tri_cell, keys, vend, n_edges):
@@ -184,11 +196,19 @@ class EdgeCentredTable:
     method needs not (:class:`EdgeCentredWalk` is the paper's). It is what
     the construction becomes when cell edges are stored.
 
-    Preparing builds the cells around each edge and around each node, each
-    with its local index in the cell (O(n)); every query reuses the stamps
-    and buffers, so one builder serves one thread at a time (the
-    ``edge-centred`` method holds a lock around it; :meth:`copy` gives a
-    builder for another thread).
+    Preparing builds one 64-byte record per tetrahedron (stamp, state,
+    nodes, four vertex slots, edge ids; 192 bytes per hexahedron) and the
+    cells around each edge with the edge's local index in each (O(n)):
+    about 97 bytes per tetrahedron in all (records 64, the cells around
+    the edges 24 plus each edge's id before its list 4.8, query buffers
+    about 4; the edge ids of a cell are read from the volume's
+    ``cell_edges`` only by the parallel construction);
+    the cells around each node (16.7 bytes per tetrahedron) are built at
+    the first query that meets a crossing exactly on a node. Every query
+    reuses the stamps and buffers, so one builder serves one thread at a
+    time (the ``edge-centred`` method holds a lock around it; :meth:`copy`
+    gives a builder for another thread that shares the records and keeps
+    its own stamps, states and slots, 24 bytes per tetrahedron).
 
     Parameters
     ----------
@@ -201,6 +221,16 @@ class EdgeCentredTable:
         FIFO) or the newest (its neighbours' records are still in cache). The
         surface is the same either way; only the order of its triangles and
         vertices differs.
+    layout : {"records", "volume"}, keyword-only
+        Where a query reads a cell's nodes and edge ids. ``"records"``: from
+        one 64-byte record per tetrahedron that also holds its stamp, state
+        and four vertex slots (one cache line per visit). ``"volume"``: from
+        the volume's own ``cells`` and ``cell_edges`` (which the volume keeps
+        anyway), with only the stamps, states and slots here (24 bytes per
+        tetrahedron): 40 bytes per tetrahedron less, for a second and a
+        third cache line when a cell is first reached and when it is taken
+        from the queue. Default :attr:`DEFAULT_LAYOUT`, chosen by
+        measurement (see the notes in ``benchmarks/results/interactive.md``).
     threads : int or None, keyword-only
         Threads for one query (default 1; ``None``: numba's thread count).
         With more than one, the seeds are split among the threads, which
@@ -210,8 +240,8 @@ class EdgeCentredTable:
         numbered by their edges' first cells and the triangles written to
         per-thread offsets afterwards. The same triangles and vertices as one
         thread, in another order (:func:`canonical_order` gives one order for
-        both). Costs ``4 (n_edges + 2 n_points)`` bytes more, and two lists of
-        the cells taken per thread. ``stats`` then has ``pops`` (cells taken,
+        both). Costs ``4 (n_edges + 2 n_points) + 6 n_cells`` bytes more, and
+        two lists of the cells taken per thread. ``stats`` then has ``pops`` (cells taken,
         doubles included), ``constructed``, ``duplicates``, ``per_thread``.
         Measured (``benchmarks/results/parallel_construction.md``, a shared
         2-core machine under load ~7.5): slower than one thread (median
@@ -248,11 +278,18 @@ class EdgeCentredTable:
 
     method = "edge-centred-table"
 
-    def __init__(self, vol, field=None, *, order="lifo", threads=1):
+    #: the layout by measurement (see the class docstring)
+    DEFAULT_LAYOUT = "records"
+
+    def __init__(self, vol, field=None, *, order="lifo", threads=1, layout=None):
         t0 = time.perf_counter()
         if order not in ("fifo", "lifo"):
             raise IsoSurfaceError(f"order must be 'fifo' or 'lifo'; got {order!r}")
+        layout = self.DEFAULT_LAYOUT if layout is None else layout
+        if layout not in ("records", "volume"):
+            raise IsoSurfaceError(f"layout must be 'records' or 'volume'; got {layout!r}")
         self.order = order
+        self.layout = layout
         self.threads = _check_threads(threads)
         # the parallel construction's scratch, made at its first query
         self._vid = self._node_gen = self._stack = self._log = None
@@ -263,8 +300,8 @@ class EdgeCentredTable:
             raise IsoSurfaceError(f"edge-centred construction supports fewer than {1 << (31 - _k.CELL_SHIFT)} "
                                   f"cells; got {m}")
         self.n_edges = int(vol.edges.shape[0])
-        if vol.n_points > _INT32_MAX or self.n_edges > _INT32_MAX:
-            raise IsoSurfaceError("edge-centred construction needs fewer than 2**31 nodes and edges")
+        if vol.n_points + self.n_edges > _INT32_MAX:  # vertex keys are edge ids and n_edges + node, in int32
+            raise IsoSurfaceError("edge-centred construction needs fewer than 2**31 nodes and edges together")
         self.points = np.ascontiguousarray(points, np.float64)
         self.s = s
         self.cell_type = cell_type
@@ -274,23 +311,33 @@ class EdgeCentredTable:
         ce = np.ascontiguousarray(vol.cell_edges)
         ne = ce.shape[1]
         self.ne = ne
-        # the cells around each edge / node, each with the local index of the edge / node in it
+        # the cells around each edge, each with the local index of the edge in it
         ec_off, order_ = csr_from_keys(ce.ravel(), self.n_edges)
-        if ec_off[-1] > _INT32_MAX:
+        if ec_off[-1] + self.n_edges > _INT32_MAX:
             raise IsoSurfaceError(f"edge-centred construction supports up to 2**31 cell edges; got {ec_off[-1]}")
-        self.ec = _k.pack_incidence(ec_off, order_, ne)
-        self.nc_off, order_ = csr_from_keys(np.ascontiguousarray(cells).ravel(), vol.n_points)
-        self.nc = _k.pack_incidence(self.nc_off, order_, nn)
+        self.ec, ec_off = _k.pack_edge_lists(ec_off, order_, ne)  # ec_off: where each edge's list starts now
         del order_
-        # one record per cell, aligned to 64-byte cache lines (see _edge_centred_kernels)
-        width = _k.record_width(nn, ne)
-        raw = np.empty(m * width + 16, np.int32)
-        start = (-(raw.ctypes.data // 4)) % 16
-        self.rec = raw[start:start + m * width].reshape(m, width)
-        _k.fill_records(self.rec, np.ascontiguousarray(cells), ce, ec_off, _k.R_NODES + 2 * nn + ne)
-        # the parallel construction's two fields in the records' free tail: claims and owned edges
-        assert width - 2 >= _k.R_NODES + 2 * nn + 3 * ne
-        self.rec[:, width - 2] = _k.owned_edges(self.ec, ec_off, ce)
+        # the cells around each node: built at the first crossing exactly on a node, shared with the copies
+        self._node_cells = {}
+        self.os, self.n_slots, ost, width = _k.record_layout(nn, ne)
+        self.ids = ce  # the edge ids (vertex keys): the volume's own table
+        if layout == "records":
+            # one record per cell, aligned to 64-byte cache lines (see _edge_centred_kernels); stamps,
+            # states and slots in the records for this builder (a copy keeps its own)
+            self.rec = _aligned_records(m, width)
+            _k.fill_records(self.rec, np.ascontiguousarray(cells), ce, ec_off, self.os, ost)
+            self.nodes = self.rec[:, _k.R_NODES:_k.R_NODES + nn]
+            self.starts = self.rec[:, ost:ost + ne]
+            self.ec_off = _EMPTY_I32
+            self.dyn, self.ds = self.rec, self.os
+        else:
+            # no records: nodes read from the volume's cells, stamps, states and slots apart
+            self.rec = None
+            self.nodes = np.ascontiguousarray(cells)
+            self.starts = np.empty((0, ne), np.int32)
+            self.ec_off = ec_off
+            self.dyn, self.ds = np.zeros((m, 2 + self.n_slots), np.int32), 2
+        self._claim = self._owned = None  # the parallel construction's, made at its first query
         self.generation = 0
         self._node_grad = None
         # buffers, grown by doubling when a query overflows one (the query is then redone)
@@ -299,25 +346,40 @@ class EdgeCentredTable:
         self.preprocess_s = time.perf_counter() - t0
 
     def copy(self):
-        """A builder sharing the incidence tables but with its own records and buffers.
+        """A builder sharing the records and incidence tables, with its own stamps, states, slots and buffers.
 
-        Two builders can run queries at the same time in two threads (the
-        kernels release the GIL); :meth:`EdgeCentredMethod.extract_many`
-        does that.
+        The records are only read by a query whose stamps, states and slots
+        live elsewhere: the copy keeps those in an (M, 2 + slots) int32 array
+        (24 bytes per tetrahedron, 88 per hexahedron) instead of a second
+        set of records. Two builders can run queries at the same time in two
+        threads (the kernels release the GIL);
+        :meth:`EdgeCentredMethod.extract_many` does that.
         """
         new = copy.copy(self)
-        raw = np.empty(self.rec.size + 16, np.int32)
-        start = (-(raw.ctypes.data // 4)) % 16
-        new.rec = raw[start:start + self.rec.size].reshape(self.rec.shape)
-        new.rec[...] = self.rec
+        new.dyn = np.zeros((self.dyn.shape[0], 2 + self.n_slots), np.int32)
+        new.ds = 2
+        new.generation = 0
         new._queue = np.empty_like(self._queue)
         new._tris = np.empty_like(self._tris)
         new._tri_cell = np.empty_like(self._tri_cell)
         new._vkey = np.empty_like(self._vkey)
         new._vend = np.empty_like(self._vend)
-        new._vid = new._node_gen = new._stack = new._log = None
+        new._vid = new._node_gen = new._stack = new._log = new._claim = None
         new.stats = {}
         return new
+
+    def _nc(self):
+        """``(nc_off, nc)``: the cells around each node (empty arrays until :meth:`_build_node_cells`)."""
+        got = self._node_cells.get("nc")
+        return got if got is not None else (_EMPTY_I32, _EMPTY_I32)
+
+    def _build_node_cells(self):
+        """The cells around each node with the node's local index in each (int32, packed as ``ec``)."""
+        if "nc" not in self._node_cells:
+            nc_off, order_ = csr_from_keys(np.ascontiguousarray(self.vol.cells).ravel(), self.vol.n_points)
+            if nc_off[-1] > _INT32_MAX:
+                raise IsoSurfaceError("edge-centred construction supports up to 2**31 cell nodes")
+            self._node_cells["nc"] = (nc_off.astype(np.int32), _k.pack_incidence(nc_off, order_, self.nn))
 
     @property
     def node_gradients(self):
@@ -331,7 +393,7 @@ class EdgeCentredTable:
             raise IsoSurfaceError(f"seeds must be a 1-D array of cell ids; got shape {seeds.shape}")
         if seeds.size and not np.issubdtype(seeds.dtype, np.integer):
             raise IsoSurfaceError(f"seeds must be integer cell ids; got dtype {seeds.dtype}")
-        m = self.rec.shape[0]
+        m = self.dyn.shape[0]
         if seeds.size and (seeds.min() < 0 or seeds.max() >= m):
             bad = seeds[(seeds < 0) | (seeds >= m)]
             raise IsoSurfaceError(f"seed cells must be in 0..{m - 1}; got {bad[:5].tolist()}")
@@ -339,7 +401,7 @@ class EdgeCentredTable:
 
     def _next_generation(self):
         if self.generation == _INT32_MAX:  # once in 2**31 queries: really clear the stamps
-            self.rec[:, _k.R_GEN] = 0
+            self.dyn[:, _k.R_GEN] = 0
             self.generation = 0
         self.generation += 1
         return self.generation
@@ -386,29 +448,33 @@ class EdgeCentredTable:
             t0 = time.perf_counter()
             if self._queue.shape[0] < seeds.shape[0]:
                 self._queue = np.empty(2 * seeds.shape[0], np.int32)
-            tested, n_queued = _k.test_seeds(self.rec, self.nn, self.s, value, self.faces, seeds, gen, self._queue)
+            tested, n_queued = _k.test_seeds(self.nodes, self.dyn, self.nn, self.s, value, self.faces, seeds, gen,
+                                             self._queue)
             t1 = time.perf_counter() - t0
             t0 = time.perf_counter()
             status, n_p, n_t, n_v, any_node = _k.construct(
-                self.rec, self.nn, self.s, value, self.faces, self.table, self.count,
-                self.case_mask, self.local_edges, self.n_edges, self.ec, self.nc_off, self.nc, gen,
+                self.nodes, self.ids, self.starts, self.dyn, self.ds, self.nn, self.s, value, self.faces,
+                self.table, self.count,
+                self.case_mask, self.local_edges, self.n_edges, self.ec_off, self.ec, *self._nc(), gen,
                 self._queue, n_queued, lifo, self._tris, self._tri_cell, self._vkey, self._vend, counters)
             if status == _k.OK:
                 break
-            restarts += 1  # a buffer was too small: grow it and do the query again
+            restarts += 1  # a buffer was too small (or a table missing): grow (build) it and do the query again
             if status == _k.FULL_QUEUE:
                 self._queue = np.empty(2 * self._queue.shape[0], np.int32)
             elif status == _k.FULL_TRIANGLES:
                 cap = 2 * self._tris.shape[0]
-                self._tris = np.empty((cap, 3), np.int64)
-                self._tri_cell = np.empty(cap, np.int64)
+                self._tris = np.empty((cap, 3), np.int32)
+                self._tri_cell = np.empty(cap, np.int32)
+            elif status == _k.NEED_NODE_CELLS:
+                self._build_node_cells()
             else:
                 cap = 2 * self._vkey.shape[0]
-                self._vkey = np.empty(cap, np.int64)
+                self._vkey = np.empty(cap, np.int32)
                 self._vend = np.empty((cap, 2), np.int32)
-        tri = self._tris[:n_t].copy()
-        tri_cell = self._tri_cell[:n_t].copy()
-        keys = self._vkey[:n_v].copy()
+        tri = self._tris[:n_t].astype(np.int64)
+        tri_cell = self._tri_cell[:n_t].astype(np.int64)
+        keys = self._vkey[:n_v].astype(np.int64)
         vend = self._vend[:n_v]
         tri, tri_cell, keys, vend, collapsed = _drop_at_nodes(any_node, tri, tri_cell, keys, vend, self.n_edges)
         n_v = keys.shape[0]
@@ -446,8 +512,13 @@ class EdgeCentredTable:
         """:meth:`extract` by ``threads`` threads (see ``_edge_centred_kernels.propagate_parallel``)."""
         nn, s, ne = self.nn, self.s, self.ne
         tabs = (self.table, self.count, self.case_mask, self.local_edges)
-        claim = self.rec.shape[1] - 1
-        owned = self.rec.shape[1] - 2
+        self._build_node_cells()
+        if self._owned is None:  # shared with the copies made after it
+            cell_starts = self.starts if self.rec is not None else self.ec_off[self.ids]
+            self._owned = _k.owned_edges(self.ec, cell_starts)
+        if self._claim is None:
+            self._claim = np.empty(self.dyn.shape[0], np.int32)
+        claim, owned = self._claim, self._owned
         if self._vid is None:
             self._vid = np.empty(self.n_edges + self.vol.n_points, np.int32)
             self._node_gen = np.zeros(self.vol.n_points, np.int32)
@@ -465,11 +536,13 @@ class EdgeCentredTable:
             t0 = time.perf_counter()
             if self._queue.shape[0] < seeds.shape[0]:
                 self._queue = np.empty(2 * seeds.shape[0], np.int32)
-            tested, n_queued = _k.test_seeds(self.rec, nn, s, value, self.faces, seeds, gen, self._queue)
+            tested, n_queued = _k.test_seeds(self.nodes, self.dyn, nn, s, value, self.faces, seeds, gen, self._queue)
             t1 = time.perf_counter() - t0
             t0 = time.perf_counter()
-            _k.propagate_parallel(self.rec, nn, s, value, self.faces, *tabs, self.ec, self.nc_off, self.nc, gen,
-                                  self._queue, n_queued, claim, self._stack, self._log, n_log, status)
+            _k.propagate_parallel(self.nodes, self.ids, self.starts, self.dyn, nn, s, value, self.faces, *tabs,
+                                  self.ec_off, self.ec,
+                                  *self._nc(), gen, self._queue, n_queued, claim, self._stack, self._log, n_log,
+                                  status)
             if not status.any():
                 break
             restarts += 1  # a thread's list was too small: grow them and do the query again
@@ -478,7 +551,8 @@ class EdgeCentredTable:
             self._log = np.empty((threads, cap), np.int32)
         counts = np.zeros((threads, 4), np.int64)
         exact_cells = self._stack  # free once the propagation is done
-        _k.number_parallel(self.rec, nn, s, value, *tabs, owned, claim, self._log, n_log, self._vid, exact_cells,
+        _k.number_parallel(self.nodes, self.ids, self.dyn, nn, s, value, *tabs, owned, claim, self._log, n_log,
+                           self._vid, exact_cells,
                            counts)
         n_edge_v = int(counts[:, 1].sum())
         n_cap = n_edge_v + int(counts[:, 2].sum()) * nn  # node vertices: at most nn per exact cell
@@ -486,7 +560,8 @@ class EdgeCentredTable:
         vend = np.empty((n_cap, 2), np.int32)
         n_node_v = 0
         if counts[:, 2].any():
-            n_node_v = _k.number_nodes(self.rec, nn, s, value, *tabs, self.n_edges, exact_cells, counts, self._vid,
+            n_node_v = _k.number_nodes(self.nodes, self.ids, self.dyn, nn, s, value, *tabs, self.n_edges, exact_cells,
+                                       counts, self._vid,
                                        self._node_gen, gen, n_edge_v, keys, vend)
         n_v = n_edge_v + n_node_v
         v_base = np.zeros(threads + 1, np.int64)
@@ -496,7 +571,8 @@ class EdgeCentredTable:
         n_t = int(t_base[-1])
         tri = np.empty((n_t, 3), np.int64)
         tri_cell = np.empty(n_t, np.int64)
-        _k.write_parallel(self.rec, nn, s, value, *tabs, self.n_edges, owned, claim, self._log, n_log, self._vid,
+        _k.write_parallel(self.nodes, self.ids, self.dyn, nn, s, value, *tabs, self.n_edges, owned, claim, self._log,
+                          n_log, self._vid,
                           v_base, t_base, tri, tri_cell, keys, vend)
         keys = keys[:n_v]
         vend = vend[:n_v]
@@ -534,28 +610,38 @@ class EdgeCentredTable:
     def memory_bytes(self):
         """Bytes this builder holds beyond the volume's points, cells and field, by array.
 
-        ``records`` (stamp, state, node copies, vertex slots, edge-list
-        starts and edge ids per cell: 128 bytes per tetrahedron),
-        ``edge_cells`` and ``node_cells`` (the packed incidence lists),
-        ``node_cells_offsets``, ``edge_list`` (the volume's ``edges``, read
-        by stage 3; its ``cell_edges`` serve the preparation only),
+        ``records`` (stamp, state, node copies, vertex slots and edge ids
+        per cell: 64 bytes per tetrahedron, 192 per hexahedron; shared with
+        the copies), ``query_state`` (a copy's own stamps, states and
+        slots: 24 bytes per tetrahedron), ``edge_cells`` (the packed list of
+        the cells around each edge, 4 bytes per cell edge) and
+        ``edge_cells_offsets`` (where each edge's list starts, int32),
+        ``node_cells`` (offsets and packed list, once built), ``edge_list``
+        (the volume's ``edges``, read by stage 3 for gradient normals and
+        degenerate ones; its ``cell_edges`` serve the preparation only),
         ``buffers`` (queue, triangles, vertex keys and ends at their
         current sizes); after a query with ``threads > 1`` also
         ``parallel`` (the vertex number per edge and node, the node stamps,
-        the threads' stacks and lists of cells taken).
+        the threads' stacks and lists of cells taken, the claim per cell and
+        the bits of the edges each cell numbers).
         """
         vol = self.vol
         out = {
-            "records": int(self.rec.nbytes),
+            "records": 0 if self.rec is None else int(self.rec.nbytes),
             "edge_cells": int(self.ec.nbytes),
-            "node_cells": int(self.nc.nbytes),
-            "node_cells_offsets": int(self.nc_off.nbytes),
             "edge_list": int(vol.edges.nbytes),
             "buffers": int(self._queue.nbytes + self._tris.nbytes + self._tri_cell.nbytes + self._vkey.nbytes
                            + self._vend.nbytes),
         }
+        if self.ec_off.size:
+            out["edge_cells_offsets"] = int(self.ec_off.nbytes)
+        if self.dyn is not self.rec:
+            out["query_state"] = int(self.dyn.nbytes)
+        if "nc" in self._node_cells:
+            out["node_cells"] = int(sum(a.nbytes for a in self._node_cells["nc"]))
         if self._vid is not None:
-            out["parallel"] = int(self._vid.nbytes + self._node_gen.nbytes + self._stack.nbytes + self._log.nbytes)
+            out["parallel"] = int(self._vid.nbytes + self._node_gen.nbytes + self._stack.nbytes + self._log.nbytes
+                                  + self._claim.nbytes + self._owned.nbytes)
         return out
 
 
@@ -643,20 +729,31 @@ class EdgeCentredWalk:
         self.nf = nbrs.shape[1]
         self.rec = np.empty((m, _w.record_width(nn, self.nf, self.local_edges.shape[0])), np.int32)
         _w.fill_records(self.rec, np.ascontiguousarray(cells), np.ascontiguousarray(nbrs))
+        # stamps, states and slots: in the records for this builder (a copy keeps its own)
+        self.n_slots = self.local_edges.shape[0] + nn
+        self.dyn, self.ds = self.rec, _k.R_NODES + nn + self.nf
         self.generation = 0
         self._node_grad = None
         self._labels = EdgeLabels(vol)
-        self._queue, self._tris, self._tri_cell, self._vkey, self._vend = _output_buffers(m)
+        self._queue, self._tris, self._tri_cell, self._vkey, self._vend = _output_buffers(m, np.int64)
         self._around = np.empty(256, np.int32)
         self._around_local = np.empty(256, np.int32)
-        self._htable = np.zeros((1 << (2 * self._vkey.shape[0] - 1).bit_length() if self.search else 1, 2), np.int64)  # a power of two: the probe wraps by a mask
+        # open addressing needs a power of two (the probe wraps with a bit mask)
+        cap = 1 << int(2 * self._vkey.shape[0] - 1).bit_length() if self.search else 1
+        self._htable = np.zeros((cap, 2), np.int64)
         self.stats = {}
         self.preprocess_s = time.perf_counter() - t0
 
     def copy(self):
-        """A builder with its own records and buffers (for a query in another thread)."""
+        """A builder for a query in another thread: the records shared, its own stamps, states, slots, buffers.
+
+        The copy keeps its stamps, states and slots in an (M, 2 + slots)
+        int32 array (48 bytes per tetrahedron) and only reads the records.
+        """
         new = copy.copy(self)
-        new.rec = self.rec.copy()
+        new.dyn = np.zeros((self.rec.shape[0], 2 + self.n_slots), np.int32)
+        new.ds = 2
+        new.generation = 0
         for name in ("_queue", "_tris", "_tri_cell", "_vkey", "_vend", "_around", "_around_local"):
             setattr(new, name, np.empty_like(getattr(self, name)))
         new._htable = np.zeros_like(self._htable)
@@ -673,7 +770,7 @@ class EdgeCentredWalk:
 
     def _next_generation(self):
         if self.generation == _INT32_MAX:  # once in 2**31 queries: really clear the stamps
-            self.rec[:, _k.R_GEN] = 0
+            self.dyn[:, _k.R_GEN] = 0
             self._htable[:] = 0
             self.generation = 0
         self.generation += 1
@@ -715,11 +812,13 @@ class EdgeCentredWalk:
             t0 = time.perf_counter()
             if self._queue.shape[0] < seeds.shape[0]:
                 self._queue = np.empty(2 * seeds.shape[0], np.int32)
-            tested, n_queued = _k.test_seeds(self.rec, self.nn, self.s, value, self.faces, seeds, gen, self._queue)
+            tested, n_queued = _k.test_seeds(self.rec[:, _k.R_NODES:_k.R_NODES + self.nn], self.dyn, self.nn,
+                                             self.s, value, self.faces, seeds, gen, self._queue)
             t1 = time.perf_counter() - t0
             t0 = time.perf_counter()
             status, n_p, n_t, n_v, any_node = _w.construct(
-                self.rec, self.nn, self.nf, self.n_points, self.s, value, self.faces, self.table, self.count,
+                self.rec, self.dyn, self.ds, self.nn, self.nf, self.n_points, self.s, value, self.faces, self.table,
+                self.count,
                 self.case_mask, self.local_edges, self.edge_faces, self.edge_of, self.node_faces, gen,
                 self._queue, n_queued, lifo, self._tris, self._tri_cell, self._vkey, self._vend, self._around,
                 self._around_local, self.search, self._htable, counters)
@@ -734,8 +833,8 @@ class EdgeCentredWalk:
                 self._queue = np.empty(2 * self._queue.shape[0], np.int32)
             elif status == _w.FULL_TRIANGLES:
                 cap = 2 * self._tris.shape[0]
-                self._tris = np.empty((cap, 3), np.int64)
-                self._tri_cell = np.empty(cap, np.int64)
+                self._tris = np.empty((cap, 3), np.int32)
+                self._tri_cell = np.empty(cap, np.int32)
             elif status == _w.FULL_VERTICES:
                 cap = 2 * self._vkey.shape[0]
                 self._vkey = np.empty(cap, np.int64)
@@ -745,8 +844,8 @@ class EdgeCentredWalk:
             else:
                 self._around = np.empty(2 * self._around.shape[0], np.int32)
                 self._around_local = np.empty(2 * self._around.shape[0], np.int32)
-        tri = self._tris[:n_t].copy()
-        tri_cell = self._tri_cell[:n_t].copy()
+        tri = self._tris[:n_t].astype(np.int64)
+        tri_cell = self._tri_cell[:n_t].astype(np.int64)
         pkeys = self._vkey[:n_v].copy()
         vend = self._vend[:n_v]
         tri, tri_cell, pkeys, vend, collapsed = _drop_at_nodes(any_node, tri, tri_cell, pkeys, vend,
@@ -786,7 +885,9 @@ class EdgeCentredWalk:
         """Bytes this builder holds beyond the volume's points, cells and field, by array.
 
         ``records`` (stamp, state, node copies, face neighbours, vertex
-        slots per cell: 80 bytes per tetrahedron, 144 per hexahedron; the
+        slots per cell: 80 bytes per tetrahedron, 144 per hexahedron, shared
+        with the copies; ``query_state``: a copy's own stamps, states and
+        slots, 48 bytes per tetrahedron, 88 per hexahedron; the
         volume's own ``face_neighbors``, from which they are copied, are
         not needed after preparation), ``buffers`` (queue, triangles,
         vertex keys and ends, the node walk's list, and the hash table of
@@ -800,6 +901,8 @@ class EdgeCentredWalk:
             "buffers": int(sum(getattr(self, n).nbytes for n in (
                 "_queue", "_tris", "_tri_cell", "_vkey", "_vend", "_around", "_around_local", "_htable"))),
         }
+        if self.dyn is not self.rec:
+            out["query_state"] = int(self.dyn.nbytes)
         if self._labels.nbytes:
             out["label_edge_list"] = self._labels.nbytes
         return out
@@ -859,14 +962,17 @@ class _EdgeCentredMethods(IsosurfaceMethod):
     construction = "edge-centred"
     builder_class = None
 
-    def _prepare(self, seeds="auto", order="lifo", threads=1, **params):
+    def _prepare(self, seeds="auto", order="lifo", threads=1, layout=None, **params):
         self.source = seed_source(self.vol, self.field, seeds, **params)
         kw = {}
         if self.builder_class is EdgeCentredTable:
             kw["threads"] = threads
-        elif threads != 1:
-            raise IsoSurfaceError(f"threads > 1 (one surface by several threads) is the edge-centred-table "
-                                  f"method's; {self.name!r} runs one thread; got threads={threads!r}")
+            if layout is not None:
+                kw["layout"] = layout
+        elif threads != 1 or layout is not None:
+            raise IsoSurfaceError(f"threads > 1 (one surface by several threads) and layout are the "
+                                  f"edge-centred-table method's; {self.name!r} runs one thread on its records; "
+                                  f"got threads={threads!r}, layout={layout!r}")
         self.builder = self.builder_class(self.vol, self.field, order=order, **kw)
         self.seed_preprocess_s = self.source.preprocess_s
         self.construct_preprocess_s = self.builder.preprocess_s
@@ -885,9 +991,10 @@ class _EdgeCentredMethods(IsosurfaceMethod):
         """Several isosurfaces, up to ``threads`` of them at the same time.
 
         The seed search runs first for every value (it is tiny); then each
-        thread takes the next value and builds it with its own copy of the
-        cell records (the builder's ``copy``, made once and kept: 80 bytes
-        per tetrahedron without the edge table, 128 with it). Every surface is the
+        thread takes the next value and builds it with a builder that shares
+        the cell records and keeps its own stamps, states and vertex slots
+        (the builder's ``copy``, made once and kept: 24 bytes per tetrahedron
+        with the edge table, 48 without, and its query buffers). Every surface is the
         one :meth:`extract` gives; only the wall clock changes. One query is
         a chain of dependent memory reads, so two running side by side on two
         cores take little longer than one.
