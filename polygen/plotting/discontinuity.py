@@ -16,7 +16,7 @@ from polygen.plotting.radiosity import _axes
 
 __all__ = ["plot_polyhedra", "plot_sections", "plot_segments", "plot_complex", "plot_regions",
            "plot_error_curves", "plot_walk_steps", "plot_loop_steps", "plot_complex_with_light_at",
-           "STATE_COLORS"]
+           "light_slider", "STATE_COLORS"]
 
 # unprocessed, bright, penumbra, umbra (3.3.5)
 STATE_COLORS = ["white", "#fff3b0", "#e0a040", "#505050"]
@@ -376,3 +376,31 @@ def plot_complex_with_light_at(scene, dx=0.0, *, receiver=0, ax=None, show=False
         plt.show()
         return None
     return fig
+
+
+def light_slider(scene, *, dx_max=3.0, step=0.5, receiver=0):
+    """An ipywidgets slider moving the scene's lights along x, redrawing a receiver complex.
+
+    The callback is :func:`plot_complex_with_light_at` bound to ``scene``;
+    without a kernel the notebook shows what it first drew (``dx = 0``).
+
+    Parameters
+    ----------
+    scene : polygen.radiosity.scene.Scene
+    dx_max : float, keyword-only
+        The slider runs over ``[-dx_max, dx_max]``.
+    step : float, keyword-only
+    receiver : int, keyword-only
+
+    Returns
+    -------
+    The ``ipywidgets.interact`` result.
+    """
+    import functools
+
+    import ipywidgets
+
+    callback = functools.partial(plot_complex_with_light_at, scene, receiver=receiver, show=True)
+    callback.__name__ = "plot_complex_with_light_at"   # interact names its widget after it
+    return ipywidgets.interact(callback, dx=ipywidgets.FloatSlider(value=0.0, min=-dx_max, max=dx_max, step=step,
+                                                                   continuous_update=False))
