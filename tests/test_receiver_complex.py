@@ -471,3 +471,36 @@ def test_step_drawings_one_panel_per_step():
     assert len([ax for ax in fig2.axes if ax.axison]) == len(rec.loops) == 7
     assert len(fig2.axes[len(rec.loops)].tables[0].get_celld()) == 3 * (len(rec.table) + 1)
     plt.close("all")
+
+
+def test_plot_complex_with_light_at_moves_the_light():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from polygen.discontinuity import simplified_discontinuity
+    from polygen.plotting.discontinuity import plot_complex_with_light_at
+    from polygen.radiosity import scenes
+
+    sc = scenes.figure_3_4_scene()
+    n0 = len(simplified_discontinuity(sc).complexes[0].alive_faces)
+    fig = plot_complex_with_light_at(sc, 0.0)
+    assert fig.axes[0].get_title() == f"light moved by +0.0: {n0} regions"
+    # the light moved by hand: the drawing shows that scene's complex
+    from polygen.radiosity.scene import AreaLight, Scene
+
+    moved = Scene([AreaLight(p.vertices + [3.0, 0.0, 0.0], emission=p.emission, name=p.name)
+                   if isinstance(p, AreaLight) else p for p in sc.polygons])
+    cx3 = simplified_discontinuity(moved).complexes[0]
+    fig = plot_complex_with_light_at(sc, 3.0)
+    assert fig.axes[0].get_title() == f"light moved by +3.0: {len(cx3.alive_faces)} regions"
+
+    def drawn(f):
+        return sorted(tuple(np.round(np.c_[ln.get_xdata(), ln.get_ydata()].ravel(), 9)) for ln in f.axes[0].lines)
+
+    V = cx3.vertices
+    assert drawn(fig) == sorted(tuple(np.round(V[[a, b]].ravel(), 9)) for a, b in cx3.edges)
+    assert drawn(fig) != drawn(plot_complex_with_light_at(sc, 0.0))
+    assert plot_complex_with_light_at(sc, 0.0, show=True) is None
+    plt.close("all")

@@ -400,7 +400,8 @@ def light_slider(scene, *, dx_max=3.0, step=0.5, receiver=0):
 
     import ipywidgets
 
-    callback = functools.partial(plot_complex_with_light_at, scene, receiver=receiver, show=True)
+    callback = functools.partial(plot_complex_with_light_at, scene)
     callback.__name__ = "plot_complex_with_light_at"   # interact names its widget after it
-    return ipywidgets.interact(callback, dx=ipywidgets.FloatSlider(value=0.0, min=-dx_max, max=dx_max, step=step,
-                                                                   continuous_update=False))
+    slider = ipywidgets.FloatSlider(value=0.0, min=-dx_max, max=dx_max, step=step, continuous_update=False)
+    return ipywidgets.interact(callback, dx=slider, receiver=ipywidgets.fixed(receiver),
+                               ax=ipywidgets.fixed(None), show=ipywidgets.fixed(True))
