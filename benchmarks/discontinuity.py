@@ -12,6 +12,9 @@ Run ``python benchmarks/discontinuity.py`` from the repository root; writes
   third of the coarse one, at each uniform size); and the issue's claim:
   the simplified method reaches the uniform mesh's error with <= 60 % of
   its elements (reported, not tuned);
+* **paired** -- Table 3.1's pairing: the simplified DM mesh (coarse size outside penumbra,
+  F inside) against the uniform mesh at the same F, each image's error split into the
+  pixels showing a penumbra region and the rest (where the DM's error lies);
 * **table** -- Table 3.1 (N_f1, N_f2, N_d, N_p, N_e1, N_e2, T_d, T_m,
   T_rs) on examples 1 and 2 beside the thesis's, from the middle point of
   the simplified curve;
