@@ -146,7 +146,8 @@ cx34.check()   # Euler characteristic, two loop sides per edge, outer loops CCW,
 # V4 beyond E2 and V5 back in L1. Here the unit square with E1 at x = 0.4, E2 at x = 0.7, and the
 # triangle (0.2, 0.3), (0.9, 0.5), (0.2, 0.7) (`receiver_complex(..., record=True)` keeps every
 # step). Each panel: the edges the step tests (blue: the current loop's only), the current point,
-# the vertex aimed at (circle), the crossing found (cross) and the edges drawn (red).
+# the vertex aimed at (circle), the crossing found (cross) and the edges drawn (red). The titles
+# name loops by the complex's own numbers: the thesis's L1, L2, L3 are its L3, L1, L2.
 
 # %%
 SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])

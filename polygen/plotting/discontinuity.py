@@ -338,7 +338,7 @@ def plot_loop_steps(record, *, ncols=4, size=2.6):
     ax.axis("off")
     rows = [[f"e{e}", f"L{lr[0]}", f"L{lr[1]}"] for e, lr in record.table.items()]
     if rows:
-        tab = ax.table(cellText=rows, colLabels=["edge", "left", "right"], loc="center")
+        tab = ax.table(cellText=rows, colLabels=["edge", "left", "right"], bbox=[0.0, 0.0, 1.0, 0.93])
         tab.auto_set_font_size(False)
         tab.set_fontsize(6)
     ax.set_title("left/right table", fontsize=8)
