@@ -504,3 +504,14 @@ def test_plot_complex_with_light_at_moves_the_light():
     assert drawn(fig) != drawn(plot_complex_with_light_at(sc, 0.0))
     assert plot_complex_with_light_at(sc, 0.0, show=True) is None
     plt.close("all")
+
+
+def test_recording_changes_nothing():
+    """Records on or off: the same complex, states and counters (random sections, fixed seed)."""
+    secs = random_sections(np.random.default_rng(7), 12, 2)
+    a = receiver_complex(SQUARE, (), secs, n_lights=2)
+    b = receiver_complex(SQUARE, (), secs, n_lights=2, record=True)
+    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.edges, b.edges)
+    assert np.array_equal(a.face_states(), b.face_states()) and a.counters == b.counters
+    assert sum(r.counters["edge_tests"] for r in b.records) == b.counters["edge_tests"]
+    assert sum(len(s.tested) for r in b.records for s in r.walk) == b.counters["edge_tests"]
