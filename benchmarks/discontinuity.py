@@ -12,6 +12,9 @@ Run ``python benchmarks/discontinuity.py`` from the repository root; writes
   third of the coarse one, at each uniform size); and the issue's claim:
   the simplified method reaches the uniform mesh's error with <= 60 % of
   its elements (reported, not tuned);
+* **paired** -- Table 3.1's pairing: the simplified DM mesh (coarse size outside penumbra,
+  F inside) against the uniform mesh at the same F, each image's error split into the
+  pixels showing a penumbra region and the rest (where the DM's error lies);
 * **table** -- Table 3.1 (N_f1, N_f2, N_d, N_p, N_e1, N_e2, T_d, T_m,
   T_rs) on examples 1 and 2 beside the thesis's, from the middle point of
   the simplified curve;
@@ -46,6 +49,11 @@ ROOM_CAMERA = dict(position=[5.0, 8.5, 0.3], look_at=[5.0, 0.0, 6.5], fov=80.0, 
 SETUPS = {name: dict(uniform=[3.3, 2.5, 1.8], coarse=3.3, penumbra=[1.6, 1.1, 0.75], rounds=2,
                      fine=0.6, rest=1.4)
           for name in ("two_rectangles_room", "chair_scene", "sphere_scene")}
+SETUPS["sphere_scene"]["penumbra"] = [1.6, 0.75]  # two DM points: its meshes are 6-14k elements
+# the sphere's curves run on a coarser sphere than Fig. 3.19's 12 x 15 faces: there every DM mesh has
+# 22.5-23.4k elements whatever the penumbra size (5137 lines on the floor; one solve 234 s at load
+# 10 here), which does not fit the ~10 minute run; 6 x 8 faces (55 polygons, 1180 lines) does
+SCENE_KW = {"sphere_scene": dict(n_lat=6, n_lon=8)}
 THESIS_31 = {"two_rectangles_room": dict(N_f1=8, N_f2=20, N_d=40, N_p=486, N_e1=3485, N_e2=6090,
                                          T_d=0.12, T_m=1.77, T_rs=156.63),
              "sphere_scene": dict(N_f1=721, N_f2=2495, N_d=3116, N_p=6030, N_e1=11230, N_e2=17150,
@@ -58,6 +66,94 @@ def _reference_sizes(sc, fine, rest):
     # no curve's mesh has, so that no curve shares the reference's patches
     return [fine if (p.name == "room_y0" or not p.name.startswith("room")) else rest
             for p in sc.polygons]
+
+
+def _reference(name, cfg, sc, cam, image, solve, log):
+    """The fine reference image, kept between runs (same scene, sizes, image and solve)."""
+    t0 = time.perf_counter()
+    parts = [name, cfg["fine"], cfg["rest"], image, solve] + ([SCENE_KW[name]] if name in SCENE_KW else [])
+    key = json.dumps(parts, sort_keys=True)
+    cache = (Path(tempfile.gettempdir()) / "polygen_benchmarks"
+             / f"discontinuity_ref_{hashlib.sha1(key.encode()).hexdigest()[:16]}.npz")
+    if cache.exists() and str(np.load(cache)["key"]) == key:
+        ref, n_ref = np.load(cache)["image"], int(np.load(cache)["n"])
+    else:
+        rm = mesh_scene(sc, _reference_sizes(sc, cfg["fine"], cfg["rest"]), element_levels=1)
+        rr = progressive_refinement(rm, **solve)
+        ref, n_ref = shade(rm, rr.display_radiosity(rm), cam), rm.n_elements
+        cache.parent.mkdir(exist_ok=True)
+        np.savez(cache, image=ref, n=n_ref, key=key)
+    log(f"{name}: reference {n_ref} elements {time.perf_counter() - t0:.0f} s")
+    return ref, n_ref
+
+
+def penumbra_elements(mesh, sd):
+    """(M,) bool: elements whose centroid lies in a region that is penumbra for some light."""
+    import shapely
+
+    from polygen.discontinuity import PENUMBRA
+
+    out = np.zeros(mesh.n_elements, bool)
+    cen = mesh.nodes[mesh.elements].mean(axis=1)
+    for k, cx in sd.complexes.items():
+        sel = np.flatnonzero(mesh.element_polygon == k)
+        uv = sd.scene.polygons[k].to_2d(cen[sel])
+        st = cx.face_states()
+        for i, f in enumerate(cx.alive_faces):
+            if not np.any(st[i] == PENUMBRA):
+                continue
+            outer, holes = cx.face_rings(f)
+            out[sel] |= shapely.contains_xy(shapely.Polygon(outer, holes), uv[:, 0], uv[:, 1])
+    return out
+
+
+def _split_error(img, ref, mask):
+    """RMS error over the penumbra pixels and over the rest, both relative to the reference's RMS
+    over all pixels, and the penumbra pixels' share of the squared error."""
+    seen = np.isfinite(img).all(axis=-1) & np.isfinite(ref).all(axis=-1)
+    d2 = ((img - ref) ** 2).sum(axis=-1)
+    norm = np.sqrt(np.mean(ref[seen] ** 2) * 3)
+    pen, rest = seen & mask, seen & ~mask
+    return dict(error_penumbra=float(np.sqrt(d2[pen].mean()) / norm) if pen.any() else 0.0,
+                error_rest=float(np.sqrt(d2[rest].mean()) / norm),
+                penumbra_share=float(d2[pen].sum() / d2[seen].sum()),
+                penumbra_pixels=float(pen.sum() / seen.sum()))
+
+
+def paired_part(names, image, solve, log):
+    """Table 3.1's pairing: simplified DM (coarse size outside penumbra, F inside) against the
+    uniform mesh at the same fine size F, with the image error split into penumbra pixels and
+    the rest."""
+    out = {}
+    for name in names:
+        cfg = SETUPS[name]
+        sc = getattr(scenes, name)(**SCENE_KW.get(name, {}))
+        cam = Camera(width=image, height=image, **ROOM_CAMERA)
+        ref, _ = _reference(name, cfg, sc, cam, image, solve, log)
+        sd = simplified_discontinuity(sc)
+        rows, mask = [], None
+        for pen in cfg["penumbra"]:
+            m = discontinuity_mesh(sc, patch_size=cfg["coarse"], penumbra_patch_size=pen, element_levels=1,
+                                   discontinuity=sd)
+            img_d = shade(m, progressive_refinement(m, **solve).display_radiosity(m), cam)
+            if mask is None:
+                ind = np.repeat(penumbra_elements(m, sd)[:, None].astype(float), 3, axis=1)
+                mask = shade(m, ind, cam, shading="flat")[..., 0] > 0.5
+            u = mesh_scene(sc, pen, element_levels=1)
+            img_u = shade(u, progressive_refinement(u, **solve).display_radiosity(u), cam)
+            row = dict(fine=pen, coarse=cfg["coarse"], dm_elements=m.n_elements, dm_error=image_error(img_d, ref),
+                       uniform_elements=u.n_elements, uniform_error=image_error(img_u, ref))
+            row.update({"dm_" + k: v for k, v in _split_error(img_d, ref, mask).items()})
+            row.update({"uniform_" + k: v for k, v in _split_error(img_u, ref, mask).items()})
+            row["element_ratio"] = row["dm_elements"] / row["uniform_elements"]
+            row["error_ratio"] = row["dm_error"] / row["uniform_error"]
+            rows.append(row)
+            log(f"  F {pen}: DM {m.n_elements} el err {row['dm_error']:.4f} (penumbra "
+                f"{row['dm_error_penumbra']:.4f}, rest {row['dm_error_rest']:.4f}); uniform "
+                f"{u.n_elements} el err {row['uniform_error']:.4f} (penumbra "
+                f"{row['uniform_error_penumbra']:.4f}, rest {row['uniform_error_rest']:.4f})")
+        out[name] = rows
+    return out
 
 
 def _dm_curve(sc, cam, ref, method, disc, coarse, pens, solve):
@@ -88,29 +184,17 @@ def error_part(names, image, solve, threshold, log, scaled_only=False, save=None
     curves, rows = {}, []
     for name in names:
         cfg = SETUPS[name]
-        sc = getattr(scenes, name)()
+        sc = getattr(scenes, name)(**SCENE_KW.get(name, {}))
         cam = Camera(width=image, height=image, **ROOM_CAMERA)
-        t0 = time.perf_counter()
-        # the reference is kept between runs (same scene, sizes, image and solve)
-        key = json.dumps([name, cfg["fine"], cfg["rest"], image, solve], sort_keys=True)
-        cache = (Path(tempfile.gettempdir()) / "polygen_benchmarks"
-                 / f"discontinuity_ref_{hashlib.sha1(key.encode()).hexdigest()[:16]}.npz")
-        if cache.exists() and str(np.load(cache)["key"]) == key:
-            ref, n_ref = np.load(cache)["image"], int(np.load(cache)["n"])
-        else:
-            rm = mesh_scene(sc, _reference_sizes(sc, cfg["fine"], cfg["rest"]), element_levels=1)
-            rr = progressive_refinement(rm, **solve)
-            ref, n_ref = shade(rm, rr.display_radiosity(rm), cam), rm.n_elements
-            cache.parent.mkdir(exist_ok=True)
-            np.savez(cache, image=ref, n=n_ref, key=key)
-        log(f"{name}: reference {n_ref} elements {time.perf_counter() - t0:.0f} s")
+        ref, n_ref = _reference(name, cfg, sc, cam, image, solve, log)
         t0 = time.perf_counter()
         sd = simplified_discontinuity(sc)
         t_sd = time.perf_counter() - t0
         t0 = time.perf_counter()
         cd = conventional_discontinuity(sc)
         t_cd = time.perf_counter() - t0
-        c = {"reference_elements": n_ref, "T_d_simplified": t_sd, "T_d_conventional": t_cd}
+        c = {"reference_elements": n_ref, "T_d_simplified": t_sd, "T_d_conventional": t_cd,
+             "scene_kwargs": SCENE_KW.get(name, {}), "polygons": len(sc.polygons)}
         if scaled_only:
             # both sizes scaled together: the coarse size of each uniform mesh, a third of it in
             # penumbra (the ratio fixed before measuring)
@@ -168,8 +252,8 @@ def error_part(names, image, solve, threshold, log, scaled_only=False, save=None
 def table_part(curves):
     rows = []
     for name, th in THESIS_31.items():
-        if name not in curves:
-            continue
+        if name not in curves or curves[name].get("scene_kwargs"):
+            continue  # not the thesis's scene
         c = curves[name]
         p = c["simplified"][1]  # the middle penumbra size
         sc = getattr(scenes, name)()
@@ -244,6 +328,9 @@ def main(argv=None):
     if "scaled" in parts:
         error_part(args.scenes.split(","), args.image, solve, args.threshold, log, scaled_only=True,
                    save=save_scaled)
+    if "paired" in parts:
+        out.setdefault("paired", {}).update(paired_part(args.scenes.split(","), args.image, solve, log))
+        _write(path, out)
     if "speed" in parts:
         rows, slopes = speed_part(log)
         out["speed"], out["speed_slopes"] = rows, slopes
@@ -264,7 +351,10 @@ def _markdown(out):
         lines = ["# Discontinuity meshing: image error against element count", "",
                  f"Solve {out['solve']}, {out['image']}^2 Gouraud images, reference elements "
                  + ", ".join(f"{k} {v['reference_elements']}" for k, v in out["curves"].items()
-                             if "reference_elements" in v) + f"; machine {out['machine']}.", "",
+                             if "reference_elements" in v) + f"; machine {out['machine']}. "
+                 + " ".join(f"{k}: built with {v['scene_kwargs']} ({v['polygons']} polygons; Fig. 3.19's "
+                            "12 x 15 sphere gives 22.5k-element DM meshes, too slow for this run)."
+                            for k, v in out["curves"].items() if v.get("scene_kwargs")), "",
                  "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
         lines += ["| " + " | ".join(str(r[c]) for c in cols) + " |" for r in out["error_rows"]]
         lines += ["", "## The claim: simplified DM reaches a uniform mesh's error with <= 60 % of its "
@@ -284,6 +374,22 @@ def _markdown(out):
                     r = "not reached" if q["ratio"] is None else f"{q['ratio']:.3f}"
                     lines.append(f"| {name} | {q['uniform_elements']} | {q['uniform_error']:.4f} | "
                                  f"{q['simplified_elements']} | {r} |")
+    if out.get("paired"):
+        lines += ["", "## Table 3.1's pairing: simplified DM (coarse / F) against uniform F", "",
+                  "Image RMS errors relative to the reference's RMS; `pen` over the pixels showing a "
+                  "penumbra region (for some light), `rest` over the others; `share` the penumbra "
+                  "pixels' part of the squared error.", "",
+                  "| scene | coarse/F | DM elements | uniform elements | ratio | DM error (pen / rest, share) "
+                  "| uniform error (pen / rest, share) | error ratio | penumbra pixels |", "|---" * 9 + "|"]
+        for name, rows in out["paired"].items():
+            for r in rows:
+                lines.append(
+                    f"| {name} | {r['coarse']:g}/{r['fine']:g} | {r['dm_elements']} | {r['uniform_elements']} | "
+                    f"{r['element_ratio']:.3f} | {r['dm_error']:.4f} ({r['dm_error_penumbra']:.4f} / "
+                    f"{r['dm_error_rest']:.4f}, {r['dm_penumbra_share']:.2f}) | {r['uniform_error']:.4f} "
+                    f"({r['uniform_error_penumbra']:.4f} / {r['uniform_error_rest']:.4f}, "
+                    f"{r['uniform_penumbra_share']:.2f}) | {r['error_ratio']:.2f} | "
+                    f"{r['dm_penumbra_pixels']:.3f} |")
     if out.get("table_3_1"):
         keys = ["N_f1", "N_f2", "N_d", "N_p", "N_e1", "N_e2", "T_d", "T_m", "T_rs"]
         lines += ["", "## Table 3.1 (ours, thesis in parentheses)", "",

@@ -374,3 +374,144 @@ def test_scene_mesh_follows_the_lines_and_refines_penumbra(scene_discontinuity):
         area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
         if pen.any() and (~pen).any():
             assert area[pen].mean() < area[~pen].mean() / 3
+
+
+def _fig_3_9_records():
+    strips = (0, rect(0.4, -1, 0.7, 2), rect(0.4, -1, 0.7, 2), "point")
+    tri = (0, np.zeros((0, 2)), np.array([[0.2, 0.3], [0.9, 0.5], [0.2, 0.7]]), "area")
+    return receiver_complex(SQUARE, (), [strips, tri], n_lights=1, record=True, check=True)
+
+
+def test_records_off_by_default():
+    cx = receiver_complex(SQUARE, (), [(0, rect(0.2, 0.2, 0.5, 0.5), rect(0.1, 0.1, 0.6, 0.6))])
+    assert cx.records is None
+
+
+def test_fig_3_9_walk_recorded_step_by_step():
+    """The recorded walk of Fig. 3.9 agrees with the counters, the hand count and the complex."""
+    cx = _fig_3_9_records()
+    rec = cx.records[-1]
+    steps = rec.walk
+    # as counted by hand in test_fig_3_9_walk: 1 point-in-loop test, 42 edge tests
+    assert sum(len(s.loops_tested) for s in steps) == rec.counters["point_in_loop"] == 1
+    assert sum(len(s.tested) for s in steps) == rec.counters["edge_tests"] == 42
+    assert [s.kind for s in steps] == ["locate"] + ["segment"] * 7
+    # V1 located in L1; then L1, L2 (across E1), L3 (across E2), L3, L2, L1, L1
+    assert steps[0].hit == "face" and [len(s.tested) for s in steps] == [4, 4, 5, 5, 5, 7, 6, 6]
+    assert [s.hit for s in steps[1:]] == ["edge", "edge", "none", "edge", "edge", "none", "none"]
+    faces = [s.face for s in steps[1:]]
+    assert faces[0] == faces[5] == faces[6] == steps[0].face and faces[1] == faces[4] and faces[2] == faces[3]
+    # every crossing lies on the line it was found on (E1: x = 0.4, E2: x = 0.7)
+    xs = [s.crossing[0] for s in steps[1:] if s.hit == "edge"]
+    assert np.allclose(xs, [0.4, 0.7, 0.7, 0.4])
+    # the edges drawn are the section's new edges, in order, as they stand in the final complex
+    drawn = np.array([s.drawn for s in steps if s.drawn is not None])
+    V = cx.vertices
+    final = np.array([V[cx.edges[e]] for e in rec.new_edges])
+    assert len(drawn) == len(rec.new_edges) == 7
+    assert np.allclose(drawn, final, atol=1e-12)
+    # the edges tested in each step are the edges of the face the step lies in, at that moment
+    for s in steps[1:]:
+        lo = np.minimum(s.tested_segments[:, 0], s.tested_segments[:, 1]).min(axis=0)
+        assert np.all(lo >= -1e-12) and len(s.tested) == len(s.tested_segments)
+
+
+def test_loop_rebuilding_recorded():
+    """The recorded loop traces (Fig. 3.13): table, deletions and loops agree with the final complex."""
+    o1 = (0, rect(0.15, 0.15, 0.3, 0.3), rect(0.1, 0.1, 0.35, 0.35), "area")
+    o2 = (0, rect(0.65, 0.65, 0.8, 0.8), rect(0.6, 0.6, 0.85, 0.85), "area")
+    o3 = (0, np.zeros((0, 2)), rect(0.2, 0.2, 0.75, 0.7), "area")
+    cx = receiver_complex(SQUARE, (), [o1, o2, o3], record=True, check=True)
+    for rec in cx.records:
+        c = rec.counters
+        assert len(rec.loops) == c["loops_traced"]
+        assert len(set(rec.deleted)) == c["loops_deleted"] == sum(len(s.deleted) for s in rec.loops)
+        # every table cell filled, each by the loop that traced that side of the edge
+        assert set(rec.table) == set(rec.new_edges)
+        for s in rec.loops:
+            for h in s.half_edges:
+                if (h >> 1) in rec.table:
+                    assert rec.table[h >> 1][h & 1] == s.loop
+        assert all(min(v) >= 0 for v in rec.table.values())
+        assert rec.loops[-1].table == rec.table
+        # the seed cell was empty before its loop was traced
+        for i, s in enumerate(rec.loops):
+            before = rec.loops[i - 1].table if i else {e: [-1, -1] for e in rec.table}
+            assert before[s.seed[0]][s.seed[1]] == -1
+        # a loop's path is its polygon: shoelace area as recorded, sign = orientation
+        for s in rec.loops:
+            x, y = s.path[:, 0], s.path[:, 1]
+            area = 0.5 * (np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+            assert area == pytest.approx(s.area, abs=1e-12)
+            # each turn's options are the far ends of the junction's edges: the path's next point is one
+            for v, deg, opts in s.turns:
+                assert deg == len(opts) >= 3
+                i = int(np.argmin(np.hypot(*(s.path - v).T)))
+                assert np.min(np.hypot(*(opts - s.path[(i + 1) % len(s.path)]).T)) < 1e-12
+    # the last ring's new loops are alive in the final complex (unless a later ring superseded them)
+    last = cx.records[-1]
+    alive = set(cx.alive_loops)
+    assert {s.loop for s in last.loops} <= alive
+    assert not (set(last.deleted) & alive)
+
+
+def test_step_drawings_one_panel_per_step():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from polygen.plotting.discontinuity import plot_loop_steps, plot_walk_steps
+
+    rec = _fig_3_9_records().records[-1]
+    fig = plot_walk_steps(rec, ncols=4)
+    assert sum(ax.axison for ax in fig.axes) == len(rec.walk) == 8
+    fig2 = plot_loop_steps(rec, ncols=4)
+    # one panel per loop traced, and the table's
+    assert len([ax for ax in fig2.axes if ax.axison]) == len(rec.loops) == 7
+    assert len(fig2.axes[len(rec.loops)].tables[0].get_celld()) == 3 * (len(rec.table) + 1)
+    plt.close("all")
+
+
+def test_plot_complex_with_light_at_moves_the_light():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from polygen.discontinuity import simplified_discontinuity
+    from polygen.plotting.discontinuity import plot_complex_with_light_at
+    from polygen.radiosity import scenes
+
+    sc = scenes.figure_3_4_scene()
+    n0 = len(simplified_discontinuity(sc).complexes[0].alive_faces)
+    fig = plot_complex_with_light_at(sc, 0.0)
+    assert fig.axes[0].get_title() == f"light moved by +0.0: {n0} regions"
+    # the light moved by hand: the drawing shows that scene's complex
+    from polygen.radiosity.scene import AreaLight, Scene
+
+    moved = Scene([AreaLight(p.vertices + [3.0, 0.0, 0.0], emission=p.emission, name=p.name)
+                   if isinstance(p, AreaLight) else p for p in sc.polygons])
+    cx3 = simplified_discontinuity(moved).complexes[0]
+    fig = plot_complex_with_light_at(sc, 3.0)
+    assert fig.axes[0].get_title() == f"light moved by +3.0: {len(cx3.alive_faces)} regions"
+
+    def drawn(f):
+        return sorted(tuple(np.round(np.c_[ln.get_xdata(), ln.get_ydata()].ravel(), 9)) for ln in f.axes[0].lines)
+
+    V = cx3.vertices
+    assert drawn(fig) == sorted(tuple(np.round(V[[a, b]].ravel(), 9)) for a, b in cx3.edges)
+    assert drawn(fig) != drawn(plot_complex_with_light_at(sc, 0.0))
+    assert plot_complex_with_light_at(sc, 0.0, show=True) is None
+    plt.close("all")
+
+
+def test_recording_changes_nothing():
+    """Records on or off: the same complex, states and counters (random sections, fixed seed)."""
+    secs = random_sections(np.random.default_rng(7), 12, 2)
+    a = receiver_complex(SQUARE, (), secs, n_lights=2)
+    b = receiver_complex(SQUARE, (), secs, n_lights=2, record=True)
+    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.edges, b.edges)
+    assert np.array_equal(a.face_states(), b.face_states()) and a.counters == b.counters
+    assert sum(r.counters["edge_tests"] for r in b.records) == b.counters["edge_tests"]
+    assert sum(len(s.tested) for r in b.records for s in r.walk) == b.counters["edge_tests"]

@@ -18,11 +18,58 @@ inherits the illumination states of the face it was cut from.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+
+import numpy as np
 
 from polygen.discontinuity.complex import ComplexError
-from polygen.discontinuity.walk import _in_ring, _ring
+from polygen.discontinuity.walk import _in_ring, _ring, _segments
 
-__all__ = ["rebuild_loops"]
+__all__ = ["rebuild_loops", "LoopStep"]
+
+
+@dataclass(frozen=True)
+class LoopStep:
+    """One loop traced by :func:`rebuild_loops` (Fig. 3.13 steps 3-5), recorded with ``record=``.
+
+    Coordinates are in the receiver's 2-D frame.
+
+    Attributes
+    ----------
+    loop : int
+        The new loop's number.
+    seed : tuple (edge, side)
+        The table cell it started from: a new edge and ``0`` (left: the edge
+        traversed from its first vertex to its second) or ``1`` (right).
+    path : (k, 2) float64
+        The loop's vertices in tracing order.
+    half_edges : tuple of int
+        Its half-edges (``2 * edge + side``).
+    turns : tuple of (vertex (2,), degree, options)
+        At each vertex with three or more edges (a junction), where the
+        trace turned: the vertex, its number of edges, and ``options`` the
+        (k, 2) far ends of the edges it could have turned onto (the chosen
+        one is the next point of ``path``).
+    deleted : tuple of int
+        Existing loops this trace superseded (an existing edge of theirs
+        traversed in the same direction).
+    table : dict {edge: [left, right]}
+        The left/right table after this loop was written in (-1: empty).
+    area : float
+        Signed area: > 0 counter-clockwise (an outer loop), < 0 a hole.
+    edges : (E, 2, 2) float64
+        Every edge of the complex (for drawing).
+    """
+
+    loop: int
+    seed: tuple
+    path: np.ndarray
+    half_edges: tuple
+    turns: tuple
+    deleted: tuple
+    table: dict
+    area: float
+    edges: np.ndarray
 
 
 def _next_half(cx, h, stars=None):
@@ -51,7 +98,7 @@ def _next_half(cx, h, stars=None):
     return order[pos[h ^ 1] - 1]
 
 
-def rebuild_loops(cx, new, edge_face, snapped=()):
+def rebuild_loops(cx, new, edge_face, snapped=(), *, record=None):
     """Trace the loops through the new edges, delete the loops they supersede, sort out faces.
 
     Parameters
@@ -73,6 +120,12 @@ def rebuild_loops(cx, new, edge_face, snapped=()):
         The new loops.
     deleted : set of int
         The loops superseded.
+
+    Other Parameters
+    ----------------
+    record : list, optional
+        When given, one :class:`LoopStep` per traced loop is appended (off
+        by default: no cost).
     """
     first_new = len(cx.loops)
     newset = set(new)
@@ -90,11 +143,14 @@ def rebuild_loops(cx, new, edge_face, snapped=()):
         h = h0
         hs = []
         src = -1
+        gone = []
         while True:
             old = cx.hloop[h]
             if old >= first_new:
                 raise ComplexError(f"loop rebuilding: half-edge {h} traced twice")
             if old >= 0:
+                if record is not None and old not in deleted:
+                    gone.append(int(old))
                 deleted.add(old)
                 if src < 0:
                     src = cx.loop_face[old]
@@ -111,6 +167,8 @@ def rebuild_loops(cx, new, edge_face, snapped=()):
                 raise ComplexError("loop rebuilding: a loop does not close")
         cx.loops.pop()
         cx._new_loop(hs, -1)
+        if record is not None:
+            record.append(_loop_step(cx, lid, h0, hs, gone, table))
         created.append(lid)
         origin[lid] = src if src >= 0 else edge_face[e]
         cx.counters["loops_traced"] += 1
@@ -160,3 +218,16 @@ def rebuild_loops(cx, new, edge_face, snapped=()):
         cx.face_holes[best].append(lp)
         cx.loop_face[lp] = best
     return table, created, deleted
+
+
+def _loop_step(cx, lid, h0, hs, gone, table):
+    path = np.array([cx.xy[cx.origin_of(h)] for h in hs]) + cx.origin
+    turns = []
+    for h in hs:
+        v = cx.origin_of(h)
+        if len(cx.vedges[v]) >= 3:
+            far = [int(cx.ev[e, 1] if cx.ev[e, 0] == v else cx.ev[e, 0]) for e in cx.vedges[v]]
+            turns.append((cx.xy[v] + cx.origin, len(cx.vedges[v]), cx.xy[far] + cx.origin))
+    return LoopStep(loop=int(lid), seed=(int(h0 >> 1), int(h0 & 1)), path=path, half_edges=tuple(hs),
+                    turns=tuple(turns), deleted=tuple(gone), table={e: list(v) for e, v in table.items()},
+                    area=float(cx.loop_area[lid]), edges=_segments(cx))

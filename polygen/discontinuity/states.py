@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -40,7 +41,46 @@ from polygen.discontinuity.loops import rebuild_loops
 from polygen.discontinuity.walk import clean_ring, insert_section
 
 __all__ = ["UNPROCESSED", "BRIGHT", "PENUMBRA", "UMBRA", "receiver_complex", "discontinuity_segments",
-           "region_points", "region_size", "update_states"]
+           "region_points", "region_size", "update_states", "SectionRecord"]
+
+
+@dataclass(frozen=True)
+class SectionRecord:
+    """What happened when one section ring was walked in (``receiver_complex(record=True)``).
+
+    Attributes
+    ----------
+    section : int
+        Index of the section in ``sections``.
+    light : int
+    value : int
+        ``UMBRA`` or ``PENUMBRA``: which ring of the section.
+    ring : (k, 2) float64
+        The ring walked (receiver frame, counter-clockwise).
+    walk : list of WalkStep
+        The intersection walk step by step (3.3.3, Fig. 3.9).
+    loops : list of LoopStep
+        The loops traced (3.3.4, Fig. 3.13).
+    new_edges : list of int
+        The discontinuity edges drawn, in walk order.
+    table : dict {edge: [left loop, right loop]}
+        The final left/right table.
+    deleted : tuple of int
+        The loops superseded.
+    counters : dict
+        The complex's counters spent on this ring (walk and loops).
+    """
+
+    section: int
+    light: int
+    value: int
+    ring: np.ndarray
+    walk: list
+    loops: list
+    new_edges: list
+    table: dict
+    deleted: tuple
+    counters: dict
 
 _D0_KINDS = ("point", "parallel")
 
@@ -119,7 +159,7 @@ def _as_section(s, i):
     return int(s[0]), s[1], s[2], s[3] if len(s) == 4 else "area"
 
 
-def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-9, check=False):
+def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-9, check=False, record=False):
     """The receiver complex of one polygon cut by its shadow sections, with illumination states.
 
     For each section in turn, its umbra and then its penumbra polygon is
@@ -146,6 +186,9 @@ def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-9, c
     check : bool, keyword-only
         Verify every invariant (:meth:`ReceiverComplex.check`) after each
         loop update (slow; for tests).
+    record : bool, keyword-only
+        Keep every walk step and traced loop (``cx.records``: one
+        :class:`SectionRecord` per ring walked in); off by default (no cost).
 
     Returns
     -------
@@ -171,6 +214,7 @@ def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-9, c
     box = np.array(cx.loop_box[0])
     rings = []
     failed = None
+    cx.records = [] if record else None
     for i, (light, umbra, penumbra, kind) in enumerate(secs):
         if not 0 <= light < n_lights:
             raise ComplexError(f"section {i}: light {light} outside 0..{n_lights - 1}")
@@ -190,11 +234,18 @@ def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-9, c
             if failed is not None:
                 continue
             try:
+                walk, traced = ([], []) if record else (None, None)
+                c0 = dict(cx.counters)
                 t0 = time.perf_counter()
-                new, edge_face, snapped = insert_section(cx, r, ekind)
+                new, edge_face, snapped = insert_section(cx, r, ekind, record=walk)
                 t1 = time.perf_counter()
-                rebuild_loops(cx, new, edge_face, snapped)
+                table, _, deleted = rebuild_loops(cx, new, edge_face, snapped, record=traced)
                 t2 = time.perf_counter()
+                if record:
+                    cx.records.append(SectionRecord(
+                        section=i, light=light, value=value, ring=r + cx.origin, walk=walk, loops=traced,
+                        new_edges=list(new), table=table, deleted=tuple(sorted(deleted)),
+                        counters={k: cx.counters[k] - c0[k] for k in c0}))
                 update_states(cx, r, light, value)
                 t3 = time.perf_counter()
                 if check:
@@ -221,6 +272,7 @@ def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-9, c
         cx.counters.update({k: v for k, v in counters.items() if k != "fallback"}, fallback=1)
         cx.t_idd = t_idd
         cx.fallback_reason = str(failed)
+        cx.records = None  # the walk's records described the complex just discarded
         timings["T_lop"] += time.perf_counter() - t0
     fs = cx.face_state[:cx.nf]
     fs[fs == UNPROCESSED] = BRIGHT

@@ -25,15 +25,90 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
 from polygen._jit import njit
 from polygen.discontinuity.complex import BOUNDARY, D0, ComplexError
 
-__all__ = ["insert_section", "locate_point", "clean_ring"]
+__all__ = ["insert_section", "locate_point", "clean_ring", "WalkStep"]
 
 _NONE, _VERTEX, _EDGE, _SNAP, _NEAR_VERTEX = 0, 1, 2, 3, 4
+_HIT_NAMES = {_NONE: "none", _VERTEX: "vertex", _EDGE: "edge", _SNAP: "snap", _NEAR_VERTEX: "near-vertex"}
+
+
+@dataclass(frozen=True)
+class WalkStep:
+    """One step of the intersection walk (Fig. 3.9), recorded with ``record=``.
+
+    Coordinates are in the receiver's 2-D frame (``cx.vertices``'s).
+
+    Attributes
+    ----------
+    kind : str
+        ``"locate"`` (the section's first vertex located by point-in-loop
+        tests), ``"segment"`` (the current section edge intersected with the
+        current face's edges) or ``"follow"`` (the section edge runs along an
+        existing edge: no test, the edge is followed).
+    point : (2,) float64
+        The current point (where the step starts).
+    target : (2,) float64
+        The section vertex the walk heads for (``kind="locate"``: the point).
+    face : int
+        The face the current point lies in (its outer loop: ``loop``);
+        -1 outside the receiver.
+    loop : int
+        That face's outer loop (-1 outside).
+    loops_tested : tuple of int
+        Loops tested by point-in-loop tests in this step (one count each in
+        ``counters["point_in_loop"]``).
+    tested : (k,) int64
+        Edges intersected with the section edge in this step (``k`` counted
+        in ``counters["edge_tests"]``).
+    tested_segments : (k, 2, 2) float64
+        Their end points at the time of the test.
+    hit : str
+        What the nearest hit was: ``"none"`` (the section vertex lies in the
+        face), ``"vertex"``, ``"edge"`` (an edge crossed and split),
+        ``"snap"``, ``"follow"``; for ``"locate"``: ``"face"``, ``"vertex"``,
+        ``"edge"`` or ``"outside"``.
+    crossing : (2,) float64 or None
+        The crossing (or vertex) found.
+    drawn : (2, 2) float64 or None
+        The discontinuity edge drawn in this step.
+    edges : (E, 2, 2) float64
+        Every edge of the complex when the step began (for drawing).
+    """
+
+    kind: str
+    point: np.ndarray
+    target: np.ndarray
+    face: int
+    loop: int
+    loops_tested: tuple
+    tested: np.ndarray
+    tested_segments: np.ndarray
+    hit: str
+    crossing: np.ndarray | None
+    drawn: np.ndarray | None
+    edges: np.ndarray
+
+
+def _segments(cx, ids=None):
+    ev = cx.ev[:cx.ne] if ids is None else cx.ev[np.asarray(ids, dtype=np.int64)]
+    return cx.xy[ev] + cx.origin
+
+
+def _step(cx, kind, point, target, face, loops_tested, tested, hit, crossing, drawn, edges):
+    tested = np.asarray(tested, dtype=np.int64)
+    loop = int(cx.face_outer[face]) if face >= 0 else -1
+    return WalkStep(kind=kind, point=np.asarray(point, float) + cx.origin,
+                    target=np.asarray(target, float) + cx.origin, face=int(face), loop=loop,
+                    loops_tested=tuple(loops_tested), tested=tested,
+                    tested_segments=_segments(cx, tested) if len(tested) else np.zeros((0, 2, 2)),
+                    hit=hit, crossing=None if crossing is None else np.asarray(crossing, float) + cx.origin,
+                    drawn=None if drawn is None else np.asarray(drawn, float) + cx.origin, edges=edges)
 
 
 @njit
@@ -224,14 +299,17 @@ def clean_ring(ring, eps):
     return np.ascontiguousarray(r)
 
 
-def locate_point(cx, p):
+def locate_point(cx, p, *, record=None):
     """Where point ``p`` (held coordinates) lies: ``("v", v)``, ``("e", e, (x, y))``, ``("f", f)`` or ``("o",)``.
 
     Faces are tried by point-in-loop tests on their outer loops and holes
     (each test counted in ``cx.counters["point_in_loop"]``), skipping loops
     whose bounding box misses the point; then the face's edges are checked
-    for a vertex or edge within ``eps``.
+    for a vertex or edge within ``eps``.  With ``record`` (a list) a
+    ``"locate"`` :class:`WalkStep` is appended.
     """
+    snap = _segments(cx) if record is not None else None
+    tested_loops = []
     px, py = float(p[0]), float(p[1])
     eps = cx.eps
     found = -1
@@ -241,6 +319,7 @@ def locate_point(cx, p):
     for f in fs:
         o = int(cx.face_outer[f])
         cx.counters["point_in_loop"] += 1
+        tested_loops.append(o)
         if not _in_ring(cx.xy, _ring(cx, o), px, py):
             continue
         in_hole = False
@@ -249,6 +328,7 @@ def locate_point(cx, p):
             if not (hb[0] <= px <= hb[2] and hb[1] <= py <= hb[3]):
                 continue
             cx.counters["point_in_loop"] += 1
+            tested_loops.append(int(h))
             if _in_ring(cx.xy, _ring(cx, h), px, py):
                 in_hole = True
                 break
@@ -258,6 +338,10 @@ def locate_point(cx, p):
     edges = np.asarray(cx.face_edges(found), dtype=np.int64)
     cx.counters["edge_tests"] += len(edges)
     kind, idx, x, y = _nearest_feature(cx.xy, cx.ev, edges, px, py, eps)
+    if record is not None:
+        hit = {_VERTEX: "vertex", _EDGE: "edge"}.get(kind, "face" if found >= 0 else "outside")
+        cross = None if kind == _NONE else (x, y)
+        record.append(_step(cx, "locate", p, p, found, tested_loops, edges, hit, cross, None, snap))
     if kind == _VERTEX:
         return ("v", int(idx))
     if kind == _EDGE:
@@ -305,7 +389,7 @@ def _sector(cx, v, q, new):
     return ("face", cx.loop_face[lp] if lp >= 0 else -1)
 
 
-def insert_section(cx, ring, kind):
+def insert_section(cx, ring, kind, *, record=None):
     """Walk one convex section (held coordinates, counter-clockwise) into the complex.
 
     Parameters
@@ -326,10 +410,16 @@ def insert_section(cx, ring, kind):
         Existing edges bent through the walk's current vertex because they
         passed within the tolerance of it (snap rounding); the loops through
         them are retraced with the new ones.
+
+    Other Parameters
+    ----------------
+    record : list, optional
+        When given, one :class:`WalkStep` per step of the walk is appended
+        (off by default: no cost).
     """
     new, edge_face, snapped = [], {}, []
     newset = set()
-    loc = locate_point(cx, ring[0])
+    loc = locate_point(cx, ring[0], record=record)
     if loc[0] == "v":
         cur_v, cur_f = loc[1], None
     elif loc[0] == "e":
@@ -345,7 +435,7 @@ def insert_section(cx, ring, kind):
         q = ring[(i + 1) % n]
         q_v = start_v if i == n - 1 else -1
         cur_v, cur_f, cur_p = _walk_segment(cx, cur_v, cur_f, cur_p, q, q_v, kind, new, newset, edge_face,
-                                            snapped)
+                                            snapped, record)
     return new, edge_face, snapped
 
 
@@ -358,7 +448,7 @@ def _draw(cx, a, b, kind, f, new, newset, edge_face):
     edge_face[e] = f
 
 
-def _walk_segment(cx, cur_v, cur_f, cur_p, q, q_v, kind, new, newset, edge_face, snapped):
+def _walk_segment(cx, cur_v, cur_f, cur_p, q, q_v, kind, new, newset, edge_face, snapped, record=None):
     eps = cx.eps
     # what testing the section edge against every edge of the receiver would cost
     cx.counters["edge_tests_all"] += cx.ne
@@ -371,6 +461,9 @@ def _walk_segment(cx, cur_v, cur_f, cur_p, q, q_v, kind, new, newset, edge_face,
                 p = cx.xy[cur_v]
                 L = math.hypot(q[0] - p[0], q[1] - p[1])
                 lw = math.hypot(*(cx.xy[w] - p))
+                if record is not None:
+                    end = cx.xy[w] if lw <= L + eps else q
+                    record.append(_step(cx, "follow", p, q, -1, (), (), "follow", end, None, _segments(cx)))
                 if lw <= L + eps:
                     _upgrade(cx, e, kind)
                     cur_v, cur_f = w, None
@@ -388,12 +481,18 @@ def _walk_segment(cx, cur_v, cur_f, cur_p, q, q_v, kind, new, newset, edge_face,
                 f = sec[1]
         cp = cx.xy[cur_v] if cur_v >= 0 else cur_p
         edges = np.asarray(cx.face_edges(f), dtype=np.int64)
+        snap = _segments(cx) if record is not None else None
         cx.counters["edge_tests"] += len(edges)
         t0 = time.perf_counter()
         hk, idx, s, px, py = _nearest_hit(cx.xy, cx.ev, edges, cur_v, float(cp[0]), float(cp[1]),
                                           float(q[0]), float(q[1]), eps)
         cx.t_idd += time.perf_counter() - t0
         L = math.hypot(q[0] - cp[0], q[1] - cp[1])
+        if record is not None:
+            cross = None if hk == _NONE else ((px, py) if hk != _VERTEX else tuple(cx.xy[int(idx)]))
+            end = q if hk == _NONE else cross
+            drawn = None if (f < 0 or hk in (_SNAP, _NEAR_VERTEX)) else (tuple(cp), tuple(end))
+            record.append(_step(cx, "segment", cp, q, f, (), edges, _HIT_NAMES[int(hk)], cross, drawn, snap))
         if hk == _SNAP:
             # snap rounding: the edge is bent through the current vertex (by less than eps)
             cx.split_edge(int(idx), cx.xy[cur_v], vertex=cur_v)

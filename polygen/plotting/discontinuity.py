@@ -15,7 +15,8 @@ import numpy as np
 from polygen.plotting.radiosity import _axes
 
 __all__ = ["plot_polyhedra", "plot_sections", "plot_segments", "plot_complex", "plot_regions",
-           "plot_error_curves", "STATE_COLORS"]
+           "plot_error_curves", "plot_walk_steps", "plot_loop_steps", "plot_complex_with_light_at",
+           "light_slider", "STATE_COLORS"]
 
 # unprocessed, bright, penumbra, umbra (3.3.5)
 STATE_COLORS = ["white", "#fff3b0", "#e0a040", "#505050"]
@@ -221,3 +222,186 @@ def plot_error_curves(curves, *, ax=None, title=None):
         ax.set_title(title, fontsize=10)
     fig.tight_layout()
     return fig
+
+
+def _grid(n, ncols, size):
+    import matplotlib.pyplot as plt
+
+    ncols = max(1, min(ncols, n))
+    nrows = -(-n // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(size * ncols, size * nrows), squeeze=False)
+    for ax in axes.flat[n:]:
+        ax.axis("off")
+    return fig, axes.flat
+
+
+def _draw_edges(ax, segs, **kw):
+    from matplotlib.collections import LineCollection
+
+    if len(segs):
+        ax.add_collection(LineCollection(np.asarray(segs), **kw))
+
+
+def plot_walk_steps(record, *, ncols=4, size=2.6):
+    """The intersection walk of one section ring step by step (Fig. 3.9), one panel per step.
+
+    Each panel: the complex's edges when the step began (grey), the section
+    ring (dashed), the edges this step tested (blue: the current loop's
+    edges only), the current point (black), the vertex aimed at (open
+    circle), the crossing found (red cross), and the edges drawn so far (red).
+
+    Parameters
+    ----------
+    record : SectionRecord
+        From ``receiver_complex(..., record=True).records``.
+    ncols : int, keyword-only
+    size : float, keyword-only
+        Panel size in inches.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    steps = record.walk
+    fig, axes = _grid(len(steps), ncols, size)
+    ring = np.vstack([record.ring, record.ring[:1]])
+    drawn = []
+    for i, (ax, st) in enumerate(zip(axes, steps)):
+        _draw_edges(ax, st.edges, colors="0.6", linewidths=0.8)
+        ax.plot(ring[:, 0], ring[:, 1], "--", color="0.3", lw=0.7)
+        _draw_edges(ax, st.tested_segments, colors="tab:blue", linewidths=2.0)
+        _draw_edges(ax, drawn, colors="tab:red", linewidths=1.6)
+        if st.drawn is not None:
+            _draw_edges(ax, [st.drawn], colors="tab:red", linewidths=2.4)
+            drawn.append(st.drawn)
+        ax.plot(*st.point, "ko", ms=4)
+        if st.kind != "locate":
+            ax.plot(*st.target, "o", mfc="none", mec="k", ms=6)
+        if st.crossing is not None:
+            ax.plot(*st.crossing, "x", color="tab:red", ms=7, mew=2)
+        where = f"L{st.loop}" if st.loop >= 0 else "outside"
+        if st.kind == "locate":
+            head = f"locate in {where}: {len(st.loops_tested)} PIL, {len(st.tested)} edges"
+        elif st.kind == "follow":
+            head = "along an existing edge"
+        else:
+            head = f"in {where}: {len(st.tested)} edges -> {st.hit}"
+        ax.autoscale_view()
+        _finish(ax, f"{i}: {head}")
+        ax.title.set_fontsize(8)
+    return fig
+
+
+def plot_loop_steps(record, *, ncols=4, size=2.6):
+    """Loop rebuilding of one section ring step by step (Fig. 3.13), one panel per loop traced.
+
+    Each panel: the complex (grey; the ring's new edges red), the loop
+    traced (green when counter-clockwise, an outer loop; purple when
+    clockwise, a hole) with an arrow per edge, its junction turns (circles),
+    and in the title the table cell it started from and the old loops it
+    deleted.  A last panel prints the left/right table.
+
+    Parameters
+    ----------
+    record : SectionRecord
+        From ``receiver_complex(..., record=True).records``.
+    ncols : int, keyword-only
+    size : float, keyword-only
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    loops = record.loops
+    fig, axes = _grid(len(loops) + 1, ncols, size)
+    axes = list(axes)
+    new = set(record.new_edges)
+    for ax, st in zip(axes, loops):
+        segs = st.edges
+        is_new = np.array([e in new for e in range(len(segs))])
+        _draw_edges(ax, segs[~is_new], colors="0.6", linewidths=0.8)
+        _draw_edges(ax, segs[is_new], colors="tab:red", linewidths=0.8)
+        c = "tab:green" if st.area > 0 else "tab:purple"
+        ax.fill(st.path[:, 0], st.path[:, 1], color=c, alpha=0.25, lw=0)
+        p, q = st.path, np.roll(st.path, -1, axis=0)
+        ax.quiver(p[:, 0], p[:, 1], 0.85 * (q - p)[:, 0], 0.85 * (q - p)[:, 1], color=c, angles="xy",
+                  scale_units="xy", scale=1.0, width=0.012)
+        for v, _, _ in st.turns:
+            ax.plot(*v, "o", mfc="none", mec="k", ms=6)
+        side = "left" if st.seed[1] == 0 else "right"
+        gone = ",".join(f"L{d}" for d in st.deleted) or "none"
+        ax.autoscale_view()
+        _finish(ax, f"L{st.loop} from e{st.seed[0]} {side} ({'CCW' if st.area > 0 else 'CW'})\n"
+                    f"{len(st.turns)} turns, deletes {gone}")
+        ax.title.set_fontsize(7)
+    ax = axes[len(loops)]
+    ax.axis("off")
+    rows = [[f"e{e}", f"L{lr[0]}", f"L{lr[1]}"] for e, lr in record.table.items()]
+    if rows:
+        tab = ax.table(cellText=rows, colLabels=["edge", "left", "right"], bbox=[0.0, 0.0, 1.0, 0.93])
+        tab.auto_set_font_size(False)
+        tab.set_fontsize(6)
+    ax.set_title("left/right table", fontsize=8)
+    return fig
+
+
+def plot_complex_with_light_at(scene, dx=0.0, *, receiver=0, ax=None, show=False):
+    """Redraw a receiver's complex with the scene's lights moved by ``dx`` along x (the notebook's slider).
+
+    Parameters
+    ----------
+    scene : polygen.radiosity.scene.Scene
+    dx : float
+        Shift of every light polygon along x (scene units).
+    receiver : int, keyword-only
+        The receiver complex drawn (index into the method's complexes).
+    show : bool, keyword-only
+        Show the figure and return None (for an ``ipywidgets.interact``
+        callback, which would otherwise display the returned figure again).
+
+    Returns
+    -------
+    matplotlib.figure.Figure or None
+    """
+    from polygen.discontinuity import simplified_discontinuity
+    from polygen.radiosity.scene import AreaLight, Scene
+
+    polys = [AreaLight(p.vertices + [dx, 0.0, 0.0], emission=p.emission, reflectance=p.reflectance,
+                       name=p.name) if isinstance(p, AreaLight) else p for p in scene.polygons]
+    cx = simplified_discontinuity(Scene(polys)).complexes[receiver]
+    fig = plot_complex(cx, ax=ax, title=f"light moved by {dx:+.1f}: {len(cx.alive_faces)} regions")
+    if show:
+        import matplotlib.pyplot as plt
+
+        plt.show()
+        return None
+    return fig
+
+
+def light_slider(scene, *, dx_max=3.0, step=0.5, receiver=0):
+    """An ipywidgets slider moving the scene's lights along x, redrawing a receiver complex.
+
+    The callback is :func:`plot_complex_with_light_at` bound to ``scene``;
+    without a kernel the notebook shows what it first drew (``dx = 0``).
+
+    Parameters
+    ----------
+    scene : polygen.radiosity.scene.Scene
+    dx_max : float, keyword-only
+        The slider runs over ``[-dx_max, dx_max]``.
+    step : float, keyword-only
+    receiver : int, keyword-only
+
+    Returns
+    -------
+    The ``ipywidgets.interact`` result.
+    """
+    import functools
+
+    import ipywidgets
+
+    callback = functools.partial(plot_complex_with_light_at, scene)
+    callback.__name__ = "plot_complex_with_light_at"   # interact names its widget after it
+    slider = ipywidgets.FloatSlider(value=0.0, min=-dx_max, max=dx_max, step=step, continuous_update=False)
+    return ipywidgets.interact(callback, dx=slider, receiver=ipywidgets.fixed(receiver),
+                               ax=ipywidgets.fixed(None), show=ipywidgets.fixed(True))
