@@ -7,8 +7,9 @@ cached):
   ``vtkContourFilter`` and ``vtkContour3DLinearGrid``, each without and
   with ``vtkSpanSpace`` (merged points, normals on, scalars off,
   ``VTK_SMP_BACKEND_IN_USE=STDThread``); polygen's prepared default method
-  (``edge-centred``) one value at a time and by ``extract_many``, the full
-  scan and the unprepared scan (mean normals on). Repeats are interleaved
+  (``edge-centred-table``) one value at a time and by ``extract_many``, the
+  paper's variant without stored edges (``edge-centred``), the full scan
+  and the unprepared scan (mean normals on). Repeats are interleaved
   (every configuration once per round); the table gives medians over the
   rounds. The best VTK configuration is the fastest median of the four,
   chosen in this run.
@@ -111,6 +112,10 @@ def rss_now_mb(key="VmRSS"):
     return float("nan")
 
 
+#: polygen's methods in the sweeps: the prepared default (the edge table), the paper's walk, the two scans
+POLYGEN = (methods.DEFAULT, "edge-centred", "scan", "unprepared-scan")
+
+
 def warm_up():
     """Compile (or load from the cache) every kernel used below, so that no timing includes JIT."""
     vol = datasets.load("data1")
@@ -120,7 +125,7 @@ def warm_up():
     fresh.isosurface(values[0])
     fresh.wait_prepared()
     vtk_filter(vtk_grid(vol.points, vol.cells, np.array(s)), "vtkContourFilter")[1](values[0])  # pyvista, vtk
-    for name in ("edge-centred", "scan", "unprepared-scan"):
+    for name in POLYGEN:
         m = methods.get(name)(vol, field=FIELD)
         for v in values:
             m.extract(v)
@@ -145,6 +150,7 @@ def first_surface(points, cells, s, value):
     # the full preparation alone, on a fresh volume (topology + the method), nothing else running
     vol = UnstructuredVolume(points, cells, {FIELD: s}, validate=False)
     t_prep, m = timed(lambda: methods.get(methods.DEFAULT)(vol, field=FIELD))
+    vol.release_preparation_tables()  # as vol.isosurface() does once the default method is prepared
     mem_method = m.memory_bytes()
     mem_volume = vol.memory_bytes()
     del m, vol
@@ -165,9 +171,8 @@ def sweeps(vol, grid, values, values200, n_rounds):
         t0 = time.perf_counter()
         one(values[0])  # builds the span space, if any
         confs[label] = {"one": one, "filter": f, "build_s": time.perf_counter() - t0}
-    prepared = {name: methods.get(name)(vol, field=FIELD) for name in ("edge-centred", "scan", "unprepared-scan")}
-    times = {k: [] for k in list(confs) + ["polygen edge-centred", "polygen extract_many", "polygen scan",
-                                            "polygen unprepared-scan"]}
+    prepared = {name: methods.get(name)(vol, field=FIELD) for name in POLYGEN}
+    times = {k: [] for k in list(confs) + [f"polygen {name}" for name in POLYGEN] + ["polygen extract_many"]}
     tris = {}
     for _ in range(n_rounds):
         for label, c in confs.items():
@@ -179,7 +184,7 @@ def sweeps(vol, grid, values, values200, n_rounds):
             times[f"polygen {name}"].append(ts)
             tris[f"polygen {name}"] = [i.n_triangles for i in out]
             del out
-        t, out = timed(prepared["edge-centred"].extract_many, values)
+        t, out = timed(prepared[methods.DEFAULT].extract_many, values)
         times["polygen extract_many"].append([t / len(values)] * len(values))
         tris["polygen extract_many"] = [i.n_triangles for i in out]
         del out
@@ -193,8 +198,8 @@ def sweeps(vol, grid, values, values200, n_rounds):
                    "same_counts_as_vtkContourFilter": tris[k] == tris["vtkContourFilter"]}
     vtk_best = min((lbl for lbl, _ in VTK_CONFIGS), key=lambda lbl: rows[lbl]["sweep_s"])
     # 200 values, one pass each: polygen's prepared method and the best VTK configuration
-    ts, _ = per_value(prepared["edge-centred"].extract, values200)
-    rows["polygen edge-centred"].update(latency200_median_s=float(np.median(ts)), latency200_max_s=float(max(ts)))
+    ts, _ = per_value(prepared[methods.DEFAULT].extract, values200)
+    rows[f"polygen {methods.DEFAULT}"].update(latency200_median_s=float(np.median(ts)), latency200_max_s=float(max(ts)))
     ts, _ = per_value(confs[vtk_best]["one"], values200)
     rows[vtk_best].update(latency200_median_s=float(np.median(ts)), latency200_max_s=float(max(ts)))
     for label, c in confs.items():
@@ -242,12 +247,15 @@ def rss(side, path, value, label=""):
 
 # ------------------------------------------------------------------ main
 def run(name):
-    vol = datasets.load(name, field=FIELD)
-    points, cells, s = vol.points.copy(), vol.cells.copy(), np.array(vol.scalars(FIELD))
+    vol = datasets.load(name, field=None if name == "10M" else FIELD)
+    field = FIELD if FIELD in vol.fields else next(iter(vol.fields))  # 10M: its analytic field, no FEM solve
+    points, cells, s = vol.points.copy(), vol.cells.copy(), np.array(vol.scalars(field))
+    if field != FIELD:
+        vol = UnstructuredVolume(points, cells, {FIELD: s}, validate=False)
     values = isovalues(s, 20)
     values200 = isovalues(s, 200)
     first_value = values[len(values) // 2]
-    row = {"data": name, "cells": int(vol.n_cells), "nodes": int(vol.n_points)}
+    row = {"data": name, "cells": int(vol.n_cells), "nodes": int(vol.n_points), "field": field}
     print(f"{name}: first surface", file=sys.stderr)
     row["first"] = first_surface(points, cells, s, first_value)
     print(f"{name}: sweeps", file=sys.stderr)
@@ -275,7 +283,7 @@ def report(rows, load_before, load_after):
     for r in rows:
         sw, best, f = r["sweeps"], r["vtk_best"], r["first"]
         bsw = sw[best]["sweep_s"]
-        lines += [f"## {r['data']} ({r['cells']:,} cells, {r['nodes']:,} nodes)", "",
+        lines += [f"## {r['data']} ({r['cells']:,} cells, {r['nodes']:,} nodes, field {r.get('field', FIELD)!r})", "",
                   f"Best VTK configuration in this run: **{best}**.", "",
                   "| configuration | 20 values s | / best VTK | latency median ms | max ms | "
                   "200 values: median ms | max ms | triangles | same counts as vtkContourFilter |",
@@ -301,7 +309,7 @@ def report(rows, load_before, load_after):
                   f"| (constructor + first) / VTK first contour | {f['ctor_plus_first_s'] / f['vtk_first_contour_s']:.2f} |",
                   f"| first surface alone / VTK first contour | {f['first_isosurface_s'] / f['vtk_first_contour_s']:.2f} |",
                   f"| background preparation ready, from the first call | {f['background_ready_after_s']:.3f} |",
-                  f"| full preparation alone (topology + edge-centred) | {f['prepare_alone_s']:.3f} |",
+                  f"| full preparation alone (topology + thinning + edge-centred records) | {f['prepare_alone_s']:.3f} |",
                   "", "| memory | |", "|---|---|",
                   f"| prepared edge-centred method, bytes per cell | {pm:.1f} |",
                   f"| volume's derived tables, bytes per cell | {pv:.1f} "
@@ -318,7 +326,8 @@ def report(rows, load_before, load_after):
         "200 values: one pass; extract_many: its wall clock / 20 per value",
         "- VTK: merged points, normals on, scalars off, VTK_SMP_BACKEND_IN_USE=STDThread; the span-space build "
         "(inside the first update) is not in the sweep times (build_s in the JSON)",
-        "- polygen: mean normals on; 'edge-centred' = the prepared default method, 'unprepared-scan' = what "
+        f"- polygen: mean normals on; '{methods.DEFAULT}' = the prepared default method (extract_many and the "
+        "200 values too), 'edge-centred' = the paper's variant without stored edges, 'unprepared-scan' = what "
         "vol.isosurface answers before the preparation is ready",
         "- peak RSS: each side in its own subprocess (VmHWM); polygen's includes the numba runtime and "
         "its warm-up on data1, and its background preparation",
