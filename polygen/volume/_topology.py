@@ -334,17 +334,15 @@ def union_find_rows(row_ids, n_items, row_owner):
 
 
 @njit
-def cell_components(neighbors):
-    """Connected components of cells through face neighbours."""
+def _label_components(neighbors, labels, stack):
+    """Fill ``labels`` (M,), all -1 on entry, with the connected part of each cell through face
+    neighbours (depth first, ``stack`` (M,) scratch of the same dtype); returns the number of parts."""
     m, f = neighbors.shape
-    labels = np.full(m, -1, np.int64)
-    stack = np.empty(m, np.int64)
     n_comp = 0
     for s in range(m):
         if labels[s] >= 0:
             continue
         labels[s] = n_comp
-        top = 0
         stack[0] = s
         top = 1
         while top > 0:
@@ -357,6 +355,14 @@ def cell_components(neighbors):
                     stack[top] = d
                     top += 1
         n_comp += 1
+    return n_comp
+
+
+def cell_components(neighbors, dtype=np.int64):
+    """Connected components of cells through face neighbours: ``(labels (M,) dtype, n)``."""
+    m = neighbors.shape[0]
+    labels = np.full(m, -1, dtype)
+    n_comp = _label_components(neighbors, labels, np.empty(m, dtype))
     return labels, n_comp
 
 
@@ -884,29 +890,3 @@ def edges_by_node(cells, local_edges, node_edges, nc_off, nc, cell_edges):
             edges[i, 0] = a  # every cell around the edge writes the same two values
             edges[i, 1] = max(u, v)
     return edges
-
-
-@njit
-def cell_components_int32(neighbors):
-    """Connected components of cells through face neighbours: ``(labels (M,) int32, n)``."""
-    m, f = neighbors.shape
-    labels = np.full(m, -1, np.int32)
-    stack = np.empty(m, np.int32)
-    n_comp = 0
-    for s in range(m):
-        if labels[s] >= 0:
-            continue
-        labels[s] = n_comp
-        stack[0] = s
-        top = 1
-        while top > 0:
-            top -= 1
-            c = stack[top]
-            for i in range(f):
-                d = neighbors[c, i]
-                if d >= 0 and labels[d] < 0:
-                    labels[d] = n_comp
-                    stack[top] = d
-                    top += 1
-        n_comp += 1
-    return labels, n_comp

@@ -644,9 +644,7 @@ class UnstructuredVolume:
     def cell_components(self):
         """``(labels (M,) int32, n)``: connected parts of the volume through face neighbours (int64 labels
         past 2**31 cells)."""
-        if self.n_cells >= _INT32_MAX:  # pragma: no cover - 2**31 cells
-            return _k.cell_components(self.face_neighbors)
-        return _k.cell_components_int32(self.face_neighbors)
+        return _k.cell_components(self.face_neighbors, np.int64 if self.n_cells >= _INT32_MAX else np.int32)
 
     # ------------------------------------------------------- boundary groups
     @functools.cached_property
