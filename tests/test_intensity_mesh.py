@@ -295,12 +295,15 @@ def test_combined_loop_keeps_the_lines(cut):
     sd, _ = cut
     r = combined_bubble_mesh(sd.scene, size_initial=4.0, size_min=8.0, size_max=2.0,
                              solve={"tol": 0.05}, discontinuity=sd)
+    lines = r.parameters["segments"]
+    # merged at half the finest element (size_max 2 / 2 / 2): fewer or as many lines
+    assert r.parameters["merge_gap"] == 0.5 and set(lines) <= set(sd.segments)
+    assert sum(len(s) for s in lines.values()) < sum(len(s) for s in sd.segments.values())
     for m in (r.first_mesh, r.second_mesh):
         assert m.element_region is not None and len(m.t_vertices()) == 0
-        # every polygon with lines is cut into regions in both meshes
-        for k in sd.segments:
+        # every polygon with lines left is cut into regions in both meshes
+        for k in lines:
             assert len(np.unique(m.element_region[m.element_polygon == k])) > 1
-    assert r.parameters["segments"] is sd.segments
     with pytest.raises(TypeError, match="segments"):
         combined_bubble_mesh(sd.scene, size_initial=4.0, size_min=8.0, size_max=2.0,
                              discontinuity=sd, segments={})

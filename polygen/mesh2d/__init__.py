@@ -51,6 +51,7 @@ from polygen.mesh2d.pslg import (
     PlanarGraph,
     convex_partition,
     edge_node_parameters,
+    merge_close_segments,
     mesh_planar_graph,
     planar_graph,
 )
@@ -98,6 +99,7 @@ __all__ = [
     "GraphMesh",
     "PlanarGraph",
     "convex_partition",
+    "merge_close_segments",
     "edge_node_parameters",
     "mesh_planar_graph",
     "planar_graph",
