@@ -259,7 +259,9 @@ def main(argv=None):
                          "and the combination, plus the discontinuity phase for simplified DM)",
                          "simplified DM: patch size s outside, s / 2 in the penumbra regions, "
                          "along the lines of simplified_discontinuity; combination: "
-                         "combined_bubble_mesh with this method's parameters",
+                         "combined_bubble_mesh with this method's parameters (lines closer "
+                         "than half the finest element, size_max / 4, merged: "
+                         "merge_close_segments)",
                          "mean_q, min_angle: element quality (radius ratio 2 r_in / R_circ, "
                          "smallest angle), each face measured from its own side"])
     (RESULTS / "intensity_mesh.json").write_text(json.dumps(

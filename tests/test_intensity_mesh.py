@@ -392,3 +392,46 @@ def test_graded_mesh_quality_with_a_finer_size_min():
     assert q.mean() >= 0.93
     assert ang.min() >= 25.0
     assert r.second_mesh.n_elements < r.first_mesh.n_elements
+
+
+def _smallest_line_angle(graph):
+    """Degrees: the smallest angle between two graph edges at a common vertex (brute force)."""
+    v = graph.vertices
+    best = 180.0
+    for i in range(len(v)):
+        inc = np.flatnonzero((graph.edges == i).any(axis=1))
+        if len(inc) < 2:
+            continue
+        other = np.where(graph.edges[inc, 0] == i, graph.edges[inc, 1], graph.edges[inc, 0])
+        a = np.sort(np.arctan2(v[other, 1] - v[i, 1], v[other, 0] - v[i, 0]))
+        best = min(best, float(np.degrees(np.diff(np.concatenate([a, [a[0] + 2 * np.pi]])).min())))
+    return best
+
+
+@pytest.mark.xfail(strict=True, reason="measured: 6.91 degrees against the bound 21.4 (half "
+                   "of 42.9, the smallest angle between lines after merging): the 2.05-degree "
+                   "bands are gone, left are regions narrower than their size (a line meeting a "
+                   "wall near a corner, a wedge 0.43 wide meshed at 2.4); a local-width size "
+                   "cap is not done")
+def test_combination_mesh_smallest_angle():
+    """The combination's mesh (its first, uniform one at patch size 2.4: the lines are the
+    same in both) has no angle below half the smallest angle between two lines at a vertex.
+
+    The bound from the geometry, fixed before measuring: a conforming mesh cannot beat the
+    smallest angle phi between two lines (or a line and an edge) at a common vertex, and a
+    node inside that wedge bisects it at worst; merging (half the finest element, 0.3 here)
+    leaves no two lines closer than that except at such vertices.  Without merging the mesh
+    had 2.05 degrees (bands 0.036-0.042 wide between penumbra lines), with it 6.91.
+    """
+    from polygen.discontinuity import simplified_discontinuity
+    from polygen.discontinuity.combined import merged_lines
+    from polygen.mesh2d import planar_graph
+
+    sc = scenes.three_rectangles_box()
+    lines = merged_lines(sc, simplified_discontinuity(sc).segments, gap=2.4 / 2 / 2 / 2)
+    phi = min(_smallest_line_angle(planar_graph(sc.polygons[k].exterior_2d,
+                                                sc.polygons[k].holes_2d, *s.in_plane(sc.polygons[k])))
+              for k, s in lines.items())
+    m = mesh_scene(sc, 2.4, mesher=bubble_mesher, segments=lines)
+    ang, _ = m.element_quality()
+    assert ang.min() >= phi / 2
