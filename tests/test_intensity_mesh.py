@@ -359,7 +359,11 @@ def test_polygons_smaller_than_their_size_are_two_right_triangles(table_4_1_impr
 def test_graded_mesh_quality(table_4_1_improved):
     """Issue 15: mean radius ratio >= 0.93 on the second mesh, at Table 4.1's parameters.
 
-    Not met, and kept as a strict xfail so that it is noticed when it is.  At size_initial
+    Not met, and kept as a strict xfail so that it is noticed when it is.  The thesis gives
+    no sizes for Table 4.1 (re-read: 4.2-4.4 and the table's paragraph give none, and our
+    reading of the size as the patch bubble's diameter, D over all nodes and f linear in D
+    is the text's; notebook 04), so 2x / 0.5x stay the parameters fixed before measuring.
+    At size_initial
     1.7, size_min 3.4, size_max 0.85 the second mesh's sizes are 2.6-3.4 on 10 x 10 walls,
     three patches across: the corner patch of every 90-degree wall corner has three boundary
     nodes and a right angle (q <= 0.828), and the light, the tilted and the upright
