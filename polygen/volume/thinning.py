@@ -434,12 +434,8 @@ def _edge_table_aside(vol):
 
 
 def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
-    """:func:`thin_volume` once the node -> cells lists and the face neighbours are there.
-
-    The cell components are read after the boundary groups and the manifold check (and counted in
-    ``T_topology``), so that a preparation building them beside (the edge-centred method's,
-    :func:`polygen.volume.edge_centred._seeds_beside_table`) has them ready by then.
-    """
+    """:func:`thin_volume` once the node -> cells lists and the face neighbours are there."""
+    vol.cell_components
     groups = vol.boundary_groups
     bfn = vol.boundary_face_nodes
     is_void_g = vol.group_is_void
@@ -447,9 +443,6 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
     t0 = time.perf_counter()
     bad_edges, bad_nodes = boundary_defects(vol)
     t_check = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    vol.cell_components
-    t_topology += time.perf_counter() - t0
     if bad_edges.size or bad_nodes.size:
         warnings.warn(
             f"the boundary of this volume is not a 2-manifold ({bad_edges.shape[0]} edges and {bad_nodes.size} "
