@@ -36,6 +36,14 @@ The machine's load average is recorded before and after. Results go to
 
     python benchmarks/interactive.py                # data4, 2M
     python benchmarks/interactive.py data4 2M 10M   # 10M only if cached (building it takes long)
+    python benchmarks/interactive.py --only first 2M   # quick: constructor, first surface, preparation, memory
+
+``--only`` takes a comma-separated subset of ``first`` (constructor, first
+surface, preparation, memory), ``sweeps`` and ``rss``; a partial run writes
+``interactive_<parts>.{json,md}`` beside the full results instead of
+replacing them. Wall and CPU seconds (``time.process_time``, every thread)
+are both given for the constructor and the preparation: on a shared
+machine the CPU seconds say what the code costs.
 """
 
 import os
@@ -133,10 +141,26 @@ def warm_up():
 
 
 # ------------------------------------------------------------------ parts
+def timed_cpu(fn, *args):
+    """``(wall s, CPU s of every thread of this process, result)``."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    out = fn(*args)
+    return time.perf_counter() - t0, time.process_time() - c0, out
+
+
+#: constructor repeats (it is cheap: the median of several is steadier than one on a shared machine)
+CTOR_REPEATS = 5
+
+
 def first_surface(points, cells, s, value):
     """Time to the first surface from arrays: polygen vs VTK's first vtkContourFilter (no tree)."""
     gc.collect()
-    t_ctor, vol = timed(lambda: UnstructuredVolume(points, cells, {FIELD: s}))
+    ctor = []
+    for _ in range(CTOR_REPEATS):
+        ctor.append(timed_cpu(lambda: UnstructuredVolume(points, cells, {FIELD: s})))
+    ctor.sort(key=lambda r: r[0])
+    t_ctor, c_ctor, vol = ctor[len(ctor) // 2]
+    del ctor
     t_first, iso = timed(lambda: vol.isosurface(value))
     t_ready, _ = timed(vol.wait_prepared)
     kind = type(iso).__name__
@@ -149,13 +173,16 @@ def first_surface(points, cells, s, value):
     gc.collect()
     # the full preparation alone, on a fresh volume (topology + the method), nothing else running
     vol = UnstructuredVolume(points, cells, {FIELD: s}, validate=False)
-    t_prep, m = timed(lambda: methods.get(methods.DEFAULT)(vol, field=FIELD))
+    t_prep, c_prep, m = timed_cpu(lambda: methods.get(methods.DEFAULT)(vol, field=FIELD))
     vol.release_preparation_tables()  # as vol.isosurface() does once the default method is prepared
     mem_method = m.memory_bytes()
     mem_volume = vol.memory_bytes()
+    phases = {"seeds_s": m.seed_preprocess_s, "records_s": m.construct_preprocess_s,
+              "thinning": {k: v for k, v in m.source.structure.stats.items() if k.startswith("T_")}}
     del m, vol
     gc.collect()
-    return {"ctor_s": t_ctor, "first_isosurface_s": t_first, "ctor_plus_first_s": t_ctor + t_first,
+    return {"ctor_s": t_ctor, "ctor_cpu_s": c_ctor, "prepare_alone_cpu_s": c_prep, "prepare_phases": phases,
+            "first_isosurface_s": t_first, "ctor_plus_first_s": t_ctor + t_first,
             "first_answered_by": kind, "first_triangles": iso.n_triangles,
             "background_ready_after_s": t_first + t_ready,
             "vtk_grid_s": t_grid, "vtk_first_contour_s": t_vtk, "vtk_first_triangles": n_vtk,
@@ -246,7 +273,10 @@ def rss(side, path, value, label=""):
 
 
 # ------------------------------------------------------------------ main
-def run(name):
+PARTS = ("first", "sweeps", "rss")
+
+
+def run(name, parts=PARTS):
     vol = datasets.load(name, field=None if name == "10M" else FIELD)
     field = FIELD if FIELD in vol.fields else next(iter(vol.fields))  # 10M: its analytic field, no FEM solve
     points, cells, s = vol.points.copy(), vol.cells.copy(), np.array(vol.scalars(field))
@@ -256,14 +286,21 @@ def run(name):
     values200 = isovalues(s, 200)
     first_value = values[len(values) // 2]
     row = {"data": name, "cells": int(vol.n_cells), "nodes": int(vol.n_points), "field": field}
-    print(f"{name}: first surface", file=sys.stderr)
-    row["first"] = first_surface(points, cells, s, first_value)
-    print(f"{name}: sweeps", file=sys.stderr)
-    vol.wait_prepared()
-    grid = vtk_grid(points, cells, s)
-    row["sweeps"], row["vtk_best"] = sweeps(vol, grid, values, values200, rounds(vol.n_cells))
-    del grid
-    gc.collect()
+    row["load_before"] = tuple(round(x, 2) for x in os.getloadavg())
+    if "first" in parts:
+        print(f"{name}: first surface", file=sys.stderr)
+        row["first"] = first_surface(points, cells, s, first_value)
+    if "sweeps" in parts or "rss" in parts:  # the RSS of VTK runs its best configuration of the sweeps
+        print(f"{name}: sweeps", file=sys.stderr)
+        vol.wait_prepared()
+        grid = vtk_grid(points, cells, s)
+        row["sweeps"], row["vtk_best"] = sweeps(vol, grid, values, values200, rounds(vol.n_cells))
+        del grid
+        gc.collect()
+    row["array_bytes"] = int(points.nbytes + cells.nbytes + s.nbytes)
+    row["load_after"] = tuple(round(x, 2) for x in os.getloadavg())
+    if "rss" not in parts:
+        return row
     print(f"{name}: rss", file=sys.stderr)
     with tempfile.TemporaryDirectory() as tmp:
         path = str(Path(tmp) / "arrays")
@@ -272,54 +309,76 @@ def run(name):
         np.save(f"{path}_s.npy", s)
         row["rss_polygen"] = rss("polygen", path, first_value)
         row["rss_vtk"] = rss("vtk", path, first_value, row["vtk_best"])
-    row["array_bytes"] = int(points.nbytes + cells.nbytes + s.nbytes)
     del vol
     gc.collect()
     return row
 
 
+def sweep_lines(r):
+    sw, best = r["sweeps"], r["vtk_best"]
+    bsw = sw[best]["sweep_s"]
+    lines = [f"Best VTK configuration in this run: **{best}**.", "",
+             "| configuration | 20 values s | / best VTK | latency median ms | max ms | "
+             "200 values: median ms | max ms | triangles | same counts as vtkContourFilter |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for k, v in sw.items():
+        l2m = v.get("latency200_median_s")
+        l2x = v.get("latency200_max_s")
+        lines.append(f"| {k} | {v['sweep_s']:.4f} | {v['sweep_s'] / bsw:.3f} | {1e3 * v['latency_median_s']:.2f} | "
+                     f"{1e3 * v['latency_max_s']:.2f} | {'' if l2m is None else f'{1e3 * l2m:.2f}'} | "
+                     f"{'' if l2x is None else f'{1e3 * l2x:.2f}'} | {v['triangles']} | "
+                     f"{v['same_counts_as_vtkContourFilter']} |")
+    return lines + [""]
+
+
+def first_lines(r):
+    f = r["first"]
+    pm = f["method_bytes"] / r["cells"]
+    pv = sum(f["volume_bytes"].values()) / r["cells"]
+    tables = ", ".join(f"{k} {v / r['cells']:.1f}" for k, v in f["volume_bytes"].items())
+    cpu = (lambda k: f" (CPU {f[k]:.3f})" if k in f else "")  # noqa: E731
+    ph = f.get("prepare_phases")
+    phases = "" if ph is None else (f"| of which: seeds (thinning) {ph['seeds_s']:.3f}, edge records {ph['records_s']:.3f} "
+                                    "(side by side from 200k cells) | |")
+    return ["| time to first surface | s |", "|---|---|",
+            f"| polygen constructor (validation{', median of %d' % CTOR_REPEATS if 'ctor_cpu_s' in f else ''}) | "
+            f"{f['ctor_s']:.3f}{cpu('ctor_cpu_s')} |",
+            f"| polygen first `vol.isosurface(v)` ({f['first_answered_by']}, {f['first_triangles']} triangles) "
+            f"| {f['first_isosurface_s']:.3f} |",
+            f"| polygen constructor + first surface | {f['ctor_plus_first_s']:.3f} |",
+            f"| VTK grid from the arrays | {f['vtk_grid_s']:.3f} |",
+            f"| VTK first vtkContourFilter, no tree ({f['vtk_first_triangles']} triangles) | "
+            f"{f['vtk_first_contour_s']:.3f} |",
+            f"| (constructor + first) / VTK first contour | {f['ctor_plus_first_s'] / f['vtk_first_contour_s']:.2f} |",
+            f"| first surface alone / VTK first contour | {f['first_isosurface_s'] / f['vtk_first_contour_s']:.2f} |",
+            f"| background preparation ready, from the first call | {f['background_ready_after_s']:.3f} |",
+            f"| full preparation alone (topology + thinning + edge-centred records) | {f['prepare_alone_s']:.3f}"
+            f"{cpu('prepare_alone_cpu_s')} |"] + ([phases] if phases else []) + [
+            "", "| memory | |", "|---|---|",
+            f"| prepared edge-centred method, bytes per cell | {pm:.1f} |",
+            f"| volume's derived tables, bytes per cell | {pv:.1f} ({tables}) |",
+            f"| together | {pm + pv:.1f} |",
+            f"| input arrays (points, cells, field), bytes per cell | {r['array_bytes'] / r['cells']:.1f} |", ""]
+
+
 def report(rows, load_before, load_after):
     lines = ["# Interactive isosurfaces: polygen vs the strongest VTK configuration (issue 20)", ""]
     for r in rows:
-        sw, best, f = r["sweeps"], r["vtk_best"], r["first"]
-        bsw = sw[best]["sweep_s"]
-        lines += [f"## {r['data']} ({r['cells']:,} cells, {r['nodes']:,} nodes, field {r.get('field', FIELD)!r})", "",
-                  f"Best VTK configuration in this run: **{best}**.", "",
-                  "| configuration | 20 values s | / best VTK | latency median ms | max ms | "
-                  "200 values: median ms | max ms | triangles | same counts as vtkContourFilter |",
-                  "|---|---|---|---|---|---|---|---|---|"]
-        for k, v in sw.items():
-            l2m = v.get("latency200_median_s")
-            l2x = v.get("latency200_max_s")
-            lines.append(f"| {k} | {v['sweep_s']:.4f} | {v['sweep_s'] / bsw:.3f} | {1e3 * v['latency_median_s']:.2f} | "
-                         f"{1e3 * v['latency_max_s']:.2f} | {'' if l2m is None else f'{1e3 * l2m:.2f}'} | "
-                         f"{'' if l2x is None else f'{1e3 * l2x:.2f}'} | {v['triangles']} | "
-                         f"{v['same_counts_as_vtkContourFilter']} |")
-        pm = f["method_bytes"] / r["cells"]
-        pv = sum(f["volume_bytes"].values()) / r["cells"]
-        tables = ", ".join(f"{k} {v / r['cells']:.1f}" for k, v in f["volume_bytes"].items())
-        lines += ["", "| time to first surface | s |", "|---|---|",
-                  f"| polygen constructor (validation) | {f['ctor_s']:.3f} |",
-                  f"| polygen first `vol.isosurface(v)` ({f['first_answered_by']}, {f['first_triangles']} triangles) "
-                  f"| {f['first_isosurface_s']:.3f} |",
-                  f"| polygen constructor + first surface | {f['ctor_plus_first_s']:.3f} |",
-                  f"| VTK grid from the arrays | {f['vtk_grid_s']:.3f} |",
-                  f"| VTK first vtkContourFilter, no tree ({f['vtk_first_triangles']} triangles) | "
-                  f"{f['vtk_first_contour_s']:.3f} |",
-                  f"| (constructor + first) / VTK first contour | {f['ctor_plus_first_s'] / f['vtk_first_contour_s']:.2f} |",
-                  f"| first surface alone / VTK first contour | {f['first_isosurface_s'] / f['vtk_first_contour_s']:.2f} |",
-                  f"| background preparation ready, from the first call | {f['background_ready_after_s']:.3f} |",
-                  f"| full preparation alone (topology + thinning + edge-centred records) | {f['prepare_alone_s']:.3f} |",
-                  "", "| memory | |", "|---|---|",
-                  f"| prepared edge-centred method, bytes per cell | {pm:.1f} |",
-                  f"| volume's derived tables, bytes per cell | {pv:.1f} "
-                  f"({tables}) |",
-                  f"| together | {pm + pv:.1f} |",
-                  f"| input arrays (points, cells, field), bytes per cell | {r['array_bytes'] / r['cells']:.1f} |",
-                  f"| peak RSS polygen (above loaded arrays) MB | {r['rss_polygen']['peak_rss_mb']:.0f} "
-                  f"({r['rss_polygen']['peak_rss_mb'] - r['rss_polygen']['rss_after_loading_mb']:.0f}) |",
-                  f"| peak RSS VTK, {best} (above loaded arrays) MB | {r['rss_vtk']['peak_rss_mb']:.0f} "
-                  f"({r['rss_vtk']['peak_rss_mb'] - r['rss_vtk']['rss_after_loading_mb']:.0f}) |", ""]
+        lines += [f"## {r['data']} ({r['cells']:,} cells, {r['nodes']:,} nodes, field {r.get('field', FIELD)!r})", ""]
+        if "load_before" in r:
+            lines += [f"Load average (1, 5, 15 min) before this data set {r['load_before']}, after {r['load_after']}.",
+                      ""]
+        if "sweeps" in r:
+            lines += sweep_lines(r)
+        if "first" in r:
+            lines += first_lines(r)
+        if "rss_polygen" in r:
+            best = r["vtk_best"]
+            lines += ["| peak memory | |", "|---|---|",
+                      f"| peak RSS polygen (above loaded arrays) MB | {r['rss_polygen']['peak_rss_mb']:.0f} "
+                      f"({r['rss_polygen']['peak_rss_mb'] - r['rss_polygen']['rss_after_loading_mb']:.0f}) |",
+                      f"| peak RSS VTK, {best} (above loaded arrays) MB | {r['rss_vtk']['peak_rss_mb']:.0f} "
+                      f"({r['rss_vtk']['peak_rss_mb'] - r['rss_vtk']['rss_after_loading_mb']:.0f}) |", ""]
     lines += [
         "- 20 values linspace(min, max, 22)[1:-1] of 'fem'; medians over interleaved rounds (5, 3 at 10M); "
         "latency: each value's median over the rounds, then the median / max over the values; "
@@ -338,7 +397,7 @@ def report(rows, load_before, load_after):
     return "\n".join(lines) + "\n"
 
 
-def main(names):
+def main(names, parts=PARTS):
     load_before = tuple(round(x, 2) for x in os.getloadavg())
     warm_up()
     rows = []
@@ -346,18 +405,33 @@ def main(names):
         if name == "10M" and not datasets.is_cached("10M"):
             print("10M is not cached: skipped (building it takes longer than this benchmark)", file=sys.stderr)
             continue
-        rows.append(run(name))
-        print(json.dumps(rows[-1]["sweeps"][rows[-1]["vtk_best"]]), file=sys.stderr)
+        rows.append(run(name, parts))
+        if "sweeps" in rows[-1]:
+            print(json.dumps(rows[-1]["sweeps"][rows[-1]["vtk_best"]]), file=sys.stderr)
     load_after = tuple(round(x, 2) for x in os.getloadavg())
     RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "interactive.json").write_text(json.dumps(
+    stem = "interactive" if set(parts) == set(PARTS) else "interactive_" + "-".join(p for p in PARTS if p in parts)
+    (RESULTS / f"{stem}.json").write_text(json.dumps(
         {"machine": machine(), "load_before": load_before, "load_after": load_after, "rows": rows}, indent=2) + "\n")
-    (RESULTS / "interactive.md").write_text(report(rows, load_before, load_after))
-    print(f"wrote {RESULTS / 'interactive.md'}", file=sys.stderr)
+    (RESULTS / f"{stem}.md").write_text(report(rows, load_before, load_after))
+    print(f"wrote {RESULTS / f'{stem}.md'}", file=sys.stderr)
+
+
+def parse(argv):
+    """``(names, parts)`` from ``[--only first,sweeps,rss] [names...]``."""
+    parts = PARTS
+    if "--only" in argv:
+        i = argv.index("--only")
+        parts = tuple(p for p in argv[i + 1].split(",") if p)
+        argv = argv[:i] + argv[i + 2:]
+        unknown = set(parts) - set(PARTS)
+        if unknown or not parts:
+            raise SystemExit(f"--only takes a comma-separated subset of {','.join(PARTS)}; got {sorted(unknown)}")
+    return argv or DATA, parts
 
 
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == "--worker":
         worker(sys.argv[2], sys.argv[3], float(sys.argv[4]))
     else:
-        main(sys.argv[1:] or DATA)
+        main(*parse(sys.argv[1:]))

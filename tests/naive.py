@@ -153,3 +153,27 @@ def visible_fraction(scene, light, points, *, normals, samples=4, skip=(), seed=
         vis = (front & ~blocked).sum(axis=1)
         out[s0:s0 + chunk] = np.where(nf > 0, vis / np.maximum(nf, 1), np.nan)
     return out
+
+
+def edge_cell_lists(cells, cell_edges, n_edges, os_, ost, width):
+    """The edge-centred records and cell lists by numpy: ``(ec, starts, rec)``.
+
+    Each edge's id, then its cells in increasing order as ``cell << 5 | last << 4 | local``
+    (:mod:`polygen.volume._edge_centred_kernels`); ``rec`` rows: stamp and state 0, nodes, slots -1,
+    where each local edge's list starts, padding 0.
+    """
+    m, ne = cell_edges.shape
+    key = cell_edges.ravel().astype(np.int64)
+    order = np.argsort(key, kind="stable")
+    offsets = np.r_[0, np.cumsum(np.bincount(key, minlength=n_edges))]
+    starts = offsets[:-1] + np.arange(n_edges) + 1
+    ec = np.empty(offsets[-1] + n_edges, np.int64)
+    ec[starts - 1] = np.arange(n_edges)
+    sk = key[order]
+    last = np.r_[sk[1:] != sk[:-1], True]
+    ec[np.arange(order.size) + sk + 1] = (order // ne) << 5 | last.astype(np.int64) << 4 | order % ne
+    rec = np.zeros((m, width), np.int64)
+    rec[:, 2:2 + cells.shape[1]] = cells
+    rec[:, os_:ost] = -1
+    rec[:, ost:ost + ne] = starts[cell_edges]
+    return ec, starts, rec

@@ -546,3 +546,69 @@ def test_table_memory_per_cell(tets):
         assert b.stats["restarts"] == 0
     with pytest.raises(IsoSurfaceError, match="layout"):
         EdgeCentredTable(vol, s, layout="rows")
+
+
+# ------------------------------------------------------------------ preparation beside the thinning
+@pytest.mark.parametrize("tets", [True, False])
+def test_records_built_beside_the_thinning_are_the_serial_ones(monkeypatch, tets):
+    """The edge table and records built in a second thread while the skeleton is thinned: the same
+    records, cell lists, skeleton and surfaces as building one after the other; an error in either
+    thread reaches the caller."""
+    import threading
+
+    from polygen.volume import edge_centred as ecm
+
+    vol0 = grid_volume((9, 8, 7), tets=tets)
+    s = np.random.default_rng(5).normal(size=vol0.n_points)
+    fresh = lambda: UnstructuredVolume(vol0.points, vol0.cells, {"f": s}, validate=False)  # noqa: E731
+    monkeypatch.setattr(ecm, "_BESIDE_MIN_CELLS", 10**12)
+    serial = methods.get("edge-centred-table")(fresh())
+    monkeypatch.setattr(ecm, "_BESIDE_MIN_CELLS", 0)
+    seen = []
+    real = ecm.EdgeCentredTable
+
+    def spy(*a, **k):
+        seen.append(threading.current_thread().name)
+        return real(*a, **k)
+
+    monkeypatch.setattr(ecm, "EdgeCentredTable", spy)
+    monkeypatch.setattr(ecm.EdgeCentredTableMethod, "builder_class", staticmethod(ecm.EdgeCentredTable))
+    beside = methods.get("edge-centred-table")(fresh())
+    assert seen == ["polygen-edge-records"]  # the other path was taken
+    assert np.array_equal(serial.builder.rec, beside.builder.rec)
+    assert np.array_equal(serial.builder.ec, beside.builder.ec)
+    assert np.array_equal(serial.source.structure.cells, beside.source.structure.cells)
+    for v in np.quantile(s, [0.2, 0.5, 0.8]):
+        assert_same_surface(serial.extract(v), beside.extract(v))
+
+    def broken(*a, **k):
+        raise IsoSurfaceError("records failed")
+
+    monkeypatch.setattr(ecm, "EdgeCentredTable", broken)
+    monkeypatch.setattr(ecm.EdgeCentredTableMethod, "builder_class", staticmethod(ecm.EdgeCentredTable))
+    with pytest.raises(IsoSurfaceError, match="records failed"):
+        methods.get("edge-centred-table")(fresh())
+
+
+@pytest.mark.parametrize("tets", [True, False])
+def test_edge_lists_and_records_match_numpy_for_any_thread_count(tets):
+    """The parallel counting sort that packs the cells around each edge and fills the records gives numpy's
+    stable sort, whatever the number of slabs (cells shuffled, so that every edge's list spans slabs)."""
+    from naive import edge_cell_lists
+
+    from polygen.volume import _edge_centred_kernels as k
+
+    vol = grid_volume((30, 30, 25) if tets else (52, 52, 52), tets=tets)
+    perm = np.random.default_rng(7).permutation(vol.n_cells)
+    vol = UnstructuredVolume(vol.points, vol.cells[perm], validate=False)
+    ce, nn = vol.cell_edges, vol.cells.shape[1]
+    assert ce.size >= 3 * 65536  # three slabs at least
+    os_, _, ost, width = k.record_layout(nn, ce.shape[1])
+    ec_ref, starts_ref, rec_ref = edge_cell_lists(vol.cells, ce, vol.edges.shape[0], os_, ost, width)
+    for threads in (1, 2, 3):
+        rec = np.full((vol.n_cells, width), 99, np.int32)
+        ec, starts = k.edge_lists_and_records(vol.cells, ce, vol.edges.shape[0], threads, rec, os_, ost)
+        assert np.array_equal(ec, ec_ref) and np.array_equal(starts, starts_ref) and np.array_equal(rec, rec_ref)
+        none = np.empty((0, width), np.int32)  # layout "volume": the lists only
+        ec, starts = k.edge_lists_and_records(vol.cells, ce, vol.edges.shape[0], threads, none, os_, ost)
+        assert np.array_equal(ec, ec_ref) and np.array_equal(starts, starts_ref)

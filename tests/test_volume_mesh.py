@@ -350,3 +350,29 @@ def test_reordered_is_the_same_volume_numbered_along_a_curve(tetra):
         return np.median(np.abs(c - fn.ravel()[fn.ravel() >= 0]))
 
     assert gap(new) < 0.2 * gap(vol)
+
+
+def test_points_range_is_numpys_min_max_and_finiteness():
+    """The constructor's one-pass coordinate check: numpy's per-axis min and max, False on NaN or inf."""
+    from polygen.volume import _topology as k
+
+    rng = np.random.default_rng(3)
+    for n in (1, 7, 1000):
+        p = rng.normal(size=(n, 3)) * 10.0 ** rng.integers(-200, 200, size=(n, 3))
+        lo, hi = np.zeros(3), np.zeros(3)
+        assert k.points_range(p, lo, hi)
+        assert np.array_equal(lo, p.min(axis=0)) and np.array_equal(hi, p.max(axis=0))
+        for bad in (np.nan, np.inf, -np.inf):
+            q = p.copy()
+            q[rng.integers(n), rng.integers(3)] = bad
+            assert not k.points_range(q, lo, hi)
+
+
+def test_field_overflow_check_uses_the_largest_coordinate():
+    """``add_field`` compares ``2 (max - min) max|x|`` with float64's range: max|x| is np.abs(points).max()."""
+    pts = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, -1e300]])
+    vol = UnstructuredVolume(pts, np.array([[0, 1, 2, 3]]), validate=False)
+    assert vol._coord_abs_max == np.abs(pts).max()
+    with pytest.raises(VolumeError, match="overflows float64 in the crossing points"):
+        vol.add_field("f", np.array([0.0, 1e10, 2.0, 3.0]))  # 2 * 1e10 * 1e300 overflows
+    vol.add_field("g", np.array([0.0, 1e-300, 0.0, 0.0]))  # 2 * 1e-300 * 1e300 is finite

@@ -232,43 +232,72 @@ def pack_incidence(offsets, order, width):
     return out
 
 
-@njit
-def pack_edge_lists(offsets, order, width):
-    """:func:`pack_incidence` for the cells around the edges, each edge's list preceded by the edge's id.
+@njit(parallel=True)
+def edge_lists_and_records(cells, cell_edges, n_edges, n_threads, rec, os_, ost):
+    """The cells around each edge, packed, and the records of every cell, in one parallel pass each.
 
-    Returns ``(ec, starts)``: the list of edge ``e`` is ``ec[starts[e]:]`` up
-    to the entry with ``LAST`` set, and ``ec[starts[e] - 1] == e``, on the
-    same cache line as the list's first entry most of the time, so the
-    vertex key costs no extra memory access.
+    Returns ``(ec, starts)`` (int32): the list of edge ``e`` is
+    ``ec[starts[e]:]`` up to the entry with ``LAST`` set, each entry
+    ``cell << CELL_SHIFT | last | local`` with the cells in increasing
+    order, and ``ec[starts[e] - 1] == e``, on the same cache line as the
+    list's first entry most of the time, so the vertex key costs no extra
+    memory access. A stable counting sort of the flat positions
+    ``cell * L + local`` by edge id: the cells are cut into slabs (one per
+    thread, at most 8), each counted and scattered by one thread, slab
+    ``t`` of edge ``e`` after every slab ``< t``; so the result does not
+    depend on the number of threads.
+
+    When ``rec`` has rows, each gets its node ids and, per local edge, where
+    that edge's list starts (stamps and states zeroed, slots ``os_:ost``
+    cleared to -1); ``rec`` is left alone when it has none (layout
+    ``"volume"``). Offsets are int32: the caller checks that
+    ``M * L + n_edges`` fits.
     """
-    n = offsets.shape[0] - 1
-    out = np.empty(order.shape[0] + n, np.int32)
-    starts = np.empty(n, np.int32)
-    for k in range(n):
-        h = offsets[k] + k
-        out[h] = k
-        starts[k] = h + 1
-        for q in range(offsets[k], offsets[k + 1]):
-            flat = order[q]
-            last = LAST if q == offsets[k + 1] - 1 else 0
-            out[q + k + 1] = np.int32(((flat // width) << CELL_SHIFT) | last | (flat % width))
-    return out, starts
-
-
-@njit
-def fill_records(rec, cells, cell_edges, ec_off, os_, ost):
-    """Node ids and edge-list starts into the records (stamps and states zeroed, slots cleared)."""
+    m, ne = cell_edges.shape
     nn = cells.shape[1]
-    ne = cell_edges.shape[1]
-    for c in range(rec.shape[0]):
-        for w in range(rec.shape[1]):
-            rec[c, w] = 0
-        for i in range(nn):
-            rec[c, R_NODES + i] = cells[c, i]
-        for w in range(os_, ost):
-            rec[c, w] = -1
-        for w in range(ne):
-            rec[c, ost + w] = ec_off[cell_edges[c, w]]
+    n_slabs = max(1, min(n_threads, 8, (m * ne) // 65536))
+    bounds = np.empty(n_slabs + 1, np.int64)
+    for t in range(n_slabs + 1):
+        bounds[t] = (m * t) // n_slabs
+    counts = np.zeros((n_slabs, n_edges), np.int32)
+    for t in prange(n_slabs):
+        for c in range(bounds[t], bounds[t + 1]):
+            for w in range(ne):
+                counts[t, cell_edges[c, w]] += 1
+    starts = np.empty(n_edges, np.int32)
+    h = 0
+    for e in range(n_edges):  # each list after its edge's id
+        h += 1
+        starts[e] = h
+        for t in range(n_slabs):
+            k = counts[t, e]
+            counts[t, e] = h
+            h += k
+    ec = np.empty(h, np.int32)
+    for t in prange(n_slabs):
+        for c in range(bounds[t], bounds[t + 1]):
+            for w in range(ne):
+                e = cell_edges[c, w]
+                q = counts[t, e]
+                counts[t, e] = q + 1
+                ec[q] = np.int32((c << CELL_SHIFT) | w)
+    for e in prange(n_edges):
+        first = starts[e]
+        ec[first - 1] = e
+        end = starts[e + 1] - 1 if e + 1 < n_edges else h  # the next edge's id, or the end
+        if end > first:
+            ec[end - 1] |= LAST
+    if rec.shape[0] > 0:
+        for c in prange(m):
+            for w in range(rec.shape[1]):
+                rec[c, w] = 0
+            for i in range(nn):
+                rec[c, R_NODES + i] = cells[c, i]
+            for w in range(os_, ost):
+                rec[c, w] = -1
+            for w in range(ne):
+                rec[c, ost + w] = starts[cell_edges[c, w]]
+    return ec, starts
 
 
 # ------------------------------------------------------------------ cells

@@ -171,6 +171,28 @@ def tet_volumes6(points, cells):
     return vol, longest
 
 
+@njit
+def points_range(points, lo, hi):
+    """Whether every coordinate is finite; if so ``lo``, ``hi`` (3,) get the per-axis min and max.
+
+    One pass over the points instead of numpy's ``isfinite``, ``min`` and
+    ``max`` along axis 0 (strided reductions: 15 ms on 2M's 346k nodes).
+    """
+    for d in range(3):
+        lo[d] = np.inf
+        hi[d] = -np.inf
+    for i in range(points.shape[0]):
+        for d in range(3):
+            x = points[i, d]
+            if not (abs(x) < np.inf):  # NaN or infinite
+                return False
+            if x < lo[d]:
+                lo[d] = x
+            if x > hi[d]:
+                hi[d] = x
+    return True
+
+
 @njit(parallel=True)
 def tet_cells_clearly_valid(points, cells, rtol, used):
     """How many tetrahedra are *not* clearly valid; marks ``used[node] = 1`` for the others' nodes.

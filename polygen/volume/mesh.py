@@ -141,12 +141,17 @@ class UnstructuredVolume:
         self.points = np.ascontiguousarray(points, dtype=np.float64)
         self.cells = np.ascontiguousarray(cells, dtype=np.int64)
         n = self.points.shape[0]
-        finite = bool(np.isfinite(self.points.ravel()).all())  # the row-wise check below only when it fails
+        lo, hi = np.zeros(3), np.zeros(3)
+        finite = bool(_k.points_range(self.points, lo, hi))  # the row-wise check below only when it fails
         bad_pts = np.flatnonzero(~np.all(np.isfinite(self.points), axis=1)) if not finite else np.zeros(0, np.int64)
         if bad_pts.size:
             raise VolumeError(f"{bad_pts.size} points have NaN or infinite coordinates, e.g. points {_examples(bad_pts)}")
+        if not n:
+            lo, hi = np.zeros(3), np.zeros(3)
         with np.errstate(over="ignore"):
-            extent = self.points.max(axis=0) - self.points.min(axis=0) if n else np.zeros(3)
+            extent = hi - lo
+        # max |x| over the coordinates, for add_field's overflow check (the same value as np.abs(points).max())
+        self._coord_abs_max = float(np.maximum(np.abs(lo), np.abs(hi)).max())
         if not np.all(np.isfinite(extent)):
             raise VolumeError(f"the points span {extent.tolist()}: max - min of a coordinate overflows float64; "
                               "rescale the coordinates")
@@ -163,6 +168,7 @@ class UnstructuredVolume:
         self.fields = _Fields(self)
         self._iso_methods = {}  # (field, method) -> a prepared IsosurfaceMethod, for isosurface()
         self._iso_lock = threading.RLock()  # guards _iso_methods (isosurface() from several threads)
+        self._table_lock = threading.Lock()  # one build of the edge table when threads ask at once
         self._iso_pending = {}  # (field, method) -> the thread preparing it in the background
         #: (field, method) -> the exception a background preparation raised (isosurface() then scans)
         self.preparation_errors = {}
@@ -256,7 +262,7 @@ class UnstructuredVolume:
             lo, hi = float(values.min()), float(values.max())
             with np.errstate(over="ignore"):
                 span = hi - lo
-                reach = 2.0 * span * float(np.abs(self.points).max())
+                reach = 2.0 * span * self._coord_abs_max
             if not np.isfinite(span):
                 raise VolumeError(f"field {name!r} spans {lo:.6g} .. {hi:.6g}: max - min overflows float64; "
                                   "rescale the field")
@@ -534,17 +540,18 @@ class UnstructuredVolume:
         self.cell_components
 
     def release_preparation_tables(self):
-        """Drop the tables only a preparation reads: ``node_cells``, ``cell_components``, ``face_neighbors``
-        and ``cell_edges`` (about 60 bytes per tetrahedron).
+        """Drop the tables only a preparation reads: ``node_cells``, ``cell_components``, ``face_neighbors``,
+        ``cell_edges`` and ``boundary_edge_table`` (about 63 bytes per tetrahedron on 2M).
 
         The prepared default method keeps what it needs in its own records
         and reads only :attr:`edges` from the volume afterwards, so
-        :meth:`isosurface` calls this once it has prepared it (``edges`` and
-        the boundary tables stay). A later reader of a dropped table builds
+        :meth:`isosurface` calls this once it has prepared it (``edges``,
+        ``boundary_faces`` and the boundary groups computed from the
+        boundary edge table stay). A later reader of a dropped table builds
         it again (the same values).
         """
         with self._iso_lock:
-            for attr in ("node_cells", "cell_components", "face_neighbors"):
+            for attr in ("node_cells", "cell_components", "face_neighbors", "boundary_edge_table"):
                 self.__dict__.pop(attr, None)
             table = self.__dict__.get("_edge_table")
             if table is not None and table[1] is not None:
@@ -590,6 +597,15 @@ class UnstructuredVolume:
 
     @functools.cached_property
     def _edge_table(self):
+        # one build when several threads ask at once (the preparation builds it beside the thinning;
+        # functools.cached_property has no lock of its own from Python 3.12)
+        with self._table_lock:
+            table = self.__dict__.get("_edge_table")
+            if table is None:
+                table = self.__dict__["_edge_table"] = self._build_edge_table()
+            return table
+
+    def _build_edge_table(self):
         off, nc = self._incidence()
         ne = self.local_edges.shape[0]
         if self.n_cells * ne >= 1 << 32 or self.n_points >= 1 << 31:  # pragma: no cover - packed keys overflow
