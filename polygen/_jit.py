@@ -24,3 +24,26 @@ def njit(fn=None, **kwargs):
     if fn is None:
         return numba.njit(**kwargs)
     return numba.njit(**kwargs)(fn)
+
+
+@numba.njit(parallel=True, cache=CACHE)
+def _touch(n):  # pragma: no cover - trivially small; it makes numba choose its threading layer
+    total = 0
+    for i in prange(n):
+        total += i
+    return total
+
+
+def parallel_kernels_may_overlap():
+    """Whether two Python threads may run ``parallel=True`` kernels at the same time.
+
+    True with numba's ``omp`` and ``tbb`` threading layers. The
+    ``workqueue`` layer (chosen when neither is installed, or set by
+    ``NUMBA_THREADING_LAYER``) is not thread-safe: a parallel region
+    launched while another runs aborts the process. polygen's own
+    background work (the preparation after a first surface, the edge
+    table beside the thinning) asks here first and runs in the calling
+    thread instead when this is False.
+    """
+    _touch(2)  # the layer is chosen at the first parallel launch
+    return numba.threading_layer() != "workqueue"

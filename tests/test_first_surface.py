@@ -8,6 +8,8 @@ element for element, and its lazily looked-up ``vertex_keys`` the scan's
 edge ids.
 """
 
+import os
+
 import numpy as np
 import pytest
 
@@ -146,3 +148,33 @@ def test_one_pass_cell_check_never_passes_a_cell_the_exact_checks_refuse():
         assert used.sum() == (4 if clear else 0)
     # both answers occur: the test exercises the bound from both sides
     assert 0 < exact_ok.sum() < len(cells)
+
+
+def test_background_work_runs_inline_under_the_workqueue_layer():
+    """numba's workqueue layer aborts on overlapping parallel regions: polygen then starts no background thread.
+
+    Run in a subprocess with ``NUMBA_THREADING_LAYER=workqueue``: the first
+    surface, the default method's preparation (whose thinning and records
+    would otherwise overlap) and a second surface, the same triangles as a
+    full scan, and no polygen thread left behind.
+    """
+    import subprocess
+    import sys
+    import textwrap
+
+    code = textwrap.dedent("""
+        import threading, numpy as np
+        from polygen._jit import parallel_kernels_may_overlap
+        from polygen.volume import datasets
+        assert not parallel_kernels_may_overlap()
+        vol = datasets.load("data4")  # above the sizes that build side by side
+        v = float(np.median(vol.scalars("fem")))
+        a = vol.isosurface(v, field="fem")
+        assert not [t for t in threading.enumerate() if t.name.startswith("polygen")]
+        b = vol.isosurface(v, field="fem", prepare=True)
+        assert a.n_triangles == b.n_triangles > 0
+        print("ok")
+    """)
+    env = dict(os.environ, NUMBA_THREADING_LAYER="workqueue")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0 and out.stdout.strip().endswith("ok"), out.stderr[-2000:]

@@ -79,6 +79,7 @@ import time
 
 import numpy as np
 
+from polygen._jit import parallel_kernels_may_overlap
 from polygen.volume import _edge_centred_kernels as _k
 from polygen.volume import _edge_walk_kernels as _w
 from polygen.volume import marching as _m
@@ -956,6 +957,8 @@ def _seeds_beside_table(vol, field, seeds, params, order, kw):
     """
     vol.node_cells  # the edge table and the face neighbours are both matched through it
     vol.face_neighbors
+    if not parallel_kernels_may_overlap():  # numba's workqueue layer: one after the other
+        return seed_source(vol, field, seeds, **params), EdgeCentredTable(vol, field, order=order, **kw)
     out = {}
 
     def build():

@@ -17,6 +17,7 @@ import warnings
 
 import numpy as np
 
+from polygen._jit import parallel_kernels_may_overlap
 from polygen.volume import _topology as _k
 from polygen.volume import io as _io
 from polygen.volume import registry as _registry
@@ -462,6 +463,8 @@ class UnstructuredVolume:
     def _prepare_in_background(self, key):
         """Start preparing ``key = (field, method)`` in a daemon thread (once; call under ``_iso_lock``)."""
         if key in self._iso_methods or key in self._iso_pending or key in self.preparation_errors:
+            return
+        if not parallel_kernels_may_overlap():  # numba's workqueue layer: prepared at the next query instead
             return
         thread = threading.Thread(target=self._background_preparation, args=(key,), daemon=True,
                                   name=f"polygen-prepare-{key[1]}-{key[0]}")

@@ -66,6 +66,7 @@ import warnings
 
 import numpy as np
 
+from polygen._jit import parallel_kernels_may_overlap
 from polygen.volume import _thinning_kernels as _k
 from polygen.volume.extrema_graph import Extrema, find_extrema
 from polygen.volume.homology import boundary_defects
@@ -426,6 +427,8 @@ def _edge_table_aside(vol):
     core). :func:`thin_volume` waits for it before it returns.
     """
     if "_edge_table" in vol.__dict__ or vol.n_cells < _ASIDE_MIN_CELLS or (os.cpu_count() or 1) < 2:
+        return None
+    if not parallel_kernels_may_overlap():  # numba's workqueue layer: built when first read instead
         return None
     thread = threading.Thread(target=getattr, args=(vol, "_edge_table"), daemon=True,
                               name="polygen-edge-table")
