@@ -1,7 +1,7 @@
 """The parallel edge-centred construction (issue 20, Deliver 1): exactly the serial construction's surface.
 
-``EdgeCentredTable(..., threads=T)`` splits the seeds among ``T`` threads that propagate side by side
-without compare-and-swap; the oracle is the serial construction (one thread) and the full scan: the same
+``EdgeCentredTable(..., threads=T)`` hands the seeds to ``T`` threads that each run the serial construction
+on their own stack, claiming cells and contested vertices by compare-and-swap; the oracle is the serial construction (one thread) and the full scan: the same
 triangles in the same cells, the same vertices bit for bit, and, in :func:`canonical_order`, equal arrays.
 """
 
@@ -10,6 +10,7 @@ import threading
 import numpy as np
 import pytest
 
+from polygen._jit import njit, prange
 from polygen.volume import _edge_centred_kernels as _k
 from polygen.volume import datasets, methods
 from polygen.volume.edge_centred import EdgeCentredTable, canonical_order
@@ -17,6 +18,33 @@ from polygen.volume.isosurface import IsoSurfaceError, extract
 from polygen.volume.mesh import UnstructuredVolume
 
 from _surfaces import assert_same_surface, block_volume, grid_volume  # noqa: E402
+
+
+@njit
+def _cas(a, i, old, new):
+    return _k._cas(a, i, old, new)
+
+
+@njit
+def _cas_row(a, i, j, old, new):
+    return _k._cas_row(a, i, j, old, new)
+
+
+@njit
+def _fetch_add(a, i, inc):
+    return _k._fetch_add(a, i, inc)
+
+
+@njit(parallel=True)
+def _race(words, total, n_thr):
+    """``n_thr`` threads each try to claim every word (-1 -> its number) by CAS; per thread the words it won."""
+    won = np.zeros(n_thr, np.int64)
+    for t in prange(n_thr):
+        for i in range(words.shape[0]):
+            if _k._cas(words, i, -1, t) == -1:
+                won[t] += 1
+            _k._fetch_add(total, 0, 1)
+    return won
 
 
 def one_seed_per_component(iso):
@@ -66,7 +94,7 @@ def test_random_fields_same_as_serial_and_scan(tets, threads):
         assert_same_as_serial(ser.extract(value, seeds), iso)
         st = par.stats
         assert st["threads"] == threads and sum(st["per_thread"]) == st["pops"]
-        assert st["constructed"] == iso.cells_intersected == st["pops"] - st["duplicates"]
+        assert st["constructed"] == iso.cells_intersected == st["pops"]  # every cell taken once, by one thread
         assert iso.vertex_lookups == 0
 
 
@@ -159,31 +187,55 @@ def test_thinning_seeds_on_data(name):
         assert_same_as_serial(ser.extract(value), iso)
 
 
-def test_doubly_taken_cells_are_kept_once(monkeypatch):
-    """A cell both threads took (a race the test cannot provoke) is kept by its claim's thread only: here every
-    cell of thread 0 is also put into thread 1's list, as a lost race would."""
-    vol = grid_volume((10, 9, 8), spacing=(0.1, 0.1, 0.1), seed=2)
-    s = np.random.default_rng(5).random(vol.n_points)
-    real = _k.propagate_parallel
+def test_compare_and_swap_swaps_only_on_a_match():
+    """The intrinsics under the claims: the old value comes back, the store happens only when it matched."""
+    assert _k.ATOMICS
+    for dt in (np.int32, np.int64):
+        a = np.array([5, 6, -1], dt)
+        assert _cas(a, 0, 5, 7) == 5 and a.tolist() == [7, 6, -1]  # matched: swapped
+        assert _cas(a, 1, 5, 7) == 6 and a.tolist() == [7, 6, -1]  # did not match: unchanged
+        assert _cas(a, 2, -1, 2**30) == -1 and a[2] == 2**30
+        b = np.zeros((2, 3), dt)
+        assert _cas_row(b, 1, 2, 0, 9) == 0 and b[1, 2] == 9 and b.sum() == 9
+        assert _cas_row(b, 1, 2, 0, 4) == 9 and b[1, 2] == 9
+        assert _fetch_add(a, 1, 10) == 6 and a[1] == 16
 
-    def racy(*args):
-        real(*args)
-        log, n_log = args[-3], args[-2]
-        extra = log[0, :n_log[0]].copy()
-        room = log.shape[1] - n_log[1]
-        assert room >= extra.size
-        log[1, n_log[1]:n_log[1] + extra.size] = extra
-        n_log[1] += extra.size
 
-    monkeypatch.setattr(_k, "propagate_parallel", racy)
+def test_compare_and_swap_under_contention():
+    """Two threads race for every word many times: each word is won exactly once, counted fetch-adds add up."""
+    words = np.full(20_000, -1, np.int32)
+    total = np.zeros(1, np.int64)
+    won = _race(words, total, 2)
+    assert won.sum() == words.size  # each word claimed by exactly one of the threads
+    assert set(np.unique(words)) <= {0, 1} and (won == np.bincount(words, minlength=2)).all()
+    assert total[0] == 2 * words.size
+
+
+@pytest.mark.parametrize("tets", [True, False])
+def test_two_threads_stress_small_buffers(tets):
+    """Many queries by two threads from buffers far too small (restarts through every overflow path), and
+    from seeds spread over the whole volume so that the threads meet everywhere: the serial surface each time."""
+    vol = grid_volume((11, 10, 9), spacing=(0.1, 0.1, 0.1), tets=tets, seed=3)
+    x = vol.points
+    s = np.sin(11 * x[:, 0]) * np.cos(9 * x[:, 1]) + np.sin(8 * x[:, 2]) + 0.1 * np.random.default_rng(4).random(
+        vol.n_points)
     ser = EdgeCentredTable(vol, s)
     par = EdgeCentredTable(vol, s, threads=2)
-    par._stack = par._log = np.empty((2, 8 * vol.n_cells), np.int32)
-    seeds = np.arange(vol.n_cells)
-    for value in (0.3, 0.5, 0.7):
+    rng = np.random.default_rng(9)
+    restarts = contested = 0
+    for rep in range(60):
+        value = float(rng.uniform(np.quantile(s, 0.2), np.quantile(s, 0.8)))
+        seeds = rng.permutation(vol.n_cells)[:rng.integers(1, 400)]
+        if rep % 10 == 0:  # back to tiny buffers: the query overflows and restarts
+            par._queue, par._tris, par._tri_cell, par._vkey, par._vend = (
+                np.empty(2, np.int32), np.empty((2, 3), np.int32), np.empty(2, np.int32), np.empty(2, np.int32),
+                np.empty((2, 2), np.int32))
         iso = par.extract(value, seeds)
-        assert par.stats["duplicates"] > 0
         assert_same_as_serial(ser.extract(value, seeds), iso)
+        assert (par._ev == -1).all()  # the contested ids were put back
+        restarts += par.stats["restarts"]
+        contested += par.stats["contested"]
+    assert restarts > 0 and contested > 0  # the overflow and the compare-and-swap paths both ran
 
 
 def test_lists_grow_and_queries_repeat():
@@ -191,7 +243,7 @@ def test_lists_grow_and_queries_repeat():
     s = np.random.default_rng(5).random(vol.n_points)
     ser = EdgeCentredTable(vol, s)
     par = EdgeCentredTable(vol, s, threads=2)
-    par._stack = par._log = np.empty((2, 2), np.int32)  # too small for any surface here
+    par._queue = np.empty(2, np.int32)  # too small for any surface here
     seeds = np.arange(vol.n_cells)
     iso = par.extract(0.5, seeds)
     assert par.stats["restarts"] > 0
@@ -200,7 +252,7 @@ def test_lists_grow_and_queries_repeat():
     assert par.stats["restarts"] == 0
     assert_same_as_serial(iso, again)
     mem = par.memory_bytes()
-    assert mem["parallel"] == 4 * (vol.edges.shape[0] + 2 * vol.n_points) + 2 * par._log.nbytes + 6 * vol.n_cells
+    assert mem["parallel"] == 4 * (vol.edges.shape[0] + vol.n_points)  # the contested-vertex ids only
     assert "parallel" not in ser.memory_bytes()
 
 

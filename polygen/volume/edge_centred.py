@@ -364,7 +364,7 @@ class EdgeCentredTable:
         new._tri_cell = np.empty_like(self._tri_cell)
         new._vkey = np.empty_like(self._vkey)
         new._vend = np.empty_like(self._vend)
-        new._vid = new._node_gen = new._stack = new._log = new._claim = None
+        new._ev = None
         new.stats = {}
         return new
 
@@ -399,12 +399,13 @@ class EdgeCentredTable:
             raise IsoSurfaceError(f"seed cells must be in 0..{m - 1}; got {bad[:5].tolist()}")
         return np.ascontiguousarray(seeds, np.int32)
 
-    def _next_generation(self):
-        if self.generation == _INT32_MAX:  # once in 2**31 queries: really clear the stamps
+    def _next_generation(self, n=1):
+        """The first of ``n`` new generations (a parallel query takes one per thread)."""
+        if self.generation > _INT32_MAX - n:  # once in 2**31 queries: really clear the stamps
             self.dyn[:, _k.R_GEN] = 0
             self.generation = 0
-        self.generation += 1
-        return self.generation
+        self.generation += n
+        return self.generation - n + 1
 
     def extract(self, value, seeds, *, normals="mean", threads=None):
         """The isosurface reached from ``seeds``, built without any vertex search.
@@ -438,7 +439,7 @@ class EdgeCentredTable:
         seeds = self._check_seeds(seeds)
         threads = self.threads if threads is None else _check_threads(threads)
         node_grad = self.node_gradients if normals == "gradient" else None
-        if threads > 1:
+        if threads > 1 and _k.ATOMICS:  # without compare-and-swap, one thread
             return self._extract_parallel(value, seeds, normals, node_grad, threads)
         restarts = 0
         counters = np.zeros(_k.N_COUNTERS, np.int64)
@@ -508,103 +509,104 @@ class EdgeCentredTable:
             method=self.method,
         )
 
+    def _parallel_buffers(self, threads):
+        """The serial buffers seen as ``threads`` per-thread parts, and the vertex-id array ``ev`` (made once).
+
+        The parallel construction runs in the serial one's query buffers (a
+        builder serves one query at a time): thread ``t`` gets the ``t``-th
+        of ``threads`` equal parts of the queue (its stack), the triangle
+        list and the vertex lists; an overflow doubles the whole buffer, as
+        in the serial path. ``ev`` (n_edges + n_nodes,) int32, -1 between
+        queries: the vertex id of a contested edge or node, decided by
+        compare-and-swap.
+        """
+        if getattr(self, "_ev", None) is None:
+            self._ev = np.full(self.n_edges + self.vol.n_points, -1, np.int32)
+        mt = _m.MAX_TRIANGLES
+        q = self._queue.shape[0] // threads
+        tc = self._tris.shape[0] // threads
+        vc = self._vkey.shape[0] // threads
+        while q < 16 or tc < mt + 16 or vc < 16:  # parts too small for a polygon: grow them first
+            self._queue = np.empty(2 * max(16 * threads, self._queue.shape[0]), np.int32)
+            self._tris = np.empty((2 * max((mt + 16) * threads, self._tris.shape[0]), 3), np.int32)
+            self._tri_cell = np.empty(self._tris.shape[0], np.int32)
+            self._vkey = np.empty(2 * max(16 * threads, self._vkey.shape[0]), np.int32)
+            self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
+            q, tc, vc = self._queue.shape[0] // threads, self._tris.shape[0] // threads, self._vkey.shape[0] // threads
+        return (self._queue[:q * threads].reshape(threads, q), self._tris[:tc * threads].reshape(threads, tc, 3),
+                self._tri_cell[:tc * threads].reshape(threads, tc), self._vkey[:vc * threads].reshape(threads, vc),
+                self._vend[:vc * threads].reshape(threads, vc, 2))
+
     def _extract_parallel(self, value, seeds, normals, node_grad, threads):
-        """:meth:`extract` by ``threads`` threads (see ``_edge_centred_kernels.propagate_parallel``)."""
-        nn, s, ne = self.nn, self.s, self.ne
-        tabs = (self.table, self.count, self.case_mask, self.local_edges)
-        self._build_node_cells()
-        if self._owned is None:  # shared with the copies made after it
-            cell_starts = self.starts if self.rec is not None else self.ec_off[self.ids]
-            self._owned = _k.owned_edges(self.ec, cell_starts)
-        if self._claim is None:
-            self._claim = np.empty(self.dyn.shape[0], np.int32)
-        claim, owned = self._claim, self._owned
-        if self._vid is None:
-            self._vid = np.empty(self.n_edges + self.vol.n_points, np.int32)
-            self._node_gen = np.zeros(self.vol.n_points, np.int32)
-        if self._log is None or self._log.shape[0] != threads:
-            cap = max(1024, self._queue.shape[0] // threads)
-            self._stack = np.empty((threads, cap), np.int32)
-            self._log = np.empty((threads, cap), np.int32)
-        n_log = np.zeros(threads, np.int64)
-        status = np.zeros(threads, np.int64)
+        """:meth:`extract` by ``threads`` threads (``_edge_centred_kernels.construct_parallel``)."""
+        nn, s = self.nn, self.s
         restarts = 0
         while True:
-            gen = self._next_generation()
-            if gen == 1:  # the stamps were cleared: so are the node stamps
-                self._node_gen[:] = 0
+            stack, tris, tri_cell, vkey, vend = self._parallel_buffers(threads)
+            gen = self._next_generation(threads)  # thread t claims with gen + t
+            counters = np.zeros((threads, 8), np.int64)
+            status = np.zeros(threads, np.int64)
+            next_seed = np.zeros(1, np.int64)
             t0 = time.perf_counter()
-            if self._queue.shape[0] < seeds.shape[0]:
-                self._queue = np.empty(2 * seeds.shape[0], np.int32)
-            tested, n_queued = _k.test_seeds(self.nodes, self.dyn, nn, s, value, self.faces, seeds, gen, self._queue)
-            t1 = time.perf_counter() - t0
-            t0 = time.perf_counter()
-            _k.propagate_parallel(self.nodes, self.ids, self.starts, self.dyn, nn, s, value, self.faces, *tabs,
-                                  self.ec_off, self.ec,
-                                  *self._nc(), gen, self._queue, n_queued, claim, self._stack, self._log, n_log,
-                                  status)
+            _k.construct_parallel(self.nodes, self.ids, self.starts, self.dyn, self.ds, nn, s, value, self.faces,
+                                  self.table, self.count, self.case_mask, self.local_edges, self.n_edges, self.ec_off,
+                                  self.ec, *self._nc(), gen, seeds, next_seed, self._ev, stack, tris, tri_cell, vkey,
+                                  vend, counters, status)
+            _k.release_contested(vkey, counters, self._ev)  # ev back to -1 where a thread won a vertex
             if not status.any():
                 break
-            restarts += 1  # a thread's list was too small: grow them and do the query again
-            cap = 2 * self._log.shape[1]
-            self._stack = np.empty((threads, cap), np.int32)
-            self._log = np.empty((threads, cap), np.int32)
-        counts = np.zeros((threads, 4), np.int64)
-        exact_cells = self._stack  # free once the propagation is done
-        _k.number_parallel(self.nodes, self.ids, self.dyn, nn, s, value, *tabs, owned, claim, self._log, n_log,
-                           self._vid, exact_cells,
-                           counts)
-        n_edge_v = int(counts[:, 1].sum())
-        n_cap = n_edge_v + int(counts[:, 2].sum()) * nn  # node vertices: at most nn per exact cell
-        keys = np.empty(n_cap, np.int64)
-        vend = np.empty((n_cap, 2), np.int32)
-        n_node_v = 0
-        if counts[:, 2].any():
-            n_node_v = _k.number_nodes(self.nodes, self.ids, self.dyn, nn, s, value, *tabs, self.n_edges, exact_cells,
-                                       counts, self._vid,
-                                       self._node_gen, gen, n_edge_v, keys, vend)
-        n_v = n_edge_v + n_node_v
-        v_base = np.zeros(threads + 1, np.int64)
-        v_base[1:] = np.cumsum(counts[:, 1])
+            restarts += 1  # a buffer was too small (or a table missing): grow (build) it and do the query again
+            worst = int(status[status != _k.OK][0])
+            if worst == _k.FULL_QUEUE:
+                self._queue = np.empty(2 * self._queue.shape[0], np.int32)
+            elif worst == _k.FULL_TRIANGLES:
+                self._tris = np.empty((2 * self._tris.shape[0], 3), np.int32)
+                self._tri_cell = np.empty(self._tris.shape[0], np.int32)
+            elif worst == _k.NEED_NODE_CELLS:
+                self._build_node_cells()
+            else:
+                self._vkey = np.empty(2 * self._vkey.shape[0], np.int32)
+                self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
         t_base = np.zeros(threads + 1, np.int64)
-        t_base[1:] = np.cumsum(counts[:, 0])
-        n_t = int(t_base[-1])
+        t_base[1:] = np.cumsum(counters[:, 0])
+        v_base = np.zeros(threads + 1, np.int64)
+        v_base[1:] = np.cumsum(counters[:, 1])
+        n_t, n_v = int(t_base[-1]), int(v_base[-1])
         tri = np.empty((n_t, 3), np.int64)
-        tri_cell = np.empty(n_t, np.int64)
-        _k.write_parallel(self.nodes, self.ids, self.dyn, nn, s, value, *tabs, self.n_edges, owned, claim, self._log,
-                          n_log, self._vid,
-                          v_base, t_base, tri, tri_cell, keys, vend)
-        keys = keys[:n_v]
-        vend = vend[:n_v]
-        tri, tri_cell, keys, vend, collapsed = _drop_at_nodes(bool(n_node_v), tri, tri_cell, keys, vend, self.n_edges)
+        tri_cell_out = np.empty(n_t, np.int64)
+        keys = np.empty(n_v, np.int64)
+        ends = np.empty((n_v, 2), np.int32)
+        _k.gather_parallel(tris, tri_cell, vkey, vend, counters, t_base, v_base, tri, tri_cell_out, keys, ends)
+        n_node_v = int(counters[:, 7].sum())
+        tri, tri_cell_out, keys, ends, collapsed = _drop_at_nodes(n_node_v > 0, tri, tri_cell_out, keys, ends,
+                                                                  self.n_edges)
         n_v = keys.shape[0]
         t2 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
         vertices = np.empty((n_v, 3))
         if n_v:
-            _k.positions(np.ascontiguousarray(vend), n_v, self.points, s, value, vertices)
+            _k.positions(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
         nrm = vertex_normals(normals, vertices, tri, keys, edges=np.ascontiguousarray(self.vol.edges), s=s,
                              value=value, node_grad=node_grad, points=self.points)
         t3 = time.perf_counter() - t0
-        pops = int(n_log.sum())
-        n_p = int(counts[:, 3].sum())
+        n_p = int(counters[:, 3].sum())
+        tested = int(counters[:, 5].sum())
         self.stats = {
-            "pops": pops,
+            "pops": int(counters[:, 4].sum()),
             "constructed": n_p,
-            "duplicates": pops - n_p,
-            "seeds_tested": int(tested),
-            "seeds_crossed": int(n_queued),
+            "cells_tested": tested,
+            "contested": int(counters[:, 6].sum()),
+            "node_vertices": n_node_v,
             "lookups": 0,
             "restarts": restarts,
             "collapsed": tuple(map(tuple, collapsed.tolist())),
             "threads": threads,
-            "per_thread": tuple(int(x) for x in n_log),
+            "per_thread": tuple(int(x) for x in counters[:, 4]),
         }
         return IsoSurface(
-            value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell,
-            cells_tested=int(tested) + n_p - int(n_queued), cells_intersected=n_p, vertex_lookups=0,
-            t1=t1, t2=t2, t3=t3, method=self.method,
+            value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell_out,
+            cells_tested=tested, cells_intersected=n_p, vertex_lookups=0, t1=0.0, t2=t2, t3=t3, method=self.method,
         )
 
     def memory_bytes(self):
@@ -639,9 +641,8 @@ class EdgeCentredTable:
             out["query_state"] = int(self.dyn.nbytes)
         if "nc" in self._node_cells:
             out["node_cells"] = int(sum(a.nbytes for a in self._node_cells["nc"]))
-        if self._vid is not None:
-            out["parallel"] = int(self._vid.nbytes + self._node_gen.nbytes + self._stack.nbytes + self._log.nbytes
-                                  + self._claim.nbytes + self._owned.nbytes)
+        if getattr(self, "_ev", None) is not None:
+            out["parallel"] = int(self._ev.nbytes)
         return out
 
 
