@@ -238,6 +238,25 @@ def test_two_threads_stress_small_buffers(tets):
     assert restarts > 0 and contested > 0  # the overflow and the compare-and-swap paths both ran
 
 
+@pytest.mark.parametrize("tets", [True, False])
+def test_stage3_by_the_threads(tets, monkeypatch):
+    """Positions and mean normals by the threads (every surface, threshold 0): the serial ones (normals to
+    rounding: the per-part sums regroup the serial sum), and the canonical order on request."""
+    vol = grid_volume((12, 11, 10), spacing=(0.1, 0.1, 0.1), tets=tets, jitter=0.2 if tets else 0.0, seed=6)
+    s = np.random.default_rng(8).random(vol.n_points)
+    monkeypatch.setattr(EdgeCentredTable, "STAGE3_PARALLEL_TRIANGLES", 0)
+    ser = EdgeCentredTable(vol, s)
+    par = EdgeCentredTable(vol, s, threads=2)
+    seeds = np.arange(vol.n_cells)
+    for value in (0.3, 0.5, 0.7):
+        a = ser.extract(value, seeds, canonical=True)
+        b = par.extract(value, seeds, canonical=True)
+        assert_same_as_serial(a, b)
+        np.testing.assert_array_equal(a.triangles, b.triangles)  # canonical: equal arrays as returned
+        np.testing.assert_allclose(a.normals, b.normals, atol=1e-12, rtol=0)
+        assert np.allclose(np.linalg.norm(b.normals, axis=1), 1.0)
+
+
 def test_lists_grow_and_queries_repeat():
     vol = grid_volume((10, 9, 8), spacing=(0.1, 0.1, 0.1), seed=2)
     s = np.random.default_rng(5).random(vol.n_points)

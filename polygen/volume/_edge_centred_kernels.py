@@ -1115,3 +1115,76 @@ def release_contested(vkey, counters, ev):
             k = vkey[t, i]
             if k < 0:
                 ev[~k] = -1
+
+
+# ------------------------------------------------------------------ stage 3 in parallel
+@njit(parallel=True, cache=_KCACHE)
+def positions_parallel(vend, n_v, points, s, value, out):
+    """:func:`positions` over the vertices by numba's threads (each vertex on its own: no two write one row)."""
+    for v in prange(n_v):
+        a = vend[v, 0]
+        b = vend[v, 1]
+        if a == b:
+            for d in range(3):
+                out[v, d] = points[a, d]
+        else:
+            c1 = s[a]
+            c2 = s[b]
+            # (5.2) P_c = ((C - C1) P2 - (C - C2) P1) / (C2 - C1)
+            for d in range(3):
+                out[v, d] = ((value - c1) * points[b, d] - (value - c2) * points[a, d]) / (c2 - c1)
+
+
+@njit(parallel=True, cache=_KCACHE)
+def mean_normals_parallel(vertices, triangles, out, extra):
+    """``marching._mean_normals`` by ``P = extra.shape[0] + 1`` threads, in two passes.
+
+    The triangles are cut into ``P`` consecutive parts; part 0 adds its
+    area-weighted triangle normals into ``out``, part ``p`` into ``extra[p -
+    1]`` (V, 3) (a scatter-add of several threads into one array would need
+    atomics); then each vertex sums its ``P`` rows and is normalised. The
+    sums are the serial ones regrouped (part by part), equal to them up to
+    rounding.
+    """
+    n_parts = extra.shape[0] + 1
+    n_t = triangles.shape[0]
+    n_v = out.shape[0]
+    for p in prange(n_parts):
+        acc = out if p == 0 else extra[p - 1]
+        for v in range(n_v):
+            acc[v, 0] = 0.0
+            acc[v, 1] = 0.0
+            acc[v, 2] = 0.0
+        for t in range(p * n_t // n_parts, (p + 1) * n_t // n_parts):
+            i0 = triangles[t, 0]
+            i1 = triangles[t, 1]
+            i2 = triangles[t, 2]
+            ux = vertices[i1, 0] - vertices[i0, 0]
+            uy = vertices[i1, 1] - vertices[i0, 1]
+            uz = vertices[i1, 2] - vertices[i0, 2]
+            wx = vertices[i2, 0] - vertices[i0, 0]
+            wy = vertices[i2, 1] - vertices[i0, 1]
+            wz = vertices[i2, 2] - vertices[i0, 2]
+            nx = uy * wz - uz * wy
+            ny = uz * wx - ux * wz
+            nz = ux * wy - uy * wx
+            for i in (i0, i1, i2):
+                acc[i, 0] += nx
+                acc[i, 1] += ny
+                acc[i, 2] += nz
+    for v in prange(n_v):
+        x = out[v, 0]
+        y = out[v, 1]
+        z = out[v, 2]
+        for p in range(n_parts - 1):
+            x += extra[p, v, 0]
+            y += extra[p, v, 1]
+            z += extra[p, v, 2]
+        ln = np.sqrt(x ** 2 + y ** 2 + z ** 2)
+        if ln > 0.0:
+            x /= ln
+            y /= ln
+            z /= ln
+        out[v, 0] = x
+        out[v, 1] = y
+        out[v, 2] = z

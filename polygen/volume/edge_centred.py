@@ -280,6 +280,9 @@ class EdgeCentredTable:
 
     #: the layout by measurement (see the class docstring)
     DEFAULT_LAYOUT = "records"
+    #: a parallel query (``threads > 1``) computes positions and mean normals by its threads too from this
+    #: many triangles up (below, serially: see the class docstring)
+    STAGE3_PARALLEL_TRIANGLES = 20_000
 
     def __init__(self, vol, field=None, *, order="lifo", threads=1, layout=None):
         t0 = time.perf_counter()
@@ -407,7 +410,7 @@ class EdgeCentredTable:
         self.generation += n
         return self.generation - n + 1
 
-    def extract(self, value, seeds, *, normals="mean", threads=None):
+    def extract(self, value, seeds, *, normals="mean", threads=None, canonical=False):
         """The isosurface reached from ``seeds``, built without any vertex search.
 
         Parameters
@@ -423,6 +426,10 @@ class EdgeCentredTable:
             than 1 runs the parallel construction (:meth:`_construct_parallel`):
             the same triangles and vertices, in another order
             (:func:`canonical_order` gives one order for both).
+        canonical : bool, keyword-only
+            Return the surface in :func:`canonical_order` (vertices by key,
+            triangles by cell): the same arrays whatever the thread count
+            and queue order.
 
         Returns
         -------
@@ -434,6 +441,8 @@ class EdgeCentredTable:
             ``t2`` the construction (for-loops (1)-(3) with the triangle
             list), ``t3`` positions and normals.
         """
+        if canonical:
+            return canonical_order(self.extract(value, seeds, normals=normals, threads=threads))
         value = check_value(value)
         check_normals(normals)
         seeds = self._check_seeds(seeds)
@@ -585,10 +594,17 @@ class EdgeCentredTable:
 
         t0 = time.perf_counter()
         vertices = np.empty((n_v, 3))
-        if n_v:
+        mean_kernel = None
+        if n_t >= self.STAGE3_PARALLEL_TRIANGLES:  # positions and mean normals by the threads too
+            if n_v:
+                _k.positions_parallel(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
+
+            def mean_kernel(v, t, out):
+                _k.mean_normals_parallel(v, t, out, np.empty((threads - 1, v.shape[0], 3)))
+        elif n_v:
             _k.positions(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
         nrm = vertex_normals(normals, vertices, tri, keys, edges=np.ascontiguousarray(self.vol.edges), s=s,
-                             value=value, node_grad=node_grad, points=self.points)
+                             value=value, node_grad=node_grad, points=self.points, mean_kernel=mean_kernel)
         t3 = time.perf_counter() - t0
         n_p = int(counters[:, 3].sum())
         tested = int(counters[:, 5].sum())
