@@ -795,33 +795,7 @@ def positions(vend, n_v, points, s, value, out):
 
 
 # ------------------------------------------------------------------ the parallel construction
-# Every thread runs construct's loop (LIFO) on its own stack; the seeds are handed out one at a time
-# from a shared counter, each flooded to exhaustion before the next is taken. Memory ordering, and why
-# no thread ever reads half of something another thread is writing:
-#
-# * claims: a cell belongs to the thread whose compare-and-swap moved its stamp from an old value
-#   (< gen) to ``gen + t``: a query takes the T generations ``gen .. gen + T - 1``, one per thread,
-#   so the stamp alone says "claimed in this query, by thread t" in one word and a single CAS. Only
-#   the owner writes the cell's state and slots, and only the owner reads them: a thread sees of
-#   another thread's cell nothing but its stamp (a plain load first; a value in the block is final
-#   -- a claim is never undone within the query -- and any other value is decided by the CAS, whose
-#   result names the owner). Half-initialised records are therefore never read.
-# * vertices: the thread that pops one of its cells with an empty slot for edge E (or node N) creates
-#   the vertex. First pass over the cells around E: claim the unclaimed ones (construct, push), and
-#   note whether any belongs to another thread. If none does, this thread owns every cell around E
-#   for the rest of the query (they are all claimed now and claims are final), nobody else can ever
-#   need the vertex, and it is created without any shared write. If one does ("contested"), the
-#   vertex id is decided by a CAS on ``ev[key]`` from -1 to this thread's new id (``k * T + t``, the
-#   thread's k-th vertex): the winner creates it, a loser takes the winner's id from the CAS's result.
-#   Any two threads that both create E see each other's cell (the one each popped was claimed before
-#   its pass, and the other's pass either claims it -- impossible, it is owned -- or sees it owned),
-#   so a vertex is never created twice. The id is only a number: the vertex's key and ends live in
-#   the winner's own buffer and are read after the parallel region ends (its join is the barrier).
-#   Second pass: the id into the slots of this thread's own cells around E.
-# * ``ev`` holds -1 outside a query: each winner marks the keys it swapped (``~key`` in its vertex
-#   list) and :func:`release_contested` puts -1 back after the query, so the entries need no generation and the cost is paid only on
-#   contested edges (the boundaries between the threads' regions).
-# Per cell the work is construct's plus one CAS per claimed cell; a contested edge costs one more CAS.
+# The claims, the vertex ids and the memory ordering: see construct_parallel's docstring.
 
 
 @njit
@@ -1063,8 +1037,8 @@ def construct_parallel(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_tab
                        counters, status):
     """t1 + t2 by ``T = stack.shape[0]`` threads, each doing :func:`construct`'s work on its own part.
 
-    See the comment above :func:`_flood` for the claims by compare-and-swap
-    and the memory ordering. ``seeds`` (all of them, tested here: the
+    The claims by compare-and-swap and the memory ordering are in the
+    Notes below. ``seeds`` (all of them, tested here: the
     claim comes first) are handed out from ``next_seed[0]`` (0 on entry);
     ``dyn`` stamps take the values ``gen .. gen + T - 1`` (thread ``t``
     claims with ``gen + t``: the caller reserves T generations); ``ev``
@@ -1079,7 +1053,42 @@ def construct_parallel(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_tab
     vertices, unused, polygons, pops, cells tested, contested vertices,
     vertices on nodes)``; ``status[t]`` OK or
     the buffer that was too small (the caller grows it and runs the query
-    again under new generations). Only the stamps are read across threads;
+    again under new generations).
+
+    Notes
+    -----
+    Every thread runs construct's loop (LIFO) on its own stack; the seeds are handed out one at a time
+    from a shared counter, each flooded to exhaustion before the next is taken. Memory ordering, and why
+    no thread ever reads half of something another thread is writing:
+
+    * claims: a cell belongs to the thread whose compare-and-swap moved its stamp from an old value
+      (< gen) to ``gen + t``: a query takes the T generations ``gen .. gen + T - 1``, one per thread,
+      so the stamp alone says "claimed in this query, by thread t" in one word and a single CAS. Only
+      the owner writes the cell's state and slots, and only the owner reads them: a thread sees of
+      another thread's cell nothing but its stamp (a plain load first; a value in the block is final
+      -- a claim is never undone within the query -- and any other value is decided by the CAS, whose
+      result names the owner; a stale plain load only sends the thread to a CAS that fails). Half-initialised
+      records are therefore never read. Stamps of earlier queries, serial or parallel, are all below
+      ``gen`` (generations only grow; the builder clears every stamp before they would wrap), and the
+      next query starts above ``gen + T - 1``. The CAS is LLVM's ``cmpxchg seq_cst`` (``lock cmpxchg``
+      on x86), so a claim is visible to every thread before the claimer writes the cell's state.
+    * vertices: the thread that pops one of its cells with an empty slot for edge E (or node N) creates
+      the vertex. First pass over the cells around E: claim the unclaimed ones (construct, push), and
+      note whether any belongs to another thread. If none does, this thread owns every cell around E
+      for the rest of the query (they are all claimed now and claims are final), nobody else can ever
+      need the vertex, and it is created without any shared write. If one does ("contested"), the
+      vertex id is decided by a CAS on ``ev[key]`` from -1 to this thread's new id (``k * T + t``, the
+      thread's k-th vertex): the winner creates it, a loser takes the winner's id from the CAS's result.
+      Any two threads that both create E see each other's cell (the one each popped was claimed before
+      its pass, and the other's pass either claims it -- impossible, it is owned -- or sees it owned),
+      so a vertex is never created twice. The id is only a number: the vertex's key and ends live in
+      the winner's own buffer and are read after the parallel region ends (its join is the barrier).
+      Second pass: the id into the slots of this thread's own cells around E.
+    * ``ev`` holds -1 outside a query: each winner marks the keys it swapped (``~key`` in its vertex
+      list) and :func:`release_contested` puts -1 back after the query (also after an overflow), so
+      the entries need no generation and the cost is paid only on contested edges (the boundaries between
+      the threads' regions: a few per cent of the vertices, see benchmarks/parallel_construction.py).
+    Per cell the work is construct's plus one CAS per claimed cell; a contested edge costs one more CAS.
     """
     n_thr = stack.shape[0]
     for t in prange(n_thr):

@@ -233,21 +233,29 @@ class EdgeCentredTable:
         measurement (see the notes in ``benchmarks/results/interactive.md``).
     threads : int or None, keyword-only
         Threads for one query (default 1; ``None``: numba's thread count).
-        With more than one, the seeds are split among the threads, which
-        propagate side by side without compare-and-swap (a cell two threads
-        both take is kept by one, see
-        ``_edge_centred_kernels.propagate_parallel``); the vertices are
-        numbered by their edges' first cells and the triangles written to
-        per-thread offsets afterwards. The same triangles and vertices as one
-        thread, in another order (:func:`canonical_order` gives one order for
-        both). Costs ``4 (n_edges + 2 n_points) + 6 n_cells`` bytes more, and
-        two lists of the cells taken per thread. ``stats`` then has ``pops`` (cells taken,
-        doubles included), ``constructed``, ``duplicates``, ``per_thread``.
-        Measured (``benchmarks/results/parallel_construction.md``, a shared
-        2-core machine under load ~7.5): slower than one thread (median
-        42.7 ms against 2.26 ms for the construction on 2M), and its total
-        work, run on one core, 1.2 times the serial's at the median: the
-        default stays 1. Two builders running such queries at once from two
+        With more than one, every thread runs this construction's own loop
+        on its own stack, taking the next unclaimed seed from a shared
+        counter whenever its stack runs dry; a thread claims a cell by
+        compare-and-swap on the cell's stamp (the query takes one generation
+        per thread), and a vertex on an edge (node) whose cells belong to
+        two threads gets its id by compare-and-swap on a per-edge array (see
+        ``_edge_centred_kernels._flood``): each cell is constructed once,
+        the work is the serial construction's plus one CAS per cell (the
+        total work run on one core: ~1.1 times the serial's on 2M), and the
+        triangles and vertices, gathered from per-thread parts of the
+        buffers by prefix sums, are the serial ones in another order
+        (``canonical=True``, or :func:`canonical_order`, gives one order for
+        both). From :attr:`STAGE3_PARALLEL_TRIANGLES` triangles up the
+        positions and mean normals are computed by the threads too. Costs
+        ``4 (n_edges + n_nodes)`` bytes more (the contested-vertex ids).
+        ``stats`` then has ``pops`` (= ``constructed``: no cell is taken
+        twice), ``contested`` (vertices decided by CAS), ``per_thread``
+        (cells each thread took). Without working atomics (``_edge_centred_kernels.ATOMICS``)
+        a query runs on one thread. The default stays 1: on this shared
+        2-core machine (load 6-9 while measured,
+        ``benchmarks/results/parallel_construction.md``) a parallel region
+        waits tens of milliseconds for the busy second core, so two threads
+        were slower than one. Two builders running such queries at once from two
         Python threads need a thread-safe numba threading layer (``omp`` or
         ``tbb``, not ``workqueue``); :meth:`EdgeCentredMethod.extract_many`
         runs its values one thread each.
