@@ -17,7 +17,8 @@ from polygen.volume.edge_centred import EdgeCentredTable, canonical_order
 from polygen.volume.isosurface import IsoSurfaceError, extract
 from polygen.volume.mesh import UnstructuredVolume
 
-from _surfaces import assert_same_surface, block_volume, grid_volume  # noqa: E402
+from _surfaces import assert_same_surface, block_volume, grid_volume, iso_values, sorted_triangles  # noqa: E402
+from test_thinning import ADVERSARIAL, random_shape  # noqa: E402
 
 
 @njit
@@ -332,3 +333,48 @@ def test_walk_method_refuses_threads():
     with pytest.raises(IsoSurfaceError, match="edge-centred-table"):
         methods.get("edge-centred")(vol, threads=2)
     assert methods.get("edge-centred")(vol, threads=1).extract(float(np.median(vol.scalars()))).n_triangles > 0
+
+
+# ------------------------------------------------------------------ completeness sweeps with two threads
+def _assert_complete(vol, field, values):
+    """Two threads from the thinning seeds give the full scan's triangles for every value."""
+    m = methods.get("edge-centred-table")(vol, field, threads=2)
+    for v in values:
+        ours = m.extract(v)
+        ref = extract(vol, v, field=field)
+        a, b = sorted_triangles(ours), sorted_triangles(ref)
+        assert a.shape == b.shape and np.array_equal(a, b), (
+            f"value {v}: {a.shape[0]} triangles by two threads, {b.shape[0]} by the scan")
+        assert ours.cells_intersected == ref.cells_intersected
+
+
+def test_tiny_volumes_complete_with_two_threads(tiny_volume):
+    """The sweeps of the thinning tests (200 values per field) by the parallel construction: the full scan's
+    triangles every time."""
+    for field in tiny_volume.fields:
+        _assert_complete(tiny_volume, field, iso_values(tiny_volume.scalars(field), 200))
+
+
+@pytest.mark.parametrize("cell_type", ["tetra", "hexa"])
+def test_adversarial_and_tied_volumes_complete_with_two_threads(cell_type):
+    for build in ADVERSARIAL.values():
+        vol = build(cell_type)
+        for field in vol.fields:
+            _assert_complete(vol, field, iso_values(vol.scalars(field), 200))
+    rng = np.random.default_rng(7 if cell_type == "tetra" else 8)
+    for _ in range(8):  # random holes and voids, quantised random fields: many ties and flat extrema
+        vol = random_shape(rng, cell_type)
+        s = rng.integers(0, int(rng.integers(2, 6)), vol.n_points).astype(float)
+        u = np.unique(s)
+        _assert_complete(vol, s, np.concatenate([u, (u[:-1] + u[1:]) / 2]))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["data4", "2M"])
+def test_twenty_values_on_large_data_same_as_serial(name):
+    vol = datasets.load(name)
+    s = vol.scalars("fem")
+    m = methods.get("edge-centred-table")(vol, field="fem")
+    for v in np.linspace(s.min(), s.max(), 22)[1:-1]:
+        seeds = m.source.query(v).cells
+        assert_same_as_serial(m.builder.extract(v, seeds), m.builder.extract(v, seeds, threads=2))
