@@ -67,6 +67,8 @@ NOT_CROSSED = -1
 QUEUED = -2
 #: kernel status codes: 0 done, 1-3 the buffer that overflowed, 4 the cells around the nodes are needed
 OK, FULL_QUEUE, FULL_TRIANGLES, FULL_VERTICES, NEED_NODE_CELLS = 0, 1, 2, 3, 4
+#: :func:`_flood` stopped after its budget of cells (a test interleaves two threads' work this way)
+PAUSED = 5
 #: counters written by :func:`construct` (indices into ``counters``)
 C_POPS, C_VISITS, C_TOUCHED, C_CONSTRUCTED, C_NODE_TESTS, C_NODE_VERTICES, C_LOOKUPS = 0, 1, 2, 3, 4, 5, 6
 N_COUNTERS = 7
@@ -800,8 +802,15 @@ def positions(vend, n_v, points, s, value, out):
 
 @njit
 def _flood(t, nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_count, case_mask, local_edges, n_edges,
-           ec_off, ec, nc_off, nc, gen, seeds, next_seed, ev, stack, tris, tri_cell, vkey, vend, counters):
-    """Thread ``t``'s share of :func:`construct_parallel`; returns its status, fills ``counters[t]``."""
+           ec_off, ec, nc_off, nc, gen, seeds, next_seed, ev, stack, tris, tri_cell, vkey, vend, counters, budget):
+    """Thread ``t``'s share of :func:`construct_parallel`; returns its status, fills ``counters[t]``.
+
+    Resumes from ``counters[t]`` (zeros: from the start; ``counters[t, 2]``
+    is the depth of its stack). ``budget > 0``: returns ``PAUSED`` after
+    that many cells taken from its stack, to be called again (a test runs
+    two threads' shares interleaved, one cell at a time, on one thread: a
+    deterministic race); 0: no limit.
+    """
     n_thr = stack.shape[0]
     me = gen + t
     top = gen + n_thr
@@ -814,16 +823,20 @@ def _flood(t, nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
     vals = np.empty(8, np.float64)
     codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
     codes_j = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
-    n_p = 0
-    n_t = 0
-    n_v = 0
-    sp = 0
-    pops = 0
-    tested = 0
-    contested = 0
-    node_vertices = 0
+    n_t = counters[t, 0]
+    n_v = counters[t, 1]
+    sp = counters[t, 2]
+    n_p = counters[t, 3]
+    pops = counters[t, 4]
+    tested = counters[t, 5]
+    contested = counters[t, 6]
+    node_vertices = counters[t, 7]
+    stop = pops + budget if budget > 0 else -1
     status = OK
     while status == OK:
+        if pops == stop:
+            status = PAUSED
+            break
         if sp == 0:  # flooded: the next seed nobody has claimed
             i = _fetch_add(next_seed, 0, 1)
             if i >= n_seeds:
@@ -894,6 +907,7 @@ def _flood(t, nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
                 break
             other = False
             node = -1
+            v = n_v * n_thr + t  # this thread's next vertex, unless another thread made it first
             if w < ne:
                 lo = (starts[c, w] if starts.shape[0] > 0 else ec_off[ids[c, w]])
                 key = ec[lo - 1]
@@ -906,8 +920,9 @@ def _flood(t, nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
                     if packed & LAST:
                         break
                 end = q
-                for q in range(lo, end):  # pass 1: claim the unclaimed cells around E, note the others'
-                    j = ec[q] >> CELL_SHIFT
+                for q in range(lo, end):  # pass 1: claim the unclaimed cells around E, register v in mine
+                    packed = ec[q]
+                    j = packed >> CELL_SHIFT
                     o = dyn[j, R_GEN]
                     if o < gen or o >= top:
                         o2 = _cas_row(dyn, j, R_GEN, o, me)
@@ -929,10 +944,18 @@ def _flood(t, nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
                             n_p += 1
                             stack[t, sp] = j
                             sp += 1
-                            continue
-                        o = o2
+                            o = me
+                        else:
+                            o = o2
                     if o != me:
                         other = True
+                        continue
+                    lw = packed & LOCAL  # register v (this thread's new vertex, unless a CAS below says not)
+                    stj = dyn[j, R_STATE]
+                    if nn != 4:
+                        dyn[j, ds + lw] = v
+                    elif (stj >> (MASK_SHIFT + lw)) & 1 == 1:
+                        dyn[j, ds + _POPCOUNT[(stj >> MASK_SHIFT) & ((1 << lw) - 1)]] = v
                 if status != OK:
                     break
             else:  # a vertex exactly on a node: the cells around the node, each tested
@@ -973,7 +996,6 @@ def _flood(t, nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
                         other = True
                 if status != OK:
                     break
-            v = n_v * n_thr + t  # this thread's next vertex, unless another thread made it first
             if other:
                 contested += 1
                 o = _cas(ev, key, -1, v)
@@ -991,7 +1013,9 @@ def _flood(t, nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
                     vend[t, n_v, 1] = node
                     node_vertices += 1
                 n_v += 1
-            # pass 2: register the vertex into this thread's cells around E (or N)
+            if w < ne and v % n_thr == t:
+                continue  # pass 1 registered it: this thread made it
+            # pass 2: (again) the vertex's id into this thread's cells around N, or around E after a lost CAS
             for q in range(lo, end):
                 if w < ne:
                     packed = ec[q]
@@ -1022,7 +1046,7 @@ def _flood(t, nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
             n_t += 1
     counters[t, 0] = n_t
     counters[t, 1] = n_v
-    counters[t, 2] = 0
+    counters[t, 2] = sp
     counters[t, 3] = n_p
     counters[t, 4] = pops
     counters[t, 5] = tested
@@ -1050,8 +1074,8 @@ def construct_parallel(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_tab
     ``k``-th vertex), their cells ``tri_cell[t]``, its vertices' keys
     ``vkey[t, :counters[t, 1]]`` (``~key`` for a vertex whose id went
     through ``ev``) and edge ends ``vend[t]``; counters ``(triangles,
-    vertices, unused, polygons, pops, cells tested, contested vertices,
-    vertices on nodes)``; ``status[t]`` OK or
+    vertices, stack depth, polygons, pops, cells tested, contested vertices,
+    vertices on nodes)``, zeros on entry; ``status[t]`` OK or
     the buffer that was too small (the caller grows it and runs the query
     again under new generations).
 
@@ -1083,7 +1107,8 @@ def construct_parallel(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_tab
       its pass, and the other's pass either claims it -- impossible, it is owned -- or sees it owned),
       so a vertex is never created twice. The id is only a number: the vertex's key and ends live in
       the winner's own buffer and are read after the parallel region ends (its join is the barrier).
-      Second pass: the id into the slots of this thread's own cells around E.
+      The first pass already puts the new id into this thread's own cells around E; a second pass
+      overwrites it with the winner's id after a lost CAS (and registers a vertex on a node).
     * ``ev`` holds -1 outside a query: each winner marks the keys it swapped (``~key`` in its vertex
       list) and :func:`release_contested` puts -1 back after the query (also after an overflow), so
       the entries need no generation and the cost is paid only on contested edges (the boundaries between
@@ -1094,7 +1119,7 @@ def construct_parallel(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_tab
     for t in prange(n_thr):
         status[t] = _flood(t, nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_count, case_mask,
                            local_edges, n_edges, ec_off, ec, nc_off, nc, gen, seeds, next_seed, ev, stack, tris,
-                           tri_cell, vkey, vend, counters)
+                           tri_cell, vkey, vend, counters, 0)
 
 
 @njit(parallel=True, cache=_KCACHE)

@@ -241,21 +241,28 @@ class EdgeCentredTable:
         two threads gets its id by compare-and-swap on a per-edge array (see
         ``_edge_centred_kernels._flood``): each cell is constructed once,
         the work is the serial construction's plus one CAS per cell (the
-        total work run on one core: ~1.1 times the serial's on 2M), and the
+        total work run on one core, construction and stage 3, in CPU time of
+        the thread: 1.16 times the serial's on 2M, 1.17 on data 4, 20
+        values), and the
         triangles and vertices, gathered from per-thread parts of the
         buffers by prefix sums, are the serial ones in another order
         (``canonical=True``, or :func:`canonical_order`, gives one order for
         both). From :attr:`STAGE3_PARALLEL_TRIANGLES` triangles up the
         positions and mean normals are computed by the threads too. Costs
-        ``4 (n_edges + n_nodes)`` bytes more (the contested-vertex ids).
+        ``4 (n_edges + n_nodes)`` bytes more (the contested-vertex ids), and
+        the query buffers grow to hold ``threads`` times the largest surface
+        (each thread's part must hold a whole surface: how the work splits
+        depends on the scheduler).
         ``stats`` then has ``pops`` (= ``constructed``: no cell is taken
         twice), ``contested`` (vertices decided by CAS), ``per_thread``
         (cells each thread took). Without working atomics (``_edge_centred_kernels.ATOMICS``)
         a query runs on one thread. The default stays 1: on this shared
-        2-core machine (load 6-9 while measured,
+        2-core machine (load 10-11 while measured,
         ``benchmarks/results/parallel_construction.md``) a parallel region
-        waits tens of milliseconds for the busy second core, so two threads
-        were slower than one. Two builders running such queries at once from two
+        waits tens of milliseconds for the busy second core to be scheduled
+        (2M: median 37 ms with two threads against 2.5 ms with one), so two
+        threads were slower than one; no quiet-machine measurement supports
+        turning them on. Two builders running such queries at once from two
         Python threads need a thread-safe numba threading layer (``omp`` or
         ``tbb``, not ``workqueue``); :meth:`EdgeCentredMethod.extract_many`
         runs its values one thread each.
@@ -289,7 +296,9 @@ class EdgeCentredTable:
     #: the layout by measurement (see the class docstring)
     DEFAULT_LAYOUT = "records"
     #: a parallel query (``threads > 1``) computes positions and mean normals by its threads too from this
-    #: many triangles up (below, serially: see the class docstring)
+    #: many triangles up (below, serially). Not a measured crossover: under the shared machine's load (10)
+    #: every parallel region cost 15-45 ms of waiting whatever its size; 20 000 triangles is where serial
+    #: stage 3 takes ~1 ms (2M), far above the start-up of a parallel region on a free core (tens of microseconds)
     STAGE3_PARALLEL_TRIANGLES = 20_000
 
     def __init__(self, vol, field=None, *, order="lifo", threads=1, layout=None):
@@ -554,8 +563,31 @@ class EdgeCentredTable:
                 self._tri_cell[:tc * threads].reshape(threads, tc), self._vkey[:vc * threads].reshape(threads, vc),
                 self._vend[:vc * threads].reshape(threads, vc, 2))
 
-    def _extract_parallel(self, value, seeds, normals, node_grad, threads):
-        """:meth:`extract` by ``threads`` threads (``_edge_centred_kernels.construct_parallel``)."""
+    def _fit_parts(self, threads, counters):
+        """Grow the buffers (for the next query) until each thread's part could hold all of this surface.
+
+        How the work splits between the threads depends on the scheduler, so
+        a surface that fitted may not fit a part the next time unless every
+        part holds it whole: without this, a repeated query could restart.
+        The buffers then hold ``threads`` times the largest surface so far.
+        """
+        pops, n_t, n_v = int(counters[:, 4].sum()), int(counters[:, 0].sum()), int(counters[:, 1].sum())
+        if self._queue.shape[0] // threads < pops:
+            self._queue = np.empty(threads * pops, np.int32)
+        if self._tris.shape[0] // threads < n_t + _m.MAX_TRIANGLES:
+            self._tris = np.empty((threads * (n_t + _m.MAX_TRIANGLES), 3), np.int32)
+            self._tri_cell = np.empty(self._tris.shape[0], np.int32)
+        if self._vkey.shape[0] // threads < n_v:
+            self._vkey = np.empty(threads * n_v, np.int32)
+            self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
+
+    def _extract_parallel(self, value, seeds, normals, node_grad, threads, interleave=0):
+        """:meth:`extract` by ``threads`` threads (``_edge_centred_kernels.construct_parallel``).
+
+        ``interleave > 0`` (tests): the threads' shares run on this thread
+        instead, taking turns of ``interleave`` cells each -- a deterministic
+        race between them, whatever the machine's scheduler does.
+        """
         nn, s = self.nn, self.s
         restarts = 0
         while True:
@@ -565,10 +597,16 @@ class EdgeCentredTable:
             status = np.zeros(threads, np.int64)
             next_seed = np.zeros(1, np.int64)
             t0 = time.perf_counter()
-            _k.construct_parallel(self.nodes, self.ids, self.starts, self.dyn, self.ds, nn, s, value, self.faces,
-                                  self.table, self.count, self.case_mask, self.local_edges, self.n_edges, self.ec_off,
-                                  self.ec, *self._nc(), gen, seeds, next_seed, self._ev, stack, tris, tri_cell, vkey,
-                                  vend, counters, status)
+            args = (self.nodes, self.ids, self.starts, self.dyn, self.ds, nn, s, value, self.faces, self.table,
+                    self.count, self.case_mask, self.local_edges, self.n_edges, self.ec_off, self.ec, *self._nc(), gen,
+                    seeds, next_seed, self._ev, stack, tris, tri_cell, vkey, vend, counters)
+            if interleave:
+                status[:] = _k.PAUSED
+                while (status == _k.PAUSED).any():
+                    for t in np.flatnonzero(status == _k.PAUSED):
+                        status[t] = _k._flood(t, *args, interleave)
+            else:
+                _k.construct_parallel(*args, status)
             _k.release_contested(vkey, counters, self._ev)  # ev back to -1 where a thread won a vertex
             if not status.any():
                 break
@@ -584,6 +622,7 @@ class EdgeCentredTable:
             else:
                 self._vkey = np.empty(2 * self._vkey.shape[0], np.int32)
                 self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
+        self._fit_parts(threads, counters)
         t_base = np.zeros(threads + 1, np.int64)
         t_base[1:] = np.cumsum(counters[:, 0])
         v_base = np.zeros(threads + 1, np.int64)
