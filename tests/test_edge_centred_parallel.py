@@ -1,8 +1,9 @@
 """The parallel edge-centred construction (issue 20, Deliver 1): exactly the serial construction's surface.
 
 ``EdgeCentredTable(..., threads=T)`` hands the seeds to ``T`` threads that each run the serial construction
-on their own stack, claiming cells and contested vertices by compare-and-swap; the oracle is the serial construction (one thread) and the full scan: the same
-triangles in the same cells, the same vertices bit for bit, and, in :func:`canonical_order`, equal arrays.
+on their own stack, claiming cells and contested vertices by compare-and-swap; the oracle is the serial
+construction (one thread) and the full scan: the same triangles in the same cells, the same vertices bit for
+bit, and, in :func:`canonical_order`, equal arrays.
 """
 
 import threading

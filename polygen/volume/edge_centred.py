@@ -242,7 +242,7 @@ class EdgeCentredTable:
         ``_edge_centred_kernels._flood``): each cell is constructed once,
         the work is the serial construction's plus one CAS per cell (the
         total work run on one core, construction and stage 3, in CPU time of
-        the thread: 1.16 times the serial's on 2M, 1.17 on data 4, 20
+        the thread: 1.12-1.14 times the serial's on 2M, 1.15-1.17 on data 4, 20
         values), and the
         triangles and vertices, gathered from per-thread parts of the
         buffers by prefix sums, are the serial ones in another order
@@ -257,10 +257,10 @@ class EdgeCentredTable:
         twice), ``contested`` (vertices decided by CAS), ``per_thread``
         (cells each thread took). Without working atomics (``_edge_centred_kernels.ATOMICS``)
         a query runs on one thread. The default stays 1: on this shared
-        2-core machine (load 10-11 while measured,
+        2-core machine (load 6.6-11 while measured,
         ``benchmarks/results/parallel_construction.md``) a parallel region
         waits tens of milliseconds for the busy second core to be scheduled
-        (2M: median 37 ms with two threads against 2.5 ms with one), so two
+        (2M: median 31-35 ms with two threads against 3.8-5.5 ms with one), so two
         threads were slower than one; no quiet-machine measurement supports
         turning them on. Two builders running such queries at once from two
         Python threads need a thread-safe numba threading layer (``omp`` or
