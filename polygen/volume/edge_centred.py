@@ -685,10 +685,9 @@ class EdgeCentredTable:
         (the volume's ``edges``, read by stage 3 for gradient normals and
         degenerate ones; its ``cell_edges`` serve the preparation only),
         ``buffers`` (queue, triangles, vertex keys and ends at their
-        current sizes); after a query with ``threads > 1`` also
-        ``parallel`` (the vertex number per edge and node, the node stamps,
-        the threads' stacks and lists of cells taken, the claim per cell and
-        the bits of the edges each cell numbers).
+        current sizes; a parallel query cuts them into one part per thread);
+        after a query with ``threads > 1`` also ``parallel`` (the id of a
+        contested vertex per edge and node, int32, -1 between queries).
         """
         vol = self.vol
         out = {
