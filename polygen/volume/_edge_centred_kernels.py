@@ -800,7 +800,7 @@ def positions(vend, n_v, points, s, value, out):
 # The claims, the vertex ids and the memory ordering: see construct_parallel's docstring.
 
 
-@njit
+@njit(cache=_KCACHE)
 def _flood(t, nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_count, case_mask, local_edges, n_edges,
            ec_off, ec, nc_off, nc, gen, seeds, next_seed, ev, stack, tris, tri_cell, vkey, vend, counters, budget):
     """Thread ``t``'s share of :func:`construct_parallel`; returns its status, fills ``counters[t]``.
