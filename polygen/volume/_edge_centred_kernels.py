@@ -67,6 +67,8 @@ NOT_CROSSED = -1
 QUEUED = -2
 #: kernel status codes: 0 done, 1-3 the buffer that overflowed, 4 the cells around the nodes are needed
 OK, FULL_QUEUE, FULL_TRIANGLES, FULL_VERTICES, NEED_NODE_CELLS = 0, 1, 2, 3, 4
+#: :func:`_flood` stopped after its budget of cells (a test interleaves two threads' work this way)
+PAUSED = 5
 #: counters written by :func:`construct` (indices into ``counters``)
 C_POPS, C_VISITS, C_TOUCHED, C_CONSTRUCTED, C_NODE_TESTS, C_NODE_VERTICES, C_LOOKUPS = 0, 1, 2, 3, 4, 5, 6
 N_COUNTERS = 7
@@ -199,6 +201,73 @@ if intrinsic is not None:
         _prefetch_item(v, 0)
         return _ctz(x)
 
+    def _element_pointer(context, builder, aryty, ary_val, idx_vals, idx_tys):
+        ary = context.make_array(aryty)(context, builder, ary_val)
+        idx = [context.cast(builder, a, t, types.intp) for a, t in zip(idx_vals, idx_tys)]
+        return cgutils.get_item_pointer(context, builder, aryty, ary, idx, wraparound=False)
+
+    @intrinsic
+    def _cas(typingctx, arr, i, old, new):
+        """Compare-and-swap ``arr[i]`` (a 1-D integer array): if it holds ``old``, store ``new``.
+
+        One LLVM ``cmpxchg`` (sequentially consistent on success and failure:
+        a ``lock cmpxchg`` on x86). Returns the value ``arr[i]`` held before,
+        ``old`` exactly when the swap happened.
+        """
+        if (not isinstance(arr, types.Array) or arr.ndim != 1 or not isinstance(arr.dtype, types.Integer)
+                or not all(isinstance(x, types.Integer) for x in (i, old, new))):
+            return None
+        dt = arr.dtype
+
+        def codegen(context, builder, signature, args):
+            ptr = _element_pointer(context, builder, signature.args[0], args[0], args[1:2], signature.args[1:2])
+            o = context.cast(builder, args[2], signature.args[2], dt)
+            n = context.cast(builder, args[3], signature.args[3], dt)
+            pair = builder.cmpxchg(ptr, o, n, "seq_cst", "seq_cst")
+            return builder.extract_value(pair, 0)
+
+        return dt(arr, i, old, new), codegen
+
+    @intrinsic
+    def _cas_row(typingctx, arr, i, j, old, new):
+        """:func:`_cas` on ``arr[i, j]`` of a 2-D integer array."""
+        if (not isinstance(arr, types.Array) or arr.ndim != 2 or not isinstance(arr.dtype, types.Integer)
+                or not all(isinstance(x, types.Integer) for x in (i, j, old, new))):
+            return None
+        dt = arr.dtype
+
+        def codegen(context, builder, signature, args):
+            ptr = _element_pointer(context, builder, signature.args[0], args[0], args[1:3], signature.args[1:3])
+            o = context.cast(builder, args[3], signature.args[3], dt)
+            n = context.cast(builder, args[4], signature.args[4], dt)
+            pair = builder.cmpxchg(ptr, o, n, "seq_cst", "seq_cst")
+            return builder.extract_value(pair, 0)
+
+        return dt(arr, i, j, old, new), codegen
+
+    @intrinsic
+    def _fetch_add(typingctx, arr, i, inc):
+        """Atomically add ``inc`` to ``arr[i]`` (1-D integer array, LLVM ``atomicrmw add``); returns the old value."""
+        if (not isinstance(arr, types.Array) or arr.ndim != 1 or not isinstance(arr.dtype, types.Integer)
+                or not isinstance(i, types.Integer) or not isinstance(inc, types.Integer)):
+            return None
+        dt = arr.dtype
+
+        def codegen(context, builder, signature, args):
+            ptr = _element_pointer(context, builder, signature.args[0], args[0], args[1:2], signature.args[1:2])
+            return builder.atomic_rmw("add", ptr, context.cast(builder, args[2], signature.args[2], dt), "seq_cst")
+
+        return dt(arr, i, inc), codegen
+
+    @njit
+    def _probe_atomics(a, b):
+        """The three atomics once: a swap that happens, one that does not, an add (see :func:`_atomics_work`)."""
+        r0 = _cas(a, 0, 5, 7)  # a[0] == 5: swapped to 7, returns 5
+        r1 = _cas(a, 1, 5, 7)  # a[1] == 6: unchanged, returns 6
+        r2 = _cas_row(b, 0, 1, 3, 4)
+        r3 = _fetch_add(a, 2, 10)
+        return r0, r1, r2, r3
+
 
 def _intrinsics_work():
     """Whether the intrinsics compile and give the right answer with this numba/llvmlite."""
@@ -210,6 +279,25 @@ def _intrinsics_work():
         return False
 
 
+def _atomics_work():
+    """Whether compare-and-swap and fetch-and-add compile and behave with this numba/llvmlite.
+
+    Without them there is no parallel construction: ``threads > 1`` runs the
+    serial one (:data:`ATOMICS` says which).
+    """
+    if intrinsic is None:
+        return False
+    try:
+        a = np.array([5, 6, 1], np.int32)
+        b = np.array([[0, 3]], np.int64)
+        got = tuple(int(x) for x in _probe_atomics(a, b))
+        return got == (5, 6, 3, 1) and a.tolist() == [7, 6, 11] and b.tolist() == [[0, 4]]
+    except Exception:  # an internal API moved or LLVM rejected the intrinsic
+        return False
+
+
+#: whether the atomics of the parallel construction work here (else ``threads > 1`` runs serially)
+ATOMICS = os.environ.get("POLYGEN_ATOMICS", "1") != "0" and _atomics_work()
 #: whether the kernels use the prefetch and ctz intrinsics (else the plain fallbacks)
 PREFETCH = os.environ.get("POLYGEN_PREFETCH", "1") != "0" and _intrinsics_work()
 if not PREFETCH:
@@ -738,248 +826,428 @@ def positions(vend, n_v, points, s, value, out):
 
 
 # ------------------------------------------------------------------ the parallel construction
-def owned_edges(ec, cell_starts):
-    """(M,) int16: bit ``w`` set when cell ``c`` is the first in the cell list of its local edge ``w``.
-
-    ``cell_starts[c, w]``: where that list starts in ``ec``. Every cell
-    around a crossed edge is reached, so the first one numbers the edge's
-    vertex; kept per cell (built at the first parallel query), so that
-    numbering reads no cell list.
-    """
-    mine = (ec[cell_starts] >> CELL_SHIFT) == np.arange(cell_starts.shape[0])[:, None]
-    return (mine.astype(np.int32) << np.arange(cell_starts.shape[1], dtype=np.int32)).sum(axis=1).astype(np.int16)
-
-
-# No compare-and-swap: the threads claim cells with plain stores and sort out the rare double
-# claims afterwards. Thread ``t`` starts from every ``T``-th crossed seed and runs the same
-# propagation as :func:`construct` (for-loops (1) and (3), newest cell first) on its own stack,
-# marking a cell it reaches for the first time (``dyn[j, R_GEN] = gen``) and writing its own number
-# into the cell's claim (``claim[j]``, one int32 per cell, made at the first parallel query). Two threads may both
-# see a cell unmarked and both take it; each then processes it (same polygon, same neighbours),
-# and after the pass only the thread whose number stayed in the claim field keeps it. Every
-# marked cell is on the stack of a thread that marks all its neighbours, so the cells kept are
-# exactly the ones :func:`construct` reaches, each once. Vertices are numbered afterwards: the
-# vertex on a crossed edge belongs to the first cell in the edge's cell list (every cell around a
-# crossed edge is reached), the one on a node is numbered in one thread; triangles go to offsets
-# summed per thread. No two threads write the same slot of any output.
-
-
-@njit(inline="always")
-def _polygon_mask(nodes, c, nn, s, value, st, tri_table, tri_count, case_mask, local_edges, vals, codes):
-    """``(case, exact, k, mask)`` of a constructed cell from its state (``codes`` filled when ``exact``)."""
-    case = st & 0xFFFF
-    exact = _exact_of(st, nn)
-    if exact == 0:
-        return case, exact, tri_count[case], case_mask[case]
-    for i in range(nn):
-        vals[i] = s[nodes[c, i]]
-    k, mask = _polygon_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
-    return case, exact, k, mask
-
-
-@njit(parallel=True, cache=_KCACHE)
-def propagate_parallel(nodes, ids, starts, dyn, nn, s, value, faces, tri_table, tri_count, case_mask, local_edges,
-                       ec_off, ec, nc_off, nc, gen, queue, n_queued, claim, stack, log, n_log, status):
-    """The cells the surface crosses, reached from the ``n_queued`` crossed seeds in ``queue``, by ``T`` threads.
-
-    ``stack`` and ``log`` are (T, cap) int32 scratch; thread ``t`` lists the
-    cells it took in ``log[t, :n_log[t]]`` (a cell may be in two lists: it
-    belongs to the thread ``claim[c]``) and leaves each one's state in
-    ``dyn`` as :func:`construct` does (without the slots: this construction
-    numbers vertices by edge). ``status[t]`` is ``OK`` or
-    ``FULL_QUEUE`` (the caller grows ``cap`` and starts again under a new
-    generation).
-    """
-    n_thr = stack.shape[0]
-    cap = stack.shape[1]
-    ne = local_edges.shape[0]
-    for t in prange(n_thr):
-        vals = np.empty(8, np.float64)
-        codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
-        sp = 0
-        nl = 0
-        full = False
-        for i in range(t, n_queued, n_thr):
-            if nl == cap:
-                full = True
-                break
-            c = queue[i]
-            claim[c] = t
-            stack[t, sp] = c
-            sp += 1
-            log[t, nl] = c
-            nl += 1
-        while sp > 0 and not full:
-            sp -= 1
-            c = stack[t, sp]
-            case, exact = _values_of(nodes, c, nn, s, value, faces, vals)
-            st = case | (exact << 16)
-            dyn[c, R_STATE] = st
-            _, _, _, todo = _polygon_mask(nodes, c, nn, s, value, st, tri_table, tri_count, case_mask, local_edges,
-                                          vals, codes)
-            pre = todo & ((1 << ne) - 1)  # the cell lists of its edges, fetched together (as in construct)
-            while pre:
-                w = _ctz(pre)
-                pre &= pre - 1
-                _prefetch_item(ec, (starts[c, w] if starts.shape[0] > 0 else ec_off[ids[c, w]]))
-            if sp > 0:
-                _prefetch_row(nodes, stack[t, sp - 1])
-            while todo and not full:
-                w = _ctz(todo)
-                todo &= todo - 1
-                if w < ne:  # for-loop (3) over the cells around the edge: all crossed
-                    lo = (starts[c, w] if starts.shape[0] > 0 else ec_off[ids[c, w]])
-                    q = lo
-                    while True:  # their stamps, fetched together before they are read
-                        packed = ec[q]
-                        _prefetch_row(dyn, packed >> CELL_SHIFT)
-                        q += 1
-                        if packed & LAST:
-                            break
-                    end = q
-                    for q in range(lo, end):
-                        j = ec[q] >> CELL_SHIFT
-                        if dyn[j, R_GEN] != gen:
-                            if nl == cap:
-                                full = True
-                                break
-                            dyn[j, R_GEN] = gen
-                            claim[j] = t
-                            stack[t, sp] = j
-                            sp += 1
-                            log[t, nl] = j
-                            nl += 1
-                else:  # a vertex on a node: the crossed cells around the node
-                    node = nodes[c, w - ne]
-                    for q in range(nc_off[node], nc_off[node + 1]):
-                        j = nc[q] >> CELL_SHIFT
-                        if dyn[j, R_GEN] == gen:
-                            continue
-                        cj, _ = _values_of(nodes, j, nn, s, value, faces, vals)
-                        if cj < 0:
-                            continue
-                        if nl == cap:
-                            full = True
-                            break
-                        dyn[j, R_GEN] = gen
-                        claim[j] = t
-                        stack[t, sp] = j
-                        sp += 1
-                        log[t, nl] = j
-                        nl += 1
-        n_log[t] = nl
-        status[t] = FULL_QUEUE if full else OK
-
-
-@njit(parallel=True, cache=_KCACHE)
-def number_parallel(nodes, ids, dyn, nn, s, value, tri_table, tri_count, case_mask, local_edges, owned, claim, log,
-                    n_log,
-                    vid, exact_cells, counts):
-    """Per thread: its kept cells' triangles counted, the edge vertices it owns numbered.
-
-    ``vid[edge]`` gets ``local * (T + 1) + t`` for the ``local``-th vertex
-    thread ``t`` owns (a vertex on an edge belongs to the edge's first cell:
-    bit ``w`` of ``owned[c]``, see :func:`owned_edges`); ``exact_cells[t, :counts[t, 2]]`` lists its kept cells
-    with a node at the isovalue; ``counts[t] = (triangles, vertices,
-    exact cells, cells kept)``.
-    """
-    n_thr = log.shape[0]
-    ne = local_edges.shape[0]
-    for t in prange(n_thr):
-        vals = np.empty(8, np.float64)
-        codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
-        n_t = 0
-        n_v = 0
-        n_x = 0
-        n_c = 0
-        for i in range(n_log[t]):
-            c = log[t, i]
-            if claim[c] != t:
-                continue
-            n_c += 1
-            _, exact, k, mask = _polygon_mask(nodes, c, nn, s, value, dyn[c, R_STATE], tri_table, tri_count,
-                                              case_mask, local_edges, vals, codes)
-            n_t += k
-            if exact:
-                exact_cells[t, n_x] = c
-                n_x += 1
-            mask &= owned[c]  # the vertices on the edges whose first cell is c
-            while mask:
-                w = _ctz(mask)
-                mask &= mask - 1
-                vid[ids[c, w]] = n_v * (n_thr + 1) + t
-                n_v += 1
-        counts[t, 0] = n_t
-        counts[t, 1] = n_v
-        counts[t, 2] = n_x
-        counts[t, 3] = n_c
+# The claims, the vertex ids and the memory ordering: see construct_parallel's docstring.
 
 
 @njit(cache=_KCACHE)
-def number_nodes(nodes, ids, dyn, nn, s, value, tri_table, tri_count, case_mask, local_edges, n_edges, exact_cells,
-                 counts,
-                 vid, node_gen, gen, v0, vkey, vend):
-    """Vertices on nodes, numbered from ``v0`` in one thread (key and ends written); returns their count."""
-    n_thr = exact_cells.shape[0]
+def _flood(t, nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_count, case_mask, local_edges, n_edges,
+           ec_off, ec, nc_off, nc, gen, seeds, next_seed, ev, stack, tris, tri_cell, vkey, vend, counters, budget):
+    """Thread ``t``'s share of :func:`construct_parallel`; returns its status, fills ``counters[t]``.
+
+    Resumes from ``counters[t]`` (zeros: from the start; ``counters[t, 2]``
+    is the depth of its stack). ``budget > 0``: returns ``PAUSED`` after
+    that many cells taken from its stack, to be called again (a test runs
+    two threads' shares interleaved, one cell at a time, on one thread: a
+    deterministic race); 0: no limit.
+    """
+    n_thr = stack.shape[0]
+    me = gen + t
+    top = gen + n_thr
     ne = local_edges.shape[0]
+    n_slots = 4 if nn == 4 else ne + nn
+    cap_t = tris.shape[1] - _m.MAX_TRIANGLES
+    cap_v = vkey.shape[1]
+    cap_q = stack.shape[1]
+    n_seeds = seeds.shape[0]
     vals = np.empty(8, np.float64)
     codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
-    n = 0
-    for t in range(n_thr):
-        for i in range(counts[t, 2]):
-            c = exact_cells[t, i]
-            _, _, _, mask = _polygon_mask(nodes, c, nn, s, value, dyn[c, R_STATE], tri_table, tri_count, case_mask,
-                                          local_edges, vals, codes)
-            mask >>= ne
-            while mask:
-                w = _ctz(mask)
-                mask &= mask - 1
-                node = nodes[c, w]
-                if node_gen[node] == gen:
+    codes_j = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+    n_t = counters[t, 0]
+    n_v = counters[t, 1]
+    sp = counters[t, 2]
+    n_p = counters[t, 3]
+    pops = counters[t, 4]
+    tested = counters[t, 5]
+    contested = counters[t, 6]
+    node_vertices = counters[t, 7]
+    stop = pops + budget if budget > 0 else -1
+    status = OK
+    while status == OK:
+        if pops == stop:
+            status = PAUSED
+            break
+        if sp == 0:  # flooded: the next seed nobody has claimed
+            i = _fetch_add(next_seed, 0, 1)
+            if i >= n_seeds:
+                break
+            c = seeds[i]
+            o = dyn[c, R_GEN]
+            if o >= gen and o < top:
+                continue
+            if _cas_row(dyn, c, R_GEN, o, me) != o:
+                continue
+            tested += 1
+            case, exact = _values_of(nodes, c, nn, s, value, faces, vals)
+            if case < 0:
+                dyn[c, R_STATE] = NOT_CROSSED
+                continue
+            stc = case | (exact << 16)
+            if nn == 4:
+                if exact == 0:
+                    stc |= case_mask[case] << MASK_SHIFT
+                else:
+                    stc |= _exact_mask(case, exact, vals, value, tri_table, tri_count, local_edges,
+                                       codes_j) << MASK_SHIFT
+            dyn[c, R_STATE] = stc
+            for w2 in range(n_slots):
+                dyn[c, ds + w2] = -1
+            n_p += 1
+            stack[t, 0] = c
+            sp = 1
+        sp -= 1
+        c = stack[t, sp]
+        pops += 1
+        st = dyn[c, R_STATE]
+        case = st & 0xFFFF
+        exact = _exact_of(st, nn)
+        if exact == 0:
+            k = tri_count[case]
+            todo = case_mask[case]
+        else:
+            for i in range(nn):
+                vals[i] = s[nodes[c, i]]
+            k, todo = _polygon_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
+        if starts.shape[0] == 0:
+            pre = todo & ((1 << ne) - 1)
+            while pre:
+                w = _ctz(pre)
+                pre &= pre - 1
+                if dyn[c, ds + _slot(st, w, nn)] < 0:
+                    _prefetch_item(ec_off, ids[c, w])
+        pre = todo & ((1 << ne) - 1)
+        while pre:
+            w = _ctz(pre)
+            pre &= pre - 1
+            if dyn[c, ds + _slot(st, w, nn)] < 0:
+                _prefetch_item(ec, (starts[c, w] if starts.shape[0] > 0 else ec_off[ids[c, w]]))
+        if sp > 0:
+            _prefetch_row(nodes, stack[t, sp - 1])
+            _prefetch_row(dyn, stack[t, sp - 1])
+        while todo:
+            w = _ctz(todo)
+            todo &= todo - 1
+            if dyn[c, ds + _slot(st, w, nn)] >= 0:
+                continue
+            if n_v == cap_v:
+                status = FULL_VERTICES
+                break
+            if w >= ne and nc_off.shape[0] == 0:
+                status = NEED_NODE_CELLS
+                break
+            other = False
+            node = -1
+            v = n_v * n_thr + t  # this thread's next vertex, unless another thread made it first
+            if w < ne:
+                lo = (starts[c, w] if starts.shape[0] > 0 else ec_off[ids[c, w]])
+                key = ec[lo - 1]
+                q = lo
+                while True:
+                    packed = ec[q]
+                    _prefetch_row(nodes, packed >> CELL_SHIFT)
+                    _prefetch_row(dyn, packed >> CELL_SHIFT)
+                    q += 1
+                    if packed & LAST:
+                        break
+                end = q
+                for q in range(lo, end):  # pass 1: claim the unclaimed cells around E, register v in mine
+                    packed = ec[q]
+                    j = packed >> CELL_SHIFT
+                    o = dyn[j, R_GEN]
+                    if o < gen or o >= top:
+                        o2 = _cas_row(dyn, j, R_GEN, o, me)
+                        if o2 == o:
+                            if sp == cap_q:
+                                status = FULL_QUEUE
+                                break
+                            cj, xj = _values_of(nodes, j, nn, s, value, faces, vals)
+                            stj = cj | (xj << 16)
+                            if nn == 4:
+                                if xj == 0:
+                                    stj |= case_mask[cj] << MASK_SHIFT
+                                else:
+                                    stj |= _exact_mask(cj, xj, vals, value, tri_table, tri_count, local_edges,
+                                                       codes_j) << MASK_SHIFT
+                            dyn[j, R_STATE] = stj
+                            for w2 in range(n_slots):
+                                dyn[j, ds + w2] = -1
+                            n_p += 1
+                            stack[t, sp] = j
+                            sp += 1
+                            o = me
+                        else:
+                            o = o2
+                    if o != me:
+                        other = True
+                        continue
+                    lw = packed & LOCAL  # register v (this thread's new vertex, unless a CAS below says not)
+                    stj = dyn[j, R_STATE]
+                    if nn != 4:
+                        dyn[j, ds + lw] = v
+                    elif (stj >> (MASK_SHIFT + lw)) & 1 == 1:
+                        dyn[j, ds + _POPCOUNT[(stj >> MASK_SHIFT) & ((1 << lw) - 1)]] = v
+                if status != OK:
+                    break
+            else:  # a vertex exactly on a node: the cells around the node, each tested
+                node = nodes[c, w - ne]
+                key = n_edges + node
+                lo = nc_off[node]
+                end = nc_off[node + 1]
+                for q in range(lo, end):
+                    j = nc[q] >> CELL_SHIFT
+                    o = dyn[j, R_GEN]
+                    if o < gen or o >= top:
+                        o2 = _cas_row(dyn, j, R_GEN, o, me)
+                        if o2 == o:
+                            tested += 1
+                            cj, xj = _values_of(nodes, j, nn, s, value, faces, vals)
+                            if cj < 0:
+                                dyn[j, R_STATE] = NOT_CROSSED
+                                continue
+                            if sp == cap_q:
+                                status = FULL_QUEUE
+                                break
+                            stj = cj | (xj << 16)
+                            if nn == 4:
+                                if xj == 0:
+                                    stj |= case_mask[cj] << MASK_SHIFT
+                                else:
+                                    stj |= _exact_mask(cj, xj, vals, value, tri_table, tri_count, local_edges,
+                                                       codes_j) << MASK_SHIFT
+                            dyn[j, R_STATE] = stj
+                            for w2 in range(n_slots):
+                                dyn[j, ds + w2] = -1
+                            n_p += 1
+                            stack[t, sp] = j
+                            sp += 1
+                            continue
+                        o = o2
+                    if o != me:
+                        other = True
+                if status != OK:
+                    break
+            if other:
+                contested += 1
+                o = _cas(ev, key, -1, v)
+                if o != -1:
+                    v = o
+            if v == n_v * n_thr + t:  # created here: its key and edge ends into this thread's buffer
+                vkey[t, n_v] = ~key if other else key  # ~key: ev[key] holds this id, to be put back
+                if w < ne:
+                    x = nodes[c, local_edges[w, 0]]
+                    y = nodes[c, local_edges[w, 1]]
+                    vend[t, n_v, 0] = min(x, y)
+                    vend[t, n_v, 1] = max(x, y)
+                else:
+                    vend[t, n_v, 0] = node
+                    vend[t, n_v, 1] = node
+                    node_vertices += 1
+                n_v += 1
+            if w < ne and v % n_thr == t:
+                continue  # pass 1 registered it: this thread made it
+            # pass 2: (again) the vertex's id into this thread's cells around N, or around E after a lost CAS
+            for q in range(lo, end):
+                if w < ne:
+                    packed = ec[q]
+                    lw = packed & LOCAL
+                else:
+                    packed = nc[q]
+                    lw = ne + (packed & LOCAL)
+                j = packed >> CELL_SHIFT
+                if dyn[j, R_GEN] != me:
                     continue
-                node_gen[node] = gen
-                vid[n_edges + node] = n * (n_thr + 1) + n_thr
-                vkey[v0 + n] = n_edges + node
-                vend[v0 + n, 0] = node
-                vend[v0 + n, 1] = node
-                n += 1
-    return n
+                stj = dyn[j, R_STATE]
+                if stj == NOT_CROSSED:
+                    continue
+                if nn != 4:
+                    dyn[j, ds + lw] = v
+                elif (stj >> (MASK_SHIFT + lw)) & 1 == 1:
+                    dyn[j, ds + _POPCOUNT[(stj >> MASK_SHIFT) & ((1 << lw) - 1)]] = v
+        if status != OK:
+            break
+        if n_t > cap_t:
+            status = FULL_TRIANGLES
+            break
+        for tt in range(k):
+            for jj in range(3):
+                w = tri_table[case, 3 * tt + jj] if exact == 0 else codes[tt, jj]
+                tris[t, n_t, jj] = dyn[c, ds + _slot(st, w, nn)]
+            tri_cell[t, n_t] = c
+            n_t += 1
+    counters[t, 0] = n_t
+    counters[t, 1] = n_v
+    counters[t, 2] = sp
+    counters[t, 3] = n_p
+    counters[t, 4] = pops
+    counters[t, 5] = tested
+    counters[t, 6] = contested
+    counters[t, 7] = node_vertices
+    return status
 
 
 @njit(parallel=True, cache=_KCACHE)
-def write_parallel(nodes, ids, dyn, nn, s, value, tri_table, tri_count, case_mask, local_edges, n_edges, owned, claim,
-                   log,
-                   n_log, vid, v_base, t_base, tris, tri_cell, vkey, vend):
-    """Per thread: its kept cells' triangles (as final vertex ids) from ``t_base[t]``, its vertices' keys and ends."""
-    n_thr = log.shape[0]
-    ne = local_edges.shape[0]
+def construct_parallel(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_count, case_mask, local_edges,
+                       n_edges, ec_off, ec, nc_off, nc, gen, seeds, next_seed, ev, stack, tris, tri_cell, vkey, vend,
+                       counters, status):
+    """t1 + t2 by ``T = stack.shape[0]`` threads, each doing :func:`construct`'s work on its own part.
+
+    The claims by compare-and-swap and the memory ordering are in the
+    Notes below. ``seeds`` (all of them, tested here: the
+    claim comes first) are handed out from ``next_seed[0]`` (0 on entry);
+    ``dyn`` stamps take the values ``gen .. gen + T - 1`` (thread ``t``
+    claims with ``gen + t``: the caller reserves T generations); ``ev``
+    (n_edges + n_nodes,) int32 is -1 everywhere on entry, and again once
+    the caller has run :func:`release_contested`.
+
+    Per thread ``t`` (buffers (T, cap, ...)): triangles ``tris[t,
+    :counters[t, 0]]`` as vertex codes ``k * T + u`` (thread ``u``'s
+    ``k``-th vertex), their cells ``tri_cell[t]``, its vertices' keys
+    ``vkey[t, :counters[t, 1]]`` (``~key`` for a vertex whose id went
+    through ``ev``) and edge ends ``vend[t]``; counters ``(triangles,
+    vertices, stack depth, polygons, pops, cells tested, contested vertices,
+    vertices on nodes)``, zeros on entry; ``status[t]`` OK or
+    the buffer that was too small (the caller grows it and runs the query
+    again under new generations).
+
+    Notes
+    -----
+    Every thread runs construct's loop (LIFO) on its own stack; the seeds are handed out one at a time
+    from a shared counter, each flooded to exhaustion before the next is taken. Memory ordering, and why
+    no thread ever reads half of something another thread is writing:
+
+    * claims: a cell belongs to the thread whose compare-and-swap moved its stamp from an old value
+      (< gen) to ``gen + t``: a query takes the T generations ``gen .. gen + T - 1``, one per thread,
+      so the stamp alone says "claimed in this query, by thread t" in one word and a single CAS. Only
+      the owner writes the cell's state and slots, and only the owner reads them: a thread sees of
+      another thread's cell nothing but its stamp (a plain load first; a value in the block is final
+      -- a claim is never undone within the query -- and any other value is decided by the CAS, whose
+      result names the owner; a stale plain load only sends the thread to a CAS that fails). Half-initialised
+      records are therefore never read. Stamps of earlier queries, serial or parallel, are all below
+      ``gen`` (generations only grow; the builder clears every stamp before they would wrap), and the
+      next query starts above ``gen + T - 1``. The CAS is LLVM's ``cmpxchg seq_cst`` (``lock cmpxchg``
+      on x86), so a claim is visible to every thread before the claimer writes the cell's state.
+    * vertices: the thread that pops one of its cells with an empty slot for edge E (or node N) creates
+      the vertex. First pass over the cells around E: claim the unclaimed ones (construct, push), and
+      note whether any belongs to another thread. If none does, this thread owns every cell around E
+      for the rest of the query (they are all claimed now and claims are final), nobody else can ever
+      need the vertex, and it is created without any shared write. If one does ("contested"), the
+      vertex id is decided by a CAS on ``ev[key]`` from -1 to this thread's new id (``k * T + t``, the
+      thread's k-th vertex): the winner creates it, a loser takes the winner's id from the CAS's result.
+      Any two threads that both create E see each other's cell (the one each popped was claimed before
+      its pass, and the other's pass either claims it -- impossible, it is owned -- or sees it owned),
+      so a vertex is never created twice. The id is only a number: the vertex's key and ends live in
+      the winner's own buffer and are read after the parallel region ends (its join is the barrier).
+      The first pass already puts the new id into this thread's own cells around E; a second pass
+      overwrites it with the winner's id after a lost CAS (and registers a vertex on a node).
+    * ``ev`` holds -1 outside a query: each winner marks the keys it swapped (``~key`` in its vertex
+      list) and :func:`release_contested` puts -1 back after the query (also after an overflow), so
+      the entries need no generation and the cost is paid only on contested edges (the boundaries between
+      the threads' regions: a few per cent of the vertices, see benchmarks/parallel_construction.py).
+    Per cell the work is construct's plus one CAS per claimed cell; a contested edge costs one more CAS.
+    """
+    n_thr = stack.shape[0]
     for t in prange(n_thr):
-        vals = np.empty(8, np.float64)
-        codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
-        n_t = t_base[t]
-        n_v = v_base[t]
-        for i in range(n_log[t]):
-            c = log[t, i]
-            if claim[c] != t:
-                continue
-            case, exact, k, mask = _polygon_mask(nodes, c, nn, s, value, dyn[c, R_STATE], tri_table, tri_count,
-                                                 case_mask, local_edges, vals, codes)
-            mask &= owned[c]
-            while mask:
-                w = _ctz(mask)
-                mask &= mask - 1
-                vkey[n_v] = ids[c, w]
-                x = nodes[c, local_edges[w, 0]]
-                y = nodes[c, local_edges[w, 1]]
-                vend[n_v, 0] = min(x, y)
-                vend[n_v, 1] = max(x, y)
-                n_v += 1
-            for tt in range(k):
-                for jj in range(3):
-                    w = tri_table[case, 3 * tt + jj] if exact == 0 else codes[tt, jj]
-                    key = ids[c, w] if w < ne else n_edges + nodes[c, w - ne]
-                    code = vid[key]
-                    owner = code % (n_thr + 1)
-                    tris[n_t, jj] = v_base[owner] + code // (n_thr + 1)
-                tri_cell[n_t] = c
-                n_t += 1
+        status[t] = _flood(t, nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_count, case_mask,
+                           local_edges, n_edges, ec_off, ec, nc_off, nc, gen, seeds, next_seed, ev, stack, tris,
+                           tri_cell, vkey, vend, counters, 0)
+
+
+@njit(parallel=True, cache=_KCACHE)
+def gather_parallel(tris, tri_cell, vkey, vend, counters, t_base, v_base, out_tri, out_cell, out_key, out_end):
+    """The threads' triangles and vertices, concatenated, vertex codes ``k * T + u`` -> ``v_base[u] + k``."""
+    n_thr = tris.shape[0]
+    for t in prange(n_thr):
+        b = t_base[t]
+        for i in range(counters[t, 0]):
+            for jj in range(3):
+                code = tris[t, i, jj]
+                out_tri[b + i, jj] = v_base[code % n_thr] + code // n_thr
+            out_cell[b + i] = tri_cell[t, i]
+        b = v_base[t]
+        for i in range(counters[t, 1]):
+            k = vkey[t, i]
+            out_key[b + i] = ~k if k < 0 else k
+            out_end[b + i, 0] = vend[t, i, 0]
+            out_end[b + i, 1] = vend[t, i, 1]
+
+
+@njit(cache=_KCACHE)
+def release_contested(vkey, counters, ev):
+    """``ev`` back to -1 at the keys a thread won by compare-and-swap (marked ``~key`` in ``vkey``)."""
+    for t in range(vkey.shape[0]):
+        for i in range(counters[t, 1]):
+            k = vkey[t, i]
+            if k < 0:
+                ev[~k] = -1
+
+
+# ------------------------------------------------------------------ stage 3 in parallel
+@njit(parallel=True, cache=_KCACHE)
+def positions_parallel(vend, n_v, points, s, value, out):
+    """:func:`positions` over the vertices by numba's threads (each vertex on its own: no two write one row)."""
+    for v in prange(n_v):
+        a = vend[v, 0]
+        b = vend[v, 1]
+        if a == b:
+            for d in range(3):
+                out[v, d] = points[a, d]
+        else:
+            c1 = s[a]
+            c2 = s[b]
+            # (5.2) P_c = ((C - C1) P2 - (C - C2) P1) / (C2 - C1)
+            for d in range(3):
+                out[v, d] = ((value - c1) * points[b, d] - (value - c2) * points[a, d]) / (c2 - c1)
+
+
+@njit(parallel=True, cache=_KCACHE)
+def mean_normals_parallel(vertices, triangles, out, extra):
+    """``marching._mean_normals`` by ``P = extra.shape[0] + 1`` threads, in two passes.
+
+    The triangles are cut into ``P`` consecutive parts; part 0 adds its
+    area-weighted triangle normals into ``out``, part ``p`` into ``extra[p -
+    1]`` (V, 3) (a scatter-add of several threads into one array would need
+    atomics); then each vertex sums its ``P`` rows and is normalised. The
+    sums are the serial ones regrouped (part by part), equal to them up to
+    rounding.
+    """
+    n_parts = extra.shape[0] + 1
+    n_t = triangles.shape[0]
+    n_v = out.shape[0]
+    for p in prange(n_parts):
+        acc = out if p == 0 else extra[p - 1]
+        for v in range(n_v):
+            acc[v, 0] = 0.0
+            acc[v, 1] = 0.0
+            acc[v, 2] = 0.0
+        for t in range(p * n_t // n_parts, (p + 1) * n_t // n_parts):
+            i0 = triangles[t, 0]
+            i1 = triangles[t, 1]
+            i2 = triangles[t, 2]
+            ux = vertices[i1, 0] - vertices[i0, 0]
+            uy = vertices[i1, 1] - vertices[i0, 1]
+            uz = vertices[i1, 2] - vertices[i0, 2]
+            wx = vertices[i2, 0] - vertices[i0, 0]
+            wy = vertices[i2, 1] - vertices[i0, 1]
+            wz = vertices[i2, 2] - vertices[i0, 2]
+            nx = uy * wz - uz * wy
+            ny = uz * wx - ux * wz
+            nz = ux * wy - uy * wx
+            for i in (i0, i1, i2):
+                acc[i, 0] += nx
+                acc[i, 1] += ny
+                acc[i, 2] += nz
+    for v in prange(n_v):
+        x = out[v, 0]
+        y = out[v, 1]
+        z = out[v, 2]
+        for p in range(n_parts - 1):
+            x += extra[p, v, 0]
+            y += extra[p, v, 1]
+            z += extra[p, v, 2]
+        ln = np.sqrt(x ** 2 + y ** 2 + z ** 2)
+        if ln > 0.0:
+            x /= ln
+            y /= ln
+            z /= ln
+        out[v, 0] = x
+        out[v, 1] = y
+        out[v, 2] = z

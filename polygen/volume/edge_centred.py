@@ -235,21 +235,36 @@ class EdgeCentredTable:
         measurement (see the notes in ``benchmarks/results/interactive.md``).
     threads : int or None, keyword-only
         Threads for one query (default 1; ``None``: numba's thread count).
-        With more than one, the seeds are split among the threads, which
-        propagate side by side without compare-and-swap (a cell two threads
-        both take is kept by one, see
-        ``_edge_centred_kernels.propagate_parallel``); the vertices are
-        numbered by their edges' first cells and the triangles written to
-        per-thread offsets afterwards. The same triangles and vertices as one
-        thread, in another order (:func:`canonical_order` gives one order for
-        both). Costs ``4 (n_edges + 2 n_points) + 6 n_cells`` bytes more, and
-        two lists of the cells taken per thread. ``stats`` then has ``pops`` (cells taken,
-        doubles included), ``constructed``, ``duplicates``, ``per_thread``.
-        Measured (``benchmarks/results/parallel_construction.md``, a shared
-        2-core machine under load ~7.5): slower than one thread (median
-        42.7 ms against 2.26 ms for the construction on 2M), and its total
-        work, run on one core, 1.2 times the serial's at the median: the
-        default stays 1. Two builders running such queries at once from two
+        With more than one, every thread runs this construction's own loop
+        on its own stack, taking the next unclaimed seed from a shared
+        counter whenever its stack runs dry; a thread claims a cell by
+        compare-and-swap on the cell's stamp (the query takes one generation
+        per thread), and a vertex on an edge (node) whose cells belong to
+        two threads gets its id by compare-and-swap on a per-edge array (see
+        ``_edge_centred_kernels._flood``): each cell is constructed once,
+        the work is the serial construction's plus one CAS per cell (the
+        total work run on one core, construction and stage 3, in CPU time of
+        the thread: 1.12-1.14 times the serial's on 2M, 1.15-1.17 on data 4, 20
+        values), and the
+        triangles and vertices, gathered from per-thread parts of the
+        buffers by prefix sums, are the serial ones in another order
+        (``canonical=True``, or :func:`canonical_order`, gives one order for
+        both). From :attr:`STAGE3_PARALLEL_TRIANGLES` triangles up the
+        positions and mean normals are computed by the threads too. Costs
+        ``4 (n_edges + n_nodes)`` bytes more (the contested-vertex ids), and
+        the query buffers grow to hold ``threads`` times the largest surface
+        (each thread's part must hold a whole surface: how the work splits
+        depends on the scheduler).
+        ``stats`` then has ``pops`` (= ``constructed``: no cell is taken
+        twice), ``contested`` (vertices decided by CAS), ``per_thread``
+        (cells each thread took). Without working atomics (``_edge_centred_kernels.ATOMICS``)
+        a query runs on one thread. The default stays 1: on this shared
+        2-core machine (load 6.6-11 while measured,
+        ``benchmarks/results/parallel_construction.md``) a parallel region
+        waits tens of milliseconds for the busy second core to be scheduled
+        (2M: median 31-35 ms with two threads against 3.8-5.5 ms with one), so two
+        threads were slower than one; no quiet-machine measurement supports
+        turning them on. Two builders running such queries at once from two
         Python threads need a thread-safe numba threading layer (``omp`` or
         ``tbb``, not ``workqueue``); :meth:`EdgeCentredMethod.extract_many`
         runs its values one thread each.
@@ -282,6 +297,11 @@ class EdgeCentredTable:
 
     #: the layout by measurement (see the class docstring)
     DEFAULT_LAYOUT = "records"
+    #: a parallel query (``threads > 1``) computes positions and mean normals by its threads too from this
+    #: many triangles up (below, serially). Not a measured crossover: under the shared machine's load (10)
+    #: every parallel region cost 15-45 ms of waiting whatever its size; 20 000 triangles is where serial
+    #: stage 3 takes ~1 ms (2M), far above the start-up of a parallel region on a free core (tens of microseconds)
+    STAGE3_PARALLEL_TRIANGLES = 20_000
 
     def __init__(self, vol, field=None, *, order="lifo", threads=1, layout=None):
         t0 = time.perf_counter()
@@ -366,7 +386,7 @@ class EdgeCentredTable:
         new._tri_cell = np.empty_like(self._tri_cell)
         new._vkey = np.empty_like(self._vkey)
         new._vend = np.empty_like(self._vend)
-        new._vid = new._node_gen = new._stack = new._log = new._claim = None
+        new._ev = None
         new.stats = {}
         return new
 
@@ -401,14 +421,15 @@ class EdgeCentredTable:
             raise IsoSurfaceError(f"seed cells must be in 0..{m - 1}; got {bad[:5].tolist()}")
         return np.ascontiguousarray(seeds, np.int32)
 
-    def _next_generation(self):
-        if self.generation == _INT32_MAX:  # once in 2**31 queries: really clear the stamps
+    def _next_generation(self, n=1):
+        """The first of ``n`` new generations (a parallel query takes one per thread)."""
+        if self.generation > _INT32_MAX - n:  # once in 2**31 queries: really clear the stamps
             self.dyn[:, _k.R_GEN] = 0
             self.generation = 0
-        self.generation += 1
-        return self.generation
+        self.generation += n
+        return self.generation - n + 1
 
-    def extract(self, value, seeds, *, normals="mean", threads=None):
+    def extract(self, value, seeds, *, normals="mean", threads=None, canonical=False):
         """The isosurface reached from ``seeds``, built without any vertex search.
 
         Parameters
@@ -424,6 +445,10 @@ class EdgeCentredTable:
             than 1 runs the parallel construction (:meth:`_construct_parallel`):
             the same triangles and vertices, in another order
             (:func:`canonical_order` gives one order for both).
+        canonical : bool, keyword-only
+            Return the surface in :func:`canonical_order` (vertices by key,
+            triangles by cell): the same arrays whatever the thread count
+            and queue order.
 
         Returns
         -------
@@ -435,12 +460,14 @@ class EdgeCentredTable:
             ``t2`` the construction (for-loops (1)-(3) with the triangle
             list), ``t3`` positions and normals.
         """
+        if canonical:
+            return canonical_order(self.extract(value, seeds, normals=normals, threads=threads))
         value = check_value(value)
         check_normals(normals)
         seeds = self._check_seeds(seeds)
         threads = self.threads if threads is None else _check_threads(threads)
         node_grad = self.node_gradients if normals == "gradient" else None
-        if threads > 1:
+        if threads > 1 and _k.ATOMICS:  # without compare-and-swap, one thread
             return self._extract_parallel(value, seeds, normals, node_grad, threads)
         restarts = 0
         counters = np.zeros(_k.N_COUNTERS, np.int64)
@@ -510,103 +537,141 @@ class EdgeCentredTable:
             method=self.method,
         )
 
-    def _extract_parallel(self, value, seeds, normals, node_grad, threads):
-        """:meth:`extract` by ``threads`` threads (see ``_edge_centred_kernels.propagate_parallel``)."""
-        nn, s, ne = self.nn, self.s, self.ne
-        tabs = (self.table, self.count, self.case_mask, self.local_edges)
-        self._build_node_cells()
-        if self._owned is None:  # shared with the copies made after it
-            cell_starts = self.starts if self.rec is not None else self.ec_off[self.ids]
-            self._owned = _k.owned_edges(self.ec, cell_starts)
-        if self._claim is None:
-            self._claim = np.empty(self.dyn.shape[0], np.int32)
-        claim, owned = self._claim, self._owned
-        if self._vid is None:
-            self._vid = np.empty(self.n_edges + self.vol.n_points, np.int32)
-            self._node_gen = np.zeros(self.vol.n_points, np.int32)
-        if self._log is None or self._log.shape[0] != threads:
-            cap = max(1024, self._queue.shape[0] // threads)
-            self._stack = np.empty((threads, cap), np.int32)
-            self._log = np.empty((threads, cap), np.int32)
-        n_log = np.zeros(threads, np.int64)
-        status = np.zeros(threads, np.int64)
+    def _parallel_buffers(self, threads):
+        """The serial buffers seen as ``threads`` per-thread parts, and the vertex-id array ``ev`` (made once).
+
+        The parallel construction runs in the serial one's query buffers (a
+        builder serves one query at a time): thread ``t`` gets the ``t``-th
+        of ``threads`` equal parts of the queue (its stack), the triangle
+        list and the vertex lists; an overflow doubles the whole buffer, as
+        in the serial path. ``ev`` (n_edges + n_nodes,) int32, -1 between
+        queries: the vertex id of a contested edge or node, decided by
+        compare-and-swap.
+        """
+        if getattr(self, "_ev", None) is None:
+            self._ev = np.full(self.n_edges + self.vol.n_points, -1, np.int32)
+        mt = _m.MAX_TRIANGLES
+        q = self._queue.shape[0] // threads
+        tc = self._tris.shape[0] // threads
+        vc = self._vkey.shape[0] // threads
+        while q < 16 or tc < mt + 16 or vc < 16:  # parts too small for a polygon: grow them first
+            self._queue = np.empty(2 * max(16 * threads, self._queue.shape[0]), np.int32)
+            self._tris = np.empty((2 * max((mt + 16) * threads, self._tris.shape[0]), 3), np.int32)
+            self._tri_cell = np.empty(self._tris.shape[0], np.int32)
+            self._vkey = np.empty(2 * max(16 * threads, self._vkey.shape[0]), np.int32)
+            self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
+            q, tc, vc = self._queue.shape[0] // threads, self._tris.shape[0] // threads, self._vkey.shape[0] // threads
+        return (self._queue[:q * threads].reshape(threads, q), self._tris[:tc * threads].reshape(threads, tc, 3),
+                self._tri_cell[:tc * threads].reshape(threads, tc), self._vkey[:vc * threads].reshape(threads, vc),
+                self._vend[:vc * threads].reshape(threads, vc, 2))
+
+    def _fit_parts(self, threads, counters):
+        """Grow the buffers (for the next query) until each thread's part could hold all of this surface.
+
+        How the work splits between the threads depends on the scheduler, so
+        a surface that fitted may not fit a part the next time unless every
+        part holds it whole: without this, a repeated query could restart.
+        The buffers then hold ``threads`` times the largest surface so far.
+        """
+        pops, n_t, n_v = int(counters[:, 4].sum()), int(counters[:, 0].sum()), int(counters[:, 1].sum())
+        if self._queue.shape[0] // threads < pops:
+            self._queue = np.empty(threads * pops, np.int32)
+        if self._tris.shape[0] // threads < n_t + _m.MAX_TRIANGLES:
+            self._tris = np.empty((threads * (n_t + _m.MAX_TRIANGLES), 3), np.int32)
+            self._tri_cell = np.empty(self._tris.shape[0], np.int32)
+        if self._vkey.shape[0] // threads < n_v:
+            self._vkey = np.empty(threads * n_v, np.int32)
+            self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
+
+    def _extract_parallel(self, value, seeds, normals, node_grad, threads, interleave=0):
+        """:meth:`extract` by ``threads`` threads (``_edge_centred_kernels.construct_parallel``).
+
+        ``interleave > 0`` (tests): the threads' shares run on this thread
+        instead, taking turns of ``interleave`` cells each -- a deterministic
+        race between them, whatever the machine's scheduler does.
+        """
+        nn, s = self.nn, self.s
         restarts = 0
         while True:
-            gen = self._next_generation()
-            if gen == 1:  # the stamps were cleared: so are the node stamps
-                self._node_gen[:] = 0
+            stack, tris, tri_cell, vkey, vend = self._parallel_buffers(threads)
+            gen = self._next_generation(threads)  # thread t claims with gen + t
+            counters = np.zeros((threads, 8), np.int64)
+            status = np.zeros(threads, np.int64)
+            next_seed = np.zeros(1, np.int64)
             t0 = time.perf_counter()
-            if self._queue.shape[0] < seeds.shape[0]:
-                self._queue = np.empty(2 * seeds.shape[0], np.int32)
-            tested, n_queued = _k.test_seeds(self.nodes, self.dyn, nn, s, value, self.faces, seeds, gen, self._queue)
-            t1 = time.perf_counter() - t0
-            t0 = time.perf_counter()
-            _k.propagate_parallel(self.nodes, self.ids, self.starts, self.dyn, nn, s, value, self.faces, *tabs,
-                                  self.ec_off, self.ec,
-                                  *self._nc(), gen, self._queue, n_queued, claim, self._stack, self._log, n_log,
-                                  status)
+            args = (self.nodes, self.ids, self.starts, self.dyn, self.ds, nn, s, value, self.faces, self.table,
+                    self.count, self.case_mask, self.local_edges, self.n_edges, self.ec_off, self.ec, *self._nc(), gen,
+                    seeds, next_seed, self._ev, stack, tris, tri_cell, vkey, vend, counters)
+            if interleave:
+                status[:] = _k.PAUSED
+                while (status == _k.PAUSED).any():
+                    for t in np.flatnonzero(status == _k.PAUSED):
+                        status[t] = _k._flood(t, *args, interleave)
+            else:
+                _k.construct_parallel(*args, status)
+            _k.release_contested(vkey, counters, self._ev)  # ev back to -1 where a thread won a vertex
             if not status.any():
                 break
-            restarts += 1  # a thread's list was too small: grow them and do the query again
-            cap = 2 * self._log.shape[1]
-            self._stack = np.empty((threads, cap), np.int32)
-            self._log = np.empty((threads, cap), np.int32)
-        counts = np.zeros((threads, 4), np.int64)
-        exact_cells = self._stack  # free once the propagation is done
-        _k.number_parallel(self.nodes, self.ids, self.dyn, nn, s, value, *tabs, owned, claim, self._log, n_log,
-                           self._vid, exact_cells,
-                           counts)
-        n_edge_v = int(counts[:, 1].sum())
-        n_cap = n_edge_v + int(counts[:, 2].sum()) * nn  # node vertices: at most nn per exact cell
-        keys = np.empty(n_cap, np.int64)
-        vend = np.empty((n_cap, 2), np.int32)
-        n_node_v = 0
-        if counts[:, 2].any():
-            n_node_v = _k.number_nodes(self.nodes, self.ids, self.dyn, nn, s, value, *tabs, self.n_edges, exact_cells,
-                                       counts, self._vid,
-                                       self._node_gen, gen, n_edge_v, keys, vend)
-        n_v = n_edge_v + n_node_v
-        v_base = np.zeros(threads + 1, np.int64)
-        v_base[1:] = np.cumsum(counts[:, 1])
+            restarts += 1  # a buffer was too small (or a table missing): grow (build) it and do the query again
+            worst = int(status[status != _k.OK][0])
+            if worst == _k.FULL_QUEUE:
+                self._queue = np.empty(2 * self._queue.shape[0], np.int32)
+            elif worst == _k.FULL_TRIANGLES:
+                self._tris = np.empty((2 * self._tris.shape[0], 3), np.int32)
+                self._tri_cell = np.empty(self._tris.shape[0], np.int32)
+            elif worst == _k.NEED_NODE_CELLS:
+                self._build_node_cells()
+            else:
+                self._vkey = np.empty(2 * self._vkey.shape[0], np.int32)
+                self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
+        self._fit_parts(threads, counters)
         t_base = np.zeros(threads + 1, np.int64)
-        t_base[1:] = np.cumsum(counts[:, 0])
-        n_t = int(t_base[-1])
+        t_base[1:] = np.cumsum(counters[:, 0])
+        v_base = np.zeros(threads + 1, np.int64)
+        v_base[1:] = np.cumsum(counters[:, 1])
+        n_t, n_v = int(t_base[-1]), int(v_base[-1])
         tri = np.empty((n_t, 3), np.int64)
-        tri_cell = np.empty(n_t, np.int64)
-        _k.write_parallel(self.nodes, self.ids, self.dyn, nn, s, value, *tabs, self.n_edges, owned, claim, self._log,
-                          n_log, self._vid,
-                          v_base, t_base, tri, tri_cell, keys, vend)
-        keys = keys[:n_v]
-        vend = vend[:n_v]
-        tri, tri_cell, keys, vend, collapsed = _drop_at_nodes(bool(n_node_v), tri, tri_cell, keys, vend, self.n_edges)
+        tri_cell_out = np.empty(n_t, np.int64)
+        keys = np.empty(n_v, np.int64)
+        ends = np.empty((n_v, 2), np.int32)
+        _k.gather_parallel(tris, tri_cell, vkey, vend, counters, t_base, v_base, tri, tri_cell_out, keys, ends)
+        n_node_v = int(counters[:, 7].sum())
+        tri, tri_cell_out, keys, ends, collapsed = _drop_at_nodes(n_node_v > 0, tri, tri_cell_out, keys, ends,
+                                                                  self.n_edges)
         n_v = keys.shape[0]
         t2 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
         vertices = np.empty((n_v, 3))
-        if n_v:
-            _k.positions(np.ascontiguousarray(vend), n_v, self.points, s, value, vertices)
+        mean_kernel = None
+        if n_t >= self.STAGE3_PARALLEL_TRIANGLES:  # positions and mean normals by the threads too
+            if n_v:
+                _k.positions_parallel(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
+
+            def mean_kernel(v, t, out):
+                _k.mean_normals_parallel(v, t, out, np.empty((threads - 1, v.shape[0], 3)))
+        elif n_v:
+            _k.positions(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
         nrm = vertex_normals(normals, vertices, tri, keys, edges=np.ascontiguousarray(self.vol.edges), s=s,
-                             value=value, node_grad=node_grad, points=self.points)
+                             value=value, node_grad=node_grad, points=self.points, mean_kernel=mean_kernel)
         t3 = time.perf_counter() - t0
-        pops = int(n_log.sum())
-        n_p = int(counts[:, 3].sum())
+        n_p = int(counters[:, 3].sum())
+        tested = int(counters[:, 5].sum())
         self.stats = {
-            "pops": pops,
+            "pops": int(counters[:, 4].sum()),
             "constructed": n_p,
-            "duplicates": pops - n_p,
-            "seeds_tested": int(tested),
-            "seeds_crossed": int(n_queued),
+            "cells_tested": tested,
+            "contested": int(counters[:, 6].sum()),
+            "node_vertices": n_node_v,
             "lookups": 0,
             "restarts": restarts,
             "collapsed": tuple(map(tuple, collapsed.tolist())),
             "threads": threads,
-            "per_thread": tuple(int(x) for x in n_log),
+            "per_thread": tuple(int(x) for x in counters[:, 4]),
         }
         return IsoSurface(
-            value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell,
-            cells_tested=int(tested) + n_p - int(n_queued), cells_intersected=n_p, vertex_lookups=0,
-            t1=t1, t2=t2, t3=t3, method=self.method,
+            value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell_out,
+            cells_tested=tested, cells_intersected=n_p, vertex_lookups=0, t1=0.0, t2=t2, t3=t3, method=self.method,
         )
 
     def memory_bytes(self):
@@ -622,10 +687,9 @@ class EdgeCentredTable:
         (the volume's ``edges``, read by stage 3 for gradient normals and
         degenerate ones; its ``cell_edges`` serve the preparation only),
         ``buffers`` (queue, triangles, vertex keys and ends at their
-        current sizes); after a query with ``threads > 1`` also
-        ``parallel`` (the vertex number per edge and node, the node stamps,
-        the threads' stacks and lists of cells taken, the claim per cell and
-        the bits of the edges each cell numbers).
+        current sizes; a parallel query cuts them into one part per thread);
+        after a query with ``threads > 1`` also ``parallel`` (the id of a
+        contested vertex per edge and node, int32, -1 between queries).
         """
         vol = self.vol
         out = {
@@ -641,9 +705,8 @@ class EdgeCentredTable:
             out["query_state"] = int(self.dyn.nbytes)
         if "nc" in self._node_cells:
             out["node_cells"] = int(sum(a.nbytes for a in self._node_cells["nc"]))
-        if self._vid is not None:
-            out["parallel"] = int(self._vid.nbytes + self._node_gen.nbytes + self._stack.nbytes + self._log.nbytes
-                                  + self._claim.nbytes + self._owned.nbytes)
+        if getattr(self, "_ev", None) is not None:
+            out["parallel"] = int(self._ev.nbytes)
         return out
 
 

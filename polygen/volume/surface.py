@@ -434,7 +434,7 @@ def finish(value, keys, tri, tri_cell, *, points, edges, s, normals, node_grad, 
     )
 
 
-def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad, points=None):
+def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad, points=None, mean_kernel=None):
     """The normals half of stage 3, shared by every construction.
 
     Parameters
@@ -454,6 +454,9 @@ def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad, 
     points : (N, 3) float64, optional
         Node positions: a vertex whose normal comes out zero gets the
         direction of its edge towards increasing scalar instead.
+    mean_kernel : callable, optional
+        ``(vertices, tri, out)`` filling ``out`` with the ``"mean"`` normals
+        in place of the serial kernel (a parallel one for large surfaces).
 
     Returns
     -------
@@ -473,7 +476,7 @@ def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad, 
     nrm = np.empty_like(vertices)
     if vertices.shape[0]:
         if normals == "mean":
-            _m._mean_normals(vertices, tri, nrm)
+            (_m._mean_normals if mean_kernel is None else mean_kernel)(vertices, tri, nrm)
         else:
             _m._gradient_normals(keys, edges, s, value, node_grad, nrm)
         if points is not None:
