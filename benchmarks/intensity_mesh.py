@@ -33,6 +33,13 @@ smallest angle) is recorded too.  Writes
 
     python benchmarks/intensity_mesh.py [--image 160] [--quick]
     python benchmarks/intensity_mesh.py --fine-first
+    python benchmarks/intensity_mesh.py --only plate
+
+``--only plate`` runs only the plate row: the first mesh and radiosity at ``size_initial``
+1.7 (Table 4.1's parameters, as the full run), then the floor's 200 x 200 size grid, best of
+3 (wall and CPU), and its phases one by one (IDW, element matrix, nested-dissection order,
+free-DOF CSC assembly with the held values' right-hand side, SuperLU factorisation, solve);
+writes ``intensity_mesh_plate.json``.
 
 ``--fine-first`` (issue 15, the thesis's intent read from Requirement 4.1: *the first
 mesh fine*, so that small shadows are found, then coarsened where the intensity varies
@@ -51,6 +58,11 @@ import argparse
 import json
 import os
 import time
+from types import SimpleNamespace
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from _common import RESULTS, machine, write_results
 
@@ -66,7 +78,15 @@ from polygen.radiosity import (
     scenes,
 )
 from polygen.radiosity.error import ErrorPoint, adaptive_curve, image_error, shade, uniform_curve
-from polygen.radiosity.intensity import PHASES
+from polygen.mesh2d import plate as _plate
+from polygen.mesh2d.size_grid import assign_grid_sizes, grid_lattice
+from polygen.radiosity.intensity import (
+    PHASES,
+    intensity_variation,
+    polygon_size_grids,
+    size_function,
+)
+from polygen.radiosity.raster import node_intensities
 
 THESIS_4_1 = {"first mesh": 1976, "adaptive re-mesh": 3205, "this method": 1396}
 THESIS_4_2 = dict(zip(PHASES, (31.51, 277.31, 171.75, 42.23, 225.54)))
@@ -78,20 +98,100 @@ def camera(n):
 
 
 def plate_timing(result, n=200):
-    """Best of 3, wall and CPU seconds: the floor's size grid on n x n points (IDW + plate)."""
-    first = result.first_mesh
-    k = next(i for i, p in enumerate(first.scene.polygons) if p.name == "box_y0")
-    poly = first.scene.polygons[k]
-    xy, _, _, nodes = first.polygon_elements(k)
-    ext = poly.exterior_2d
-    bounds = (*ext.min(axis=0), *ext.max(axis=0))
+    """Best of 3, wall and CPU seconds: the floor's size grid on n x n points (IDW + plate).
+
+    The grid's nested-dissection order is cached per shape; each repetition starts without it.
+    """
+    xy, sizes, bounds = _floor_points(result)
     wall = cpu = float("inf")
     for _ in range(3):
+        _plate._nested_dissection.cache_clear()
         t, c = time.perf_counter(), time.process_time()
-        grid = element_size_grid(xy, result.node_size[nodes], bounds, grid=(n, n))
+        grid = element_size_grid(xy, sizes, bounds, grid=(n, n))
         wall = min(wall, time.perf_counter() - t)
         cpu = min(cpu, time.process_time() - c)
     return wall, cpu, int((~grid.assigned).sum())
+
+
+def _floor_points(result):
+    first = result.first_mesh
+    k = next(i for i, p in enumerate(first.scene.polygons) if p.name == "box_y0")
+    xy, _, _, nodes = first.polygon_elements(k)
+    ext = first.scene.polygons[k].exterior_2d
+    return xy, result.node_size[nodes], (*ext.min(axis=0), *ext.max(axis=0))
+
+
+def plate_phases(result, n=200):
+    """Best of 3 per phase of the plate step, (wall, CPU) seconds (the solver's own steps)."""
+    xy, sizes, bounds = _floor_points(result)
+    best = {}
+
+    def clock(name, fn):
+        t, c = time.perf_counter(), time.process_time()
+        out = fn()
+        w, cp = time.perf_counter() - t, time.process_time() - c
+        old = best.get(name, (np.inf, np.inf))
+        best[name] = (min(old[0], w), min(old[1], cp))
+        return out
+
+    for _ in range(3):
+        _plate._nested_dissection.cache_clear()
+        origin, h, (ny, nx) = grid_lattice(bounds, (n, n))
+        vals = clock("IDW (4.5)", lambda: assign_grid_sizes(xy, sizes, origin, h, (ny, nx)))
+        held = 3 * np.flatnonzero(np.isfinite(vals).ravel())
+        ke = clock("element matrix", lambda: _plate.plate_element_stiffness(*h))
+        u = np.zeros(3 * nx * ny)
+        u[held] = vals.ravel()[held // 3]
+        free = np.ones(3 * nx * ny, dtype=bool)
+        free[held] = False
+
+        def order():
+            o = (3 * _plate._nested_dissection(nx, ny)[:, None] + np.arange(3)).ravel()
+            return o[free[o]]
+        o = clock("nested-dissection order", order)
+        new = np.full(3 * nx * ny, -1, dtype=np.int32)
+        new[o] = np.arange(len(o), dtype=np.int32)
+        ip, ix, d, rhs = clock("assembly (CSC) + rhs",
+                               lambda: _plate._free_system(ke, nx, ny, new, o, u))
+        k = sp.csc_matrix((d, ix, ip), shape=(len(o), len(o)))
+        lu = clock("SuperLU factor", lambda: spla.splu(
+            k, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True}))
+        clock("triangular solves", lambda: lu.solve(rhs))
+    return best
+
+
+def plate_only(sc, solve, args):
+    """The plate row alone, from the first mesh and radiosity of the full run's main loop."""
+    si = 4.0 if args.quick else 1.7
+    first = mesh_scene(sc, si, element_levels=1, mesher=bubble_mesher)
+    b1 = progressive_refinement(first, **solve).display_radiosity(first)
+    d = intensity_variation(first, node_intensities(first, b1))
+    r = SimpleNamespace(first_mesh=first,
+                        node_size=size_function(d, size_min=2 * si, size_max=si / 2))
+    n = 20 if args.quick else 200
+    wall, cpu, nfree = plate_timing(r, n)
+    phases = plate_phases(r, n)
+    # the loop's own size-function step: every polygon's grid at step size_max / 2
+    _plate._nested_dissection.cache_clear()
+    t, c = time.perf_counter(), time.process_time()
+    grids = polygon_size_grids(first, r.node_size, grid=si / 4)
+    loop_wall, loop_cpu = time.perf_counter() - t, time.process_time() - c
+    load = os.getloadavg()
+    print(f"plate {n} x {n}: {wall:.3f} s wall, {cpu:.3f} s CPU ({nfree} grid points from the "
+          f"plate), load {load[0]:.1f}", flush=True)
+    print(f"the loop's size grids ({len(grids)} polygons, step {si / 4:g}): {loop_wall:.3f} s "
+          f"wall, {loop_cpu:.3f} s CPU")
+    for name, (w, c) in phases.items():
+        print(f"  {name:26s} {w:.3f} s wall, {c:.3f} s CPU")
+    if not args.quick:
+        RESULTS.mkdir(parents=True, exist_ok=True)
+        (RESULTS / "intensity_mesh_plate.json").write_text(json.dumps(
+            {"machine": machine(), "load_average": load, "grid": [n, n],
+             "plate_grid_points": nfree, "seconds": wall, "cpu_seconds": cpu,
+             "loop_size_grids": {"polygons": len(grids), "step": si / 4, "seconds": loop_wall,
+                                 "cpu_seconds": loop_cpu},
+             "phases": {k: {"seconds": w, "cpu_seconds": c} for k, (w, c) in phases.items()}},
+            indent=2) + "\n")
 
 
 def loop_point(label, r, cam, reference):
@@ -127,12 +227,16 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="tiny sizes (a smoke test)")
     ap.add_argument("--fine-first", action="store_true",
                     help="only the loop from a finer first mesh and its adaptive re-mesh")
+    ap.add_argument("--only", choices=["plate"],
+                    help="only this row (plate: the 200 x 200 size grid, by phase)")
     args = ap.parse_args(argv)
     solve = {"tol": args.tol, "ambient": True}
     sc = scenes.three_rectangles_box()
     cam = camera(args.image)
     if args.fine_first:
         return fine_first(sc, cam, solve, args)
+    if args.only == "plate":
+        return plate_only(sc, solve, args)
     sizes = [4.0] if args.quick else [2.4, 1.7]
     main_size = 4.0 if args.quick else 1.7
 
