@@ -45,8 +45,9 @@ REPEAT = 2
 WORKERS = 2
 
 
-def main(name="2M", parts=None):
+def main(name="2M", parts=None, modes=None):
     parts = PARTITIONS if parts is None else tuple(int(k) for k in parts.split(","))
+    modes = MODES if modes is None else tuple(modes.split(","))
     from polygen.volume import datasets, isovalues, methods
     from polygen.volume.distributed import local_client
     from polygen.volume.distributed import prepare as dask_prepare
@@ -83,22 +84,26 @@ def main(name="2M", parts=None):
             prepared.extract_many(values[:2])
             # the two stitches on the same partitions, interleaved with the single volume (a shared machine's
             # load drifts): best of REPEAT each
-            best = {mode: (float("inf"), None, None) for mode in MODES}
+            best = {mode: (float("inf"), None, None) for mode in modes}
             for _ in range(REPEAT):
                 many = min(many, _timed(lambda: m.extract_many(values))[0])
-                for mode in MODES:
+                for mode in modes:
                     prepared.stitch_on = mode
+                    load = os.getloadavg()[0]
                     t, out = _timed(lambda: prepared.extract_many(values))
                     if t < best[mode][0]:
                         best[mode] = (t, out, dict(wait=prepared.wait_last, client=prepared.bytes_last,
-                                                   workers=prepared.bytes_workers_last, pieces=prepared.bytes_pieces_last))
-            for mode in MODES:
+                                                   workers=prepared.bytes_workers_last, pieces=prepared.bytes_pieces_last,
+                                                   phases=dict(prepared.phases_last), load=load))
+            for mode in modes:
                 t, surfaces, got = best[mode]
                 ok = all(s.n_triangles == r.n_triangles and s.n_vertices == r.n_vertices
                          for s, r in zip(surfaces, ref))
-                work = np.zeros(k)
+                work, piece = np.zeros(k), np.zeros(k)
                 for s in surfaces:
                     work += [p["t1"] + p["t2"] + p["t3"] for p in s.partitions]
+                    piece += [p["piece_s"] for p in s.partitions]
+                phases = got["phases"] if mode == "client" else {}
                 cells = np.array([i["n_cells"] for i in prepared.infos])
                 row = {"run": f"{k} partitions on {WORKERS} workers, stitched on the {mode}", "partitions": k,
                        "stitch_on": mode, "split_s": split_s,
@@ -109,6 +114,9 @@ def main(name="2M", parts=None):
                        "bytes_pieces_per_query": got["pieces"] / SWEEP,
                        "crossed": sum(s.cells_intersected for s in surfaces),
                        "work_part_max_s": float(work.max()), "work_part_sum_s": float(work.sum()),
+                       "piece_part_max_s": float(piece.max()),
+                       "client_wait_s": phases.get("wait_s", float("nan")),
+                       "client_stitch_s": phases.get("stitch_s", float("nan")), "load": got["load"],
                        "stitch_s": sum(s.stitch_s for s in surfaces),
                        "stitch_cpu_s": sum(s.stitch_cpu_s for s in surfaces),
                        "seam_vertices": sum(s.seam_vertices for s in surfaces),
@@ -135,9 +143,10 @@ def _timed(fn):
 
 
 def _write(name, vol, rows):
-    cols = ["run", "prepare_s", "prepare_part_max_s", "query_s", "vs_single", "wait_s", "bytes_per_query",
-            "bytes_workers_per_query", "bytes_pieces_per_query", "work_part_max_s",
-            "stitch_s", "stitch_cpu_s", "seam_vertices", "seam_seeds", "triangles", "same_as_single"]
+    cols = ["run", "prepare_s", "prepare_part_max_s", "query_s", "vs_single", "load", "work_part_max_s",
+            "piece_part_max_s", "client_wait_s", "client_stitch_s", "stitch_s", "stitch_cpu_s", "bytes_per_query",
+            "bytes_per_triangle", "bytes_workers_per_query", "bytes_pieces_per_query", "seam_vertices", "seam_seeds",
+            "triangles", "same_as_single"]
     notes = [f"{name}: {vol.n_cells} {vol.cell_type} cells, {vol.n_points} nodes; {SWEEP} values "
              "linspace(min, max, 22)[1:-1], mean normals, the default method (edge-centred) on every partition",
              "single volume: prepare_s = topology + method preparation here; query_s = extract_many of the 20 values",
@@ -208,5 +217,5 @@ def _model(vol, rows):
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:3])
+    main(*sys.argv[1:4])
     print(f"results in {RESULTS}/partitioned.md; {machine()}")

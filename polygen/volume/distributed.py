@@ -43,6 +43,9 @@ __all__ = ["DaskPartitionedMethod", "prepare", "local_client", "require_distribu
 
 #: how many times a query asks again after losing partitions (each time after preparing them again)
 RETRIES = 1
+#: chunks a query's values are cut into when the client stitches (``DaskPartitionedMethod.chunk_values``
+#: unset): the client stitches one chunk while the workers extract the next
+CHUNKS = 5
 
 
 def require_distributed():
@@ -172,6 +175,8 @@ class DaskPartitionedMethod:
         self.bytes_workers_last = 0
         self.bytes_pieces_last = 0
         self.wait_last = 0.0
+        self.phases_last = {}
+        self.chunk_values = None
         t0 = time.perf_counter()
         workers = self._workers()
         self._futures = [None] * len(self.pieces)
@@ -277,17 +282,34 @@ class DaskPartitionedMethod:
         return leaves, roots
 
     def _run_on_client(self, values, normals):
-        """All pieces sent here (one actor call per partition) and stitched here."""
+        """All pieces sent here and stitched here, chunk after chunk of values.
+
+        Every chunk's actor calls are sent at once; each partition answers
+        them in order, so the client stitches chunk ``c`` while the workers
+        extract chunk ``c + 1``.
+        """
+        size = self.chunk_values or max(1, -(-len(values) // CHUNKS))
+        chunks = [values[i:i + size] for i in range(0, len(values), size)]
         calls = []
-        for i, a in enumerate(self.actors):
-            try:
-                calls.append(a.extract_many(values, normals))
-            except Exception as e:  # noqa: BLE001  dask: "Worker holding Actor was lost"
-                raise _Lost(i, e) from e
-        pieces = self._gather(calls, what="query")
-        made = sum(_nbytes(p) for per in pieces for p in per)
-        surfaces = [stitch(v, [per[j] for per in pieces], n_ids=self.n_ids, normals=normals)
-                    for j, v in enumerate(values)]
+        for chunk in chunks:
+            row = []
+            for i, a in enumerate(self.actors):
+                try:
+                    row.append(a.extract_many(chunk, normals))
+                except Exception as e:  # noqa: BLE001  dask: "Worker holding Actor was lost"
+                    raise _Lost(i, e) from e
+            calls.append(row)
+        surfaces, made = [], 0
+        self.phases_last = {"wait_s": 0.0, "stitch_s": 0.0}
+        for chunk, row in zip(chunks, calls):
+            t0 = time.perf_counter()
+            pieces = self._gather(row, what="query")
+            t1 = time.perf_counter()
+            made += sum(_nbytes(p) for per in pieces for p in per)
+            surfaces += [stitch(v, [per[j] for per in pieces], n_ids=self.n_ids, normals=normals)
+                         for j, v in enumerate(chunk)]
+            self.phases_last["wait_s"] += t1 - t0
+            self.phases_last["stitch_s"] += time.perf_counter() - t1
         return surfaces, 0, made
 
     def _run_query(self, values, normals):
@@ -414,7 +436,15 @@ def _merge(n_ids, left, right):
     """On a worker: two neighbouring nodes of the tree merged, value by value."""
     here, moved = _moved_in(left, right)
     return {"where": here, "moved": moved, "made": left["made"] + right["made"],
-            "pieces": [merge([a, b], n_ids=n_ids) for a, b in zip(left["pieces"], right["pieces"])]}
+            "pieces": [_narrow(merge([a, b], n_ids=n_ids)) for a, b in zip(left["pieces"], right["pieces"])]}
+
+
+def _narrow(piece):
+    """A merged piece with int32 triangles and cell ids where they fit (for its way to the next merge)."""
+    tc = piece["triangle_cells"]
+    if piece["keys"].shape[0] < 2**31 and (tc.size == 0 or tc.max() < 2**31):
+        piece = piece | {"triangles": piece["triangles"].astype(np.int32), "triangle_cells": tc.astype(np.int32)}
+    return piece
 
 
 def _finish(values, n_ids, normals, root):
