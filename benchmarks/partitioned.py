@@ -66,7 +66,7 @@ def main(name="2M", parts=None, modes=None):
     m = methods.get(methods.DEFAULT)(vol, field=field)
     prep_single = topo_s + m.preprocess_s
     m.extract_many(values[:2])
-    many = min(_timed(lambda: m.extract_many(values))[0] for _ in range(2))
+    many, many_cpu = min(_cpu_timed(lambda: m.extract_many(values))[::2] for _ in range(2))
     one_by_one, ref = _timed(lambda: [m.extract(v) for v in values])
     tris = sum(r.n_triangles for r in ref)
     rows = [{"run": "single volume", "partitions": 1, "prepare_s": prep_single, "query_s": many,
@@ -86,15 +86,15 @@ def main(name="2M", parts=None, modes=None):
             # load drifts): best of REPEAT each
             best = {mode: (float("inf"), None, None) for mode in modes}
             for _ in range(REPEAT):
-                many = min(many, _timed(lambda: m.extract_many(values))[0])
+                many, many_cpu = min((many, many_cpu), _cpu_timed(lambda: m.extract_many(values))[::2])
                 for mode in modes:
                     prepared.stitch_on = mode
                     load = os.getloadavg()[0]
-                    t, out = _timed(lambda: prepared.extract_many(values))
+                    t, out, cpu, wcpu = _cpu_timed(lambda: prepared.extract_many(values), client)
                     if t < best[mode][0]:
                         best[mode] = (t, out, dict(wait=prepared.wait_last, client=prepared.bytes_last,
                                                    workers=prepared.bytes_workers_last, pieces=prepared.bytes_pieces_last,
-                                                   phases=dict(prepared.phases_last), load=load))
+                                                   phases=dict(getattr(prepared, "phases_last", {})), load=load, cpu=cpu, wcpu=wcpu))
             for mode in modes:
                 t, surfaces, got = best[mode]
                 ok = all(s.n_triangles == r.n_triangles and s.n_vertices == r.n_vertices
@@ -102,7 +102,7 @@ def main(name="2M", parts=None, modes=None):
                 work, piece = np.zeros(k), np.zeros(k)
                 for s in surfaces:
                     work += [p["t1"] + p["t2"] + p["t3"] for p in s.partitions]
-                    piece += [p["piece_s"] for p in s.partitions]
+                    piece += [p.get("piece_s", np.nan) for p in s.partitions]
                 phases = got["phases"] if mode == "client" else {}
                 cells = np.array([i["n_cells"] for i in prepared.infos])
                 row = {"run": f"{k} partitions on {WORKERS} workers, stitched on the {mode}", "partitions": k,
@@ -117,6 +117,7 @@ def main(name="2M", parts=None, modes=None):
                        "piece_part_max_s": float(piece.max()),
                        "client_wait_s": phases.get("wait_s", float("nan")),
                        "client_stitch_s": phases.get("stitch_s", float("nan")), "load": got["load"],
+                       "cpu_client_s": got["cpu"], "cpu_workers_s": "/".join(f"{c:.3f}" for c in got["wcpu"]),
                        "stitch_s": sum(s.stitch_s for s in surfaces),
                        "stitch_cpu_s": sum(s.stitch_cpu_s for s in surfaces),
                        "seam_vertices": sum(s.seam_vertices for s in surfaces),
@@ -125,15 +126,28 @@ def main(name="2M", parts=None, modes=None):
                        "same_as_single": ok}
                 rows.append(row)
             rows[0]["query_s"] = many
+            rows[0]["cpu_client_s"] = many_cpu
             for row in rows:
                 row["vs_single"] = row["query_s"] / many
-            print({k: (round(v, 4) if isinstance(v, float) else v) for k, v in rows[-2].items()})
-            print({k: (round(v, 4) if isinstance(v, float) else v) for k, v in rows[-1].items()})
+            for row in rows[-len(modes):]:
+                print({k: (round(v, 4) if isinstance(v, float) else v) for k, v in row.items()})
             prepared.close()
     finally:
         client.close()
         client.cluster.close()
     _write(name, vol, rows)
+
+
+def _cpu_timed(fn, client=None):
+    """Wall clock, result, this process's CPU seconds (all its threads) and, with ``client``, each worker
+    process's (sorted by address): on a shared machine the CPU seconds say what the work cost, the wall
+    clock also how long it waited for a core."""
+    w0 = client.run(time.process_time) if client is not None else {}
+    c0, t0 = time.process_time(), time.perf_counter()
+    out = fn()
+    t, c = time.perf_counter() - t0, time.process_time() - c0
+    w1 = client.run(time.process_time) if client is not None else {}
+    return t, out, c, [w1[a] - w0[a] for a in sorted(w1)]
 
 
 def _timed(fn):
@@ -143,7 +157,8 @@ def _timed(fn):
 
 
 def _write(name, vol, rows):
-    cols = ["run", "prepare_s", "prepare_part_max_s", "query_s", "vs_single", "load", "work_part_max_s",
+    cols = ["run", "prepare_s", "prepare_part_max_s", "query_s", "vs_single", "load", "cpu_client_s",
+            "cpu_workers_s", "work_part_max_s",
             "piece_part_max_s", "client_wait_s", "client_stitch_s", "stitch_s", "stitch_cpu_s", "bytes_per_query",
             "bytes_per_triangle", "bytes_workers_per_query", "bytes_pieces_per_query", "seam_vertices", "seam_seeds",
             "triangles", "same_as_single"]
@@ -174,6 +189,8 @@ def _model(vol, rows):
     from polygen.volume.partitioned import scale_model
 
     on_w = [r for r in rows if r.get("stitch_on") == "workers"]
+    if not on_w:
+        return "(no run stitched on the workers: no model of a 1B-cell volume)\n"
     r = next((r for r in on_w if r["partitions"] == 2), on_w[0])
     n, tri = vol.n_cells, r["triangles"] / SWEEP
     levels = max(1, int(np.ceil(np.log2(r["partitions"]))))

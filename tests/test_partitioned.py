@@ -489,6 +489,35 @@ def test_dask_stitch_on_workers_bytes(client, data3):
         dask_prepare(pvol, client=client, stitch_on="here")
 
 
+def _left_blocks(prepared):
+    """The shared-memory blocks of the last query that still exist (Linux keeps them under /dev/shm)."""
+    assert prepared.blocks_last
+    return [n for n in prepared.blocks_last if os.path.exists(os.path.join("/dev/shm", n))]
+
+
+def test_dask_shared_memory_equals_tcp_and_local(client, data3):
+    """Pieces through shared memory (workers on this machine) or TCP, in chunks of values: the local stitch's
+    arrays bit for bit, and no shared-memory block left behind."""
+    values = list(isovalues(data3.scalars(), 9))
+    pvol = PartitionedVolume.split(data3, 3)
+    local = pvol.prepare()
+    on_dask = dask_prepare(pvol, client=client, stitch_on="client")
+    assert on_dask.transport == "shared-memory"  # a LocalCluster: every worker on this machine
+    got = {}
+    for transport, chunk in (("shared-memory", None), ("shared-memory", 1), ("tcp", 4)):
+        on_dask.transport, on_dask.chunk_values = transport, chunk
+        got[transport, chunk] = on_dask.extract_many(values)
+        assert on_dask.bytes_last > 0
+        if transport == "shared-memory":
+            assert chunk is None or len(on_dask.blocks_last) == 3 * -(-len(values) // chunk)
+            assert _left_blocks(on_dask) == []
+    for j, v in enumerate(values):
+        here = local.extract(v)
+        for surfaces in got.values():
+            _same_arrays(here, surfaces[j], counters=False)
+    on_dask.close()
+
+
 def test_dask_pvtu_pieces_read_on_workers(client, tmp_path, data3):
     PartitionedVolume.split(data3, 2).write_pvtu(tmp_path / "d3.pvtu")
     on_dask = dask_prepare(PartitionedVolume.from_pvtu(tmp_path / "d3.pvtu"), client=client)
@@ -532,6 +561,9 @@ def test_worker_killed_during_query(data3):
         os.kill(pid, signal.SIGKILL)
         t.join(120)
         assert not t.is_alive()
+        # the pieces came through shared memory: every block the query handed out is gone, the killed
+        # worker's included (written or not)
+        assert prepared.transport == "shared-memory" and _left_blocks(prepared) == []
         print("outcome:", "error" if "error" in result else f"complete, {prepared.reprepared} prepared again")
         if "error" in result:  # a clear error, naming the partition lost
             assert "partition" in str(result["error"]) and "no surface" in str(result["error"])
@@ -545,6 +577,7 @@ def test_worker_killed_during_query(data3):
         assert_same_as_single(data3, data3.isosurface(values[7]), prepared.extract(values[7]))
         assert prepared.reprepared >= 1 and victim not in prepared.placement
         assert pd.RETRIES >= 1
+
     finally:
         c.close()
         c.cluster.close()

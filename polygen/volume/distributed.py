@@ -45,7 +45,9 @@ __all__ = ["DaskPartitionedMethod", "prepare", "local_client", "require_distribu
 RETRIES = 1
 #: chunks a query's values are cut into when the client stitches (``DaskPartitionedMethod.chunk_values``
 #: unset): the client stitches one chunk while the workers extract the next
-CHUNKS = 5
+CHUNKS = 10
+#: how long a query that failed waits for its other calls before unlinking their shared-memory blocks
+SWEEP_TIMEOUT_S = 60
 
 
 def require_distributed():
@@ -90,6 +92,19 @@ def local_client(n_workers=2, *, threads_per_worker=1, processes=True, scheduler
         cluster = distributed.LocalCluster(n_workers=int(n_workers), threads_per_worker=int(threads_per_worker),
                                            processes=processes, dashboard_address=":0", **kwargs)
     return distributed.Client(cluster)
+
+
+def _shared_memory_ok():
+    """Whether POSIX shared memory works here (``multiprocessing.shared_memory`` on Linux/macOS)."""
+    try:
+        from multiprocessing import shared_memory
+
+        shm = shared_memory.SharedMemory(create=True, size=64)
+    except (ImportError, OSError):
+        return False
+    shm.close()
+    shm.unlink()
+    return True
 
 
 def _workers_are_local(client):
@@ -153,6 +168,20 @@ class DaskPartitionedMethod:
         Bytes of all the partitions' pieces of the last query (moved or not).
     wait_last : float
         Seconds the last query waited for its surfaces (calls, work, merges, transfer).
+    transport : {"shared-memory", "tcp"}
+        How pieces stitched on the client travel: through POSIX shared
+        memory when every worker runs on this machine (and it works here),
+        else in Dask's messages.
+    chunk_values : int or None
+        Values per actor call when the client stitches (default: the
+        query's values in ``CHUNKS`` chunks): the client stitches a chunk
+        while the workers extract the next.
+    phases_last : dict
+        Client stitch only: ``wait_s`` (waiting for pieces) and
+        ``stitch_s`` (mapping them, stitching) of the last query.
+    blocks_last : list of str
+        The shared-memory block names the last query handed out (all
+        unlinked when it returns or raises).
 
     Notes
     -----
@@ -168,6 +197,8 @@ class DaskPartitionedMethod:
             stitch_on = "client" if _workers_are_local(client) else "workers"
         self.stitch_on = stitch_on
         self.client = client
+        # pieces stitched on the client come through shared memory when every worker is on this machine
+        self.transport = "shared-memory" if _shared_memory_ok() and _workers_are_local(client) else "tcp"
         self.pieces = list(pvol.pieces)
         self.field, self.method, self.params = field, method, params
         self.reprepared = 0
@@ -176,6 +207,7 @@ class DaskPartitionedMethod:
         self.bytes_pieces_last = 0
         self.wait_last = 0.0
         self.phases_last = {}
+        self.blocks_last = []
         self.chunk_values = None
         t0 = time.perf_counter()
         workers = self._workers()
@@ -212,7 +244,7 @@ class DaskPartitionedMethod:
         if not hasattr(piece, "path"):  # a piece in memory: sent to its worker as data, not inside the task graph
             piece = self.client.scatter(piece, workers=[worker], hash=False)
         key = f"polygen-partition-{i}-{uuid.uuid4().hex}"
-        fut = self.client.submit(PreparedPartition, piece, i, self.field, self.method, self.params, actor=True,
+        fut = self.client.submit(SharedMemoryPartition, piece, i, self.field, self.method, self.params, actor=True,
                                  workers=[worker], allow_other_workers=True, key=key)
         self._futures[i] = fut
         self.actors[i] = fut.result()
@@ -290,27 +322,66 @@ class DaskPartitionedMethod:
         """
         size = self.chunk_values or max(1, -(-len(values) // CHUNKS))
         chunks = [values[i:i + size] for i in range(0, len(values), size)]
+        shared = self.transport == "shared-memory"
+        uid = uuid.uuid4().hex[:16]
+        names = [[f"polygen-{uid}-{c}-{i}" for i in range(len(self.actors))] for c in range(len(chunks))]
+        if shared:
+            self.blocks_last += [n for row in names for n in row]
         calls = []
-        for chunk in chunks:
-            row = []
-            for i, a in enumerate(self.actors):
+        try:
+            for c, chunk in enumerate(chunks):
+                row = []
+                for i, a in enumerate(self.actors):
+                    try:
+                        row.append(a.extract_many_shared(chunk, normals, names[c][i]) if shared
+                                   else a.extract_many(chunk, normals))
+                    except Exception as e:  # noqa: BLE001  dask: "Worker holding Actor was lost"
+                        raise _Lost(i, e) from e
+                calls.append(row)
+            surfaces, made = [], 0
+            self.phases_last = {"wait_s": 0.0, "stitch_s": 0.0}
+            for c, (chunk, row) in enumerate(zip(chunks, calls)):
+                t0 = time.perf_counter()
+                answers = self._gather(row, what="query")
+                t1 = time.perf_counter()
+                blocks = []
                 try:
-                    row.append(a.extract_many(chunk, normals))
-                except Exception as e:  # noqa: BLE001  dask: "Worker holding Actor was lost"
-                    raise _Lost(i, e) from e
-            calls.append(row)
-        surfaces, made = [], 0
-        self.phases_last = {"wait_s": 0.0, "stitch_s": 0.0}
-        for chunk, row in zip(chunks, calls):
-            t0 = time.perf_counter()
-            pieces = self._gather(row, what="query")
-            t1 = time.perf_counter()
-            made += sum(_nbytes(p) for per in pieces for p in per)
-            surfaces += [stitch(v, [per[j] for per in pieces], n_ids=self.n_ids, normals=normals)
-                         for j, v in enumerate(chunk)]
-            self.phases_last["wait_s"] += t1 - t0
-            self.phases_last["stitch_s"] += time.perf_counter() - t1
-        return surfaces, 0, made
+                    if shared:
+                        pieces = []
+                        for name, answer in zip(names[c], answers):
+                            shm, per = _open_shared(name, answer)
+                            blocks.append(shm)
+                            pieces.append(per)
+                        per = None
+                        made += sum(a["nbytes"] for a in answers)
+                    else:
+                        pieces = answers
+                        made += sum(_nbytes(p) for per in pieces for p in per)
+                    surfaces += [stitch(v, [per[j] for per in pieces], n_ids=self.n_ids, normals=normals)
+                                 for j, v in enumerate(chunk)]
+                finally:
+                    # the stitch copied what it kept (merge makes new arrays): no view on a block outlives it
+                    pieces = answers = None
+                    for shm in blocks:
+                        with contextlib.suppress(BufferError):  # a view held by a traceback: closed when freed
+                            shm.close()
+                self.phases_last["wait_s"] += t1 - t0
+                self.phases_last["stitch_s"] += time.perf_counter() - t1
+            return surfaces, 0, made
+        finally:
+            if shared:
+                self._sweep(calls, names)
+
+    def _sweep(self, calls, names):
+        """After a query: every call answered or failed, then every block name handed out unlinked (a query
+        that failed midway leaves blocks that no one else would unlink)."""
+        for row in calls:
+            for call in row:
+                with contextlib.suppress(Exception):
+                    call.result(timeout=SWEEP_TIMEOUT_S)
+        for row in names:
+            for name in row:
+                _unlink_quietly(name)
 
     def _run_query(self, values, normals):
         """The stitched surfaces, or ``_Lost`` naming a partition whose actor could not answer."""
@@ -344,6 +415,7 @@ class DaskPartitionedMethod:
         values = [check_value(v) for v in values]
         _check_normals(normals)
         t0 = time.perf_counter()
+        self.blocks_last = []
         for attempt in range(RETRIES + 1):
             try:
                 surfaces, moved, made = self._run_query(values, normals)
@@ -376,6 +448,91 @@ class DaskPartitionedMethod:
                 f.release()
         self._futures = [None] * len(self.pieces)
         self.actors = [None] * len(self.pieces)
+
+
+class SharedMemoryPartition(PreparedPartition):
+    """A partition on a worker of this machine: its pieces can travel through shared memory.
+
+    :meth:`extract_many_shared` writes the pieces' arrays into one POSIX
+    shared-memory block named by the client and returns only where each
+    array lies; the client maps the block, stitches from it and unlinks it
+    (:func:`_open_shared`). Measured on 2M in two partitions (load ~10): the
+    pieces over TCP cost the client 0.15 s of CPU per 20 values (≈ 3 ms per
+    MB), about as much as its stitch.
+
+    Ownership: the block is the client's as soon as it exists; the worker
+    takes it off its own resource tracker once written (else the tracker
+    would unlink it at the worker's exit, or warn that it leaked). A worker
+    killed before that leaves it to its tracker, which unlinks it; after
+    that, to the client, which unlinks every name it handed out once the
+    query's calls have all answered or failed.
+    """
+
+    def extract_many_shared(self, values, normals, name):
+        from multiprocessing import resource_tracker, shared_memory
+
+        pieces = self.extract_many(values, normals)
+        specs, arrays, size = [], [], 0
+        for piece in pieces:
+            spec = {}
+            for k, v in piece.items():
+                if isinstance(v, np.ndarray):
+                    spec[k] = ("shm", size, v.dtype.str, v.shape)
+                    arrays.append((size, v))
+                    size += -(-v.nbytes // 64) * 64
+                elif k == "fallback" and v is not None:
+                    spec[k] = ("shm-pair", (size, v[0].dtype.str, v[0].shape), (size + _pad(v[0]), v[1].dtype.str, v[1].shape))
+                    arrays += [(size, v[0]), (size + _pad(v[0]), v[1])]
+                    size += _pad(v[0]) + _pad(v[1])
+                else:
+                    spec[k] = v
+            specs.append(spec)
+        shm = shared_memory.SharedMemory(name=name, create=True, size=max(size, 1))
+        try:
+            for off, a in arrays:
+                np.ndarray(a.shape, a.dtype, buffer=shm.buf, offset=off)[...] = a
+        finally:
+            shm.close()
+        resource_tracker.unregister(shm._name, "shared_memory")  # the client's now (it unlinks it)
+        return {"nbytes": sum(a.nbytes for _, a in arrays), "block_bytes": size, "pieces": specs}
+
+
+def _pad(a):
+    return -(-a.nbytes // 64) * 64
+
+
+def _open_shared(name, answer):
+    """The pieces written by :meth:`SharedMemoryPartition.extract_many_shared`: views on the mapped block,
+    which is unlinked at once (its name is gone; the mapping lives until the returned ``shm`` is closed)."""
+    from multiprocessing import shared_memory
+
+    shm = shared_memory.SharedMemory(name=name)
+    shm.unlink()
+    buf = shm.buf
+    pieces = []
+    for spec in answer["pieces"]:
+        piece = {}
+        for k, v in spec.items():
+            if isinstance(v, tuple) and v and v[0] == "shm":
+                piece[k] = np.ndarray(v[3], np.dtype(v[2]), buffer=buf, offset=v[1])
+            elif isinstance(v, tuple) and v and v[0] == "shm-pair":
+                piece[k] = tuple(np.ndarray(sh, np.dtype(dt), buffer=buf, offset=off) for off, dt, sh in v[1:])
+            else:
+                piece[k] = v
+        pieces.append(piece)
+    return shm, pieces
+
+
+def _unlink_quietly(name):
+    """Unlink the shared-memory block ``name`` if it still exists (a query that failed midway)."""
+    from multiprocessing import shared_memory
+
+    try:
+        shm = shared_memory.SharedMemory(name=name)
+    except (FileNotFoundError, OSError):
+        return
+    shm.close()
+    shm.unlink()
 
 
 class _Lost(Exception):
