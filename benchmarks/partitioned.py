@@ -10,12 +10,17 @@ construction from the thinning skeleton) on every partition; twenty values
   values by ``extract_many`` (the issue's yardstick) and one by one;
 * **k partitions**: splitting here, preparation on the workers (wall clock,
   and each partition's own time), the twenty values by one
-  ``extract_many`` call (a task per partition and chunk of values, the
-  pieces merged pairwise on the workers up the tree of Morton neighbours,
-  the stitched surfaces to the client), the bytes that came to the client
-  and the bytes moved between workers, the work per partition (t1 + t2 +
-  t3 summed over its pieces) and the stitch work (merges and normals, on
-  the workers);
+  ``extract_many`` call in each of two modes -- **stitched on the client**
+  (``stitch_on="client"``, what ``"auto"`` picks on one machine: one actor
+  call per partition and chunk of two values, all sent at once, the pieces
+  through shared memory, the client stitching a chunk while the workers
+  extract the next) and **on the workers** (a task per partition and chunk
+  of values, the pieces merged pairwise on the workers up the tree of
+  Morton neighbours, the stitched surfaces to the client) -- with the bytes
+  that came to the client and moved between workers, the work per
+  partition (t1 + t2 + t3, and the piece making), the client's wait and
+  stitch, and the CPU seconds of the client process and of each worker
+  process (the machine is shared: wall clocks include waiting for a core);
 * every stitched surface is checked against the single volume's (triangle
   and vertex counts).
 
@@ -25,6 +30,7 @@ model on paper of a 1B-cell volume on 64 workers built from these numbers.
 
     python benchmarks/partitioned.py            # 2M, 2, 4 and 8 partitions
     python benchmarks/partitioned.py 10M 2      # another data set and partition counts (results/partitioned_10M.*)
+    python benchmarks/partitioned.py 2M 2 client  # and only one mode
 """
 
 import os
@@ -168,15 +174,26 @@ def _write(name, vol, rows):
              f"k partitions: LocalCluster(n_workers={WORKERS}, threads_per_worker=1, processes=True); prepare_s = "
              "wall clock of preparing every partition on the workers (pieces sent from here) and checking the seams; "
              "query_s = one extract_many of the 20 values, best of 2, interleaved with the single volume's (whose query_s "
-             "is its best over the whole run): stitched on the client = one actor call per partition, all pieces "
-             "to the client, stitched there; on the workers = a task per partition and chunk of values, the pieces "
-             "merged pairwise on the workers, the normals at the root, the surfaces to the client",
+             "is its best over the whole run): stitched on the client = one actor call per partition and chunk of 2 "
+             "values (all sent at once), the pieces through shared memory (every worker on this machine), stitched "
+             "here chunk by chunk while the workers extract the next (seam-only merge); on the workers = a task per "
+             "partition and chunk of values, the pieces merged pairwise on the workers, the seam normals at the root, "
+             "the surfaces to the client",
+             "load: the 1-minute load average when the query started (this machine has 2 cores and is shared); "
+             "cpu_client_s: CPU seconds of this process during the query (all its threads: the stitch, Dask's client "
+             "and -- a LocalCluster -- its scheduler; single volume: the 2 numba threads of extract_many); "
+             "cpu_workers_s: CPU seconds of each worker process (extraction, pieces, Dask)",
+             "work_part_max_s: the busiest partition's t1 + t2 + t3 over the 20 values (wall clock on its worker); "
+             "piece_part_max_s: its piece making (global keys, seam marks, normals of its own vertices); "
+             "client_wait_s / client_stitch_s: the client's wait for pieces / its mapping and stitching (client stitch "
+             "only); stitch_s / stitch_cpu_s: the merges and seam normals over the 20 values (wall clock / CPU time "
+             "of their threads)",
              "bytes_per_query: what came to the client per value -- stitched on the client: the pieces (global vertex "
-             "keys, positions, triangles as int32, global cell ids); on the workers: the stitched surface (positions, "
-             "normals, triangles and global cell ids as int32, global vertex keys); bytes_workers_per_query: pieces moved between workers "
-             "per value (merge inputs made on the other worker); work_part_max_s: the busiest partition's t1 + t2 + t3 "
-             "over the 20 values; wait_s: the query's wait for its surfaces; stitch_s / stitch_cpu_s: the merges and "
-             "normals over the 20 values (work summed over the merges; wall clock / CPU time of their threads)"]
+             "keys, positions, normals, seam vertex and triangle indices, triangles and global cell ids as int32); on "
+             "the workers: the stitched surface (positions, normals, triangles and global cell ids as int32, global "
+             "vertex keys); bytes_workers_per_query: pieces moved between workers per value (merge inputs made on the "
+             "other worker)",
+             "the machine is shared: wall clocks at a load above 2 include waiting for a core; compare the CPU seconds"]
     path = write_results("partitioned" if name == "2M" else f"partitioned_{name}", rows, cols,
                          title=f"Partitioned volumes on Dask: {name}", notes=notes)
     model = _model(vol, rows)

@@ -1,25 +1,41 @@
 """Partitioned volumes on Dask: partitions prepared once on the workers and kept there (issue 21).
 
 Each partition of a :class:`~polygen.volume.partitioned.PartitionedVolume`
-becomes a Dask **actor** (:class:`~polygen.volume.partitioned.PreparedPartition`
-on a worker): the piece is read (or, for a split volume, sent) once, the
-method is prepared there and kept; a query is one small task per partition and
-chunk of values, which asks the partition's actor on its own worker for its
-pieces (global vertex keys, positions, triangles, global cell ids); the
-pieces are then merged pairwise **on the workers**, up a tree of neighbouring
-partitions (:func:`~polygen.volume.partitioned.reduce_tree`, Morton order:
-each merge removes the seam vertices between its two sides), the root
-computes the normals, and only the stitched surface travels to the client.
-Neighbouring partitions are placed on the same worker (blocks of the Morton
-order), so the lower merges move nothing between workers; the values are
-cut into as many chunks as there are workers and each chunk's root merge
-runs on another worker, so the stitch is shared out.
+becomes a Dask **actor** (:class:`SharedMemoryPartition`, a
+:class:`~polygen.volume.partitioned.PreparedPartition` on a worker): the
+piece is read (or, for a split volume, sent) once, the method is prepared
+there and kept. A query asks every partition for its pieces (global vertex
+keys, positions, normals of its own vertices, seam marks, triangles, global
+cell ids) and stitches them in one of two places (``stitch_on``):
+
+* **on the client** (the default when every worker runs on the client's
+  machine): the values are cut into chunks and every chunk's actor calls
+  are sent at once; each partition answers them in order, and the client
+  stitches chunk ``c`` (the seam-only merge) while the workers extract
+  chunk ``c + 1``. The pieces travel through POSIX **shared memory**: a
+  worker writes them into one block named by the client, the client maps
+  it, unlinks the name at once and closes the mapping after the stitch
+  (which copies what it keeps). Over TCP instead when a worker is
+  elsewhere or shared memory is missing.
+* **on the workers**: one small task per partition and chunk of values,
+  which asks the partition's actor on its own worker for its pieces; the
+  pieces are merged pairwise up a tree of neighbouring partitions
+  (:func:`~polygen.volume.partitioned.reduce_tree`, Morton order: each
+  merge removes the seam vertices between its two sides), the root makes
+  the seam vertices' normals, and only the stitched surface travels to the
+  client. Neighbouring partitions are placed on the same worker (blocks of
+  the Morton order), so the lower merges move nothing between workers; the
+  values are cut into as many chunks as there are workers and each chunk's
+  root merge runs on another worker, so the stitch is shared out.
 
 Faults: when a worker is lost (its process killed, its machine gone), the
 calls to its actors fail; the partitions it held are prepared again on the
 workers that remain and the query is asked again, once. If that fails too,
 or no worker remains, :class:`~polygen.volume.partitioned.PartitionError`
 says which partition was lost: a query never returns part of a surface.
+Shared-memory blocks of a failed query are unlinked by the client once all
+its calls have answered or failed (a worker killed before handing a block
+over leaves it to that worker's resource tracker, which unlinks it).
 
 Dask is optional (``pip install polygen[distributed]``); this module imports
 it when it is used, with a clear message when it is missing.
