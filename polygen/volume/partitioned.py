@@ -405,6 +405,25 @@ def _piece_triangles(vertices, triangles, seam, tri_out, seam_tris, nrm, flat):
 
 
 @njit
+def _take_kept(keys, vertices, normals, keep, out_keys, out_vertices, out_normals, row0):
+    """Rows ``keep`` (all when ``keep`` is empty) of a piece's keys, vertices and normals (when
+    ``normals`` has rows) written from ``row0`` on; the next free row."""
+    r = row0
+    every = keep.shape[0] == 0
+    with_normals = normals.shape[0] > 0
+    for i in range(keys.shape[0]):
+        if every or keep[i]:
+            out_keys[r] = keys[i]
+            for d in range(3):
+                out_vertices[r, d] = vertices[i, d]
+            if with_normals:
+                for d in range(3):
+                    out_normals[r, d] = normals[i, d]
+            r += 1
+    return r
+
+
+@njit
 def _remap_triangles(tri, new_index, out, row0):
     """``out[row0 + t] = new_index[tri[t]]``: a piece's triangles in the merged numbering."""
     for t in range(tri.shape[0]):
@@ -598,12 +617,16 @@ def merge(pieces, *, n_ids):
         maps.append(new)
         keeps.append(keep)
 
-    def gather(name):
-        arrays = [p[name] if kp is None else p[name][kp] for p, kp in zip(pieces, keeps)]
-        return np.concatenate(arrays)  # a new array, never a piece's (finish writes the seam normals into it)
-
-    keys, verts = gather("keys"), gather("vertices")
-    nrm = gather("normals") if pieces[0].get("normals") is not None else None
+    # the kept vertices of every piece, in piece order, copied in one pass each (new arrays, never a
+    # piece's: finish writes the seam normals into them, and pieces may be views on shared memory)
+    with_normals = pieces[0].get("normals") is not None
+    keys, verts = np.empty(base, np.int64), np.empty((base, 3))
+    nrm = np.empty((base, 3)) if with_normals else None
+    no_keep, no_nrm = np.zeros(0, np.bool_), np.zeros((0, 3))
+    row0 = 0
+    for p, kp in zip(pieces, keeps):
+        row0 = _take_kept(p["keys"], p["vertices"], p["normals"] if with_normals else no_nrm,
+                          no_keep if kp is None else kp, keys, verts, nrm if with_normals else no_nrm, row0)
     tri_sizes = [p["triangles"].shape[0] for p in pieces]
     tri_off = np.cumsum([0] + tri_sizes)
     tri = np.empty((tri_off[-1], 3), np.int64)
