@@ -12,7 +12,7 @@ construction from the thinning skeleton) on every partition; twenty values
   and each partition's own time), the twenty values by one
   ``extract_many`` call in each of two modes -- **stitched on the client**
   (``stitch_on="client"``, what ``"auto"`` picks on one machine: one actor
-  call per partition and chunk of two values, all sent at once, the pieces
+  call per partition and chunk of four values, all sent at once, the pieces
   through shared memory, the client stitching a chunk while the workers
   extract the next) and **on the workers** (a task per partition and chunk
   of values, the pieces merged pairwise on the workers up the tree of
@@ -174,7 +174,7 @@ def _write(name, vol, rows):
              f"k partitions: LocalCluster(n_workers={WORKERS}, threads_per_worker=1, processes=True); prepare_s = "
              "wall clock of preparing every partition on the workers (pieces sent from here) and checking the seams; "
              "query_s = one extract_many of the 20 values, best of 2, interleaved with the single volume's (whose query_s "
-             "is its best over the whole run): stitched on the client = one actor call per partition and chunk of 2 "
+             "is its best over the whole run): stitched on the client = one actor call per partition and chunk of 4 "
              "values (all sent at once), the pieces through shared memory (every worker on this machine), stitched "
              "here chunk by chunk while the workers extract the next (seam-only merge); on the workers = a task per "
              "partition and chunk of values, the pieces merged pairwise on the workers, the seam normals at the root, "
