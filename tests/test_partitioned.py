@@ -518,6 +518,21 @@ def test_dask_shared_memory_equals_tcp_and_local(client, data3):
     on_dask.close()
 
 
+def test_unlink_of_a_block_a_killed_worker_left_empty():
+    """A worker killed between creating a block and sizing it leaves an empty one (it cannot be mapped):
+    the client's clean-up unlinks it by name; a block already gone is no error."""
+    _posixshmem = pytest.importorskip("_posixshmem")
+    from polygen.volume.distributed import _unlink_quietly
+
+    name = f"polygen-test-{os.getpid()}-empty"
+    os.close(_posixshmem.shm_open("/" + name, os.O_CREAT | os.O_EXCL | os.O_RDWR, 0o600))
+    assert os.path.exists(os.path.join("/dev/shm", name)) or not os.path.isdir("/dev/shm")
+    _unlink_quietly(name)
+    with pytest.raises(FileNotFoundError):
+        _posixshmem.shm_unlink("/" + name)
+    _unlink_quietly(name)
+
+
 def test_dask_pvtu_pieces_read_on_workers(client, tmp_path, data3):
     PartitionedVolume.split(data3, 2).write_pvtu(tmp_path / "d3.pvtu")
     on_dask = dask_prepare(PartitionedVolume.from_pvtu(tmp_path / "d3.pvtu"), client=client)

@@ -398,7 +398,7 @@ class DaskPartitionedMethod:
         that failed midway leaves blocks that no one else would unlink)."""
         for row in calls:
             for call in row:
-                with contextlib.suppress(Exception):
+                with contextlib.suppress(Exception):  # a lost worker's call: its error is the query's already
                     call.result(timeout=SWEEP_TIMEOUT_S)
         for row in names:
             for name in row:
@@ -500,11 +500,12 @@ class SharedMemoryPartition(PreparedPartition):
                 if isinstance(v, np.ndarray):
                     spec[k] = ("shm", size, v.dtype.str, v.shape)
                     arrays.append((size, v))
-                    size += -(-v.nbytes // 64) * 64
+                    size += _pad(v)
                 elif k == "fallback" and v is not None:
-                    spec[k] = ("shm-pair", (size, v[0].dtype.str, v[0].shape), (size + _pad(v[0]), v[1].dtype.str, v[1].shape))
-                    arrays += [(size, v[0]), (size + _pad(v[0]), v[1])]
-                    size += _pad(v[0]) + _pad(v[1])
+                    at = (size, size + _pad(v[0]))
+                    spec[k] = ("shm-pair",) + tuple((o, a.dtype.str, a.shape) for o, a in zip(at, v))
+                    arrays += list(zip(at, v))
+                    size = at[1] + _pad(v[1])
                 else:
                     spec[k] = v
             specs.append(spec)
@@ -519,6 +520,7 @@ class SharedMemoryPartition(PreparedPartition):
 
 
 def _pad(a):
+    """``a``'s bytes rounded up to 64 (each array of a block starts on a cache line)."""
     return -(-a.nbytes // 64) * 64
 
 
@@ -545,15 +547,17 @@ def _open_shared(name, answer):
 
 
 def _unlink_quietly(name):
-    """Unlink the shared-memory block ``name`` if it still exists (a query that failed midway)."""
-    from multiprocessing import shared_memory
+    """Unlink the shared-memory block ``name`` if it still exists (a query that failed midway).
 
+    By name, without mapping it: a worker killed between creating a block and
+    sizing it leaves an empty one, which cannot be mapped.
+    """
     try:
-        shm = shared_memory.SharedMemory(name=name)
-    except (FileNotFoundError, OSError):
+        import _posixshmem
+    except ImportError:  # no POSIX shared memory: no block was made
         return
-    shm.close()
-    shm.unlink()
+    with contextlib.suppress(OSError):  # FileNotFoundError: unlinked already (the usual case)
+        _posixshmem.shm_unlink("/" + name)
 
 
 class _Lost(Exception):
