@@ -10,12 +10,17 @@ construction from the thinning skeleton) on every partition; twenty values
   values by ``extract_many`` (the issue's yardstick) and one by one;
 * **k partitions**: splitting here, preparation on the workers (wall clock,
   and each partition's own time), the twenty values by one
-  ``extract_many`` call (a task per partition and chunk of values, the
-  pieces merged pairwise on the workers up the tree of Morton neighbours,
-  the stitched surfaces to the client), the bytes that came to the client
-  and the bytes moved between workers, the work per partition (t1 + t2 +
-  t3 summed over its pieces) and the stitch work (merges and normals, on
-  the workers);
+  ``extract_many`` call in each of two modes -- **stitched on the client**
+  (``stitch_on="client"``, what ``"auto"`` picks on one machine: one actor
+  call per partition and chunk of four values, all sent at once, the pieces
+  through shared memory, the client stitching a chunk while the workers
+  extract the next) and **on the workers** (a task per partition and chunk
+  of values, the pieces merged pairwise on the workers up the tree of
+  Morton neighbours, the stitched surfaces to the client) -- with the bytes
+  that came to the client and moved between workers, the work per
+  partition (t1 + t2 + t3, and the piece making), the client's wait and
+  stitch, and the CPU seconds of the client process and of each worker
+  process (the machine is shared: wall clocks include waiting for a core);
 * every stitched surface is checked against the single volume's (triangle
   and vertex counts).
 
@@ -25,6 +30,7 @@ model on paper of a 1B-cell volume on 64 workers built from these numbers.
 
     python benchmarks/partitioned.py            # 2M, 2, 4 and 8 partitions
     python benchmarks/partitioned.py 10M 2      # another data set and partition counts (results/partitioned_10M.*)
+    python benchmarks/partitioned.py 2M 2 client  # and only one mode
 """
 
 import os
@@ -45,8 +51,9 @@ REPEAT = 2
 WORKERS = 2
 
 
-def main(name="2M", parts=None):
+def main(name="2M", parts=None, modes=None):
     parts = PARTITIONS if parts is None else tuple(int(k) for k in parts.split(","))
+    modes = MODES if modes is None else tuple(modes.split(","))
     from polygen.volume import datasets, isovalues, methods
     from polygen.volume.distributed import local_client
     from polygen.volume.distributed import prepare as dask_prepare
@@ -65,7 +72,7 @@ def main(name="2M", parts=None):
     m = methods.get(methods.DEFAULT)(vol, field=field)
     prep_single = topo_s + m.preprocess_s
     m.extract_many(values[:2])
-    many = min(_timed(lambda: m.extract_many(values))[0] for _ in range(2))
+    many, many_cpu = min(_cpu_timed(lambda: m.extract_many(values))[::2] for _ in range(2))
     one_by_one, ref = _timed(lambda: [m.extract(v) for v in values])
     tris = sum(r.n_triangles for r in ref)
     rows = [{"run": "single volume", "partitions": 1, "prepare_s": prep_single, "query_s": many,
@@ -83,22 +90,26 @@ def main(name="2M", parts=None):
             prepared.extract_many(values[:2])
             # the two stitches on the same partitions, interleaved with the single volume (a shared machine's
             # load drifts): best of REPEAT each
-            best = {mode: (float("inf"), None, None) for mode in MODES}
+            best = {mode: (float("inf"), None, None) for mode in modes}
             for _ in range(REPEAT):
-                many = min(many, _timed(lambda: m.extract_many(values))[0])
-                for mode in MODES:
+                many, many_cpu = min((many, many_cpu), _cpu_timed(lambda: m.extract_many(values))[::2])
+                for mode in modes:
                     prepared.stitch_on = mode
-                    t, out = _timed(lambda: prepared.extract_many(values))
+                    load = os.getloadavg()[0]
+                    t, out, cpu, wcpu = _cpu_timed(lambda: prepared.extract_many(values), client)
                     if t < best[mode][0]:
                         best[mode] = (t, out, dict(wait=prepared.wait_last, client=prepared.bytes_last,
-                                                   workers=prepared.bytes_workers_last, pieces=prepared.bytes_pieces_last))
-            for mode in MODES:
+                                                   workers=prepared.bytes_workers_last, pieces=prepared.bytes_pieces_last,
+                                                   phases=dict(getattr(prepared, "phases_last", {})), load=load, cpu=cpu, wcpu=wcpu))
+            for mode in modes:
                 t, surfaces, got = best[mode]
                 ok = all(s.n_triangles == r.n_triangles and s.n_vertices == r.n_vertices
                          for s, r in zip(surfaces, ref))
-                work = np.zeros(k)
+                work, piece = np.zeros(k), np.zeros(k)
                 for s in surfaces:
                     work += [p["t1"] + p["t2"] + p["t3"] for p in s.partitions]
+                    piece += [p.get("piece_s", np.nan) for p in s.partitions]
+                phases = got["phases"] if mode == "client" else {}
                 cells = np.array([i["n_cells"] for i in prepared.infos])
                 row = {"run": f"{k} partitions on {WORKERS} workers, stitched on the {mode}", "partitions": k,
                        "stitch_on": mode, "split_s": split_s,
@@ -109,6 +120,10 @@ def main(name="2M", parts=None):
                        "bytes_pieces_per_query": got["pieces"] / SWEEP,
                        "crossed": sum(s.cells_intersected for s in surfaces),
                        "work_part_max_s": float(work.max()), "work_part_sum_s": float(work.sum()),
+                       "piece_part_max_s": float(piece.max()),
+                       "client_wait_s": phases.get("wait_s", float("nan")),
+                       "client_stitch_s": phases.get("stitch_s", float("nan")), "load": got["load"],
+                       "cpu_client_s": got["cpu"], "cpu_workers_s": "/".join(f"{c:.3f}" for c in got["wcpu"]),
                        "stitch_s": sum(s.stitch_s for s in surfaces),
                        "stitch_cpu_s": sum(s.stitch_cpu_s for s in surfaces),
                        "seam_vertices": sum(s.seam_vertices for s in surfaces),
@@ -117,15 +132,28 @@ def main(name="2M", parts=None):
                        "same_as_single": ok}
                 rows.append(row)
             rows[0]["query_s"] = many
+            rows[0]["cpu_client_s"] = many_cpu
             for row in rows:
                 row["vs_single"] = row["query_s"] / many
-            print({k: (round(v, 4) if isinstance(v, float) else v) for k, v in rows[-2].items()})
-            print({k: (round(v, 4) if isinstance(v, float) else v) for k, v in rows[-1].items()})
+            for row in rows[-len(modes):]:
+                print({k: (round(v, 4) if isinstance(v, float) else v) for k, v in row.items()})
             prepared.close()
     finally:
         client.close()
         client.cluster.close()
     _write(name, vol, rows)
+
+
+def _cpu_timed(fn, client=None):
+    """Wall clock, result, this process's CPU seconds (all its threads) and, with ``client``, each worker
+    process's (sorted by address): on a shared machine the CPU seconds say what the work cost, the wall
+    clock also how long it waited for a core."""
+    w0 = client.run(time.process_time) if client is not None else {}
+    c0, t0 = time.process_time(), time.perf_counter()
+    out = fn()
+    t, c = time.perf_counter() - t0, time.process_time() - c0
+    w1 = client.run(time.process_time) if client is not None else {}
+    return t, out, c, [w1[a] - w0[a] for a in sorted(w1)]
 
 
 def _timed(fn):
@@ -135,24 +163,37 @@ def _timed(fn):
 
 
 def _write(name, vol, rows):
-    cols = ["run", "prepare_s", "prepare_part_max_s", "query_s", "vs_single", "wait_s", "bytes_per_query",
-            "bytes_workers_per_query", "bytes_pieces_per_query", "work_part_max_s",
-            "stitch_s", "stitch_cpu_s", "seam_vertices", "seam_seeds", "triangles", "same_as_single"]
+    cols = ["run", "prepare_s", "prepare_part_max_s", "query_s", "vs_single", "load", "cpu_client_s",
+            "cpu_workers_s", "work_part_max_s",
+            "piece_part_max_s", "client_wait_s", "client_stitch_s", "stitch_s", "stitch_cpu_s", "bytes_per_query",
+            "bytes_per_triangle", "bytes_workers_per_query", "bytes_pieces_per_query", "seam_vertices", "seam_seeds",
+            "triangles", "same_as_single"]
     notes = [f"{name}: {vol.n_cells} {vol.cell_type} cells, {vol.n_points} nodes; {SWEEP} values "
              "linspace(min, max, 22)[1:-1], mean normals, the default method (edge-centred) on every partition",
              "single volume: prepare_s = topology + method preparation here; query_s = extract_many of the 20 values",
              f"k partitions: LocalCluster(n_workers={WORKERS}, threads_per_worker=1, processes=True); prepare_s = "
              "wall clock of preparing every partition on the workers (pieces sent from here) and checking the seams; "
              "query_s = one extract_many of the 20 values, best of 2, interleaved with the single volume's (whose query_s "
-             "is its best over the whole run): stitched on the client = one actor call per partition, all pieces "
-             "to the client, stitched there; on the workers = a task per partition and chunk of values, the pieces "
-             "merged pairwise on the workers, the normals at the root, the surfaces to the client",
+             "is its best over the whole run): stitched on the client = one actor call per partition and chunk of 4 "
+             "values (all sent at once), the pieces through shared memory (every worker on this machine), stitched "
+             "here chunk by chunk while the workers extract the next (seam-only merge); on the workers = a task per "
+             "partition and chunk of values, the pieces merged pairwise on the workers, the seam normals at the root, "
+             "the surfaces to the client",
+             "load: the 1-minute load average when the query started (this machine has 2 cores and is shared); "
+             "cpu_client_s: CPU seconds of this process during the query (all its threads: the stitch, Dask's client "
+             "and -- a LocalCluster -- its scheduler; single volume: the 2 numba threads of extract_many); "
+             "cpu_workers_s: CPU seconds of each worker process (extraction, pieces, Dask)",
+             "work_part_max_s: the busiest partition's t1 + t2 + t3 over the 20 values (wall clock on its worker); "
+             "piece_part_max_s: its piece making (global keys, seam marks, normals of its own vertices); "
+             "client_wait_s / client_stitch_s: the client's wait for pieces / its mapping and stitching (client stitch "
+             "only); stitch_s / stitch_cpu_s: the merges and seam normals over the 20 values (wall clock / CPU time "
+             "of their threads)",
              "bytes_per_query: what came to the client per value -- stitched on the client: the pieces (global vertex "
-             "keys, positions, triangles as int32, global cell ids); on the workers: the stitched surface (positions, "
-             "normals, triangles and global cell ids as int32, global vertex keys); bytes_workers_per_query: pieces moved between workers "
-             "per value (merge inputs made on the other worker); work_part_max_s: the busiest partition's t1 + t2 + t3 "
-             "over the 20 values; wait_s: the query's wait for its surfaces; stitch_s / stitch_cpu_s: the merges and "
-             "normals over the 20 values (work summed over the merges; wall clock / CPU time of their threads)"]
+             "keys, positions, normals, seam vertex and triangle indices, triangles and global cell ids as int32); on "
+             "the workers: the stitched surface (positions, normals, triangles and global cell ids as int32, global "
+             "vertex keys); bytes_workers_per_query: pieces moved between workers per value (merge inputs made on the "
+             "other worker)",
+             "the machine is shared: wall clocks at a load above 2 include waiting for a core; compare the CPU seconds"]
     path = write_results("partitioned" if name == "2M" else f"partitioned_{name}", rows, cols,
                          title=f"Partitioned volumes on Dask: {name}", notes=notes)
     model = _model(vol, rows)
@@ -165,6 +206,8 @@ def _model(vol, rows):
     from polygen.volume.partitioned import scale_model
 
     on_w = [r for r in rows if r.get("stitch_on") == "workers"]
+    if not on_w:
+        return "(no run stitched on the workers: no model of a 1B-cell volume)\n"
     r = next((r for r in on_w if r["partitions"] == 2), on_w[0])
     n, tri = vol.n_cells, r["triangles"] / SWEEP
     levels = max(1, int(np.ceil(np.log2(r["partitions"]))))
@@ -208,5 +251,5 @@ def _model(vol, rows):
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:3])
+    main(*sys.argv[1:4])
     print(f"results in {RESULTS}/partitioned.md; {machine()}")

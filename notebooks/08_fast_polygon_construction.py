@@ -388,14 +388,16 @@ if len(rows_b) >= 2:
 # solvers that run on clusters write it in pieces anyway. `PartitionedVolume` holds such
 # pieces (or splits one volume into `K` Morton ranges of cells); each partition is prepared
 # once on a Dask worker and kept there (an actor), every partition extracts its part of a
-# surface, and the parts are **stitched on the workers**: merged pairwise up a tree of
-# neighbouring partitions, a vertex on a seam edge named by the pair of *global* node ids of
-# its edge and kept once, the normals made at the root — only the stitched surface travels
-# to the client. Here data 3 in four partitions on a `LocalCluster` of two worker processes,
-# twenty values, against the single volume, stitched on the workers as a cluster would
-# (`stitch_on="workers"`; by default, `"auto"`, a cluster whose workers all run on the
-# client's machine stitches on the client instead: on two cores the tree measured 1.3–2.3×
-# slower than one stitch on the client, `benchmarks/results/partitioned.md`).
+# surface with the normals of its own vertices, and the parts are **stitched on the
+# workers**: merged pairwise up a tree of neighbouring partitions, only the seam vertices
+# (both nodes of their edge on another partition too) matched by the pair of *global* node
+# ids of their edge and kept once, their normals made at the root — only the stitched
+# surface travels to the client. Here data 3 in four partitions on a `LocalCluster` of two
+# worker processes, twenty values, against the single volume, stitched on the workers as a
+# cluster would (`stitch_on="workers"`; by default, `"auto"`, a cluster whose workers all
+# run on the client's machine stitches on the client instead, the pieces coming through
+# shared memory chunk by chunk: on two cores that is faster than the tree,
+# `benchmarks/results/partitioned.md`).
 
 # %%
 from polygen.volume.distributed import local_client

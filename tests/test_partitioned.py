@@ -46,27 +46,32 @@ def assert_same_as_single(vol, single, stitched):
     assert stitched.n_triangles == single.n_triangles
     assert stitched.n_vertices == single.n_vertices
     assert stitched.area() == pytest.approx(single.area(), rel=1e-9, abs=1e-300)
-    keys = stitched.vertex_keys
     # one vertex per global key, each made where the single volume makes it, bit for bit: no vertex twice
+    # (the stitched vertices come piece after piece: compared in key order)
+    o2 = np.argsort(stitched.vertex_keys)
+    keys = stitched.vertex_keys[o2]
     assert np.all(np.diff(keys) > 0)
     gk = global_keys(vol, single)
     order = np.argsort(gk)
     np.testing.assert_array_equal(gk[order], keys)
-    np.testing.assert_array_equal(single.vertices[order], stitched.vertices)
-    # the same triangles, as sets of vertices (single's vertices renumbered as the stitched ones)
+    np.testing.assert_array_equal(single.vertices[order], stitched.vertices[o2])
+    # the same triangles, as sets of vertices (single's vertices renumbered as the stitched ones, in key order)
     rank = np.empty(gk.size, np.int64)
     rank[order] = np.arange(gk.size)
+    back = np.empty(gk.size, np.int64)
+    back[o2] = np.arange(gk.size)
+    stitched_tri = back[stitched.triangles]
     nv = max(keys.size, 1)
 
     def tri_codes(t):
         t = np.sort(t, axis=1)
         return np.sort((t[:, 0] * nv + t[:, 1]) * nv + t[:, 2])
 
-    np.testing.assert_array_equal(tri_codes(rank[single.triangles]), tri_codes(stitched.triangles))
+    np.testing.assert_array_equal(tri_codes(rank[single.triangles]), tri_codes(stitched_tri))
     # no crack: every edge is in two triangles but the single volume's open ones, which lie on its boundary
     if stitched.n_triangles:
         u1, c1 = _edge_counts(rank[single.triangles], nv)
-        u2, c2 = _edge_counts(stitched.triangles, nv)
+        u2, c2 = _edge_counts(stitched_tri, nv)
         np.testing.assert_array_equal(u1[c1 == 1], u2[c2 == 1])
         assert set(np.unique(c2).tolist()) <= {1, 2}
         bnodes = np.zeros(vol.n_points, bool)
@@ -142,7 +147,7 @@ def test_normals_of_flat_vertices_near_an_extremum(data3):
     flat = 0
     for base in (s.min(), np.sort(s)[len(s) // 3]):
         v = np.nextafter(base, np.inf)
-        flat += sum(p.extract(v)["fallback"][0].size for p in prepared.partitions)
+        flat += sum(p.extract(v)["flat"] for p in prepared.partitions)
         # the scan: vertex_normals with the points, as the propagation (the edge-centred method passes none)
         single, stitched = data3.isosurface(v, method="scan"), prepared.extract(v)
         o = np.argsort(global_keys(data3, single))
@@ -153,7 +158,8 @@ def test_normals_of_flat_vertices_near_an_extremum(data3):
         ill = np.zeros(single.n_vertices, bool)
         ill[st[zero_area].ravel()] = True
         ill = ill[o]
-        np.testing.assert_allclose(single.normals[o][~ill], stitched.normals[~ill], atol=1e-12, rtol=0)
+        o2 = np.argsort(stitched.vertex_keys)
+        np.testing.assert_allclose(single.normals[o][~ill], stitched.normals[o2][~ill], atol=1e-12, rtol=0)
         on_edge = (stitched.vertex_keys // stitched.n_ids) != (stitched.vertex_keys % stitched.n_ids)
         np.testing.assert_allclose(np.linalg.norm(stitched.normals[on_edge], axis=1), 1.0, atol=1e-12)
         assert ill.any()  # the case was met
@@ -187,6 +193,69 @@ def _same_arrays(a, b, counters=True):
     assert a.seam_vertices == b.seam_vertices
     if counters:  # the same pieces: the same counters and stage times
         assert a.partitions == b.partitions
+
+
+def full_key_stitch(vol, value, pieces, n_ids):
+    """The reference stitch: every vertex matched by its global key (``np.unique`` over all of them),
+    vertices in key order, mean normals (5.3.1) over the whole stitched surface in piece order, a vertex
+    whose normal sums to zero on an edge taking the edge's direction towards increasing scalar (as the
+    single volume does), and a triangle at ``C`` in a shared face made by two cells kept once, from the
+    lower cell id. Returns keys, vertices, normals, triangles, triangle cells and the vertices merged away."""
+    from polygen.volume.marching import _mean_normals
+
+    keys = np.concatenate([p["keys"] for p in pieces])
+    offsets = np.cumsum([0] + [p["keys"].shape[0] for p in pieces])
+    uniq, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+    verts = np.concatenate([p["vertices"] for p in pieces])[first]
+    tri = np.concatenate([inv.ravel()[p["triangles"].astype(np.int64) + o] for p, o in zip(pieces, offsets)])
+    tcell = np.concatenate([p["triangle_cells"] for p in pieces]).astype(np.int64)
+    node = (uniq // n_ids) == (uniq % n_ids)
+    cand = np.flatnonzero(np.all(node[tri], axis=1))
+    cand = cand[np.argsort(tcell[cand], kind="stable")]
+    _, keep_first = np.unique(np.sort(uniq[tri[cand]], axis=1), axis=0, return_index=True)
+    keep = np.ones(tri.shape[0], bool)
+    keep[cand] = False
+    keep[cand[keep_first]] = True
+    tri, tcell = np.ascontiguousarray(tri[keep]), tcell[keep]
+    nrm = np.empty_like(verts)
+    _mean_normals(verts, tri, nrm)
+    a, b = uniq // n_ids, uniq % n_ids
+    # the flat-fan rule: a vertex touching a zero-area triangle whose normal is zero
+    v = verts
+    cr = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
+    flat = np.zeros(v.shape[0], bool)
+    flat[tri[~np.any(cr != 0, axis=1)].ravel()] = True
+    zero = flat & (a != b) & ~(np.abs(nrm).sum(axis=1) > 0)
+    s = vol.fields[next(iter(vol.fields))] if len(vol.fields) == 1 else vol.scalars()
+    d = (vol.points[b[zero]] - vol.points[a[zero]]) * np.sign(s[b[zero]] - s[a[zero]])[:, None]
+    nrm[zero] = d / np.linalg.norm(d, axis=1)[:, None]
+    return uniq, verts, nrm, tri, tcell, int(keys.size - uniq.size)
+
+
+@pytest.mark.parametrize("k", [2, 3, 5])
+def test_seam_only_stitch_equals_full_key_stitch(data3, k):
+    """The seam-only merge (only seam vertices matched, normals final on the partitions but at the seam) gives
+    the reference stitch's arrays bit for bit, vertices in another order; flat fans included."""
+    prepared = PartitionedVolume.split(data3, k).prepare()
+    s = data3.scalars()
+    values = list(isovalues(s, 30)) + [np.nextafter(s.min(), np.inf), np.nextafter(np.sort(s)[len(s) // 3], np.inf)]
+    seam = flat = 0
+    for v in values:
+        pieces = [p.extract(v) for p in prepared.partitions]
+        got = stitch(v, pieces, n_ids=prepared.n_ids)
+        keys, verts, nrm, tri, tcell, merged = full_key_stitch(data3, v, pieces, prepared.n_ids)
+        order = np.argsort(got.vertex_keys)
+        rank = np.empty_like(order)
+        rank[order] = np.arange(order.size)
+        np.testing.assert_array_equal(got.vertex_keys[order], keys)
+        np.testing.assert_array_equal(got.vertices[order], verts)
+        np.testing.assert_array_equal(got.normals[order], nrm)
+        np.testing.assert_array_equal(rank[got.triangles], tri)
+        np.testing.assert_array_equal(got.triangle_cells, tcell)
+        assert got.seam_vertices == merged
+        seam += merged
+        flat += sum(p["flat"] for p in pieces)
+    assert seam > 0 and flat > 0  # the seams and the flat fans were met
 
 
 def test_tree_stitch_equals_client_stitch(data3):
@@ -315,10 +384,10 @@ def test_stitch_merges_shared_keys_once():
     n = 10
     node = lambda a: a * n + a  # noqa: E731
     piece = lambda cell: {  # noqa: E731
-        "keys": np.array([node(1), node(2), node(3), 4 * n + 5]), "vertices": np.eye(4, 3),
-        "triangles": np.array([[0, 1, 2], [0, 1, 3]], np.int32), "triangle_cells": np.array([cell, cell]),
-        "fallback": None, "cells_tested": 1, "cells_intersected": 1, "vertex_lookups": 3, "seam_seeds": 0,
-        "t1": 0.0, "t2": 0.0, "t3": 0.0, "method": "x"}
+        "keys": np.array([node(1), node(2), node(3), 4 * n + 5]), "vertices": np.eye(4, 3), "normals": None,
+        "seam": np.arange(4), "triangles": np.array([[0, 1, 2], [0, 1, 3]], np.int32), "seam_tris": np.arange(2),
+        "triangle_cells": np.array([cell, cell]), "fallback": None, "cells_tested": 1, "cells_intersected": 1,
+        "vertex_lookups": 3, "seam_seeds": 0, "t1": 0.0, "t2": 0.0, "t3": 0.0, "piece_s": 0.0, "method": "x"}
     s = stitch(0.0, [piece(7), piece(3)], n_ids=n, normals=None)
     assert s.n_vertices == 4 and s.seam_vertices == 4
     # the all-node triangle once (from cell 3, the lower id); the other triangle made by both cells twice
@@ -420,6 +489,50 @@ def test_dask_stitch_on_workers_bytes(client, data3):
         dask_prepare(pvol, client=client, stitch_on="here")
 
 
+def _left_blocks(prepared):
+    """The shared-memory blocks of the last query that still exist (Linux keeps them under /dev/shm)."""
+    assert prepared.blocks_last
+    return [n for n in prepared.blocks_last if os.path.exists(os.path.join("/dev/shm", n))]
+
+
+def test_dask_shared_memory_equals_tcp_and_local(client, data3):
+    """Pieces through shared memory (workers on this machine) or TCP, in chunks of values: the local stitch's
+    arrays bit for bit, and no shared-memory block left behind."""
+    values = list(isovalues(data3.scalars(), 9))
+    pvol = PartitionedVolume.split(data3, 3)
+    local = pvol.prepare()
+    on_dask = dask_prepare(pvol, client=client, stitch_on="client")
+    assert on_dask.transport == "shared-memory"  # a LocalCluster: every worker on this machine
+    got = {}
+    for transport, chunk in (("shared-memory", None), ("shared-memory", 1), ("tcp", 4)):
+        on_dask.transport, on_dask.chunk_values = transport, chunk
+        got[transport, chunk] = on_dask.extract_many(values)
+        assert on_dask.bytes_last > 0
+        if transport == "shared-memory":
+            assert chunk is None or len(on_dask.blocks_last) == 3 * -(-len(values) // chunk)
+            assert _left_blocks(on_dask) == []
+    for j, v in enumerate(values):
+        here = local.extract(v)
+        for surfaces in got.values():
+            _same_arrays(here, surfaces[j], counters=False)
+    on_dask.close()
+
+
+def test_unlink_of_a_block_a_killed_worker_left_empty():
+    """A worker killed between creating a block and sizing it leaves an empty one (it cannot be mapped):
+    the client's clean-up unlinks it by name; a block already gone is no error."""
+    _posixshmem = pytest.importorskip("_posixshmem")
+    from polygen.volume.distributed import _unlink_quietly
+
+    name = f"polygen-test-{os.getpid()}-empty"
+    os.close(_posixshmem.shm_open("/" + name, os.O_CREAT | os.O_EXCL | os.O_RDWR, 0o600))
+    assert os.path.exists(os.path.join("/dev/shm", name)) or not os.path.isdir("/dev/shm")
+    _unlink_quietly(name)
+    with pytest.raises(FileNotFoundError):
+        _posixshmem.shm_unlink("/" + name)
+    _unlink_quietly(name)
+
+
 def test_dask_pvtu_pieces_read_on_workers(client, tmp_path, data3):
     PartitionedVolume.split(data3, 2).write_pvtu(tmp_path / "d3.pvtu")
     on_dask = dask_prepare(PartitionedVolume.from_pvtu(tmp_path / "d3.pvtu"), client=client)
@@ -463,6 +576,9 @@ def test_worker_killed_during_query(data3):
         os.kill(pid, signal.SIGKILL)
         t.join(120)
         assert not t.is_alive()
+        # the pieces came through shared memory: every block the query handed out is gone, the killed
+        # worker's included (written or not)
+        assert prepared.transport == "shared-memory" and _left_blocks(prepared) == []
         print("outcome:", "error" if "error" in result else f"complete, {prepared.reprepared} prepared again")
         if "error" in result:  # a clear error, naming the partition lost
             assert "partition" in str(result["error"]) and "no surface" in str(result["error"])
@@ -476,6 +592,7 @@ def test_worker_killed_during_query(data3):
         assert_same_as_single(data3, data3.isosurface(values[7]), prepared.extract(values[7]))
         assert prepared.reprepared >= 1 and victim not in prepared.placement
         assert pd.RETRIES >= 1
+
     finally:
         c.close()
         c.cluster.close()

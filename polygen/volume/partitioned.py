@@ -35,9 +35,18 @@ id, so both sides compute a seam vertex from the same end of its edge, bit
 for bit as the single volume does. Each cell lies in one partition, so each
 triangle is made once (a triangle lying exactly in a shared face at ``C``
 is made by both cells and kept once, from the lower global cell id, as on
-one volume). Mean normals are computed on the stitched surface (a seam
-vertex's triangles lie on both sides); ``normals="gradient"`` is refused
-(a seam node's gradient needs the cells of both sides).
+one volume). Only **seam vertices** can be made twice: those whose edge's
+two nodes both lie on another partition too (known from the global ids
+when the partitions are laid out). Each partition marks them, and the
+stitch matches only those by key; every other vertex is taken as it is,
+piece after piece, and the triangles are renumbered in one pass. Mean
+normals are made by each partition for its own vertices (all their
+triangles are there, summed in the stitched surface's order: bit for bit
+the normals of the whole stitched surface); a seam vertex's normal is made
+by the stitch from the triangles that touch it, on both sides.
+``normals="gradient"`` is refused (a seam node's gradient needs the cells
+of both sides). The stitched vertices come piece after piece (not sorted
+by key); ``vertex_keys`` names each.
 
 :func:`merge` turns pieces into one piece again, so the stitch can be done
 all at once (:func:`stitch`: what :class:`PartitionedMethod` does here, one
@@ -217,12 +226,16 @@ class PreparedPartition:
         self.cell_offset = int(cell_offset)
         self.n_ids = int(n_ids)
         vol = self.vol
-        bfn = self.global_ids[vol.boundary_face_nodes]
-        on_seam = np.all(np.isin(bfn, shared_ids), axis=1)
+        # a node on another partition too: a vertex on an edge between two such nodes may be made there too
+        self._shared_node = np.isin(self.global_ids, shared_ids)
+        on_seam = np.all(self._shared_node[vol.boundary_face_nodes], axis=1)
         self.seam_cells = np.unique(vol.boundary_faces[on_seam, 0])
         self._made = np.zeros(vol.n_cells, bool)
         s = vol.fields[self.field][vol.cells[self.seam_cells]]
         self._seam_min, self._seam_max = s.min(axis=1), s.max(axis=1)
+        last = (int(self.cell_ids.max()) if self.cell_ids.size else 0) if self.cell_ids is not None \
+            else self.cell_offset + vol.n_cells - 1
+        self._cells32 = last < 2**31  # global cell ids travel as int32 when they fit
         return True
 
     def _seam_seeds(self, value, iso):
@@ -258,68 +271,214 @@ class PreparedPartition:
             # a construction may leave out part of a piece it found (measured: the edge-centred one on a
             # partition whose boundary is not a manifold); a cell's triangles are made together, so the
             # cells it made are kept and the propagation fills in the rest
-            iso = _concat(iso, extra, np.isin(extra.triangle_cells, iso.triangle_cells, invert=True))
+            iso = _one_vertex_per_key(_concat(iso, extra, np.isin(extra.triangle_cells, iso.triangle_cells,
+                                                                  invert=True)))
         t_seam = time.perf_counter() - t0
+        return self._piece(iso, normals) | {
+            "cells_tested": iso.cells_tested + tested, "seam_seeds": seam_seeds,
+            "cells_intersected": iso.cells_intersected, "vertex_lookups": iso.vertex_lookups,
+            "t1": iso.t1 + t_seam, "t2": iso.t2, "t3": iso.t3, "method": iso.method}
+
+    def _piece(self, iso, normals):
+        """The arrays of a piece (see :func:`merge`): global keys, seam marks, this side's normals.
+
+        A vertex both of whose edge nodes lie on another partition too may be
+        made there as well (a **seam vertex**); every other vertex, and every
+        triangle, is made here only. So a non-seam vertex's mean normal is
+        final here (all its triangles are here, summed in the order the
+        stitched surface lists them), and only the seam vertices and the
+        triangles touching them (``seam``, ``seam_tris``) need the stitch.
+        """
+        t0 = time.perf_counter()
         vol = self.vol
-        ne = vol.edges.shape[0]
-        keys = iso.vertex_keys
-        on_edge = keys < ne
-        ab = np.empty((keys.shape[0], 2), np.int64)
-        ab[on_edge] = vol.edges[keys[on_edge]]
-        ab[~on_edge] = (keys[~on_edge] - ne)[:, None]
-        g = self.global_ids[ab]
-        gkeys = g[:, 0] * self.n_ids + g[:, 1]
+        n = iso.vertices.shape[0]
+        gkeys = np.empty(n, np.int64)
+        seam = np.empty(n, np.bool_)
+        _global_keys(np.ascontiguousarray(iso.vertex_keys, np.int64), vol.edges, self.global_ids, self._shared_node,
+                     self.n_ids, gkeys, seam)
+        tri_in = np.ascontiguousarray(iso.triangles, np.int64)
+        m = tri_in.shape[0]
+        tri = np.empty((m, 3), np.int32 if n < 2**31 else np.int64)
+        seam_tris = np.empty(m, np.int64)
+        nrm = np.empty((n if normals is not None else 0, 3))
+        flat = np.zeros(n if normals is not None else 0, np.bool_)
+        n_seam_tris, n_flat = _piece_triangles(iso.vertices, tri_in, seam, tri, seam_tris, nrm, flat)
+        fallback = None
+        if normals is not None:
+            fallback = (np.zeros(0, np.int64), np.zeros((0, 3)))
+            if n_flat:
+                fallback = self._fallback(iso, gkeys, seam, nrm, flat)
         cells = iso.triangle_cells
         gcells = self.cell_ids[cells] if self.cell_ids is not None else cells + self.cell_offset
-        tri = iso.triangles.astype(np.int32) if keys.shape[0] < 2**31 else iso.triangles
-        return {"keys": gkeys, "vertices": iso.vertices, "triangles": tri, "triangle_cells": gcells,
-                "fallback": self._fallback(iso, gkeys) if normals is not None else None, "cells_tested": iso.cells_tested + tested, "seam_seeds": seam_seeds,
-                "cells_intersected": iso.cells_intersected, "vertex_lookups": iso.vertex_lookups,
-                "t1": iso.t1 + t_seam, "t2": iso.t2, "t3": iso.t3, "method": iso.method}
+        if self._cells32:
+            gcells = gcells.astype(np.int32)
+        return {"keys": gkeys, "vertices": iso.vertices, "normals": nrm if normals is not None else None,
+                "seam": np.flatnonzero(seam), "triangles": tri, "seam_tris": seam_tris[:n_seam_tris].copy(),
+                "triangle_cells": gcells, "fallback": fallback, "flat": int(flat.sum()),
+                "piece_s": time.perf_counter() - t0}
 
     def extract_many(self, values, normals="mean"):
         """:meth:`extract` of each value, one caller at a time (a worker's task threads and its actor's share it)."""
         with self._lock:
             return [self.extract(v, normals) for v in values]
 
-    def _fallback(self, iso, gkeys):
-        """``(keys, directions)`` of the vertices on an edge that touch a zero-area triangle here.
+    def _fallback(self, iso, gkeys, seam, nrm, flat):
+        """The normals of vertices on an edge that touch a zero-area triangle here and got none.
 
-        Only such a vertex can get a zero mean normal on the stitched surface
-        (all its triangles of zero area, or rounding-level ones that cancel
-        across the seam); the single volume then gives it the direction of
-        its edge towards increasing scalar
-        (:func:`~polygen.volume.surface.vertex_normals`). These few rows are
-        what the stitch needs from here, instead of every normal.
+        Such a vertex can get a zero mean normal (all its triangles of zero
+        area, or rounding-level ones that cancel); the single volume then
+        gives it the direction of its edge towards increasing scalar
+        (:func:`~polygen.volume.surface.vertex_normals`). A non-seam vertex's
+        normal is final: set here. A seam vertex's is made by the stitch:
+        its ``(keys, directions)`` rows go with the piece.
         """
-        on_flat = np.zeros(iso.vertices.shape[0], np.bool_)
-        if not _mark_flat_fans(iso.vertices, iso.triangles, on_flat):
-            return np.zeros(0, np.int64), np.zeros((0, 3))
-        lone = np.flatnonzero(on_flat)
         edges = self.vol.edges
+        lone = np.flatnonzero(flat)
         lone = lone[iso.vertex_keys[lone] < edges.shape[0]]
         e = edges[iso.vertex_keys[lone]]
         pts, sv = self.vol.points, self.vol.fields[self.field]
         d = (pts[e[:, 1]] - pts[e[:, 0]]) * np.sign(sv[e[:, 1]] - sv[e[:, 0]])[:, None]
-        return gkeys[lone], d / np.linalg.norm(d, axis=1)[:, None]
+        d = d / np.linalg.norm(d, axis=1)[:, None]
+        on_seam = seam[lone]
+        mine = lone[~on_seam]
+        zero = ~(np.abs(nrm[mine]).sum(axis=1) > 0.0)
+        nrm[mine[zero]] = d[~on_seam][zero]
+        return gkeys[lone[on_seam]], d[on_seam]
 
 
 @njit
-def _mark_flat_fans(vertices, triangles, out):
-    """Mark ``out[v]`` for the vertices of triangles of zero area (cross product exactly zero); how many."""
-    n = 0
+def _global_keys(keys, edges, gids, shared, n_ids, out, seam):
+    """Global pair keys of a piece's vertices (``a * n_ids + b`` over the edge's global ids ``a < b``,
+    ``a * n_ids + a`` on node ``a``), and whether both nodes lie on another partition too (a seam vertex)."""
+    ne = edges.shape[0]
+    for v in range(keys.shape[0]):
+        k = keys[v]
+        if k < ne:
+            a, b = edges[k, 0], edges[k, 1]
+        else:
+            a = b = k - ne
+        out[v] = gids[a] * n_ids + gids[b]
+        seam[v] = shared[a] and shared[b]
+
+
+@njit
+def _piece_triangles(vertices, triangles, seam, tri_out, seam_tris, nrm, flat):
+    """One pass over a piece's triangles: ``tri_out`` (the travel dtype), the triangles touching a seam
+    vertex (``seam_tris``; their count), and, when ``nrm`` has rows, the mean normals (5.3.1) with the
+    arithmetic of :func:`polygen.volume.marching._mean_normals` and ``flat`` marking the vertices of
+    zero-area triangles (their count)."""
+    do_normals = nrm.shape[0] > 0
+    if do_normals:
+        nrm[:] = 0.0
+    ns = 0
+    n_flat = 0
     for t in range(triangles.shape[0]):
-        i0, i1, i2 = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+        i0 = triangles[t, 0]
+        i1 = triangles[t, 1]
+        i2 = triangles[t, 2]
+        tri_out[t, 0] = i0
+        tri_out[t, 1] = i1
+        tri_out[t, 2] = i2
+        if seam[i0] or seam[i1] or seam[i2]:
+            seam_tris[ns] = t
+            ns += 1
+        if do_normals:
+            ux = vertices[i1, 0] - vertices[i0, 0]
+            uy = vertices[i1, 1] - vertices[i0, 1]
+            uz = vertices[i1, 2] - vertices[i0, 2]
+            wx = vertices[i2, 0] - vertices[i0, 0]
+            wy = vertices[i2, 1] - vertices[i0, 1]
+            wz = vertices[i2, 2] - vertices[i0, 2]
+            nx = uy * wz - uz * wy
+            ny = uz * wx - ux * wz
+            nz = ux * wy - uy * wx
+            for i in (i0, i1, i2):
+                nrm[i, 0] += nx
+                nrm[i, 1] += ny
+                nrm[i, 2] += nz
+            if nx == 0.0 and ny == 0.0 and nz == 0.0:
+                flat[i0] = flat[i1] = flat[i2] = True
+                n_flat += 1
+    if do_normals:
+        _m._normalize(nrm)
+    return ns, n_flat
+
+
+@njit
+def _take_kept(keys, vertices, normals, keep, out_keys, out_vertices, out_normals, row0):
+    """Rows ``keep`` (all when ``keep`` is empty) of a piece's keys, vertices and normals (when
+    ``normals`` has rows) written from ``row0`` on; the next free row."""
+    r = row0
+    every = keep.shape[0] == 0
+    with_normals = normals.shape[0] > 0
+    for i in range(keys.shape[0]):
+        if every or keep[i]:
+            out_keys[r] = keys[i]
+            for d in range(3):
+                out_vertices[r, d] = vertices[i, d]
+            if with_normals:
+                for d in range(3):
+                    out_normals[r, d] = normals[i, d]
+            r += 1
+    return r
+
+
+@njit
+def _remap_triangles(tri, new_index, out, row0):
+    """``out[row0 + t] = new_index[tri[t]]``: a piece's triangles in the merged numbering."""
+    for t in range(tri.shape[0]):
+        for d in range(3):
+            out[row0 + t, d] = new_index[tri[t, d]]
+
+
+@njit
+def _seam_normals(vertices, triangles, seam_tris, seam, is_seam, nrm):
+    """The mean normals of the seam vertices, from all their triangles (``seam_tris``, in the surface's
+    order): the sums and the arithmetic of :func:`polygen.volume.marching._mean_normals`, bit for bit."""
+    for j in range(seam.shape[0]):
+        for d in range(3):
+            nrm[seam[j], d] = 0.0
+    for j in range(seam_tris.shape[0]):
+        t = seam_tris[j]
+        i0 = triangles[t, 0]
+        i1 = triangles[t, 1]
+        i2 = triangles[t, 2]
         ux = vertices[i1, 0] - vertices[i0, 0]
         uy = vertices[i1, 1] - vertices[i0, 1]
         uz = vertices[i1, 2] - vertices[i0, 2]
         wx = vertices[i2, 0] - vertices[i0, 0]
         wy = vertices[i2, 1] - vertices[i0, 1]
         wz = vertices[i2, 2] - vertices[i0, 2]
-        if uy * wz - uz * wy == 0.0 and uz * wx - ux * wz == 0.0 and ux * wy - uy * wx == 0.0:
-            out[i0] = out[i1] = out[i2] = True
-            n += 1
-    return n
+        nx = uy * wz - uz * wy
+        ny = uz * wx - ux * wz
+        nz = ux * wy - uy * wx
+        for i in (i0, i1, i2):
+            if is_seam[i]:
+                nrm[i, 0] += nx
+                nrm[i, 1] += ny
+                nrm[i, 2] += nz
+    for j in range(seam.shape[0]):
+        v = seam[j]
+        ln = np.sqrt(nrm[v, 0] ** 2 + nrm[v, 1] ** 2 + nrm[v, 2] ** 2)
+        if ln > 0.0:
+            for d in range(3):
+                nrm[v, d] /= ln
+
+
+def _one_vertex_per_key(iso):
+    """``iso`` with a vertex made twice (same key: the method's and the propagation's copy) kept once, the first.
+
+    The merge matches seam vertices only; a piece's other vertices must be unique.
+    """
+    keys = iso.vertex_keys
+    _, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+    if first.size == keys.size:
+        return iso
+    firsts = np.sort(first)
+    new = np.searchsorted(firsts, first[inv.ravel()])
+    return dataclasses.replace(iso, vertices=iso.vertices[firsts], vertex_keys=keys[firsts],
+                               normals=None if iso.normals is None else iso.normals[firsts],
+                               triangles=new[iso.triangles])
 
 
 def _concat(a, b, keep):
@@ -371,7 +530,7 @@ class StitchedIsoSurface(IsoSurface):
     n_ids: int = 0
 
 
-_COUNTERS = ("cells_tested", "cells_intersected", "vertex_lookups", "seam_seeds", "t1", "t2", "t3")
+_COUNTERS = ("cells_tested", "cells_intersected", "vertex_lookups", "seam_seeds", "t1", "t2", "t3", "piece_s")
 
 
 def _parts(piece):
@@ -385,61 +544,116 @@ def _parts(piece):
 def merge(pieces, *, n_ids):
     """One piece from neighbouring pieces of one value (dicts of :meth:`PreparedPartition.extract` or of ``merge``).
 
-    Vertices with the same global key are one vertex (the first piece's
-    position: both sides compute it from the same edge end, bit for bit);
-    triangles are kept in piece order, except a triangle lying in a shared
-    face at ``C`` (three node vertices) made by two cells, kept once from the
-    lower global cell id. The result is a piece again (keys sorted and
-    unique), so pieces can be merged in any grouping of consecutive pieces
-    -- all at once (:func:`stitch`) or pairwise up a tree
-    (:func:`reduce_tree`, on the Dask workers) -- with the same arrays.
+    Only the **seam vertices** (``seam``: vertices whose edge's two nodes
+    both lie on more than one partition; a superset of those made by two
+    sides) are matched, by global key: a seam vertex made again by a later
+    piece is dropped and its triangles point at the first piece's copy
+    (both sides compute it from the same edge end, bit for bit). Every
+    other vertex is made by one piece only and is taken as it is, after the
+    vertices of the pieces before it; triangles are renumbered in one pass
+    and kept in piece order, except a triangle lying in a shared face at
+    ``C`` (three node vertices: seam vertices) made by two cells, kept once
+    from the lower global cell id. The result is a piece again, so pieces
+    can be merged in any grouping of consecutive pieces -- all at once
+    (:func:`stitch`) or pairwise up a tree (:func:`reduce_tree`, on the
+    Dask workers) -- with the same arrays. Normals: a piece's normals are
+    final but at seam vertices, which :func:`finish` makes from
+    ``seam_tris`` (the triangles touching a seam vertex).
 
     Parameters
     ----------
     pieces : list of dict
-        ``keys`` (n_i,) int64, ``vertices`` (n_i, 3) float64, ``triangles``
-        (m_i, 3) int32/int64, ``triangle_cells`` (m_i,) int64, ``fallback``
-        (keys, directions) or None, the counters.
+        ``keys`` (n_i,) int64 global vertex keys, ``vertices`` (n_i, 3)
+        float64, ``normals`` (n_i, 3) float64 or None, ``seam`` (s_i,) int64
+        (ascending vertex indices), ``triangles`` (m_i, 3) int32/int64,
+        ``seam_tris`` (q_i,) int64 (ascending triangle indices),
+        ``triangle_cells`` (m_i,) int32/int64 global cell ids, ``fallback``
+        (keys, directions) of seam vertices or None, the counters.
     n_ids : int
         The number of global node ids (the base of the keys).
 
     Returns
     -------
     dict
-        The same fields, ``parts`` (each partition's counters, in piece
-        order), ``seam_vertices`` (vertices merged away so far), ``merge_s``
-        and ``merge_cpu_s`` (seconds of merging so far, wall clock and the
+        The same fields (``triangles`` and ``triangle_cells`` int64),
+        ``parts`` (each partition's counters, in piece order),
+        ``seam_vertices`` (vertices merged away so far), ``merge_s`` and
+        ``merge_cpu_s`` (seconds of merging so far, wall clock and the
         merging thread's CPU time, summed over the tree).
     """
     t0, c0 = time.perf_counter(), time.thread_time()
     if not pieces:
-        return {"keys": np.zeros(0, np.int64), "vertices": np.zeros((0, 3)), "triangles": np.zeros((0, 3), np.int32),
-                "triangle_cells": np.zeros(0, np.int64), "fallback": None, "parts": [], "seam_vertices": 0,
-                "merge_s": 0.0, "merge_cpu_s": 0.0, "method": ""}
-    keys = np.concatenate([p["keys"] for p in pieces])
-    offsets = np.cumsum([0] + [p["keys"].shape[0] for p in pieces])
-    uniq, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+        return {"keys": np.zeros(0, np.int64), "vertices": np.zeros((0, 3)), "normals": None,
+                "seam": np.zeros(0, np.int64), "triangles": np.zeros((0, 3), np.int64),
+                "seam_tris": np.zeros(0, np.int64), "triangle_cells": np.zeros(0, np.int64), "fallback": None,
+                "parts": [], "seam_vertices": 0, "merge_s": 0.0, "merge_cpu_s": 0.0, "method": ""}
+    k = len(pieces)
+    sizes = [p["keys"].shape[0] for p in pieces]
+    # the seam vertices of all pieces by key; the first copy (in piece order) is kept
+    skeys = np.concatenate([p["keys"][p["seam"]] for p in pieces])
+    sowner = np.repeat(np.arange(k), [p["seam"].shape[0] for p in pieces])
+    sidx = np.concatenate([p["seam"] for p in pieces]).astype(np.int64, copy=False)
+    uniq, first, inv = np.unique(skeys, return_index=True, return_inverse=True)
     inv = inv.ravel()
-    verts = np.concatenate([p["vertices"] for p in pieces])[first]
-    tri = np.concatenate([inv[p["triangles"].astype(np.int64) + o] for p, o in zip(pieces, offsets)]).reshape(-1, 3)
-    tcell = np.concatenate([p["triangle_cells"] for p in pieces]).astype(np.int64, copy=False)
-    # the shared-face-at-C triangles: all three vertices on nodes
-    node_vertex = (uniq // n_ids) == (uniq % n_ids) if n_ids else np.zeros(uniq.shape, bool)
-    if node_vertex.any():
-        cand = np.flatnonzero(np.all(node_vertex[tri], axis=1))
+    dup = np.ones(skeys.shape[0], bool)
+    dup[first] = False
+    first_new = np.empty(uniq.shape[0], np.int64)  # each seam key's index in the merged piece
+    maps, keeps, base = [], [], 0
+    for i, p in enumerate(pieces):
+        here = sowner == i
+        gone = sidx[here & dup]
+        if gone.size:
+            keep = np.ones(sizes[i], bool)
+            keep[gone] = False
+            new = base + np.cumsum(keep) - 1
+            new[gone] = first_new[inv[here & dup]]  # kept by an earlier piece
+            base += sizes[i] - gone.size
+        else:
+            keep = None
+            new = np.arange(base, base + sizes[i])
+            base += sizes[i]
+        kept_here = here & ~dup
+        first_new[inv[kept_here]] = new[sidx[kept_here]]
+        maps.append(new)
+        keeps.append(keep)
+
+    # the kept vertices of every piece, in piece order, copied in one pass each (new arrays, never a
+    # piece's: finish writes the seam normals into them, and pieces may be views on shared memory)
+    with_normals = pieces[0].get("normals") is not None
+    keys, verts = np.empty(base, np.int64), np.empty((base, 3))
+    nrm = np.empty((base, 3)) if with_normals else None
+    no_keep, no_nrm = np.zeros(0, np.bool_), np.zeros((0, 3))
+    row0 = 0
+    for p, kp in zip(pieces, keeps):
+        row0 = _take_kept(p["keys"], p["vertices"], p["normals"] if with_normals else no_nrm,
+                          no_keep if kp is None else kp, keys, verts, nrm if with_normals else no_nrm, row0)
+    tri_sizes = [p["triangles"].shape[0] for p in pieces]
+    tri_off = np.cumsum([0] + tri_sizes)
+    tri = np.empty((tri_off[-1], 3), np.int64)
+    for p, new, row0 in zip(pieces, maps, tri_off[:-1]):
+        _remap_triangles(p["triangles"], new, tri, row0)
+    tcell = np.concatenate([p["triangle_cells"] for p in pieces], dtype=np.int64)
+    seam_tris = np.concatenate([p["seam_tris"] + o for p, o in zip(pieces, tri_off[:-1])]).astype(np.int64, copy=False)
+    seam = np.sort(first_new)
+    # the shared-face-at-C triangles: all three vertices on nodes (seam vertices), made by a cell on each side
+    if n_ids and seam_tris.size > 1:
+        sk = keys[tri[seam_tris]]
+        cand = seam_tris[np.all((sk // n_ids) == (sk % n_ids), axis=1)]
         if cand.size > 1:
             cand = cand[np.argsort(tcell[cand], kind="stable")]
-            _, keep_first = np.unique(np.sort(uniq[tri[cand]], axis=1), axis=0, return_index=True)
+            _, keep_first = np.unique(np.sort(keys[tri[cand]], axis=1), axis=0, return_index=True)
             if keep_first.size < cand.size:
-                keep = np.ones(tri.shape[0], bool)
-                keep[cand] = False
-                keep[cand[keep_first]] = True
-                tri, tcell = tri[keep], tcell[keep]
+                keep_t = np.ones(tri.shape[0], bool)
+                keep_t[cand] = False
+                keep_t[cand[keep_first]] = True
+                new_t = np.cumsum(keep_t) - 1
+                seam_tris = new_t[seam_tris[keep_t[seam_tris]]]
+                tri, tcell = tri[keep_t], tcell[keep_t]
     fb = [p["fallback"] for p in pieces if p.get("fallback") is not None]
     fallback = (np.concatenate([f[0] for f in fb]), np.concatenate([f[1] for f in fb]).reshape(-1, 3)) if fb else None
-    return {"keys": uniq, "vertices": verts, "triangles": tri.astype(np.int32) if uniq.shape[0] < 2**31 else tri,
+    return {"keys": keys, "vertices": verts, "normals": nrm, "seam": seam, "triangles": tri, "seam_tris": seam_tris,
             "triangle_cells": tcell, "fallback": fallback, "parts": [c for p in pieces for c in _parts(p)],
-            "seam_vertices": sum(p.get("seam_vertices", 0) for p in pieces) + int(keys.shape[0] - uniq.shape[0]),
+            "seam_vertices": sum(p.get("seam_vertices", 0) for p in pieces) + int(dup.sum()),
             "merge_s": sum(p.get("merge_s", 0.0) for p in pieces) + time.perf_counter() - t0,
             "merge_cpu_s": sum(p.get("merge_cpu_s", 0.0) for p in pieces) + time.thread_time() - c0,
             "method": pieces[0]["method"]}
@@ -466,31 +680,38 @@ def reduce_tree(items, combine):
 def finish(value, piece, *, n_ids, normals="mean"):
     """The :class:`StitchedIsoSurface` of a piece holding every partition's part (the root of the merges).
 
-    Mean normals are computed here, on the whole surface (a seam vertex's
-    triangles lie on both sides); a vertex whose triangles all have zero
+    The seam vertices' mean normals are made here, from all their triangles
+    (they lie on both sides of a seam); every other vertex's normal came
+    final from its partition. A seam vertex whose triangles all have zero
     area takes its edge's direction from a partition that has it.
     """
     t0, c0 = time.perf_counter(), time.thread_time()
     if "parts" not in piece:
         piece = merge([piece], n_ids=n_ids)
-    verts, uniq = piece["vertices"], piece["keys"]
+    verts, keys, seam = piece["vertices"], piece["keys"], piece["seam"]
     tri = np.ascontiguousarray(piece["triangles"], np.int64)
     nrm = None
     if normals is not None and piece["parts"]:
-        nrm = np.empty_like(verts)
-        if verts.shape[0]:
-            _m._mean_normals(verts, tri, nrm)
+        nrm = piece["normals"]
+        if nrm is None:
+            raise PartitionError("the pieces were made without normals; extract them with normals='mean'")
+        if seam.size:
+            nrm = nrm if nrm.flags.writeable else nrm.copy()  # merge's own array (arrays off the wire may be read-only)
+            is_seam = np.zeros(verts.shape[0], np.bool_)
+            is_seam[seam] = True
+            _seam_normals(verts, tri, piece["seam_tris"], seam, is_seam, nrm)
             if piece["fallback"] is not None and piece["fallback"][0].size:
                 fk, fd = piece["fallback"]
-                at = np.searchsorted(uniq, fk)
+                order = np.argsort(keys[seam])
+                at = seam[order[np.searchsorted(keys[seam], fk, sorter=order)]]
                 zero = ~(np.abs(nrm[at]).sum(axis=1) > 0.0)
                 nrm[at[zero]] = fd[zero]
     parts = tuple(piece["parts"])
     total = {k: sum(p[k] for p in parts) for k in ("cells_tested", "cells_intersected", "vertex_lookups",
                                                    "t1", "t2", "t3")}
     return StitchedIsoSurface(
-        value=value, vertices=verts, triangles=tri, normals=nrm, vertex_keys=uniq,
-        triangle_cells=piece["triangle_cells"], method=piece["method"],
+        value=value, vertices=verts, triangles=tri, normals=nrm, vertex_keys=keys,
+        triangle_cells=np.asarray(piece["triangle_cells"], np.int64), method=piece["method"],
         cells_tested=int(total["cells_tested"]), cells_intersected=int(total["cells_intersected"]),
         vertex_lookups=int(total["vertex_lookups"]), t1=total["t1"], t2=total["t2"], t3=total["t3"],
         partitions=parts, seam_vertices=int(piece["seam_vertices"]),
