@@ -313,8 +313,6 @@ class EdgeCentredTable:
         self.order = order
         self.layout = layout
         self.threads = _check_threads(threads)
-        # the parallel construction's scratch, made at its first query
-        self._vid = self._node_gen = self._stack = self._log = None
         self.vol = vol
         points, cells, s, cell_type = volume_arrays(vol, field)
         m, nn = cells.shape
@@ -359,7 +357,6 @@ class EdgeCentredTable:
             self.starts = np.empty((0, ne), np.int32)
             self.ec_off = ec_off
             self.dyn, self.ds = np.zeros((m, 2 + self.n_slots), np.int32), 2
-        self._claim = self._owned = None  # the parallel construction's, made at its first query
         self.generation = 0
         self._node_grad = None
         # buffers, grown by doubling when a query overflows one (the query is then redone)
