@@ -336,7 +336,10 @@ class EdgeCentredTable:
         # the cells around each node: built at the first crossing exactly on a node, shared with the copies
         self._node_cells = {}
         self.os, self.n_slots, ost, width = _k.record_layout(nn, ne)
-        self.ids = ce  # the edge ids (vertex keys): the volume's own table
+        # the edge ids per cell (the volume's own table): read by the kernels only without records (where
+        # each edge's list starts); with records an edge's id is the entry before its list, and holding
+        # the table here would keep it alive after the volume releases its preparation tables
+        self.ids = ce if layout == "volume" else np.empty((0, ne), ce.dtype)
         # one record per cell, aligned to 64-byte cache lines (see _edge_centred_kernels), filled with the
         # cells around each edge (each with the local index of the edge in it; ec_off: where each edge's
         # list starts) by one parallel kernel
