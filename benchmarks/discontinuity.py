@@ -60,8 +60,9 @@ SETUPS["sphere_scene"]["penumbra"] = [1.6, 0.75]  # two DM points: its meshes ar
 # 22.5-23.4k elements whatever the penumbra size (5137 lines on the floor). 3.3/1.6 at load 9-11:
 # 22,560 elements, 5640 patches (5184 on the floor), meshing 162 s wall / 17.7 s CPU, one solve to
 # 10 % unshot 727 shots (nearly all walls and ceiling, ~0.4 s a column against 180 occluders)
-# 405 s wall / 63 s CPU -- states from the complex would spare only the light's 2 shots -- which
-# does not fit the ~10 minute run; 6 x 8 faces (55 polygons, 1180 lines) does
+# 405 s wall / 63 s CPU -- states from the complex would spare only the light's 2 shots; at load 2
+# meshing 14 s, that solve 32 s, to 1 % unshot 4459 shots 302 s -- which does not fit the ~10 minute
+# run; 6 x 8 faces (55 polygons, 1180 lines) does
 SCENE_KW = {"sphere_scene": dict(n_lat=6, n_lon=8)}
 THESIS_31 = {"two_rectangles_room": dict(N_f1=8, N_f2=20, N_d=40, N_p=486, N_e1=3485, N_e2=6090,
                                          T_d=0.12, T_m=1.77, T_rs=156.63),
