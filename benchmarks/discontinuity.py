@@ -23,7 +23,13 @@ Run ``python benchmarks/discontinuity.py`` from the repository root; writes
 
 The solves are progressive refinement to ``--tol`` unshot with
 ``--vis``^2 visibility rays, the same for every mesh and the reference
-(sizes chosen to fit a ~10 minute run on 2 shared cores).
+(sizes chosen to fit a ~10 minute run on 2 shared cores).  The default
+``--tol`` is 0.01: at 0.1 the unshot tenth (spread as the ambient term) depends
+on which patches of each mesh have shot, and it dominated the penumbra pixels'
+error -- the DM's penumbra error rose 0.031 -> 0.042 as F fell 1.6 -> 0.75 on
+the room at tol 0.1 and falls 0.025 -> 0.021 at 0.01, while 4 x 4 or 8 x 8
+visibility rays instead of 2 x 2 moved it by < 0.003 (issue 14).  Each
+curve and pairing records the solve it was run with (``solve``).
 """
 
 from __future__ import annotations
@@ -51,8 +57,12 @@ SETUPS = {name: dict(uniform=[3.3, 2.5, 1.8], coarse=3.3, penumbra=[1.6, 1.1, 0.
           for name in ("two_rectangles_room", "chair_scene", "sphere_scene")}
 SETUPS["sphere_scene"]["penumbra"] = [1.6, 0.75]  # two DM points: its meshes are 6-14k elements
 # the sphere's curves run on a coarser sphere than Fig. 3.19's 12 x 15 faces: there every DM mesh has
-# 22.5-23.4k elements whatever the penumbra size (5137 lines on the floor; one solve 234 s at load
-# 10 here), which does not fit the ~10 minute run; 6 x 8 faces (55 polygons, 1180 lines) does
+# 22.5-23.4k elements whatever the penumbra size (5137 lines on the floor). 3.3/1.6 at load 9-11:
+# 22,560 elements, 5640 patches (5184 on the floor), meshing 162 s wall / 17.7 s CPU, one solve to
+# 10 % unshot 727 shots (nearly all walls and ceiling, ~0.4 s a column against 180 occluders)
+# 405 s wall / 63 s CPU -- states from the complex would spare only the light's 2 shots; at load 2
+# meshing 14 s, that solve 32 s, to 1 % unshot 4459 shots 302 s -- which does not fit the ~10 minute
+# run; 6 x 8 faces (55 polygons, 1180 lines) does
 SCENE_KW = {"sphere_scene": dict(n_lat=6, n_lon=8)}
 THESIS_31 = {"two_rectangles_room": dict(N_f1=8, N_f2=20, N_d=40, N_p=486, N_e1=3485, N_e2=6090,
                                          T_d=0.12, T_m=1.77, T_rs=156.63),
@@ -141,7 +151,8 @@ def paired_part(names, image, solve, log):
                 mask = shade(m, ind, cam, shading="flat")[..., 0] > 0.5
             u = mesh_scene(sc, pen, element_levels=1)
             img_u = shade(u, progressive_refinement(u, **solve).display_radiosity(u), cam)
-            row = dict(fine=pen, coarse=cfg["coarse"], dm_elements=m.n_elements, dm_error=image_error(img_d, ref),
+            row = dict(fine=pen, coarse=cfg["coarse"], solve=dict(solve), dm_elements=m.n_elements,
+                       dm_error=image_error(img_d, ref),
                        uniform_elements=u.n_elements, uniform_error=image_error(img_u, ref))
             row.update({"dm_" + k: v for k, v in _split_error(img_d, ref, mask).items()})
             row.update({"uniform_" + k: v for k, v in _split_error(img_u, ref, mask).items()})
@@ -193,7 +204,8 @@ def error_part(names, image, solve, threshold, log, scaled_only=False, save=None
         t0 = time.perf_counter()
         cd = conventional_discontinuity(sc)
         t_cd = time.perf_counter() - t0
-        c = {"reference_elements": n_ref, "T_d_simplified": t_sd, "T_d_conventional": t_cd,
+        c = {"solve": dict(solve), "reference_elements": n_ref, "T_d_simplified": t_sd,
+             "T_d_conventional": t_cd,
              "scene_kwargs": SCENE_KW.get(name, {}), "polygons": len(sc.polygons)}
         if scaled_only:
             # both sizes scaled together: the coarse size of each uniform mesh, a third of it in
@@ -201,6 +213,7 @@ def error_part(names, image, solve, threshold, log, scaled_only=False, save=None
             sizes = cfg["uniform"]
             pens = [x / 3.0 for x in sizes]
             c["uniform"] = [p.__dict__ for p in uniform_curve(sc, cam, ref, sizes, solve=solve)]
+            c["solve_scaled"] = dict(solve)
             for method, disc in (("conventional", cd), ("simplified", sd)):
                 c[method + "_scaled"] = _dm_curve(sc, cam, ref, method, disc, sizes, pens, solve)
             c["claim_scaled"] = [dict(uniform_elements=u["n_elements"], uniform_error=u["error"],
@@ -294,7 +307,7 @@ def main(argv=None):
     ap.add_argument("--scenes", default=",".join(SETUPS))
     ap.add_argument("--parts", default="error,speed")
     ap.add_argument("--image", type=int, default=80)
-    ap.add_argument("--tol", type=float, default=0.1)
+    ap.add_argument("--tol", type=float, default=0.01)
     ap.add_argument("--vis", type=int, default=2)
     ap.add_argument("--threshold", type=float, default=0.1)
     args = ap.parse_args(argv)
@@ -318,7 +331,8 @@ def main(argv=None):
     def save_scaled(curves, rows):
         for name, c in curves.items():
             keep = out.setdefault("curves", {}).setdefault(name, {})
-            keep.update({k: c[k] for k in ("conventional_scaled", "simplified_scaled", "claim_scaled")})
+            keep.update({k: c[k] for k in ("conventional_scaled", "simplified_scaled", "claim_scaled",
+                                           "solve_scaled")})
         out["error_rows"] = [r for r in out.get("error_rows", []) if not r["curve"].endswith("_scaled")
                              or r["scene"] not in curves] + rows
         _write(path, out)
@@ -349,7 +363,12 @@ def _markdown(out):
         # not write_results: it would overwrite discontinuity.json with the rows alone
         cols = ["scene", "curve", "mesh", "elements", "patches", "rms_error", "seconds"]
         lines = ["# Discontinuity meshing: image error against element count", "",
-                 f"Solve {out['solve']}, {out['image']}^2 Gouraud images, reference elements "
+                 "Solves (progressive refinement; per scene, `scaled` curves in parentheses where they "
+                 "differ): " + "; ".join(
+                     f"{k} {v.get('solve', out['solve'])}" + (f" ({v['solve_scaled']})" if "solve_scaled" in v
+                                                              and v["solve_scaled"] != v.get("solve") else "")
+                     for k, v in out["curves"].items())
+                 + f"; {out['image']}^2 Gouraud images, reference elements "
                  + ", ".join(f"{k} {v['reference_elements']}" for k, v in out["curves"].items()
                              if "reference_elements" in v) + f"; machine {out['machine']}. "
                  + " ".join(f"{k}: built with {v['scene_kwargs']} ({v['polygons']} polygons; Fig. 3.19's "
@@ -378,7 +397,9 @@ def _markdown(out):
         lines += ["", "## Table 3.1's pairing: simplified DM (coarse / F) against uniform F", "",
                   "Image RMS errors relative to the reference's RMS; `pen` over the pixels showing a "
                   "penumbra region (for some light), `rest` over the others; `share` the penumbra "
-                  "pixels' part of the squared error.", "",
+                  "pixels' part of the squared error. Solves: " + "; ".join(
+                      f"{k} {rows[0].get('solve', out['solve'])}" for k, rows in out["paired"].items() if rows)
+                  + ".", "",
                   "| scene | coarse/F | DM elements | uniform elements | ratio | DM error (pen / rest, share) "
                   "| uniform error (pen / rest, share) | error ratio | penumbra pixels |", "|---" * 9 + "|"]
         for name, rows in out["paired"].items():

@@ -61,6 +61,7 @@ from polygen.discontinuity.meshing import (
     MeshingError,
     conventional_discontinuity,
     discontinuity_mesh,
+    element_states,
 )
 
 __all__ = [
@@ -87,6 +88,7 @@ __all__ = [
     "conventional_segments",
     "critical_surfaces",
     "discontinuity_mesh",
+    "element_states",
     "discontinuity_segments",
     "polyhedron_section",
     "receiver_complex",

@@ -40,7 +40,8 @@ import numpy as np
 from polygen.discontinuity.shadow import ShadowError, scene_lights, scene_sections
 from polygen.discontinuity.simplified import SimplifiedDiscontinuity, simplified_discontinuity
 
-__all__ = ["DiscontinuityRecord", "MeshingError", "conventional_discontinuity", "discontinuity_mesh"]
+__all__ = ["DiscontinuityRecord", "MeshingError", "conventional_discontinuity", "discontinuity_mesh",
+           "element_states"]
 
 METHODS = ("simplified", "conventional")
 
@@ -191,6 +192,78 @@ def discontinuity_mesh(scene, *, patch_size, penumbra_patch_size=None, element_l
     counters["receivers"] = len(segments)
     mesh.discontinuity = DiscontinuityRecord(method, dict(segments), dict(pen_pts), counters, timings, sd)
     return mesh
+
+
+def element_states(mesh, discontinuity):
+    """The illumination state (3.3.5) of the region each element's centroid lies in, per light.
+
+    A mesh made by :func:`discontinuity_mesh` from ``discontinuity`` has no
+    element across a region boundary (the region edges are constrained
+    segments), so an element with a centroid in a ``BRIGHT`` region sees
+    the whole light from every point and one in an ``UMBRA`` region sees
+    none of it.
+
+    Parameters
+    ----------
+    mesh : RadiosityMesh
+        A mesh of ``discontinuity.scene``.
+    discontinuity : SimplifiedDiscontinuity
+        The scene's discontinuity phase.
+
+    Returns
+    -------
+    (M, n_lights) int8
+        ``BRIGHT``, ``PENUMBRA`` or ``UMBRA`` per element and light
+        (:func:`~polygen.discontinuity.shadow.scene_lights` order);
+        ``UNPROCESSED`` (0) on polygons that are no receiver (no complex),
+        where a centroid falls in no face (it cannot, up to rounding) and
+        where the light lies wholly behind the element's side (the
+        complex's convention makes such a face bright; it receives nothing).
+        On a two-sided receiver the element's side picks the columns.
+
+    Raises
+    ------
+    MeshingError
+        ``discontinuity`` not a :class:`SimplifiedDiscontinuity` of the mesh's scene.
+    """
+    import shapely
+
+    if not isinstance(discontinuity, SimplifiedDiscontinuity) or discontinuity.scene is not mesh.scene:
+        raise MeshingError("discontinuity must be simplified_discontinuity(scene) of the mesh's scene")
+    n_lights = len(scene_lights(mesh.scene))
+    out = np.zeros((mesh.n_elements, n_lights), np.int8)
+    cen = mesh.element_centroid
+    side = mesh.patch_side[mesh.element_patch]
+    for k, cx in discontinuity.complexes.items():
+        sel = np.flatnonzero(mesh.element_polygon == k)
+        if not len(sel):
+            continue
+        uv = mesh.scene.polygons[k].to_2d(cen[sel])
+        st = cx.face_states()
+        back = cx.n_lights == 2 * n_lights
+        for i, f in enumerate(cx.alive_faces):
+            outer, holes = cx.face_rings(f)
+            inside = shapely.contains_xy(shapely.Polygon(outer, holes), uv[:, 0], uv[:, 1])
+            if not inside.any():
+                continue
+            rows = sel[inside]
+            if back:
+                out[rows] = np.where((side[rows] < 0)[:, None], st[i, n_lights:][None, :],
+                                     st[i, :n_lights][None, :])
+            else:
+                out[rows] = st[i, :n_lights]
+    # lights behind the element's side: no state
+    nrm = mesh.element_normal
+    for j, (kind, light, _) in enumerate(scene_lights(mesh.scene)):
+        if kind == "area":
+            d = np.einsum("ij,kj->ik", nrm, light.vertices) - np.einsum("ij,ij->i", nrm, cen)[:, None]
+            behind = d.max(axis=1) <= 0.0
+        elif kind == "point":
+            behind = np.einsum("ij,ij->i", nrm, light.position - cen) <= 0.0
+        else:
+            behind = nrm @ light.direction >= 0.0
+        out[behind, j] = 0
+    return out
 
 
 def conventional_discontinuity(scene, *, tol=1e-9, shadows=None):
