@@ -258,13 +258,14 @@ class EdgeCentredTable:
         ``stats`` then has ``pops`` (= ``constructed``: no cell is taken
         twice), ``contested`` (vertices decided by CAS), ``per_thread``
         (cells each thread took). Without working atomics (``_edge_centred_kernels.ATOMICS``)
-        a query runs on one thread. The default stays 1: on this shared
-        2-core machine (load 6.6-11 while measured,
-        ``benchmarks/results/parallel_construction.md``) a parallel region
-        waits tens of milliseconds for the busy second core to be scheduled
-        (2M: median 31-35 ms with two threads against 3.8-5.5 ms with one), so two
-        threads were slower than one; no quiet-machine measurement supports
-        turning them on. Two builders running such queries at once from two
+        a query runs on one thread. The default stays 1. On a quiet 2-core
+        machine two threads pay (2M, 20 values, ``benchmarks/parallel_construction.py``:
+        median 1.89 -> 1.66 ms, the largest surface 41.2 -> 25.1 ms, the sum
+        208 -> 133 ms), but on a busy one a parallel region waits tens of
+        milliseconds for the second core to be scheduled (at load 6.6-11:
+        median 31-35 ms with two threads against 3.8-5.5 ms with one), and
+        the vertex order then changes from run to run; so more threads are
+        asked for (``threads=2``), not assumed. Two builders running such queries at once from two
         Python threads need a thread-safe numba threading layer (``omp`` or
         ``tbb``, not ``workqueue``); :meth:`EdgeCentredMethod.extract_many`
         runs its values one thread each.
