@@ -808,21 +808,8 @@ def construct(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
     return OK, n_p, n_t, n_v, node_vertices > 0
 
 
-@njit
-def positions(vend, n_v, points, s, value, out):
-    """(5.2) crossing points from the edge ends (the smaller node id first, as in ``mesh.edges``)."""
-    for v in range(n_v):
-        a = vend[v, 0]
-        b = vend[v, 1]
-        if a == b:
-            for d in range(3):
-                out[v, d] = points[a, d]
-        else:
-            c1 = s[a]
-            c2 = s[b]
-            # (5.2) P_c = ((C - C1) P2 - (C - C2) P1) / (C2 - C1)
-            for d in range(3):
-                out[v, d] = ((value - c1) * points[b, d] - (value - c2) * points[a, d]) / (c2 - c1)
+# (5.2) crossing points from the edge ends: the one kernel of marching, serial stage 3
+positions = _m.crossing_points
 
 
 # ------------------------------------------------------------------ the parallel construction

@@ -744,3 +744,23 @@ def _number_pair_codes(tri_codes, n_points, shift, table_keys, table_vals, codes
                 if h == n_slots:
                     h = 0
     return n
+
+
+@njit
+def crossing_points(vend, n_v, points, s, value, out):
+    """(5.2) crossing points from the edge ends (the smaller node id first, as in ``mesh.edges``).
+
+    ``out[v]`` for the first ``n_v`` rows of ``vend`` (V, 2) int; ``a == b`` (a node at the value): the node.
+    """
+    for v in range(n_v):
+        a = vend[v, 0]
+        b = vend[v, 1]
+        if a == b:
+            for d in range(3):
+                out[v, d] = points[a, d]
+        else:
+            c1 = s[a]
+            c2 = s[b]
+            # (5.2) P_c = ((C - C1) P2 - (C - C2) P1) / (C2 - C1)
+            for d in range(3):
+                out[v, d] = ((value - c1) * points[b, d] - (value - c2) * points[a, d]) / (c2 - c1)

@@ -240,7 +240,7 @@ def pair_stage3(vend, tri, points, s, value, normals, node_grad):
     n_v = vend.shape[0]
     vertices = np.empty((n_v, 3))
     if n_v:
-        _pair_positions(vend, points, s, value, vertices)
+        _m.crossing_points(vend, vend.shape[0], points, s, value, vertices)
     if normals is None:
         return vertices, None
     on_node = vend[:, 0] == vend[:, 1]
@@ -252,23 +252,6 @@ def pair_stage3(vend, tri, points, s, value, normals, node_grad):
     nrm = vertex_normals(normals, vertices, tri, local_keys, edges=local_edges, s=s, value=value,
                          node_grad=node_grad, points=points)
     return vertices, nrm
-
-
-@njit
-def _pair_positions(vend, points, s, value, out):
-    """(5.2) crossing points from the edge ends (the smaller node id first, as in ``mesh.edges``)."""
-    for v in range(vend.shape[0]):
-        a = vend[v, 0]
-        b = vend[v, 1]
-        if a == b:
-            for d in range(3):
-                out[v, d] = points[a, d]
-        else:
-            c1 = s[a]
-            c2 = s[b]
-            # (5.2) P_c = ((C - C1) P2 - (C - C2) P1) / (C2 - C1)
-            for d in range(3):
-                out[v, d] = ((value - c1) * points[b, d] - (value - c2) * points[a, d]) / (c2 - c1)
 
 
 class EdgeLabels:
