@@ -856,7 +856,10 @@ def edges_by_node(cells, local_edges, node_edges, nc_off, nc, cell_edges):
     """Number the distinct edges by smallest node, then largest; fill ``cell_edges (M, L)``.
 
     ``node_edges``: :func:`local_incidence` of ``local_edges``. Each bucket
-    sorts ``other_node << 32 | slot`` (slots ``c * L + e`` below 2**32).
+    collects ``other_node << 32 | slot`` (slots ``c * L + e`` below 2**32)
+    and numbers its edges by sorting only the distinct other nodes, found
+    by hashing (a bucket of ~35 entries has ~7: on 2M, 0.56 -> 0.40 s of
+    one core against an insertion sort of the entries).
     Returns ``edges (E, 2) int64``, ``a < b``, in that order (the order of
     sorted node-pair codes ``a * N + b``).
     """
@@ -871,7 +874,18 @@ def edges_by_node(cells, local_edges, node_edges, nc_off, nc, cell_edges):
         big = 0
         for a in range(bounds[ch], bounds[ch + 1]):
             big = max(big, nc_off[a + 1] - nc_off[a])
-        keys = np.empty(big * node_edges.shape[1], np.int64)
+        cap = big * node_edges.shape[1]
+        keys = np.empty(cap, np.int64)
+        # the bucket's distinct far nodes b, by open addressing in a table stamped with a + 1 (never cleared)
+        size = 16
+        while size < 2 * cap:
+            size *= 2
+        mask = size - 1
+        t_node = np.empty(size, np.int64)
+        t_stamp = np.zeros(size, np.int64)
+        t_rank = np.empty(size, np.int64)
+        where = np.empty(cap, np.int64)
+        far = np.empty(cap, np.int64)
         for a in range(bounds[ch], bounds[ch + 1]):
             n = 0
             for p in range(nc_off[a], nc_off[a + 1]):
@@ -887,17 +901,31 @@ def edges_by_node(cells, local_edges, node_edges, nc_off, nc, cell_edges):
                     if b > a:
                         keys[n] = (b << 32) | (c * ne + e)
                         n += 1
-            _sort_packed(keys, n)
-            r = -1
-            prev = np.int64(-1)
+            # the edges (a, b) numbered by b: only the few distinct b are sorted, not the n entries
+            stamp = np.int64(a + 1)
+            d = 0
             for i in range(n):
                 b = keys[i] >> 32
-                if b != prev:
-                    r += 1
-                    prev = b
+                h = (b * 2654435761) & mask
+                while t_stamp[h] == stamp and t_node[h] != b:
+                    h = (h + 1) & mask
+                if t_stamp[h] != stamp:
+                    t_stamp[h] = stamp
+                    t_node[h] = b
+                    far[d] = b
+                    d += 1
+                where[i] = h
+            _sort_packed(far, d)
+            for r in range(d):
+                b = far[r]
+                h = (b * 2654435761) & mask
+                while t_stamp[h] != stamp or t_node[h] != b:
+                    h = (h + 1) & mask
+                t_rank[h] = r
+            for i in range(n):
                 s = keys[i] & low
-                cell_edges[s // ne, s % ne] = r
-            count[a + 1] = r + 1
+                cell_edges[s // ne, s % ne] = t_rank[where[i]]
+            count[a + 1] = d
     for a in range(n_nodes):
         count[a + 1] += count[a]
     n_edges = count[n_nodes]
