@@ -716,34 +716,6 @@ def _stable_csr(keys, n_keys, n_threads, out, divide):
     return offsets
 
 
-@njit
-def _sort_by_keys(k1, k2, idx, n):
-    """Order ``idx[:n]`` by ``(k1, k2)`` of its entries (insertion sort; a merge sort on k1 first when long)."""
-    if n > 48:
-        perm = np.argsort(k1[:n], kind="mergesort")
-        tmp = idx[:n].copy()
-        for i in range(n):
-            idx[i] = tmp[perm[i]]
-        t1 = k1[:n].copy()
-        t2 = k2[:n].copy()
-        for i in range(n):
-            k1[i] = t1[perm[i]]
-            k2[i] = t2[perm[i]]
-    for i in range(1, n):
-        a1 = k1[i]
-        a2 = k2[i]
-        ai = idx[i]
-        j = i - 1
-        while j >= 0 and (k1[j] > a1 or (k1[j] == a1 and (k2[j] > a2 or (k2[j] == a2 and idx[j] > ai)))):
-            k1[j + 1] = k1[j]
-            k2[j + 1] = k2[j]
-            idx[j + 1] = idx[j]
-            j -= 1
-        k1[j + 1] = a1
-        k2[j + 1] = a2
-        idx[j + 1] = ai
-
-
 def local_incidence(local, k):
     """For each local node ``i`` of a cell with ``k`` nodes, the rows of ``local`` (faces or edges)
     that contain it: ``(rows (k, R) int64, -1 padded, masks (len(local),) int64 node bitmask of each row)``."""
@@ -775,12 +747,23 @@ def face_neighbors_by_node(cells, local_faces, node_faces, face_masks, nc_off, n
         for a in range(bounds[ch], bounds[ch + 1]):
             big = max(big, nc_off[a + 1] - nc_off[a])
         cap = big * node_faces.shape[1]
-        k1 = np.empty(cap, np.int64)
-        k2 = np.zeros(cap, np.int64)
-        slot = np.empty(cap, np.int64)
+        # the bucket's faces matched by open addressing on their other nodes, in a table stamped with
+        # a + 1 (never cleared): each face is found once more, by its neighbour, with no sort
+        size = 16
+        while size < 2 * cap:
+            size *= 2
+        mask = size - 1
+        t_k1 = np.empty(size, np.int64)
+        t_k2 = np.empty(size, np.int64)
+        t_stamp = np.zeros(size, np.int64)
+        t_slot = np.empty(size, np.int64)
+        t_count = np.empty(size, np.int64)
         other = np.empty(4, np.int64)
         for a in range(bounds[ch], bounds[ch + 1]):
-            n = 0
+            stamp = np.int64(a + 1)
+            bad_k1 = np.int64(-1)
+            bad_k2 = np.int64(-1)
+            bad_slot = np.int64(-1)
             for p in range(nc_off[a], nc_off[a + 1]):
                 c = nc[p]
                 gt = 0
@@ -802,8 +785,9 @@ def face_neighbors_by_node(cells, local_faces, node_faces, face_masks, nc_off, n
                         if v != a:
                             other[no] = v
                             no += 1
+                    k2 = np.int64(0)
                     if no == 2:
-                        k1[n] = min(other[0], other[1]) * n_nodes + max(other[0], other[1])
+                        k1 = min(other[0], other[1]) * n_nodes + max(other[0], other[1])
                     else:  # a quadrilateral: its other three nodes, ascending
                         for i in range(1, no):
                             v = other[i]
@@ -812,24 +796,32 @@ def face_neighbors_by_node(cells, local_faces, node_faces, face_masks, nc_off, n
                                 other[j + 1] = other[j]
                                 j -= 1
                             other[j + 1] = v
-                        k1[n] = other[0] * n_nodes + other[1]
-                        k2[n] = other[2]
-                    slot[n] = c * nf + f
-                    n += 1
-            _sort_by_keys(k1, k2, slot, n)
-            i = 0
-            while i < n:
-                j = i + 1
-                while j < n and k1[j] == k1[i] and k2[j] == k2[i]:
-                    j += 1
-                if j - i == 2:
-                    s0 = slot[i]
-                    s1 = slot[i + 1]
-                    out[s0 // nf, s0 % nf] = s1 // nf
-                    out[s1 // nf, s1 % nf] = s0 // nf
-                elif j - i > 2 and bad[ch] < 0:
-                    bad[ch] = slot[i]
-                i = j
+                        k1 = other[0] * n_nodes + other[1]
+                        k2 = other[2]
+                    sl = c * nf + f
+                    x = (k1 ^ (k1 >> 21) ^ (k2 << 5)) & 0x7FFFFFFF
+                    h = (x * 2654435761) & mask
+                    while t_stamp[h] == stamp and (t_k1[h] != k1 or t_k2[h] != k2):
+                        h = (h + 1) & mask
+                    if t_stamp[h] != stamp:
+                        t_stamp[h] = stamp
+                        t_k1[h] = k1
+                        t_k2[h] = k2
+                        t_slot[h] = sl
+                        t_count[h] = 1
+                        continue
+                    t_count[h] += 1
+                    s0 = t_slot[h]
+                    if t_count[h] == 2:
+                        out[s0 // nf, s0 % nf] = c
+                        out[c, f] = s0 // nf
+                    elif bad_slot < 0 or k1 < bad_k1 or (k1 == bad_k1 and k2 < bad_k2):
+                        # a face of three or more cells: named by its first cell, the smallest such face first
+                        bad_k1 = k1
+                        bad_k2 = k2
+                        bad_slot = s0
+            if bad_slot >= 0 and bad[ch] < 0:
+                bad[ch] = bad_slot
     for ch in range(n_chunks):
         if bad[ch] >= 0:
             return bad[ch]
