@@ -638,11 +638,15 @@ def cell_records(cells, face_nb, cell_edges):
 # ---------------------------------------------------------------- topology from node -> cells
 #
 # The tables below are built bucket by bucket, one bucket per node: the faces (edges) whose
-# smallest node is ``a`` are found among the cells around ``a`` (the node -> cells lists),
-# sorted by the rest of their nodes and matched there. Buckets are independent, so the
-# nodes are split into chunks that run in parallel, each with its own scratch sized for its
-# largest bucket; every output entry is written by exactly one bucket, so the result does
-# not depend on the number of threads.
+# smallest node is ``a`` are found among the cells around ``a`` (the node -> cells lists)
+# and matched there by the rest of their nodes, in a small open-addressing table (a bucket
+# holds ~23 faces and ~35 edge entries of ~7 distinct edges: hashing them is cheaper than
+# sorting them, and only the distinct far nodes of the edges are sorted, to number the edges
+# in order). The table is stamped with ``a + 1`` per bucket, so it is never cleared. Buckets
+# are independent, so the nodes are split into chunks that run in parallel, each with its own
+# scratch sized for its largest bucket; every output entry is written by exactly one bucket
+# (a face's two sides: by the bucket that meets it the second time), so the result does not
+# depend on the number of threads.
 
 _N_CHUNKS = 256  # node ranges handed to the threads (more than threads: a rough balance)
 
@@ -734,7 +738,9 @@ def face_neighbors_by_node(cells, local_faces, node_faces, face_masks, nc_off, n
     in the bucket of their smallest node.
 
     ``node_faces``, ``face_masks``: :func:`local_incidence` of ``local_faces``.
-    Returns a slot ``c * F + f`` of a face shared by more than two cells, or -1.
+    Returns a slot ``c * F + f`` of a face shared by more than two cells (in
+    the first bucket that has one, its smallest such face, at its first
+    cell), or -1; ``out`` is then incomplete.
     """
     m, k = cells.shape
     nf, w = local_faces.shape
