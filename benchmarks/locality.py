@@ -164,8 +164,8 @@ def main(names):
              "normals) after the seed search; t2 = the construction alone",
              "prep_s: the edge-centred-table preparation (topology, thinning, edge records), wall, one run",
              "load: 1-minute load average at the end of the timed loop (2 cores shared with other jobs)"]
-    return write_results("locality", rows, COLUMNS, title="Node and cell numbering against construction speed (issue 20)",
-                         notes=notes)
+    return write_results("locality", rows, COLUMNS,
+                         title="Node and cell numbering against construction speed (issue 20)", notes=notes)
 
 
 if __name__ == "__main__":
