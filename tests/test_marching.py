@@ -375,3 +375,18 @@ def test_bad_arguments():
         extract(np.zeros((3, 3)), 0.5)
     with pytest.raises(ValueError):
         m.hex_to_tets(np.zeros((2, 4), int))
+
+
+def test_zero_rows_are_the_rows_without_a_direction():
+    """marching.zero_rows: the rows whose |x| + |y| + |z| is not > 0 (zeros, NaN), as numpy finds them."""
+    rng = np.random.default_rng(5)
+    nrm = rng.normal(size=(1000, 3))
+    nrm[rng.choice(1000, 40, replace=False)] = 0.0
+    nrm[7] = [0.0, -0.0, 0.0]
+    nrm[8] = [np.nan, 1.0, 0.0]
+    nrm[9] = [1e-320, 0.0, 0.0]  # subnormal: a direction
+    nrm[10] = [np.inf, 0.0, 0.0]
+    got = m.zero_rows(nrm)
+    np.testing.assert_array_equal(got, np.flatnonzero(~(np.abs(nrm).sum(axis=1) > 0.0)))
+    assert 7 in got and 8 in got and 9 not in got and 10 not in got
+    assert m.zero_rows(np.empty((0, 3))).shape == (0,)

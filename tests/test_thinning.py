@@ -613,3 +613,28 @@ def test_removal_test_rebuilds_what_the_rules_saw():
         removal_test(vol, rec, len(rec.decided_cell))
     with pytest.raises(ThinningError, match="no decisions"):
         removal_test(vol, dataclasses.replace(rec, decided_cell=None), 0)
+
+
+@pytest.mark.parametrize("name", ["data2", "genus3"])
+def test_extrema_beside_the_topology_give_the_same_skeleton(name, monkeypatch):
+    """The extrema and the boundary check run in a second thread on large volumes (thinning._thin): forced on
+    a small one, the skeleton is the one thinning without the thread gives, class for class."""
+    from polygen.volume import UnstructuredVolume
+    from polygen.volume import thinning as th
+
+    base = datasets.load(name)
+    fresh = lambda: UnstructuredVolume(base.points, base.cells, dict(base.fields), validate=False)  # noqa: E731
+    monkeypatch.setattr(th, "_ASIDE_MIN_CELLS", 10**12)
+    alone = th.thin_volume(fresh())
+    monkeypatch.setattr(th, "_ASIDE_MIN_CELLS", 0)
+    calls = []
+    real = th._extrema_and_defects
+    monkeypatch.setattr(th, "_extrema_and_defects",
+                        lambda *a: (calls.append(th.threading.current_thread().name), real(*a))[1])
+    beside = th.thin_volume(fresh())
+    if th.parallel_kernels_may_overlap() and (th.os.cpu_count() or 1) >= 2:
+        assert calls == ["polygen-thinning-extrema"]
+    np.testing.assert_array_equal(beside.classes, alone.classes)
+    np.testing.assert_array_equal(beside.marked, alone.marked)
+    np.testing.assert_array_equal(beside.extrema.nodes, alone.extrema.nodes)
+    assert beside.stats["nonmanifold_edges"] == alone.stats["nonmanifold_edges"]

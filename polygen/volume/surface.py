@@ -480,7 +480,7 @@ def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad, 
         else:
             _m._gradient_normals(keys, edges, s, value, node_grad, nrm)
         if points is not None:
-            zero = np.flatnonzero(~(np.abs(nrm).sum(axis=1) > 0.0))
+            zero = _m.zero_rows(nrm)
             on_edge = zero[keys[zero] < edges.shape[0]]
             if on_edge.size:
                 e = edges[keys[on_edge]]
