@@ -34,12 +34,22 @@ smallest angle) is recorded too.  Writes
     python benchmarks/intensity_mesh.py [--image 160] [--quick]
     python benchmarks/intensity_mesh.py --fine-first
     python benchmarks/intensity_mesh.py --only plate
+    python benchmarks/intensity_mesh.py --calibrate
 
 ``--only plate`` runs only the plate row: the first mesh and radiosity at ``size_initial``
 1.7 (Table 4.1's parameters, as the full run), then the floor's 200 x 200 size grid, best of
 3 (wall and CPU), and its phases one by one (IDW, element matrix, nested-dissection order,
 free-DOF CSC assembly with the held values' right-hand side, SuperLU factorisation, solve);
 writes ``intensity_mesh_plate.json``.
+
+``--calibrate`` (issue 15) anchors Table 4.1's second mesh to the thesis by a rule fixed
+before any quality or error was measured at its result: the thesis's second mesh keeps
+1396 / 1976 = 70.6 % of its first mesh's elements, so ``size_min`` (``size_initial`` 1.7,
+``size_max`` 0.85, ``improve=3`` as the tests' fixture, the first mesh and solution computed
+once) is bisected on (1.7, 3.4] until the bracket is under 0.025 wide: a midpoint whose
+second / first element ratio is above the thesis's moves the lower end up, else the upper end
+down; the bracket's midpoint rounded to 0.05 is Table 4.1's ``size_min``.  Only element
+counts are looked at.  Writes ``intensity_mesh_calibrate.json`` and ``.md``.
 
 ``--fine-first`` (issue 15, the thesis's intent read from Requirement 4.1: *the first
 mesh fine*, so that small shadows are found, then coarsened where the intensity varies
@@ -227,6 +237,8 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="tiny sizes (a smoke test)")
     ap.add_argument("--fine-first", action="store_true",
                     help="only the loop from a finer first mesh and its adaptive re-mesh")
+    ap.add_argument("--calibrate", action="store_true",
+                    help="only the bisection of Table 4.1's size_min on the thesis's ratio")
     ap.add_argument("--only", choices=["plate"],
                     help="only this row (plate: the 200 x 200 size grid, by phase)")
     args = ap.parse_args(argv)
@@ -235,6 +247,8 @@ def main(argv=None):
     cam = camera(args.image)
     if args.fine_first:
         return fine_first(sc, cam, solve, args)
+    if args.calibrate:
+        return calibrate(sc, solve, args)
     if args.only == "plate":
         return plate_only(sc, solve, args)
     sizes = [4.0] if args.quick else [2.4, 1.7]
@@ -383,6 +397,67 @@ def main(argv=None):
          "quality": quals, "discontinuity_timings": sd.timings,
          "reference_elements": ref_mesh.n_elements, "reference_seconds": t_ref,
          "rows": rows}, indent=2) + "\n")
+
+
+#: Table 4.1's second / first element ratio in the thesis (1396 / 1976).
+THESIS_RATIO = THESIS_4_1["this method"] / THESIS_4_1["first mesh"]
+
+
+def calibrate(sc, solve, args, *, width=0.025, step=0.05):
+    """Bisect ``size_min`` until the second / first element ratio brackets the thesis's."""
+    si = 4.0 if args.quick else 1.7
+    t0 = time.perf_counter()
+    base = intensity_bubble_mesh(sc, size_initial=si, size_min=2 * si, size_max=si / 2,
+                                 solve=solve, improve=3)
+    n1 = base.first_mesh.n_elements
+    rows = []
+
+    def count(size_min):
+        r = base if size_min == 2 * si else intensity_bubble_mesh(
+            sc, size_initial=si, size_min=size_min, size_max=si / 2, solve=solve, first=base,
+            improve=3)
+        n2 = r.second_mesh.n_elements
+        return n2, n2 / n1
+
+    lo, hi = si, 2 * si
+    n2, ratio = count(hi)
+    rows.append({"step": "upper end", "size_min": hi, "second": n2, "first": n1,
+                 "ratio": round(ratio, 4), "lo": lo, "hi": hi})
+    k = 0
+    while hi - lo > width:
+        k += 1
+        mid = 0.5 * (lo + hi)
+        n2, ratio = count(mid)
+        if ratio > THESIS_RATIO:
+            lo = mid
+        else:
+            hi = mid
+        rows.append({"step": f"bisection {k}", "size_min": round(mid, 5), "second": n2,
+                     "first": n1, "ratio": round(ratio, 4), "lo": round(lo, 5),
+                     "hi": round(hi, 5)})
+        print(f"  size_min {mid:.4f}: {n2} / {n1} = {ratio:.4f} -> [{lo:.4f}, {hi:.4f}]",
+              flush=True)
+    chosen = round(round(0.5 * (lo + hi) / step) * step, 10)
+    n2, ratio = count(chosen)
+    rows.append({"step": "chosen (midpoint to 0.05)", "size_min": chosen, "second": n2,
+                 "first": n1, "ratio": round(ratio, 4), "lo": round(lo, 5), "hi": round(hi, 5)})
+    print(f"size_min {chosen:g} ({chosen / si:.4f} size_initial): {n2} / {n1} = {ratio:.4f} "
+          f"(thesis {THESIS_RATIO:.4f}), {time.perf_counter() - t0:.1f} s", flush=True)
+    if not args.quick:
+        write_results("intensity_mesh_calibrate", rows,
+                      ["step", "size_min", "second", "first", "ratio", "lo", "hi"],
+                      title="Table 4.1's size_min, bisected on the thesis's second / first "
+                            f"element ratio ({THESIS_4_1['this method']} / "
+                            f"{THESIS_4_1['first mesh']} = {THESIS_RATIO:.4f})",
+                      notes=[f"scene of Fig. 4.8; size_initial {si}, size_max {si / 2}, grid step "
+                             f"{si / 4}, improve=3 on the second mesh (the tests' fixture), seed "
+                             "0; one first mesh and solution (tol "
+                             f"{solve['tol']}, ambient) for every step",
+                             f"rule fixed before measuring: bisect on ({si}, {2 * si}] until the "
+                             f"bracket is under {width} wide, ratio above the thesis's -> lower "
+                             f"end up; the midpoint rounded to {step}; only element counts are "
+                             "looked at (no quality, no error)"])
+    return chosen
 
 
 def reference_image(sc, cam, solve, quick=False):
