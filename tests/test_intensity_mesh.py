@@ -421,3 +421,38 @@ def test_combination_mesh_smallest_angle():
     m = mesh_scene(sc, 2.4, mesher=bubble_mesher, segments=lines)
     ang, _ = m.element_quality()
     assert ang.min() >= phi / 2
+
+
+@pytest.mark.slow
+def test_fewer_elements_than_adaptive_subdivision_for_its_error():
+    """The thesis's claim (4.4): this method reaches adaptive subdivision's error with fewer
+    elements -- from a fine first mesh, as Requirement 4.1 asks.
+
+    The setting of ``benchmarks/intensity_mesh.py --fine-first`` (fixed there before any error
+    was measured): this method from a first mesh of patch size 1.2, size_min 1.25 x 1.2,
+    size_max 0.6; against the conventional adaptive re-mesh of Table 4.1 (from the uniform
+    1.7 mesh and its solution, threshold 0.1 of the bright radiosity), the adaptive mesh with
+    as many elements as ours.  Error: the benchmark's yardstick (RMS of a 160^2 Gouraud image
+    against a uniform mesh of patch size 1.1, 16 elements per patch, 19328 elements).
+    Measured there: 3088 elements, error 0.0145, against 3109 and 0.0148.
+    """
+    from polygen.radiosity import Camera, adaptive_refine, progressive_refinement
+    from polygen.radiosity.error import image_error, shade
+    from polygen.radiosity.intensity import bright_scale
+
+    sc = scenes.three_rectangles_box()
+    solve = {"tol": 0.01, "ambient": True}
+    cam = Camera([5.0, 6.0, 0.3], [5.0, 3.5, 6.0], fov=75.0, width=160, height=160, near=0.01)
+    ref_mesh = mesh_scene(sc, 1.1, element_levels=2)
+    reference = shade(ref_mesh, progressive_refinement(ref_mesh, **solve).display_radiosity(
+        ref_mesh), cam)
+    ours = intensity_bubble_mesh(sc, size_initial=1.2, size_min=1.25 * 1.2, size_max=0.6,
+                                 solve=solve)
+    first = mesh_scene(sc, 1.7, element_levels=1, mesher=bubble_mesher)
+    b1 = progressive_refinement(first, **solve).display_radiosity(first)
+    ada = adaptive_refine(first, b1, 0.1 * bright_scale(first, b1)).mesh
+    b_ada = progressive_refinement(ada, **solve).display_radiosity(ada)
+    e_ours = image_error(shade(ours.second_mesh, ours.second_radiosity, cam), reference)
+    e_ada = image_error(shade(ada, b_ada, cam), reference)
+    assert ours.second_mesh.n_elements <= ada.n_elements
+    assert e_ours <= e_ada
