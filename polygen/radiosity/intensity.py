@@ -525,7 +525,44 @@ def width_capped_sizes(scene, sizes, segments, *, floor, beta=0.5, layouts=None)
     if not ys or sum(len(c) for c in cs) == 0:
         return out
     y, c = np.concatenate(ys), np.concatenate(cs)
-    return [_graded_spec(spec, poly, y, c, beta) for spec, poly in zip(out, scene.polygons)]
+    # a sample that another one's cone already covers changes nothing: drop it
+    o = np.argsort(c, kind="stable")
+    y, c = y[o], c[o]
+    keep = np.ones(len(c), dtype=bool)
+    for j in range(1, len(c)):
+        cover = c[:j][keep[:j]] + beta * np.linalg.norm(y[:j][keep[:j]] - y[j], axis=1)
+        keep[j] = not np.any(cover <= c[j])
+    y, c = y[keep], c[keep]
+    graded = []
+    for spec, given, poly in zip(out, sizes, scene.polygons):
+        # samples whose cone stays above the polygon's largest size cannot cap it
+        near = c + beta * _distance_to_polygon(poly, y) < _largest_size(given)
+        graded.append(_graded_spec(spec, poly, y[near], c[near], beta) if near.any() else spec)
+    return graded
+
+
+def _largest_size(spec):
+    """An upper bound of a size spec (inf for a callable, which may be anything)."""
+    from polygen.mesh2d import GridSize
+    from polygen.radiosity.layout import RegionSize
+
+    if isinstance(spec, RegionSize):
+        parts = [*spec.sizes, *([] if spec.default is None else [spec.default])]
+        return max(_largest_size(f) for f in parts)
+    if isinstance(spec, GridSize):
+        return float(np.max(spec.values))
+    if np.isscalar(spec):
+        return float(spec)
+    return np.inf
+
+
+def _distance_to_polygon(poly, y):
+    """A lower bound of the 3-D distance from points to a polygon: to its 2-D bounding box."""
+    uv = poly.to_2d(y)
+    back = poly.to_3d(uv)
+    ext = poly.exterior_2d
+    d2 = np.linalg.norm(uv - np.clip(uv, ext.min(axis=0), ext.max(axis=0)), axis=1)
+    return np.hypot(d2, np.linalg.norm(y - back, axis=1))
 
 
 def _region_samples(lay, r, seg, step):
