@@ -14,32 +14,46 @@ On the scene of Fig. 4.8 (`scenes.three_rectangles_box`):
 
 Parameters, fixed before measuring: ``size_initial`` 1.7 (the uniform bubble
 mesh nearest the thesis's first mesh of 1976 elements among 1.4-1.75),
-``size_min = 2 size_initial``, ``size_max = size_initial / 2`` (the thesis
-gives no values), grid step ``size_max / 2`` (the finest element), adaptive
-threshold 0.1 of the bright surfaces' radiosity (as
-``benchmarks/radiosity_error.py``); the curve of this method repeats the
-loop for ``size_initial`` 2.4 and 1.7 with the same ratios.  A second curve,
-not Table 4.1's parameters, reruns the size function and second mesh from
-the same first solution (1.7) with ``size_min`` 1.5 and 1.25 ``size_initial``.
+``size_min = 2.2 / 1.7 size_initial`` (``--calibrate``: the thesis's second /
+first element ratio; the thesis gives no values), ``size_max = size_initial /
+2``, ``improve=3`` on the second mesh (the tests' fixture), grid step
+``size_max / 2`` (the finest element), adaptive threshold 0.1 of the bright
+surfaces' radiosity (as ``benchmarks/radiosity_error.py``); the curve of this
+method repeats the loop for ``size_initial`` 2.4 and 1.7 with the same
+ratios.  A sweep reruns the size function and second mesh from the same first
+solution (1.7) with ``size_min`` 2 (the setting before the calibration) and
+1.5 ``size_initial``.
 Added with the combination (fixed before measuring it): simplified
 discontinuity meshing as ``mesh_scene`` along the scene's discontinuity
 lines with patch size 3.4, 2.4, 1.7 and half that in the penumbra regions
 (``region_sizes(s, s / 2)``); the combination
-(:func:`polygen.discontinuity.combined.combined_bubble_mesh`) with exactly
-this method's parameters: ``size_initial`` 2.4, 1.7 and the same
-``size_min`` sweep at 1.7.  Each mesh's quality (mean radius ratio,
+(:func:`polygen.discontinuity.combined.combined_bubble_mesh`, regions capped
+by their local width) with exactly this method's parameters: ``size_initial``
+2.4, 1.7 and the same ``size_min`` sweep at 1.7; at each of its points its
+error against each parent's curve interpolated in log-log at its element
+count (``error_at_elements``; none outside a curve's range).  Each mesh's quality (mean radius ratio,
 smallest angle) is recorded too.  Writes
 ``benchmarks/results/intensity_mesh.json`` and ``.md``.
 
     python benchmarks/intensity_mesh.py [--image 160] [--quick]
     python benchmarks/intensity_mesh.py --fine-first
     python benchmarks/intensity_mesh.py --only plate
+    python benchmarks/intensity_mesh.py --calibrate
 
 ``--only plate`` runs only the plate row: the first mesh and radiosity at ``size_initial``
 1.7 (Table 4.1's parameters, as the full run), then the floor's 200 x 200 size grid, best of
 3 (wall and CPU), and its phases one by one (IDW, element matrix, nested-dissection order,
 free-DOF CSC assembly with the held values' right-hand side, SuperLU factorisation, solve);
 writes ``intensity_mesh_plate.json``.
+
+``--calibrate`` (issue 15) anchors Table 4.1's second mesh to the thesis by a rule fixed
+before any quality or error was measured at its result: the thesis's second mesh keeps
+1396 / 1976 = 70.6 % of its first mesh's elements, so ``size_min`` (``size_initial`` 1.7,
+``size_max`` 0.85, ``improve=3`` as the tests' fixture, the first mesh and solution computed
+once) is bisected on (1.7, 3.4] until the bracket is under 0.025 wide: a midpoint whose
+second / first element ratio is above the thesis's moves the lower end up, else the upper end
+down; the bracket's midpoint rounded to 0.05 is Table 4.1's ``size_min``.  Only element
+counts are looked at.  Writes ``intensity_mesh_calibrate.json`` and ``.md``.
 
 ``--fine-first`` (issue 15, the thesis's intent read from Requirement 4.1: *the first
 mesh fine*, so that small shadows are found, then coarsened where the intensity varies
@@ -82,6 +96,7 @@ from polygen.mesh2d import plate as _plate
 from polygen.mesh2d.size_grid import assign_grid_sizes, grid_lattice
 from polygen.radiosity.intensity import (
     PHASES,
+    error_at_elements,
     intensity_variation,
     polygon_size_grids,
     size_function,
@@ -90,6 +105,10 @@ from polygen.radiosity.raster import node_intensities
 
 THESIS_4_1 = {"first mesh": 1976, "adaptive re-mesh": 3205, "this method": 1396}
 THESIS_4_2 = dict(zip(PHASES, (31.51, 277.31, 171.75, 42.23, 225.54)))
+#: Table 4.1's size_min / size_initial: 2.2 / 1.7, from ``--calibrate`` (the thesis's ratio).
+SIZE_MIN_RATIO = 2.2 / 1.7
+#: Rounds of the bubble mesh's improvement on the second mesh (the tests' fixture).
+IMPROVE = 3
 
 
 def camera(n):
@@ -227,6 +246,8 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="tiny sizes (a smoke test)")
     ap.add_argument("--fine-first", action="store_true",
                     help="only the loop from a finer first mesh and its adaptive re-mesh")
+    ap.add_argument("--calibrate", action="store_true",
+                    help="only the bisection of Table 4.1's size_min on the thesis's ratio")
     ap.add_argument("--only", choices=["plate"],
                     help="only this row (plate: the 200 x 200 size grid, by phase)")
     args = ap.parse_args(argv)
@@ -235,17 +256,20 @@ def main(argv=None):
     cam = camera(args.image)
     if args.fine_first:
         return fine_first(sc, cam, solve, args)
+    if args.calibrate:
+        return calibrate(sc, solve, args)
     if args.only == "plate":
         return plate_only(sc, solve, args)
     sizes = [4.0] if args.quick else [2.4, 1.7]
     main_size = 4.0 if args.quick else 1.7
+    SWEEP = (2.0, 1.5)   # size_min / size_initial besides Table 4.1's (2.0: the earlier setting)
 
     # the loop with Table 4.1/4.2's parameters (and the curve's other points)
     loops = {}
     for si in sizes:
-        loops[si] = intensity_bubble_mesh(sc, size_initial=si, size_min=2 * si, size_max=si / 2,
-                                          solve=solve, adaptive_threshold=0.1,
-                                          solve_adaptive=si == main_size)
+        loops[si] = intensity_bubble_mesh(sc, size_initial=si, size_min=SIZE_MIN_RATIO * si,
+                                          size_max=si / 2, solve=solve, adaptive_threshold=0.1,
+                                          solve_adaptive=si == main_size, improve=IMPROVE)
         print(f"loop size_initial {si}: {loops[si].first_mesh.n_elements} -> "
               f"{loops[si].second_mesh.n_elements} elements, "
               f"{loops[si].total_seconds:.1f} s", flush=True)
@@ -254,22 +278,23 @@ def main(argv=None):
     # see what the method gives between "coarser everywhere" and the first mesh
     sweep = {} if args.quick else {
         f: intensity_bubble_mesh(sc, size_initial=main_size, size_min=f * main_size,
-                                 size_max=main_size / 2, solve=solve, first=r)
-        for f in (1.5, 1.25)}
+                                 size_max=main_size / 2, solve=solve, first=r, improve=IMPROVE)
+        for f in SWEEP}
     # the combination, with the same parameters along the same curve
     sd = simplified_discontinuity(sc)
     combos = {}
     for si in sizes:
-        combos[si] = combined_bubble_mesh(sc, size_initial=si, size_min=2 * si, size_max=si / 2,
-                                          solve=solve, discontinuity=sd)
+        combos[si] = combined_bubble_mesh(sc, size_initial=si, size_min=SIZE_MIN_RATIO * si,
+                                          size_max=si / 2, solve=solve, discontinuity=sd,
+                                          improve=IMPROVE)
         print(f"combination size_initial {si}: {combos[si].first_mesh.n_elements} -> "
               f"{combos[si].second_mesh.n_elements} elements, "
               f"{combos[si].total_seconds:.1f} s", flush=True)
     combo_sweep = {} if args.quick else {
         f: combined_bubble_mesh(sc, size_initial=main_size, size_min=f * main_size,
                                 size_max=main_size / 2, solve=solve, discontinuity=sd,
-                                first=combos[main_size])
-        for f in (1.5, 1.25)}
+                                first=combos[main_size], improve=IMPROVE)
+        for f in SWEEP}
     plate_s, plate_cpu, plate_free = plate_timing(r, 20 if args.quick else 200)
     print(f"plate 200 x 200: {plate_s:.2f} s wall, {plate_cpu:.2f} s CPU ({plate_free} grid "
           f"points from the plate)", flush=True)
@@ -323,6 +348,19 @@ def main(argv=None):
             if i < len(qs):
                 row["mean_q"], row["min_angle"] = qs[i]
             rows.append(row)
+    parents = {"this method": sorted((p.n_elements, p.error) for p in ours + ours_sweep),
+               "simplified DM": sorted((p.n_elements, p.error) for p in dm)}
+    versus = []
+    for p in sorted(comb + comb_sweep, key=lambda p: p.n_elements):
+        row = {"table": "combination vs parents", "mesh": p.label, "elements": p.n_elements,
+               "rms_error": round(p.error, 5)}
+        for name, curve in parents.items():
+            e = error_at_elements(curve, p.n_elements)
+            row[name] = None if e is None else round(e, 5)
+        versus.append(row)
+        print(f"  {p.label:36s} {p.n_elements:6d}: {p.error:.4f} vs "
+              + ", ".join(f"{k} {row[k]}" for k in parents), flush=True)
+    rows += versus
     counts = {"first mesh": r.first_mesh.n_elements, "adaptive re-mesh": r.adaptive_mesh.n_elements,
               "this method": r.second_mesh.n_elements}
     for k, v in counts.items():
@@ -340,11 +378,13 @@ def main(argv=None):
         return
     write_results("intensity_mesh", rows,
                   ["table", "method", "mesh", "elements", "rms_error", "mean_q", "min_angle",
-                   "seconds", "cpu_seconds", "thesis"],
+                   "this method", "simplified DM", "seconds", "cpu_seconds", "thesis"],
                   title="Intensity-based bubble mesh (chapter 4): Tables 4.1, 4.2, the plate "
                         "solve and image error against element count",
                   notes=[f"scene of Fig. 4.8; size_initial {main_size}, size_min "
-                         f"{2 * main_size}, size_max {main_size / 2}, grid step "
+                         f"{SIZE_MIN_RATIO * main_size:.4g} (--calibrate: the thesis's second / "
+                         f"first element ratio), size_max {main_size / 2}, improve={IMPROVE} on "
+                         "the second mesh, grid step "
                          f"{main_size / 4}, adaptive threshold 0.1 of the bright surfaces' "
                          "radiosity; sizes are patch sizes, 4 elements per patch",
                          "table 4.1: elements (thesis column: the thesis's counts); table 4.2: "
@@ -365,7 +405,15 @@ def main(argv=None):
                          "along the lines of simplified_discontinuity; combination: "
                          "combined_bubble_mesh with this method's parameters (lines closer "
                          "than half the finest element, size_max / 4, merged: "
-                         "merge_close_segments)",
+                         "merge_close_segments; each region's size capped by its local width, "
+                         "not below the finest element size_max / 2, graded at slope 0.5: "
+                         "width_capped_sizes)",
+                         "the sweep: size_min 2 and 1.5 size_initial from the same first "
+                         "solution (2: the setting before --calibrate)",
+                         "combination vs parents: the combination's error, and each parent's "
+                         "curve (this method: its points and sweep; simplified DM) interpolated "
+                         "in log-log at the combination's element count (error_at_elements; "
+                         "empty: outside that curve's range)",
                          "mean_q, min_angle: element quality (radius ratio 2 r_in / R_circ, "
                          "smallest angle), each face measured from its own side"])
     (RESULTS / "intensity_mesh.json").write_text(json.dumps(
@@ -376,13 +424,74 @@ def main(argv=None):
          "plate_cpu_seconds": plate_cpu, "load_average": os.getloadavg(),
          "curves": {"uniform": [p.__dict__ for p in uni], "adaptive": [p.__dict__ for p in ada],
                     "intensity": [p.__dict__ for p in ours],
-                    "intensity, smaller size_min": [p.__dict__ for p in ours_sweep],
+                    "intensity, other size_min": [p.__dict__ for p in ours_sweep],
                     "simplified DM": [p.__dict__ for p in dm],
                     "combination": [p.__dict__ for p in comb],
-                    "combination, smaller size_min": [p.__dict__ for p in comb_sweep]},
-         "quality": quals, "discontinuity_timings": sd.timings,
+                    "combination, other size_min": [p.__dict__ for p in comb_sweep]},
+         "quality": quals, "discontinuity_timings": sd.timings, "combination_vs_parents": versus,
          "reference_elements": ref_mesh.n_elements, "reference_seconds": t_ref,
          "rows": rows}, indent=2) + "\n")
+
+
+#: Table 4.1's second / first element ratio in the thesis (1396 / 1976).
+THESIS_RATIO = THESIS_4_1["this method"] / THESIS_4_1["first mesh"]
+
+
+def calibrate(sc, solve, args, *, width=0.025, step=0.05):
+    """Bisect ``size_min`` until the second / first element ratio brackets the thesis's."""
+    si = 4.0 if args.quick else 1.7
+    t0 = time.perf_counter()
+    base = intensity_bubble_mesh(sc, size_initial=si, size_min=2 * si, size_max=si / 2,
+                                 solve=solve, improve=3)
+    n1 = base.first_mesh.n_elements
+    rows = []
+
+    def count(size_min):
+        r = base if size_min == 2 * si else intensity_bubble_mesh(
+            sc, size_initial=si, size_min=size_min, size_max=si / 2, solve=solve, first=base,
+            improve=3)
+        n2 = r.second_mesh.n_elements
+        return n2, n2 / n1
+
+    lo, hi = si, 2 * si
+    n2, ratio = count(hi)
+    rows.append({"step": "upper end", "size_min": hi, "second": n2, "first": n1,
+                 "ratio": round(ratio, 4), "lo": lo, "hi": hi})
+    k = 0
+    while hi - lo > width:
+        k += 1
+        mid = 0.5 * (lo + hi)
+        n2, ratio = count(mid)
+        if ratio > THESIS_RATIO:
+            lo = mid
+        else:
+            hi = mid
+        rows.append({"step": f"bisection {k}", "size_min": round(mid, 5), "second": n2,
+                     "first": n1, "ratio": round(ratio, 4), "lo": round(lo, 5),
+                     "hi": round(hi, 5)})
+        print(f"  size_min {mid:.4f}: {n2} / {n1} = {ratio:.4f} -> [{lo:.4f}, {hi:.4f}]",
+              flush=True)
+    chosen = round(round(0.5 * (lo + hi) / step) * step, 10)
+    n2, ratio = count(chosen)
+    rows.append({"step": "chosen (midpoint to 0.05)", "size_min": chosen, "second": n2,
+                 "first": n1, "ratio": round(ratio, 4), "lo": round(lo, 5), "hi": round(hi, 5)})
+    print(f"size_min {chosen:g} ({chosen / si:.4f} size_initial): {n2} / {n1} = {ratio:.4f} "
+          f"(thesis {THESIS_RATIO:.4f}), {time.perf_counter() - t0:.1f} s", flush=True)
+    if not args.quick:
+        write_results("intensity_mesh_calibrate", rows,
+                      ["step", "size_min", "second", "first", "ratio", "lo", "hi"],
+                      title="Table 4.1's size_min, bisected on the thesis's second / first "
+                            f"element ratio ({THESIS_4_1['this method']} / "
+                            f"{THESIS_4_1['first mesh']} = {THESIS_RATIO:.4f})",
+                      notes=[f"scene of Fig. 4.8; size_initial {si}, size_max {si / 2}, grid step "
+                             f"{si / 4}, improve=3 on the second mesh (the tests' fixture), seed "
+                             "0; one first mesh and solution (tol "
+                             f"{solve['tol']}, ambient) for every step",
+                             f"rule fixed before measuring: bisect on ({si}, {2 * si}] until the "
+                             f"bracket is under {width} wide, ratio above the thesis's -> lower "
+                             f"end up; the midpoint rounded to {step}; only element counts are "
+                             "looked at (no quality, no error)"])
+    return chosen
 
 
 def reference_image(sc, cam, solve, quick=False):

@@ -15,7 +15,11 @@ element are merged first (:func:`polygen.mesh2d.merge_close_segments`), as
 the thesis proposes among its future work (chapter 8: delete discontinuity
 lines lying much closer than the element size): the penumbra bands of the
 Fig. 4.8 scene are 0.04 wide, and a band that narrow meshed at patch size
-1.7-2.4 gives triangles of 2 degrees.
+1.7-2.4 gives triangles of 2 degrees.  What merging leaves narrower than its
+size (a line meeting a wall near a corner, a wedge between two lines) gets
+its size capped by the region's local width
+(:func:`polygen.mesh2d.region_width.region_width`), graded so that the
+neighbours of a capped spot follow it.
 """
 
 from __future__ import annotations
@@ -59,7 +63,7 @@ def merged_lines(scene, segments, *, gap):
 
 
 def combined_bubble_mesh(scene, *, size_initial, size_min, size_max, discontinuity=None,
-                         merge_gap=None, **kwargs):
+                         merge_gap=None, width_cap=True, **kwargs):
     """The two-pass loop of Fig. 4.3 on a mesh cut by the scene's discontinuity lines.
 
     Parameters
@@ -75,6 +79,16 @@ def combined_bubble_mesh(scene, *, size_initial, size_min, size_max, discontinui
         merged (:func:`merged_lines`); None: half the finest element's size,
         ``size_max / 2**element_levels / 2`` ("much closer than the element
         size", chapter 8); 0: the lines as found.
+    width_cap : bool, keyword-only
+        Cap every region's size by its local width, never below the finest element's size
+        ``size_max / 2**element_levels`` (twice the default merge gap: elements of a strip
+        as narrow as merging leaves are as long as it is wide), and let sizes grow from a
+        cap by at most 0.5 per unit length
+        (:func:`~polygen.radiosity.intensity.width_capped_sizes`), in both meshes; False:
+        the size grids as they are (regions narrower than their size get slivers).  The cap
+        costs elements: on the scene of Fig. 4.8 at ``size_initial`` 2.4 the first mesh has
+        2440 elements instead of 1288 (smallest angle 12.3 degrees instead of 6.9), and the
+        image error per element is worse (benchmarks/results/intensity_mesh.md).
     **kwargs
         Other keywords of :func:`~polygen.radiosity.intensity_bubble_mesh`
         (``grid``, ``element_levels``, ``seed``, ``solve``, ``first`` ...).
@@ -109,7 +123,8 @@ def combined_bubble_mesh(scene, *, size_initial, size_min, size_max, discontinui
             lines = first.parameters["segments"]   # the same merged lines, for `first=`
         else:
             lines = merged_lines(scene, discontinuity.segments, gap=merge_gap)
+    floor = float(size_max) / 2 ** int(kwargs.get("element_levels", 1)) if width_cap else None
     run = intensity_bubble_mesh(scene, size_initial=size_initial, size_min=size_min,
-                                size_max=size_max, segments=lines, **kwargs)
+                                size_max=size_max, segments=lines, width_floor=floor, **kwargs)
     run.parameters["merge_gap"] = float(merge_gap)
     return run

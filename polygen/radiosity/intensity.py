@@ -38,7 +38,7 @@ from polygen.radiosity.solve import progressive_refinement
 
 __all__ = ["IntensityMesh", "intensity_variation", "size_function", "check_size_parameters",
            "polygon_size_grids", "intensity_bubble_mesh", "bright_scale", "PHASES",
-           "remesh_polygon", "error_at_elements"]
+           "remesh_polygon", "error_at_elements", "width_capped_sizes"]
 
 #: Table 4.2's five phases, the keys of :attr:`IntensityMesh.seconds`.
 PHASES = ("first_mesh", "first_radiosity", "size_function", "second_mesh", "second_radiosity")
@@ -314,7 +314,7 @@ def _solve(mesh, solve):
 def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
                           element_levels=1, nu=0.3, seed=0, solve=None,
                           adaptive_threshold=None, solve_adaptive=False, first=None,
-                          segments=None, improve=0):
+                          segments=None, improve=0, width_floor=None):
     """The two-pass loop of Fig. 4.3.
 
     Parameters
@@ -365,6 +365,10 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
         circumcentre of each triangle under 30 degrees, Laplacian smoothing
         of the face bubbles, a round kept only if it is better); 0 (the
         default) is the thesis's bubble mesh alone.
+    width_floor : float or None, keyword-only
+        With ``segments``: cap every region's size (both meshes) by the region's local
+        width, never below this (:func:`width_capped_sizes`), so that a region narrower than
+        its size is not meshed by skinny triangles; None (the default): no cap.
 
     Returns
     -------
@@ -387,9 +391,17 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
     mesher = bubble_mesher if seed == 0 else _seeded(seed)
     clock = _Clock()
 
+    if width_floor is not None:
+        width_floor = float(width_floor)
+        if not (np.isfinite(width_floor) and width_floor > 0):
+            raise MeshError(f"width_floor must be finite and > 0, got {width_floor}")
     if first is None:
         clock.start()
-        first = mesh_scene(scene, si, element_levels=element_levels, mesher=mesher,
+        spec = si
+        if width_floor is not None and segments is not None:
+            spec = width_capped_sizes(scene, [si] * len(scene.polygons), segments,
+                                      floor=width_floor)
+        first = mesh_scene(scene, spec, element_levels=element_levels, mesher=mesher,
                            segments=segments)
         clock.stop("first_mesh")
         clock.start()
@@ -401,10 +413,11 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
         p = first.parameters
         same = (first.first_mesh.scene is scene and p["size_initial"] == si
                 and p["element_levels"] == element_levels and p["seed"] == seed
-                and p["solve"] == solve and p.get("segments") is segments)
+                and p["solve"] == solve and p.get("segments") is segments
+                and p.get("width_floor") == width_floor)
         if not same:
             raise MeshError("first: that run's scene, size_initial, element_levels, seed, "
-                            "solve or segments differ from these")
+                            "solve, segments or width_floor differ from these")
         r1, b1 = first.first_result, first.first_radiosity
         for k in PHASES[:2]:
             clock.wall[k], clock.cpu[k] = first.seconds[k], first.cpu_seconds[k]
@@ -419,7 +432,11 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
 
     clock.start()
     mesher2 = mesher if not improve else _seeded(seed, improve=int(improve))
-    second = mesh_scene(scene, grids, element_levels=element_levels, mesher=mesher2,
+    spec = grids
+    if width_floor is not None and segments is not None:
+        spec = width_capped_sizes(scene, grids, segments, floor=width_floor,
+                                  layouts=first.layouts)
+    second = mesh_scene(scene, spec, element_levels=element_levels, mesher=mesher2,
                         segments=segments)
     clock.stop("second_mesh")
 
@@ -439,9 +456,150 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
     params = {"size_initial": si, "size_min": smin, "size_max": smax, "grid": grid,
               "element_levels": element_levels, "nu": nu, "seed": seed, "solve": solve,
               "adaptive_threshold": adaptive_threshold, "segments": segments,
-              "improve": int(improve)}
+              "improve": int(improve), "width_floor": width_floor}
     return IntensityMesh(first, r1, b1, inten, d, fsize, grids, second, r2, b2, clock.wall,
                          clock.cpu, ada, ada_b, params)
+
+
+def width_capped_sizes(scene, sizes, segments, *, floor, beta=0.5, layouts=None):
+    """Size specs with every cut region capped by its local width, graded across the scene.
+
+    Two steps.  (1) Each region of a polygon with segments gets ``min(size, max(local width,
+    floor))`` (:func:`polygen.mesh2d.region_width.width_capped_size`), so that a region
+    narrower than its size is not meshed by skinny triangles.  (2) Where that cap binds, the
+    capped sizes are sampled (a lattice of step ``floor`` and the region's boundary) and every
+    polygon's size is limited to grow from them by at most ``beta`` per unit of 3-D distance
+    (:func:`polygen.mesh2d.region_width.graded_minimum`): a fine strip along a shared edge
+    makes that edge's nodes fine in the neighbouring polygon too, and without the limit the
+    neighbour would jump from them to its own size in one element.
+
+    Parameters
+    ----------
+    scene : Scene
+    sizes : list
+        One size spec per polygon (a number, a size field, a GridSize or a
+        :class:`~polygen.radiosity.layout.RegionSize`), as ``mesh_scene`` takes.
+    segments : mapping or sequence
+        The constrained segments (``mesh_scene(..., segments=)``).
+    floor : float, keyword-only
+        The smallest cap, > 0.
+    beta : float, keyword-only
+        The largest slope of the size near a cap: neighbouring bubbles differ by at most
+        ``1 + beta`` (0.5: Theorem 4.1's edge-length ratio at most 1.25).
+    layouts : list of PlanarGraph or None, keyword-only
+        The polygons' layouts (a mesh's ``layouts``); None: computed from ``segments``.
+
+    Returns
+    -------
+    list
+        One size spec per polygon: a ``RegionSize`` (one field per region of its layout)
+        for polygons with segments, a size field for the others.
+    """
+    from polygen.mesh2d.region_width import region_boundary, width_capped_size
+    from polygen.mesh2d.sizing import as_size_function
+    from polygen.radiosity.layout import RegionSize, polygon_layout
+    from polygen.radiosity.mesh import _segments_per_polygon
+
+    floor = float(floor)
+    if not (np.isfinite(floor) and floor > 0):
+        raise MeshError(f"floor must be finite and > 0, got {floor}")
+    segs = _segments_per_polygon(segments, scene)
+    out = list(sizes)
+    ys, cs = [], []
+    for k, (poly, sg) in enumerate(zip(scene.polygons, segs)):
+        if sg is None or len(sg) == 0:
+            continue
+        lay = polygon_layout(poly, sg) if layouts is None else layouts[k]
+        spec = out[k]
+        per = spec.resolve(poly, lay) if isinstance(spec, RegionSize) else [spec] * lay.n_regions
+        fns = []
+        for r, f in enumerate(per):
+            capped = width_capped_size(f, lay, r, floor=floor)
+            fns.append(capped)
+            pts = _region_samples(lay, r, region_boundary(lay, r), floor)
+            base, cap = as_size_function(f)(pts), capped(pts)
+            bind = cap < base * (1 - 1e-9)
+            ys.append(poly.to_3d(pts[bind]))
+            cs.append(cap[bind])
+        out[k] = RegionSize(fns, at=lay.region_point)
+    if not ys or sum(len(c) for c in cs) == 0:
+        return out
+    y, c = np.concatenate(ys), np.concatenate(cs)
+    # a sample that another one's cone already covers changes nothing: drop it
+    o = np.argsort(c, kind="stable")
+    y, c = y[o], c[o]
+    keep = np.ones(len(c), dtype=bool)
+    for j in range(1, len(c)):
+        cover = c[:j][keep[:j]] + beta * np.linalg.norm(y[:j][keep[:j]] - y[j], axis=1)
+        keep[j] = not np.any(cover <= c[j])
+    y, c = y[keep], c[keep]
+    graded = []
+    for spec, given, poly in zip(out, sizes, scene.polygons):
+        # samples whose cone stays above the polygon's largest size cannot cap it
+        near = c + beta * _distance_to_polygon(poly, y) < _largest_size(given)
+        graded.append(_graded_spec(spec, poly, y[near], c[near], beta) if near.any() else spec)
+    return graded
+
+
+def _largest_size(spec):
+    """An upper bound of a size spec (inf for a callable, which may be anything)."""
+    from polygen.mesh2d import GridSize
+    from polygen.radiosity.layout import RegionSize
+
+    if isinstance(spec, RegionSize):
+        parts = [*spec.sizes, *([] if spec.default is None else [spec.default])]
+        return max(_largest_size(f) for f in parts)
+    if isinstance(spec, GridSize):
+        return float(np.max(spec.values))
+    if np.isscalar(spec):
+        return float(spec)
+    return np.inf
+
+
+def _distance_to_polygon(poly, y):
+    """A lower bound of the 3-D distance from points to a polygon: to its 2-D bounding box."""
+    uv = poly.to_2d(y)
+    back = poly.to_3d(uv)
+    ext = poly.exterior_2d
+    d2 = np.linalg.norm(uv - np.clip(uv, ext.min(axis=0), ext.max(axis=0)), axis=1)
+    return np.hypot(d2, np.linalg.norm(y - back, axis=1))
+
+
+def _region_samples(lay, r, seg, step):
+    """Points of region r: a lattice of the given step inside it, and its boundary edges'."""
+    ends = seg.reshape(-1, 2)
+    lo, hi = ends.min(axis=0), ends.max(axis=0)
+    gx = np.arange(lo[0], hi[0] + 0.5 * step, step)
+    gy = np.arange(lo[1], hi[1] + 0.5 * step, step)
+    grid = np.stack(np.meshgrid(gx, gy), axis=-1).reshape(-1, 2)
+    grid = grid[lay.region_of(grid) == r]
+    on = []
+    for a, b in seg:
+        n = max(2, int(np.ceil(np.linalg.norm(b - a) / (0.5 * step))) + 1)
+        t = np.linspace(0.0, 1.0, n)[:, None]
+        on.append(a + t * (b - a))
+    return np.concatenate([grid, *on])
+
+
+def _graded_spec(spec, poly, y, c, beta):
+    from polygen.mesh2d.region_width import graded_minimum
+    from polygen.mesh2d.sizing import as_size_function
+    from polygen.radiosity.layout import RegionSize
+
+    def wrap(f):
+        field = as_size_function(f)
+
+        def size(xy):
+            q = np.ascontiguousarray(xy, dtype=np.float64).reshape(-1, 2)
+            return np.minimum(field(q), graded_minimum(poly.to_3d(q), y, c, beta=beta))
+
+        size.constant = None
+        return size
+
+    if isinstance(spec, RegionSize):
+        return RegionSize([wrap(f) for f in spec.sizes], at=spec.at,
+                          default=None if spec.default is None else wrap(spec.default))
+    return wrap(spec)
 
 
 def _seeded(seed, **kwargs):
