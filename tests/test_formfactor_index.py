@@ -155,3 +155,30 @@ def test_walk_gives_the_same_solve(monkeypatch):
     assert len(fast.shots) > 20
     np.testing.assert_array_equal(fast.shots, slow.shots)
     np.testing.assert_array_equal(fast.radiosity, slow.radiosity)
+
+
+@pytest.mark.parametrize("columns", [0, 20])
+def test_column_cache_gives_the_same_solve(columns):
+    """Kept columns are the columns bit for bit: the same shots and radiosities with no cache,
+    a small one (room for 20 dense columns, then no more kept) and the default."""
+    mesh = mesh_scene(_random_occluder_scene(), 2.5, element_levels=1)
+    full = progressive_refinement(mesh, tol=0.02, visibility_samples=2)
+    other = progressive_refinement(mesh, tol=0.02, visibility_samples=2,
+                                   cache_bytes=columns * 8 * mesh.n_elements)
+    np.testing.assert_array_equal(full.shots, other.shots)
+    np.testing.assert_array_equal(full.radiosity, other.radiosity)
+    n = len(full.shots)
+    # patches shoot again: the default cache computes each column once
+    assert full.stats["columns_computed"] == len(np.unique(full.shots)) < n
+    assert full.stats["columns_computed"] + full.stats["columns_reused"] == n
+    assert other.stats["columns_computed"] + other.stats["columns_reused"] == n
+    if columns == 0:
+        assert other.stats["columns_reused"] == 0
+    else:  # some kept, the others computed at each shot
+        assert full.stats["columns_computed"] < other.stats["columns_computed"] < n
+
+
+def test_cache_bytes_is_checked():
+    mesh = mesh_scene(scenes.two_rectangles_room(), 5.0, element_levels=0)
+    with pytest.raises(solve_module.SolverError, match="cache_bytes"):
+        progressive_refinement(mesh, cache_bytes=-1)
