@@ -55,15 +55,13 @@ ROOM_CAMERA = dict(position=[5.0, 8.5, 0.3], look_at=[5.0, 0.0, 6.5], fov=80.0, 
 SETUPS = {name: dict(uniform=[3.3, 2.5, 1.8], coarse=3.3, penumbra=[1.6, 1.1, 0.75], rounds=2,
                      fine=0.6, rest=1.4)
           for name in ("two_rectangles_room", "chair_scene", "sphere_scene")}
-SETUPS["sphere_scene"]["penumbra"] = [1.6, 0.75]  # two DM points: its meshes are 6-14k elements
-# the sphere's curves run on a coarser sphere than Fig. 3.19's 12 x 15 faces: there every DM mesh has
-# 22.5-23.4k elements whatever the penumbra size (5137 lines on the floor). 3.3/1.6 at load 9-11:
-# 22,560 elements, 5640 patches (5184 on the floor), meshing 162 s wall / 17.7 s CPU, one solve to
-# 10 % unshot 727 shots (nearly all walls and ceiling, ~0.4 s a column against 180 occluders)
-# 405 s wall / 63 s CPU -- states from the complex would spare only the light's 2 shots; at load 2
-# meshing 14 s, that solve 32 s, to 1 % unshot 4459 shots 302 s -- which does not fit the ~10 minute
-# run; 6 x 8 faces (55 polygons, 1180 lines) does
-SCENE_KW = {"sphere_scene": dict(n_lat=6, n_lon=8)}
+SETUPS["sphere_scene"]["penumbra"] = [1.6, 0.75]  # two DM points: its meshes are 22.5-23.4k elements
+# the sphere is Fig. 3.19's 12 x 15 faces (180 polygons; 5137 lines on the floor, so every DM mesh has
+# 22.5-23.4k elements whatever the penumbra size). Its 3.3/1.6 mesh (22,560 elements, 5640 patches) took
+# 302 s (load 2) for one solve to 1 % unshot with the linear occluder scan, and the curves ran on a 6 x 8
+# stand-in; with the rays' BVH and the kept columns of patches that shoot again (4459 shots of 1470
+# patches) the same solve is ~2x + ~3x faster (issue 14; numbers in discontinuity.md)
+SCENE_KW = {}
 THESIS_31 = {"two_rectangles_room": dict(N_f1=8, N_f2=20, N_d=40, N_p=486, N_e1=3485, N_e2=6090,
                                          T_d=0.12, T_m=1.77, T_rs=156.63),
              "sphere_scene": dict(N_f1=721, N_f2=2495, N_d=3116, N_p=6030, N_e1=11230, N_e2=17150,
@@ -302,6 +300,48 @@ def speed_part(log):
     return rows, slopes
 
 
+def solve_part(solve, log, n_columns=40):
+    """One progressive solve of the 12 x 15 sphere's simplified DM mesh (3.3/1.6) as the curves run
+    it (the rays' BVH, columns kept for patches that shoot again), and the cost of a sample of its
+    shots' columns with the BVH and with the linear occluder scan it replaced (same columns)."""
+    import os
+
+    from polygen.radiosity.formfactor import analytic_column, element_geometry, pack_polygons
+
+    sc = scenes.sphere_scene()
+    t0 = time.perf_counter()
+    m = discontinuity_mesh(sc, patch_size=3.3, penumbra_patch_size=1.6, element_levels=1)
+    t_mesh = time.perf_counter() - t0
+    load0 = os.getloadavg()[0]
+    t0, c0 = time.perf_counter(), time.process_time()
+    res = progressive_refinement(m, **solve)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    row = dict(elements=m.n_elements, patches=m.n_patches, occluders=None, mesh_s=t_mesh, solve=dict(solve),
+               shots=len(res.shots), columns_computed=res.stats["columns_computed"], solve_wall_s=wall,
+               solve_cpu_s=cpu, load=[load0, os.getloadavg()[0]])
+    log(f"  sphere 12x15 DM: {m.n_elements} elements, solve {len(res.shots)} shots "
+        f"({res.stats['columns_computed']} columns) {wall:.1f} s wall {cpu:.1f} s CPU")
+    packed, geometry = pack_polygons(sc.polygons), element_geometry(m)
+    row["occluders"] = len(packed.occluders)
+    sample = res.shots[np.random.default_rng(0).choice(len(res.shots), n_columns, replace=False)]
+    kw = dict(packed=packed, geometry=geometry, visibility_samples=solve["visibility_samples"])
+    for index in (True, False):
+        analytic_column(m, int(sample[0]), index=index, **kw)  # compiled
+    per = {True: [0.0, 0.0], False: [0.0, 0.0]}
+    for p in sample:  # interleaved, so that both see the same load
+        for index in (True, False):
+            t0, c0 = time.perf_counter(), time.process_time()
+            analytic_column(m, int(p), index=index, **kw)
+            per[index][0] += time.perf_counter() - t0
+            per[index][1] += time.process_time() - c0
+    row.update(column_index_wall_ms=1e3 * per[True][0] / n_columns, column_index_cpu_ms=1e3 * per[True][1] / n_columns,
+               column_linear_wall_ms=1e3 * per[False][0] / n_columns,
+               column_linear_cpu_ms=1e3 * per[False][1] / n_columns, columns_sampled=n_columns)
+    log(f"  a shot's column: BVH {row['column_index_wall_ms']:.1f} ms wall / {row['column_index_cpu_ms']:.1f} ms CPU, "
+        f"linear scan {row['column_linear_wall_ms']:.1f} / {row['column_linear_cpu_ms']:.1f}")
+    return row
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", default=",".join(SETUPS))
@@ -344,6 +384,9 @@ def main(argv=None):
                    save=save_scaled)
     if "paired" in parts:
         out.setdefault("paired", {}).update(paired_part(args.scenes.split(","), args.image, solve, log))
+        _write(path, out)
+    if "solve" in parts:
+        out["solve_speed"] = solve_part(solve, log)
         _write(path, out)
     if "speed" in parts:
         rows, slopes = speed_part(log)
@@ -419,6 +462,18 @@ def _markdown(out):
             cells = [(f"{r[k]:.3g}" if isinstance(r[k], float) else str(r[k])) + f" ({r['thesis_' + k]})"
                      for k in keys]
             lines.append(f"| {r['scene']} | " + " | ".join(cells) + " |")
+    if out.get("solve_speed"):
+        r = out["solve_speed"]
+        lines += ["", "## One solve of the 12 x 15 sphere's DM mesh (the curves' solve)", "",
+                  f"Simplified DM 3.3/1.6: {r['elements']} elements, {r['patches']} patches, {r['occluders']} "
+                  f"occluders; {r['solve']}. The solve: {r['shots']} shots, {r['columns_computed']} columns "
+                  f"computed (the others kept from an earlier shot of the same patch), {r['solve_wall_s']:.1f} s wall, "
+                  f"{r['solve_cpu_s']:.1f} s CPU (load {r['load'][0]:.1f} -> {r['load'][1]:.1f}; 2 cores). A column of "
+                  f"{r['columns_sampled']} of its shots, interleaved: visibility rays walking the occluders' BVH "
+                  f"{r['column_index_wall_ms']:.1f} ms wall / {r['column_index_cpu_ms']:.1f} ms CPU, the linear "
+                  f"occluder scan it replaced {r['column_linear_wall_ms']:.1f} / {r['column_linear_cpu_ms']:.1f} ms "
+                  f"({r['column_linear_cpu_ms'] / r['column_index_cpu_ms']:.1f}x CPU; same columns bit for bit). "
+                  "Before both changes that solve took 302 s at load 2 (issue 14)."]
     if out.get("speed"):
         keys = ["polygons", "total_s", "T_sdw", "T_isr", "T_idd", "T_lop", "T_lit", "T_div"]
         lines += ["", "## The discontinuity phase against polygon count (sphere scenes)", "",
