@@ -182,3 +182,41 @@ def test_cache_bytes_is_checked():
     mesh = mesh_scene(scenes.two_rectangles_room(), 5.0, element_levels=0)
     with pytest.raises(solve_module.SolverError, match="cache_bytes"):
         progressive_refinement(mesh, cache_bytes=-1)
+
+
+def test_polygon_index_on_the_shared_tree_against_brute_force():
+    """Chapter 3's PolygonIndex now builds on box_tree: its queries (default points: the boxes'
+    corners) against the brute-force box and separating-plane tests."""
+    from polygen.discontinuity.scene_index import PolygonIndex
+
+    rng = np.random.default_rng(5)
+    lo = rng.uniform(0, 10, (60, 3))
+    boxes = np.stack([lo, lo + rng.uniform(0.1, 2, (60, 3))], axis=1)
+    index = PolygonIndex(boxes, leaf_size=3)
+    assert np.array_equal(index.order, box_tree(boxes, leaf_size=3).order)
+    corners = np.array([[[b[i, 0], b[j, 1], b[k, 2]] for i in (0, 1) for j in (0, 1) for k in (0, 1)]
+                        for b in boxes])  # (60, 8, 3)
+    planes, qboxes = [], []
+    for q in range(8):  # random half-space pairs, capped by a box
+        n = rng.normal(size=(2, 3))
+        n /= np.linalg.norm(n, axis=1)[:, None]
+        c = rng.uniform(2, 8, 3)
+        planes.append(np.column_stack([n, n @ c]))
+        qboxes.append([c - 4, c + 4])
+    got = {(int(q), int(i)) for q, i in index.query(planes, np.asarray(qboxes))}
+    apart = {(q, i) for q in range(8) for i in range(60)
+             if any(np.all(corners[i] @ p[:3] > p[3]) for p in planes[q])}
+    want = {(q, i) for q in range(8) for i in range(60)
+            if np.all(boxes[i, 0] <= qboxes[q][1]) and np.all(boxes[i, 1] >= qboxes[q][0])} - apart
+    # every pair that may meet is returned, none that a face separates (the box test is the
+    # leaves' boxes: a polygon in a leaf that meets the query's box may come back)
+    assert want <= got and not got & apart and len(want) > 20
+
+
+def test_a_tree_out_of_step_with_the_occluders_is_refused():
+    mesh = mesh_scene(scenes.two_rectangles_room(), 5.0, element_levels=0)
+    packed = pack_polygons(mesh.scene.polygons)
+    packed.occluders = packed.occluders[:1]
+    for call in (analytic_column, visibility_rays):
+        with pytest.raises(FormFactorError, match="occluder_tree"):
+            call(mesh, 0, packed=packed)

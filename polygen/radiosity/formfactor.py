@@ -881,6 +881,13 @@ def element_geometry(mesh):
     return etri, ediam
 
 
+def _check_tree(packed):
+    """The occluders' BVH indexes ``packed.occluders``: both replaced together, or neither."""
+    if len(packed.occluder_tree.order) != len(packed.occluders):
+        raise FormFactorError(f"packed.occluder_tree holds {len(packed.occluder_tree.order)} "
+                              f"occluders, packed.occluders {len(packed.occluders)}: rebuild both")
+
+
 def _check_samples(visibility_samples):
     if isinstance(visibility_samples, bool) or not isinstance(visibility_samples,
                                                               (int, np.integer)):
@@ -962,6 +969,7 @@ def analytic_column(mesh, patch, *, packed=None, geometry=None,
     if geometry is None:
         geometry = element_geometry(mesh)
     etri, ediam = geometry
+    _check_tree(packed)
     qbary, qw, rule_start = _rules(int(order))
     tri = np.ascontiguousarray(mesh.nodes[mesh.patches[patch]])
     centre = np.ascontiguousarray(mesh.patch_centroid[patch])
@@ -1011,6 +1019,7 @@ def visibility_rays(mesh, patch, *, packed=None, geometry=None,
     k = _check_samples(visibility_samples)
     if packed is None:
         packed = pack_polygons(mesh.scene.polygons)
+    _check_tree(packed)
     etri = (geometry if geometry is not None else element_geometry(mesh))[0]
     n = mesh.n_elements * k * k
     out_e = np.empty(n, np.int64)
