@@ -17,7 +17,11 @@ segments from jittered strata of the element to jittered strata of the
 patch against the scene polygons (not the mesh), so it does not depend on
 the mesh resolution; the visible fraction multiplies the unoccluded factor,
 which is integrated over the element where the element is near the patch
-(:func:`analytic_column`).
+(:func:`analytic_column`).  Each ray walks a bounding-volume hierarchy over
+the scene's possible occluders (:func:`box_tree`), so its cost grows with
+the occluders near it rather than with their number; it gets the same
+answer as a linear scan over the pair's candidate occluders, which is kept
+as the reference (``index=False``; :func:`visibility_rays` lists the rays).
 
 This module gives the *element -> patch* factors F(e -> p) that the
 progressive-refinement shooter needs (see :mod:`polygen.radiosity.solve`):
