@@ -342,8 +342,8 @@ for name, (sc, sd, m, _) in examples.items():
 # The sphere's curves are on Fig. 3.19's 12 × 15-face sphere (180 faces in a 6-wall room). Every
 # simplified DM mesh of it has 22.5–23.4k elements whatever the penumbra size (5137 lines on the
 # floor; 3.3/1.6: 22,560 elements, 5640 patches, 5184 of them on the floor), and until issue 14's
-# rerun the curves used a 6 × 8 stand-in: one solve of that mesh to 1 % unshot (4459 shots) took
-# 302 s at load 2.
+# rerun the curves used a 6 × 8 stand-in, because one solve of the 3.3/1.6 mesh to 1 % unshot (4459
+# shots) took 302 s at load 2.
 # Profiled over its shots, 84 % of a form-factor column went to the visibility rays (47k rays a
 # column, 38 crossing tests each on average against the 49 candidate occluders of their
 # element–patch pair, listed by a linear scan of all 180), 9 % to that scan and 7 % to the
