@@ -19,7 +19,11 @@ Run ``python benchmarks/discontinuity.py`` from the repository root; writes
   T_rs) on examples 1 and 2 beside the thesis's, from the middle point of
   the simplified curve;
 * **speed** -- the discontinuity phase (Table 3.2's phases) against the
-  polygon count on a family of sphere scenes, with the log-log slopes.
+  polygon count on a family of sphere scenes, with the log-log slopes;
+* **solve** -- one solve of the 12 x 15 sphere's DM mesh as the curves run it, and a
+  sample of its shots' columns with the rays' BVH and with the linear occluder scan;
+* **rays** -- the visibility rays' CPU time per ray against the number of occluders
+  (the sphere family), BVH against linear scan, with the log-log slopes.
 
 The solves are progressive refinement to ``--tol`` unshot with
 ``--vis``^2 visibility rays, the same for every mesh and the reference
@@ -342,6 +346,40 @@ def solve_part(solve, log, n_columns=40):
     return row
 
 
+def rays_part(log, n_patches=10):
+    """The visibility rays' cost against the number of occluders (the sphere family, each scene
+    meshed uniformly at 2.5): every ray of the light's first patch and of n_patches room patches,
+    walking the occluders' BVH and testing the linearly scanned candidates; log-log slopes."""
+    from polygen.radiosity.formfactor import element_geometry, pack_polygons, visibility_rays
+
+    rows = []
+    for n_lat, n_lon in SPHERES:
+        sc = scenes.sphere_scene(n_lat=n_lat, n_lon=n_lon)
+        m = mesh_scene(sc, 2.5, element_levels=1)
+        packed, geometry = pack_polygons(sc.polygons), element_geometry(m)
+        names = [sc.polygons[k].name for k in m.patch_polygon]
+        room = [p for p, nm in enumerate(names) if nm.startswith("room")]
+        patches = [names.index("light")] + list(np.random.default_rng(0).choice(room, n_patches, replace=False))
+        row = dict(polygons=len(sc.polygons), occluders=len(packed.occluders), elements=m.n_elements)
+        for index in (True, False):
+            visibility_rays(m, int(patches[0]), packed=packed, geometry=geometry, visibility_samples=2, index=index)
+            n_rays, t = 0, 0.0
+            for p in patches:
+                t0 = time.process_time()
+                r = visibility_rays(m, int(p), packed=packed, geometry=geometry, visibility_samples=2, index=index)
+                t += time.process_time() - t0
+                n_rays += len(r[0])
+            row["bvh_us_per_ray" if index else "linear_us_per_ray"] = 1e6 * t / n_rays
+        row["rays"] = n_rays
+        rows.append(row)
+        log(f"  sphere {n_lat}x{n_lon}: {row['occluders']} occluders, {n_rays} rays, BVH "
+            f"{row['bvh_us_per_ray']:.2f} us/ray, linear scan {row['linear_us_per_ray']:.2f} us/ray")
+    n = np.log([r["occluders"] for r in rows])
+    slopes = {k: float(np.polyfit(n, np.log([r[k] for r in rows]), 1)[0])
+              for k in ("bvh_us_per_ray", "linear_us_per_ray")}
+    return rows, slopes
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", default=",".join(SETUPS))
@@ -387,6 +425,10 @@ def main(argv=None):
         _write(path, out)
     if "solve" in parts:
         out["solve_speed"] = solve_part(solve, log)
+        _write(path, out)
+    if "rays" in parts:
+        out["rays_speed"], out["rays_slopes"] = rays_part(log)
+        log(f"  log-log slopes of the time per ray against occluders: {out['rays_slopes']}")
         _write(path, out)
     if "speed" in parts:
         rows, slopes = speed_part(log)
@@ -474,6 +516,18 @@ def _markdown(out):
                   f"occluder scan it replaced {r['column_linear_wall_ms']:.1f} / {r['column_linear_cpu_ms']:.1f} ms "
                   f"({r['column_linear_cpu_ms'] / r['column_index_cpu_ms']:.1f}x CPU; same columns bit for bit). "
                   "Before both changes that solve took 302 s at load 2 (issue 14)."]
+    if out.get("rays_speed"):
+        keys = ["polygons", "occluders", "elements", "rays", "bvh_us_per_ray", "linear_us_per_ray"]
+        lines += ["", "## The visibility rays' cost against the number of occluders (sphere scenes)", "",
+                  "CPU time per ray of `visibility_rays` (every ray of the light's first patch and of 10 room "
+                  "patches to every element of a uniform 2.5 mesh), walking the occluders' BVH and testing "
+                  "the pair's linearly scanned candidates (the scan included).", "",
+                  "| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+        for r in out["rays_speed"]:
+            lines.append("| " + " | ".join(f"{r[k]:.3g}" if isinstance(r[k], float) else str(r[k])
+                                          for k in keys) + " |")
+        lines += ["", "log-log slopes against the occluder count: " + ", ".join(
+            f"{k} {v:.2f}" for k, v in out["rays_slopes"].items())]
     if out.get("speed"):
         keys = ["polygons", "total_s", "T_sdw", "T_isr", "T_idd", "T_lop", "T_lit", "T_div"]
         lines += ["", "## The discontinuity phase against polygon count (sphere scenes)", "",
