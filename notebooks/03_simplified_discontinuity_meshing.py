@@ -349,7 +349,9 @@ for name, (sc, sd, m, _) in examples.items():
 # element–patch pair, listed by a linear scan of all 180), 9 % to that scan and 7 % to the
 # unoccluded factors. The rays now walk a bounding-volume hierarchy over the occluders, with the
 # same answer for every ray (same rays, same jitter: the columns are the same bit for bit,
-# `tests/test_formfactor_index.py`), and the solver keeps the column of a patch that shoots again
+# `tests/test_formfactor_index.py`; on the sphere family, 48 to 600 occluders, a ray costs 0.54 to
+# 1.00 µs, log–log slope 0.24, against the linear scan's 1.4 to 16.4 µs, slope 0.98), and the
+# solver keeps the column of a patch that shoots again
 # (the 4459 shots are of 1470 patches; each wall patch shoots ~19 times). The same solve now
 # takes 44 s wall / 33 s CPU at load ~6 (a column of its shots 37 ms CPU against 129 ms with the
 # linear scan, measured interleaved; `benchmarks/results/discontinuity.md`). The whole sphere run — the reference (8664 elements),
