@@ -19,7 +19,11 @@ Run ``python benchmarks/discontinuity.py`` from the repository root; writes
   T_rs) on examples 1 and 2 beside the thesis's, from the middle point of
   the simplified curve;
 * **speed** -- the discontinuity phase (Table 3.2's phases) against the
-  polygon count on a family of sphere scenes, with the log-log slopes.
+  polygon count on a family of sphere scenes, with the log-log slopes;
+* **solve** -- one solve of the 12 x 15 sphere's DM mesh as the curves run it, and a
+  sample of its shots' columns with the rays' BVH and with the linear occluder scan;
+* **rays** -- the visibility rays' CPU time per ray against the number of occluders
+  (the sphere family), BVH against linear scan, with the log-log slopes.
 
 The solves are progressive refinement to ``--tol`` unshot with
 ``--vis``^2 visibility rays, the same for every mesh and the reference
@@ -55,15 +59,13 @@ ROOM_CAMERA = dict(position=[5.0, 8.5, 0.3], look_at=[5.0, 0.0, 6.5], fov=80.0, 
 SETUPS = {name: dict(uniform=[3.3, 2.5, 1.8], coarse=3.3, penumbra=[1.6, 1.1, 0.75], rounds=2,
                      fine=0.6, rest=1.4)
           for name in ("two_rectangles_room", "chair_scene", "sphere_scene")}
-SETUPS["sphere_scene"]["penumbra"] = [1.6, 0.75]  # two DM points: its meshes are 6-14k elements
-# the sphere's curves run on a coarser sphere than Fig. 3.19's 12 x 15 faces: there every DM mesh has
-# 22.5-23.4k elements whatever the penumbra size (5137 lines on the floor). 3.3/1.6 at load 9-11:
-# 22,560 elements, 5640 patches (5184 on the floor), meshing 162 s wall / 17.7 s CPU, one solve to
-# 10 % unshot 727 shots (nearly all walls and ceiling, ~0.4 s a column against 180 occluders)
-# 405 s wall / 63 s CPU -- states from the complex would spare only the light's 2 shots; at load 2
-# meshing 14 s, that solve 32 s, to 1 % unshot 4459 shots 302 s -- which does not fit the ~10 minute
-# run; 6 x 8 faces (55 polygons, 1180 lines) does
-SCENE_KW = {"sphere_scene": dict(n_lat=6, n_lon=8)}
+SETUPS["sphere_scene"]["penumbra"] = [1.6, 0.75]  # two DM points: its meshes are 22.5-23.4k elements
+# the sphere is Fig. 3.19's 12 x 15 faces (180 polygons; 5137 lines on the floor, so every DM mesh has
+# 22.5-23.4k elements whatever the penumbra size). Its 3.3/1.6 mesh (22,560 elements, 5640 patches) took
+# 302 s (load 2) for one solve to 1 % unshot with the linear occluder scan, and the curves ran on a 6 x 8
+# stand-in; with the rays' BVH and the kept columns of patches that shoot again (4459 shots of 1470
+# patches) the same solve is ~2x + ~3x faster (issue 14; numbers in discontinuity.md)
+SCENE_KW = {}
 THESIS_31 = {"two_rectangles_room": dict(N_f1=8, N_f2=20, N_d=40, N_p=486, N_e1=3485, N_e2=6090,
                                          T_d=0.12, T_m=1.77, T_rs=156.63),
              "sphere_scene": dict(N_f1=721, N_f2=2495, N_d=3116, N_p=6030, N_e1=11230, N_e2=17150,
@@ -302,6 +304,82 @@ def speed_part(log):
     return rows, slopes
 
 
+def solve_part(solve, log, n_columns=40):
+    """One progressive solve of the 12 x 15 sphere's simplified DM mesh (3.3/1.6) as the curves run
+    it (the rays' BVH, columns kept for patches that shoot again), and the cost of a sample of its
+    shots' columns with the BVH and with the linear occluder scan it replaced (same columns)."""
+    import os
+
+    from polygen.radiosity.formfactor import analytic_column, element_geometry, pack_polygons
+
+    sc = scenes.sphere_scene()
+    t0 = time.perf_counter()
+    m = discontinuity_mesh(sc, patch_size=3.3, penumbra_patch_size=1.6, element_levels=1)
+    t_mesh = time.perf_counter() - t0
+    load0 = os.getloadavg()[0]
+    t0, c0 = time.perf_counter(), time.process_time()
+    res = progressive_refinement(m, **solve)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    row = dict(elements=m.n_elements, patches=m.n_patches, occluders=None, mesh_s=t_mesh, solve=dict(solve),
+               shots=len(res.shots), columns_computed=res.stats["columns_computed"], solve_wall_s=wall,
+               solve_cpu_s=cpu, load=[load0, os.getloadavg()[0]])
+    log(f"  sphere 12x15 DM: {m.n_elements} elements, solve {len(res.shots)} shots "
+        f"({res.stats['columns_computed']} columns) {wall:.1f} s wall {cpu:.1f} s CPU")
+    packed, geometry = pack_polygons(sc.polygons), element_geometry(m)
+    row["occluders"] = len(packed.occluders)
+    sample = res.shots[np.random.default_rng(0).choice(len(res.shots), n_columns, replace=False)]
+    kw = dict(packed=packed, geometry=geometry, visibility_samples=solve["visibility_samples"])
+    for index in (True, False):
+        analytic_column(m, int(sample[0]), index=index, **kw)  # compiled
+    per = {True: [0.0, 0.0], False: [0.0, 0.0]}
+    for p in sample:  # interleaved, so that both see the same load
+        for index in (True, False):
+            t0, c0 = time.perf_counter(), time.process_time()
+            analytic_column(m, int(p), index=index, **kw)
+            per[index][0] += time.perf_counter() - t0
+            per[index][1] += time.process_time() - c0
+    row.update(column_index_wall_ms=1e3 * per[True][0] / n_columns, column_index_cpu_ms=1e3 * per[True][1] / n_columns,
+               column_linear_wall_ms=1e3 * per[False][0] / n_columns,
+               column_linear_cpu_ms=1e3 * per[False][1] / n_columns, columns_sampled=n_columns)
+    log(f"  a shot's column: BVH {row['column_index_wall_ms']:.1f} ms wall / {row['column_index_cpu_ms']:.1f} ms CPU, "
+        f"linear scan {row['column_linear_wall_ms']:.1f} / {row['column_linear_cpu_ms']:.1f}")
+    return row
+
+
+def rays_part(log, n_patches=10):
+    """The visibility rays' cost against the number of occluders (the sphere family, each scene
+    meshed uniformly at 2.5): every ray of the light's first patch and of n_patches room patches,
+    walking the occluders' BVH and testing the linearly scanned candidates; log-log slopes."""
+    from polygen.radiosity.formfactor import element_geometry, pack_polygons, visibility_rays
+
+    rows = []
+    for n_lat, n_lon in SPHERES:
+        sc = scenes.sphere_scene(n_lat=n_lat, n_lon=n_lon)
+        m = mesh_scene(sc, 2.5, element_levels=1)
+        packed, geometry = pack_polygons(sc.polygons), element_geometry(m)
+        names = [sc.polygons[k].name for k in m.patch_polygon]
+        room = [p for p, nm in enumerate(names) if nm.startswith("room")]
+        patches = [names.index("light")] + list(np.random.default_rng(0).choice(room, n_patches, replace=False))
+        row = dict(polygons=len(sc.polygons), occluders=len(packed.occluders), elements=m.n_elements)
+        for index in (True, False):
+            visibility_rays(m, int(patches[0]), packed=packed, geometry=geometry, visibility_samples=2, index=index)
+            n_rays, t = 0, 0.0
+            for p in patches:
+                t0 = time.process_time()
+                r = visibility_rays(m, int(p), packed=packed, geometry=geometry, visibility_samples=2, index=index)
+                t += time.process_time() - t0
+                n_rays += len(r[0])
+            row["bvh_us_per_ray" if index else "linear_us_per_ray"] = 1e6 * t / n_rays
+        row["rays"] = n_rays
+        rows.append(row)
+        log(f"  sphere {n_lat}x{n_lon}: {row['occluders']} occluders, {n_rays} rays, BVH "
+            f"{row['bvh_us_per_ray']:.2f} us/ray, linear scan {row['linear_us_per_ray']:.2f} us/ray")
+    n = np.log([r["occluders"] for r in rows])
+    slopes = {k: float(np.polyfit(n, np.log([r[k] for r in rows]), 1)[0])
+              for k in ("bvh_us_per_ray", "linear_us_per_ray")}
+    return rows, slopes
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", default=",".join(SETUPS))
@@ -344,6 +422,13 @@ def main(argv=None):
                    save=save_scaled)
     if "paired" in parts:
         out.setdefault("paired", {}).update(paired_part(args.scenes.split(","), args.image, solve, log))
+        _write(path, out)
+    if "solve" in parts:
+        out["solve_speed"] = solve_part(solve, log)
+        _write(path, out)
+    if "rays" in parts:
+        out["rays_speed"], out["rays_slopes"] = rays_part(log)
+        log(f"  log-log slopes of the time per ray against occluders: {out['rays_slopes']}")
         _write(path, out)
     if "speed" in parts:
         rows, slopes = speed_part(log)
@@ -419,6 +504,30 @@ def _markdown(out):
             cells = [(f"{r[k]:.3g}" if isinstance(r[k], float) else str(r[k])) + f" ({r['thesis_' + k]})"
                      for k in keys]
             lines.append(f"| {r['scene']} | " + " | ".join(cells) + " |")
+    if out.get("solve_speed"):
+        r = out["solve_speed"]
+        lines += ["", "## One solve of the 12 x 15 sphere's DM mesh (the curves' solve)", "",
+                  f"Simplified DM 3.3/1.6: {r['elements']} elements, {r['patches']} patches, {r['occluders']} "
+                  f"occluders; {r['solve']}. The solve: {r['shots']} shots, {r['columns_computed']} columns "
+                  f"computed (the others kept from an earlier shot of the same patch), {r['solve_wall_s']:.1f} s wall, "
+                  f"{r['solve_cpu_s']:.1f} s CPU (load {r['load'][0]:.1f} -> {r['load'][1]:.1f}; 2 cores). A column of "
+                  f"{r['columns_sampled']} of its shots, interleaved: visibility rays walking the occluders' BVH "
+                  f"{r['column_index_wall_ms']:.1f} ms wall / {r['column_index_cpu_ms']:.1f} ms CPU, the linear "
+                  f"occluder scan it replaced {r['column_linear_wall_ms']:.1f} / {r['column_linear_cpu_ms']:.1f} ms "
+                  f"({r['column_linear_cpu_ms'] / r['column_index_cpu_ms']:.1f}x CPU; same columns bit for bit). "
+                  "Before both changes that solve took 302 s at load 2 (issue 14)."]
+    if out.get("rays_speed"):
+        keys = ["polygons", "occluders", "elements", "rays", "bvh_us_per_ray", "linear_us_per_ray"]
+        lines += ["", "## The visibility rays' cost against the number of occluders (sphere scenes)", "",
+                  "CPU time per ray of `visibility_rays` (every ray of the light's first patch and of 10 room "
+                  "patches to every element of a uniform 2.5 mesh), walking the occluders' BVH and testing "
+                  "the pair's linearly scanned candidates (the scan included).", "",
+                  "| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+        for r in out["rays_speed"]:
+            lines.append("| " + " | ".join(f"{r[k]:.3g}" if isinstance(r[k], float) else str(r[k])
+                                          for k in keys) + " |")
+        lines += ["", "log-log slopes against the occluder count: " + ", ".join(
+            f"{k} {v:.2f}" for k, v in out["rays_slopes"].items())]
     if out.get("speed"):
         keys = ["polygons", "total_s", "T_sdw", "T_isr", "T_idd", "T_lop", "T_lit", "T_div"]
         lines += ["", "## The discontinuity phase against polygon count (sphere scenes)", "",

@@ -339,18 +339,26 @@ for name, (sc, sd, m, _) in examples.items():
 # claim of the issue — the simplified method reaches the uniform mesh's error with at most 60 %
 # of its elements — is printed as measured, not asserted (the sizes are the benchmark's).
 #
-# The sphere's curves are on a 6 × 8-face sphere (55 polygons), not Fig. 3.19's 12 × 15: there
-# every DM mesh has 22.5–23.4k elements whatever the penumbra size (5137 lines on the floor;
-# 3.3/1.6: 22,560 elements, 5640 patches, 5184 of them on the floor). Measured at load 9–11 on
-# the 2 shared cores: meshing 162 s wall (17.7 s CPU), one solve to 10 % unshot 727 shots,
-# 405 s wall (63 s CPU), nearly all shots from the walls and ceiling, whose columns cost 0.4 s
-# each over 22.5k elements against 180 occluders (a light column 0.34 s, a floor patch's 0.06 s).
-# The light's two shots are all that region states could spare, so taking the visibility of
-# bright and umbra elements from the complex would not make it affordable; at 1 % unshot the
-# floor's patches must shoot too. At load 2 the same mesh takes 14 s, the 10 % solve 32 s, and
-# the 1 % solve 4459 shots, 302 s: four DM points, two adaptive and three uniform ones and the
-# reference at 1 % do not fit the benchmark's ~10 minute budget. The 6 × 8 sphere's curves,
-# solved to 1 % like the others, took about 7 minutes with their reference (load ~2).
+# The sphere's curves are on Fig. 3.19's 12 × 15-face sphere (180 faces in a 6-wall room). Every
+# simplified DM mesh of it has 22.5–23.4k elements whatever the penumbra size (5137 lines on the
+# floor; 3.3/1.6: 22,560 elements, 5640 patches, 5184 of them on the floor), and until issue 14's
+# rerun the curves used a 6 × 8 stand-in, because one solve of the 3.3/1.6 mesh to 1 % unshot (4459
+# shots) took 302 s at load 2.
+# Profiled over its shots, 84 % of a form-factor column went to the visibility rays (47k rays a
+# column, 38 crossing tests each on average against the 49 candidate occluders of their
+# element–patch pair, listed by a linear scan of all 180), 9 % to that scan and 7 % to the
+# unoccluded factors. The rays now walk a bounding-volume hierarchy over the occluders, with the
+# same answer for every ray (same rays, same jitter: the columns are the same bit for bit,
+# `tests/test_formfactor_index.py`; on the sphere family, 48 to 600 occluders, a ray costs 0.54 to
+# 1.00 µs, log–log slope 0.24, against the linear scan's 1.4 to 16.4 µs, slope 0.98), and the
+# solver keeps the column of a patch that shoots again
+# (the 4459 shots are of 1470 patches; each wall patch shoots ~19 times). The same solve now
+# takes 44 s wall / 33 s CPU at load ~6 (a column of its shots 37 ms CPU against 129 ms with the
+# linear scan, measured interleaved; `benchmarks/results/discontinuity.md`). The whole sphere run — the reference (8664 elements),
+# three uniform, three adaptive, two conventional and two simplified DM points, all solved to 1 %
+# unshot — took about 22 minutes at load 4–7, 12 of them meshing the two conventional DM meshes
+# (65.8k and 67.5k elements: 551 s and 182 s; their solves 67 s and 84 s; the simplified DM's
+# meshes 20 s and 29 s, solves 60 s and 72 s).
 
 # %%
 res_path = Path("..") / "benchmarks" / "results" / "discontinuity.json"
@@ -415,7 +423,10 @@ for name, rows in paired.items():
 # reaches the uniform mesh's error with ≤ 60 % of its elements" does **not** hold with the
 # thesis's setting (the comparison above, fixed before the rerun: printed per F), for the reason
 # measured; the text fixes no coarse size that would make it hold, and none was tuned. On the
-# 6 × 8 sphere (curves above) it needs 3.0–6.5× the uniform elements.
+# 12 × 15 sphere (curves above) the simplified DM points (22.6k and 23.4k elements, error 0.032)
+# are below the finest uniform mesh's error (0.038 with 2920 elements) but need 7.7–11.8× the
+# uniform elements to reach each uniform point's error: the 5137 lines on the floor alone make
+# every DM mesh larger than every uniform one; adaptive subdivision reaches 0.027 with 2403.
 #
 # **Why the DM's penumbra error did not fall with F** (last run, solves to 10 % unshot: room
 # 0.031 → 0.042 as F = 1.6 → 0.75, uniform 0.029 → 0.014). Measured on the room:

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from polygen._jit import njit
+from polygen.radiosity.formfactor import box_tree
 
 __all__ = ["PolygonIndex"]
 
@@ -121,7 +122,7 @@ class PolygonIndex:
             raise ValueError(f"PolygonIndex: boxes must be (N, 2, 3), got {boxes.shape}")
         self.boxes = boxes.copy()
         if points is None:  # the box corners stand for the polygon
-            points = [np.array([[x, y, z] for x in b[:, 0] for y in b[:, 1] for z in b[:, 2]])
+            points = [np.array([[x, y, z] for x in b[0] for y in b[1] for z in b[2]])
                       for b in boxes.transpose(0, 2, 1)]
         if len(points) != len(boxes):
             raise ValueError(f"PolygonIndex: {len(points)} point sets for {len(boxes)} boxes")
@@ -129,36 +130,10 @@ class PolygonIndex:
         self.point_start[1:] = np.cumsum([len(p) for p in points])
         self.points = np.ascontiguousarray(np.vstack([np.asarray(p, float).reshape(-1, 3) for p in points])
                                            if len(points) else np.zeros((0, 3)))
-        centre = boxes.mean(axis=1)
-        lo, hi, child, start, count = [], [], [], [], []
-        order = np.arange(len(boxes))
-
-        def build(s, e):
-            nd = len(lo)
-            idx = order[s:e]
-            lo.append(boxes[idx, 0].min(axis=0))
-            hi.append(boxes[idx, 1].max(axis=0))
-            child.append([-1, -1])
-            start.append(s)
-            count.append(e - s)
-            if e - s > leaf_size:
-                c = centre[idx]
-                axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
-                order[s:e] = idx[np.argsort(c[:, axis], kind="stable")]
-                mid = (s + e) // 2
-                left = build(s, mid)
-                right = build(mid, e)
-                child[nd] = [left, right]
-            return nd
-
-        if len(boxes):
-            build(0, len(boxes))
-        self.node_lo = np.asarray(lo, dtype=np.float64).reshape(-1, 3)
-        self.node_hi = np.asarray(hi, dtype=np.float64).reshape(-1, 3)
-        self.child = np.asarray(child, dtype=np.int64).reshape(-1, 2)
-        self.start = np.asarray(start, dtype=np.int64)
-        self.count = np.asarray(count, dtype=np.int64)
-        self.order = order.astype(np.int64)
+        # the same median-split tree the visibility rays walk (node 0 the root, depth first)
+        tree = box_tree(boxes, leaf_size=leaf_size)
+        self.node_lo, self.node_hi = tree.node_lo, tree.node_hi
+        self.child, self.start, self.count, self.order = tree.child, tree.start, tree.count, tree.order
         self.node_tests = 0
         self.item_tests = 0
 

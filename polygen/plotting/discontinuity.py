@@ -215,6 +215,11 @@ def plot_error_curves(curves, *, ax=None, title=None):
         n = [p["n_elements"] for p in pts]
         e = [p["error"] for p in pts]
         ax.loglog(n, e, "o-", label=name)
+    lo, hi = ax.get_xlim()
+    if hi > 10.0 * lo:  # over more than a decade the minor tick labels run into each other
+        from matplotlib.ticker import NullFormatter
+
+        ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel("elements")
     ax.set_ylabel("relative RMS image error")
     ax.legend(fontsize=8)

@@ -17,7 +17,11 @@ segments from jittered strata of the element to jittered strata of the
 patch against the scene polygons (not the mesh), so it does not depend on
 the mesh resolution; the visible fraction multiplies the unoccluded factor,
 which is integrated over the element where the element is near the patch
-(:func:`analytic_column`).
+(:func:`analytic_column`).  Each ray walks a bounding-volume hierarchy over
+the scene's possible occluders (:func:`box_tree`), so its cost grows with
+the occluders near it rather than with their number; it gets the same
+answer as a linear scan over the pair's candidate occluders, which is kept
+as the reference (``index=False``; :func:`visibility_rays` lists the rays).
 
 This module gives the *element -> patch* factors F(e -> p) that the
 progressive-refinement shooter needs (see :mod:`polygen.radiosity.solve`):
@@ -28,6 +32,7 @@ shoots, which is (2.7) written with reciprocity (2.5).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -35,7 +40,9 @@ from polygen._jit import njit, prange
 
 __all__ = [
     "FormFactorError",
+    "BoxTree",
     "PackedPolygons",
+    "box_tree",
     "pack_polygons",
     "point_polygon_form_factor",
     "polygon_form_factor",
@@ -43,6 +50,7 @@ __all__ = [
     "analytic_column",
     "element_geometry",
     "segments_visible",
+    "visibility_rays",
     "direct_irradiance",
 ]
 
@@ -227,12 +235,170 @@ def _segment_blocked_by(a, b, cand, ncand, origin, pu, pv, pn, bbox, ring2d, rin
 
 
 @njit
+def _segment_meets_box(a, b, lo, hi):
+    """Whether the segment a-b meets the box [lo, hi] (slabs; a NaN from a 0 * inf never prunes)."""
+    t0 = 0.0
+    t1 = 1.0
+    for c in range(3):
+        d = b[c] - a[c]
+        if d == 0.0:
+            if a[c] < lo[c] or a[c] > hi[c]:
+                return False
+            continue
+        inv = 1.0 / d
+        ta = (lo[c] - a[c]) * inv
+        tb = (hi[c] - a[c]) * inv
+        if ta > tb:
+            ta, tb = tb, ta
+        if ta > t0:
+            t0 = ta
+        if tb < t1:
+            t1 = tb
+        if t0 > t1:
+            return False
+    return True
+
+
+@njit
+def _pair_candidate(mm, o, ep, pp, se, sp, qbox, occ_box, occ_front):
+    """The per-pair filters of the linear scan that need no geometry beyond boxes."""
+    if o == ep or o == pp or not occ_front[se, ep, mm] or not occ_front[sp, pp, mm]:
+        return False
+    return not (occ_box[mm, 0] > qbox[3] or occ_box[mm, 3] < qbox[0] or occ_box[mm, 1] > qbox[4]
+                or occ_box[mm, 4] < qbox[1] or occ_box[mm, 2] > qbox[5] or occ_box[mm, 5] < qbox[2])
+
+
+@njit
+def _plane_splits(o, tri, etri_e, origin, pn):
+    """Whether occluder o's plane has corners of the element and of the patch strictly on both
+    sides (otherwise no ray between them crosses it)."""
+    dmin = np.inf
+    dmax = -np.inf
+    for v in range(6):
+        dv = 0.0
+        for c in range(3):
+            q = tri[v - 3, c] if v >= 3 else etri_e[v, c]
+            dv += pn[o, c] * (q - origin[o, c])
+        dmin = min(dmin, dv)
+        dmax = max(dmax, dv)
+    return not (dmin >= 0.0 or dmax <= 0.0)
+
+
+@njit
+def _segment_blocked_tree(a, b, ep, pp, se, sp, qbox, tri, etri_e, occ, occ_box, occ_front,
+                          node_lo, node_hi, child, start, count, order, origin, pu, pv, pn, bbox,
+                          ring2d, ring_start, poly_ring_start, eps, stack):
+    """The linear scan's answer (_segment_blocked_by over the pair's candidates), by a BVH.
+
+    Only subtrees whose (slightly inflated) box the segment meets are visited, and of those only
+    the ones whose box meets the pair's box ``qbox``; each occluder reached passes the linear
+    scan's filters before its crossing counts, so the answer is the same boolean.
+    """
+    if node_lo.shape[0] == 0:
+        return False
+    top = 1
+    stack[0] = 0
+    while top > 0:
+        top -= 1
+        nd = stack[top]
+        lo = node_lo[nd]
+        hi = node_hi[nd]
+        if (lo[0] > qbox[3] or hi[0] < qbox[0] or lo[1] > qbox[4] or hi[1] < qbox[1]
+                or lo[2] > qbox[5] or hi[2] < qbox[2]):
+            continue
+        if not _segment_meets_box(a, b, lo, hi):
+            continue
+        if child[nd, 0] < 0:
+            for j in range(start[nd], start[nd] + count[nd]):
+                mm = order[j]
+                o = occ[mm]
+                if not _pair_candidate(mm, o, ep, pp, se, sp, qbox, occ_box, occ_front):
+                    continue
+                if (_crosses(a, b, o, origin, pu, pv, pn, bbox, ring2d, ring_start,
+                             poly_ring_start, eps)
+                        and _plane_splits(o, tri, etri_e, origin, pn)):
+                    return True
+        else:
+            stack[top] = child[nd, 0]
+            stack[top + 1] = child[nd, 1]
+            top += 2
+    return False
+
+
+@njit
+def _pair_setup(e, tri, etri, n, pnormal, pn, ep, pp, qbox):
+    """The pair's box (into ``qbox``: min, max) and the sides its two ends receive on
+    (0 in front of their polygon's normal, 1 behind it: two-sided polygons)."""
+    for c in range(3):
+        qbox[c] = min(tri[0, c], tri[1, c], tri[2, c], etri[e, 0, c], etri[e, 1, c], etri[e, 2, c])
+        qbox[3 + c] = max(tri[0, c], tri[1, c], tri[2, c], etri[e, 0, c], etri[e, 1, c],
+                          etri[e, 2, c])
+    de = 0.0
+    dp = 0.0
+    for c in range(3):
+        de += n[c] * pn[ep, c]
+        dp += pnormal[c] * pn[pp, c]
+    return (1 if de < 0.0 else 0), (1 if dp < 0.0 else 0)
+
+
+@njit
+def _pair_candidates(e, ep, pp, se, sp, qbox, tri, etri, occ, occ_box, occ_front, origin, pn,
+                     cand):
+    """The linear scan: the occluders that may block a ray of the pair, into ``cand``; how many."""
+    ncand = 0
+    for m in range(occ.shape[0]):
+        o = occ[m]
+        if not _pair_candidate(m, o, ep, pp, se, sp, qbox, occ_box, occ_front):
+            continue
+        # every ray joins a point of the element to a point of the patch: if their six
+        # corners lie on one side of the occluder's plane, no ray crosses it
+        if not _plane_splits(o, tri, etri[e], origin, pn):
+            continue
+        cand[ncand] = o
+        ncand += 1
+    return ncand
+
+
+@njit
+def _pair_ray(e, patch, s, k, tri, etri_e, n, pnormal, pa, pb):
+    """Ray s of the k * k between element e and the patch: its ends into ``pa`` (on the element)
+    and ``pb`` (on the patch); returns its weight, 0 when it carries no light."""
+    i = s // k
+    j = s - i * k
+    _stratum_point(tri, i, j, k, _hash01(e, patch, 4 * s), _hash01(e, patch, 4 * s + 1), pb)
+    # the element's strata are paired transposed, so the two grids do not move in step
+    _stratum_point(etri_e, j, i, k, _hash01(e, patch, 4 * s + 2), _hash01(e, patch, 4 * s + 3),
+                   pa)
+    ca = 0.0
+    cb = 0.0
+    r2 = 0.0
+    for c in range(3):
+        dc = pb[c] - pa[c]
+        ca += n[c] * dc
+        cb -= pnormal[c] * dc
+        r2 += dc * dc
+    if ca <= 0.0 or cb <= 0.0:
+        # a ray behind the element's or the patch's plane carries no light (Lambert's
+        # formula has already left that part out): it must not count as blocked
+        return 0.0
+    # weighted by the point-to-point kernel cos cos / r^2 (r2 * r2: ca, cb are unnormalised),
+    # the visible fraction estimates int int K V / int int K, the occluded factor's ratio
+    return ca * cb / (r2 * r2)
+
+
+@njit
 def _area_element(e, patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, ec, ediam, epoly,
-                  qbary, qw, rule_start, near, k, occ, occ_box, occ_front, origin, pu, pv, pn,
-                  bbox, ring2d, ring_start, poly_ring_start, eps, cand, pa, pb):
+                  qbary, qw, rule_start, near, k, occ, occ_box, occ_front, node_lo, node_hi, child,
+                  start, count, order, index, origin, pu, pv, pn, bbox, ring2d, ring_start,
+                  poly_ring_start, eps, cand, qbox, stack, pa, pb):
     """F(e -> patch): Lambert's formula integrated over the element where it is near the
     patch, at its centroid elsewhere, times the kernel-weighted visible fraction of k * k
-    jittered rays."""
+    jittered rays.
+
+    ``index``: each ray walks the occluders' BVH (node_lo ... order); otherwise the pair's
+    candidate occluders are listed by a linear scan first and each ray tests them all.  Both
+    give the same answer for every ray.
+    """
     if epoly[e] == ppoly:
         return 0.0
     x = ec[e]
@@ -260,121 +426,203 @@ def _area_element(e, patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, e
     if f <= 0.0:
         return 0.0
     # occluders whose box meets the box of element and patch: only they can block a ray
-    lo0 = min(tri[0, 0], tri[1, 0], tri[2, 0], etri[e, 0, 0], etri[e, 1, 0], etri[e, 2, 0])
-    lo1 = min(tri[0, 1], tri[1, 1], tri[2, 1], etri[e, 0, 1], etri[e, 1, 1], etri[e, 2, 1])
-    lo2 = min(tri[0, 2], tri[1, 2], tri[2, 2], etri[e, 0, 2], etri[e, 1, 2], etri[e, 2, 2])
-    hi0 = max(tri[0, 0], tri[1, 0], tri[2, 0], etri[e, 0, 0], etri[e, 1, 0], etri[e, 2, 0])
-    hi1 = max(tri[0, 1], tri[1, 1], tri[2, 1], etri[e, 0, 1], etri[e, 1, 1], etri[e, 2, 1])
-    hi2 = max(tri[0, 2], tri[1, 2], tri[2, 2], etri[e, 0, 2], etri[e, 1, 2], etri[e, 2, 2])
-    # which side of its polygon the element and the patch receive on (two-sided polygons)
-    se = 0
-    sp = 0
-    de = 0.0
-    dp = 0.0
-    for c in range(3):
-        de += n[c] * pn[epoly[e], c]
-        dp += pnormal[c] * pn[ppoly, c]
-    if de < 0.0:
-        se = 1
-    if dp < 0.0:
-        sp = 1
+    ep = epoly[e]
+    se, sp = _pair_setup(e, tri, etri, n, pnormal, pn, ep, ppoly, qbox)
     ncand = 0
-    for m in range(occ.shape[0]):
-        o = occ[m]
-        if (o == epoly[e] or o == ppoly or not occ_front[se, epoly[e], m]
-                or not occ_front[sp, ppoly, m]):
-            continue
-        if (occ_box[m, 0] > hi0 or occ_box[m, 3] < lo0 or occ_box[m, 1] > hi1
-                or occ_box[m, 4] < lo1 or occ_box[m, 2] > hi2 or occ_box[m, 5] < lo2):
-            continue
-        # every ray joins a point of the element to a point of the patch: if their six corners
-        # lie on one side of the occluder's plane, no ray crosses it
-        dmin = np.inf
-        dmax = -np.inf
-        for v in range(6):
-            dv = 0.0
-            for c in range(3):
-                q = tri[v - 3, c] if v >= 3 else etri[e, v, c]
-                dv += pn[o, c] * (q - origin[o, c])
-            dmin = min(dmin, dv)
-            dmax = max(dmax, dv)
-        if dmin >= 0.0 or dmax <= 0.0:
-            continue
-        cand[ncand] = o
-        ncand += 1
-    if ncand == 0:
-        return f
+    if index:
+        # no occluder's box meets the pair's box: the linear scan would find no candidate
+        if (node_lo.shape[0] == 0 or node_lo[0, 0] > qbox[3] or node_hi[0, 0] < qbox[0]
+                or node_lo[0, 1] > qbox[4] or node_hi[0, 1] < qbox[1]
+                or node_lo[0, 2] > qbox[5] or node_hi[0, 2] < qbox[2]):
+            return f
+    else:
+        ncand = _pair_candidates(e, ep, ppoly, se, sp, qbox, tri, etri, occ, occ_box, occ_front,
+                                 origin, pn, cand)
+        if ncand == 0:
+            return f
     seen = 0.0
     total = 0.0
-    kk = k * k
-    for s in range(kk):
-        i = s // k
-        j = s - i * k
-        _stratum_point(tri, i, j, k, _hash01(e, patch, 4 * s), _hash01(e, patch, 4 * s + 1), pb)
-        # the element's strata are paired transposed, so the two grids do not move in step
-        _stratum_point(etri[e], j, i, k, _hash01(e, patch, 4 * s + 2),
-                       _hash01(e, patch, 4 * s + 3), pa)
-        ca = 0.0
-        cb = 0.0
-        r2 = 0.0
-        for c in range(3):
-            dc = pb[c] - pa[c]
-            ca += n[c] * dc
-            cb -= pnormal[c] * dc
-            r2 += dc * dc
-        if ca <= 0.0 or cb <= 0.0:
-            # a ray behind the element's or the patch's plane carries no light (Lambert's
-            # formula has already left that part out): it must not count as blocked
+    for s in range(k * k):
+        w = _pair_ray(e, patch, s, k, tri, etri[e], n, pnormal, pa, pb)
+        if w == 0.0:
             continue
-        # weighted by the point-to-point kernel cos cos / r^2 (r2 * r2: ca, cb are unnormalised),
-        # the visible fraction estimates int int K V / int int K, the occluded factor's ratio
-        w = ca * cb / (r2 * r2)
         total += w
-        if not _segment_blocked_by(pa, pb, cand, ncand, origin, pu, pv, pn, bbox, ring2d,
-                                   ring_start, poly_ring_start, eps):
+        if index:
+            blocked = _segment_blocked_tree(pa, pb, ep, ppoly, se, sp, qbox, tri, etri[e], occ,
+                                            occ_box, occ_front, node_lo, node_hi, child, start,
+                                            count, order, origin, pu, pv, pn, bbox, ring2d,
+                                            ring_start, poly_ring_start, eps, stack)
+        else:
+            blocked = _segment_blocked_by(pa, pb, cand, ncand, origin, pu, pv, pn, bbox, ring2d,
+                                          ring_start, poly_ring_start, eps)
+        if not blocked:
             seen += w
     if total == 0.0:
         # no sampled ray carries light (the element barely in front of the patch, or the
         # reverse): nothing is known about blocking, so count the pair as visible -- as when
         # no occluder can block at all -- rather than as dark
         return f
+    if seen == total:
+        # no ray blocked (seen == total bit for bit): f itself, as when no occluder is a
+        # candidate -- (f * seen) / total could be an ulp off, and then the indexed walk, which
+        # does not know whether the pair had candidates, would not give the linear scan's f
+        return f
     return f * seen / total
+
+
+_STACK = 64
+"""Traversal stack of the BVH kernels: enough for a median-split tree of 2**62 leaves."""
 
 
 @njit(parallel=True)
 def _area_column_parallel(patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, ec, ediam,
-                          epoly, qbary, qw, rule_start, near, k, occ, occ_box, occ_front, origin,
-                          pu, pv, pn, bbox, ring2d, ring_start, poly_ring_start, eps, out):
+                          epoly, qbary, qw, rule_start, near, k, occ, occ_box, occ_front, node_lo,
+                          node_hi, child, start, count, order, index, origin, pu, pv, pn, bbox,
+                          ring2d, ring_start, poly_ring_start, eps, out):
     m = ec.shape[0]
     chunk = 256  # scratch arrays once per chunk, not per element
     for c in prange((m + chunk - 1) // chunk):
         cand = np.empty(occ.shape[0], dtype=np.int64)
+        qbox = np.empty(6)
+        stack = np.empty(_STACK, dtype=np.int64)
         pa = np.empty(3)
         pb = np.empty(3)
         for e in range(c * chunk, min(m, (c + 1) * chunk)):
             out[e] = _area_element(e, patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en,
                                    ec, ediam, epoly, qbary, qw, rule_start, near, k, occ,
-                                   occ_box, occ_front, origin, pu, pv, pn, bbox, ring2d,
-                                   ring_start, poly_ring_start, eps, cand, pa, pb)
+                                   occ_box, occ_front, node_lo, node_hi, child, start, count,
+                                   order, index, origin, pu, pv, pn, bbox, ring2d, ring_start,
+                                   poly_ring_start, eps, cand, qbox, stack, pa, pb)
 
 
 @njit
 def _area_column_serial(patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, ec, ediam,
-                        epoly, qbary, qw, rule_start, near, k, occ, occ_box, occ_front, origin,
-                        pu, pv, pn, bbox, ring2d, ring_start, poly_ring_start, eps, out):
+                        epoly, qbary, qw, rule_start, near, k, occ, occ_box, occ_front, node_lo,
+                        node_hi, child, start, count, order, index, origin, pu, pv, pn, bbox,
+                        ring2d, ring_start, poly_ring_start, eps, out):
     cand = np.empty(occ.shape[0], dtype=np.int64)
+    qbox = np.empty(6)
+    stack = np.empty(_STACK, dtype=np.int64)
     pa = np.empty(3)
     pb = np.empty(3)
     for e in range(ec.shape[0]):
         out[e] = _area_element(e, patch, tri, pnormal, pcentroid, pradius, ppoly, etri, en, ec,
                                ediam, epoly, qbary, qw, rule_start, near, k, occ, occ_box,
-                               occ_front, origin, pu, pv, pn, bbox, ring2d, ring_start,
-                               poly_ring_start, eps, cand, pa, pb)
+                               occ_front, node_lo, node_hi, child, start, count, order, index,
+                               origin, pu, pv, pn, bbox, ring2d, ring_start, poly_ring_start, eps,
+                               cand, qbox, stack, pa, pb)
+
+
+@njit
+def _rays_kernel(patch, tri, pnormal, ppoly, etri, en, epoly, k, occ, occ_box, occ_front, node_lo,
+                 node_hi, child, start, count, order, index, origin, pu, pv, pn, bbox, ring2d,
+                 ring_start, poly_ring_start, eps, out_e, out_a, out_b, out_w, out_blocked):
+    """Every light-carrying ray of every (element, patch) pair and whether it is blocked."""
+    cand = np.empty(occ.shape[0], dtype=np.int64)
+    qbox = np.empty(6)
+    stack = np.empty(_STACK, dtype=np.int64)
+    pa = np.empty(3)
+    pb = np.empty(3)
+    r = 0
+    for e in range(etri.shape[0]):
+        ep = epoly[e]
+        if ep == ppoly:
+            continue
+        se, sp = _pair_setup(e, tri, etri, en[e], pnormal, pn, ep, ppoly, qbox)
+        ncand = 0
+        if not index:
+            ncand = _pair_candidates(e, ep, ppoly, se, sp, qbox, tri, etri, occ, occ_box,
+                                     occ_front, origin, pn, cand)
+        for s in range(k * k):
+            w = _pair_ray(e, patch, s, k, tri, etri[e], en[e], pnormal, pa, pb)
+            if w == 0.0:
+                continue
+            if index:
+                blocked = _segment_blocked_tree(pa, pb, ep, ppoly, se, sp, qbox, tri, etri[e],
+                                                occ, occ_box, occ_front, node_lo, node_hi, child,
+                                                start, count, order, origin, pu, pv, pn, bbox,
+                                                ring2d, ring_start, poly_ring_start, eps, stack)
+            else:
+                blocked = ncand > 0 and _segment_blocked_by(pa, pb, cand, ncand, origin, pu, pv,
+                                                            pn, bbox, ring2d, ring_start,
+                                                            poly_ring_start, eps)
+            out_e[r] = e
+            out_w[r] = w
+            out_blocked[r] = blocked
+            for c in range(3):
+                out_a[r, c] = pa[c]
+                out_b[r, c] = pb[c]
+            r += 1
+    return r
 
 
 # ----------------------------------------------------------------------------
 # scene packing for the kernels
 # ----------------------------------------------------------------------------
+class BoxTree(NamedTuple):
+    """A bounding-volume hierarchy over axis-aligned boxes, as flat arrays for the kernels.
+
+    Node 0 is the root; a leaf has ``child[nd] == (-1, -1)`` and holds the items
+    ``order[start[nd]:start[nd] + count[nd]]``.  Every node's box contains its items' boxes.
+    """
+
+    node_lo: np.ndarray  #: (N, 3) float64, node boxes' min corners
+    node_hi: np.ndarray  #: (N, 3) float64, node boxes' max corners
+    child: np.ndarray  #: (N, 2) int64, the two children, or -1
+    start: np.ndarray  #: (N,) int64, first item slot of the node in ``order``
+    count: np.ndarray  #: (N,) int64, number of item slots
+    order: np.ndarray  #: (n,) int64, item index of each slot
+
+
+def box_tree(boxes, *, leaf_size=4):
+    """A BVH over boxes: median split of the box centres on their longest axis.
+
+    Parameters
+    ----------
+    boxes : (n, 2, 3) float64
+        Min and max corner of each item.
+    leaf_size : int >= 1, keyword-only
+        Largest number of items in a leaf.
+
+    Returns
+    -------
+    BoxTree
+        Depth at most ceil(log2(n)) + 1 (the median split halves every node).
+    """
+    boxes = np.asarray(boxes, dtype=np.float64)
+    if boxes.ndim != 3 or boxes.shape[1:] != (2, 3):
+        raise FormFactorError(f"box_tree: boxes must be (n, 2, 3), got {boxes.shape}")
+    if isinstance(leaf_size, bool) or not isinstance(leaf_size, (int, np.integer)) or leaf_size < 1:
+        raise FormFactorError(f"box_tree: leaf_size must be an integer >= 1, got {leaf_size!r}")
+    centre = boxes.mean(axis=1)
+    lo, hi, child, start, count = [], [], [], [], []
+    order = np.arange(len(boxes))
+    todo = [(0, len(boxes), -1, 0)] if len(boxes) else []
+    while todo:  # depth first, left child first: node numbers as a recursive build gives them
+        s, e, parent, side = todo.pop()
+        nd = len(lo)
+        if parent >= 0:
+            child[parent][side] = nd
+        idx = order[s:e]
+        lo.append(boxes[idx, 0].min(axis=0))
+        hi.append(boxes[idx, 1].max(axis=0))
+        child.append([-1, -1])
+        start.append(s)
+        count.append(e - s)
+        if e - s > leaf_size:
+            c = centre[idx]
+            axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
+            order[s:e] = idx[np.argsort(c[:, axis], kind="stable")]
+            mid = (s + e) // 2
+            todo.append((mid, e, nd, 1))
+            todo.append((s, mid, nd, 0))
+    return BoxTree(np.asarray(lo, dtype=np.float64).reshape(-1, 3),
+                   np.asarray(hi, dtype=np.float64).reshape(-1, 3),
+                   np.asarray(child, dtype=np.int64).reshape(-1, 2),
+                   np.asarray(start, dtype=np.int64), np.asarray(count, dtype=np.int64),
+                   order.astype(np.int64))
+
+
 class PackedPolygons:
     """Scene polygons as flat arrays for the ray-casting kernels.
 
@@ -400,6 +648,9 @@ class PackedPolygons:
     occluder_front : (2, K, J) bool
         Whether occluder j has a vertex strictly in front of polygon k's
         plane ([0]) or strictly behind it ([1]).
+    occluder_tree : BoxTree
+        A BVH over the occluders' boxes (items are indices into ``occluders``),
+        walked by each visibility ray.
     eps : float
         Segment-parameter tolerance for the end points.
     """
@@ -450,6 +701,11 @@ class PackedPolygons:
             occ_front[0, :, m] = (dist[:, r] > tol).any(axis=1)
             occ_front[1, :, m] = (dist[:, r] < -tol).any(axis=1)
         self.occluder_front = occ_front
+        # the rays' BVH over the occluders' boxes, each grown by far more than the round-off of a
+        # crossing point, so that a segment missing a node's box crosses none of its occluders
+        grow = 1e-9 * max(float(np.linalg.norm(hi - lo)), float(np.abs(self.ring3d).max()))
+        self.occluder_tree = box_tree(np.stack([self.occluder_box[:, :3] - grow,
+                                                self.occluder_box[:, 3:] + grow], axis=1))
 
     def args(self):
         return (self.origin, self.u, self.v, self.normal, self.bbox, self.ring2d, self.ring_start,
@@ -629,6 +885,13 @@ def element_geometry(mesh):
     return etri, ediam
 
 
+def _check_tree(packed):
+    """The occluders' BVH indexes ``packed.occluders``: both replaced together, or neither."""
+    if len(packed.occluder_tree.order) != len(packed.occluders):
+        raise FormFactorError(f"packed.occluder_tree holds {len(packed.occluder_tree.order)} "
+                              f"occluders, packed.occluders {len(packed.occluders)}: rebuild both")
+
+
 def _check_samples(visibility_samples):
     if isinstance(visibility_samples, bool) or not isinstance(visibility_samples,
                                                               (int, np.integer)):
@@ -641,7 +904,7 @@ def _check_samples(visibility_samples):
 
 def analytic_column(mesh, patch, *, packed=None, geometry=None,
                     visibility_samples=VISIBILITY_SAMPLES, near=NEAR, order=NEAR_ORDER,
-                    parallel=True):
+                    parallel=True, index=True):
     """Form factors F(e -> p) from every element to one patch (the default of the solvers).
 
     The unoccluded factor is Lambert's exact point-to-polygon formula,
@@ -666,8 +929,12 @@ def analytic_column(mesh, patch, *, packed=None, geometry=None,
     scene vertices (the others -- the walls of a convex room -- cannot block
     anything), that lie partly in front of both ends' planes, whose
     bounding box meets the box of element and patch, and whose plane
-    separates the corners of element and patch; where none is left no ray
-    is cast.
+    separates the corners of element and patch.  With ``index`` (the
+    default) each ray walks a BVH over the occluders' boxes
+    (:attr:`PackedPolygons.occluder_tree`) and applies those filters to the
+    occluders it reaches; without, a linear scan lists the pair's
+    candidates first and each ray tests them all (no ray is cast where none
+    is left).  Both give the same answer for every ray, so the same column.
 
     Parameters
     ----------
@@ -686,6 +953,9 @@ def analytic_column(mesh, patch, *, packed=None, geometry=None,
         Gauss order of the near integral.
     parallel : bool, keyword-only
         Use the multi-threaded kernel (worth it for many elements).
+    index : bool, keyword-only
+        Rays walk the occluders' BVH (sub-linear in the number of occluders)
+        rather than a linearly scanned candidate list.
 
     Returns
     -------
@@ -703,6 +973,7 @@ def analytic_column(mesh, patch, *, packed=None, geometry=None,
     if geometry is None:
         geometry = element_geometry(mesh)
     etri, ediam = geometry
+    _check_tree(packed)
     qbary, qw, rule_start = _rules(int(order))
     tri = np.ascontiguousarray(mesh.nodes[mesh.patches[patch]])
     centre = np.ascontiguousarray(mesh.patch_centroid[patch])
@@ -712,8 +983,60 @@ def analytic_column(mesh, patch, *, packed=None, geometry=None,
     kernel(int(patch), tri, np.ascontiguousarray(mesh.patch_normal[patch]), centre, radius,
            int(mesh.patch_polygon[patch]), etri, mesh.element_normal, mesh.element_centroid,
            ediam, mesh.element_polygon, qbary, qw, rule_start, float(near), k, packed.occluders,
-           packed.occluder_box, packed.occluder_front, *packed.args(), out)
+           packed.occluder_box, packed.occluder_front, *packed.occluder_tree, bool(index),
+           *packed.args(), out)
     return out
+
+
+def visibility_rays(mesh, patch, *, packed=None, geometry=None,
+                    visibility_samples=VISIBILITY_SAMPLES, index=True):
+    """The visibility rays :func:`analytic_column` casts towards one patch, and their answers.
+
+    The same rays (strata, jitter and weights) for every element not on the
+    patch's polygon, whether or not its unoccluded factor is positive; only
+    the rays that carry light (in front of both ends' planes) are listed.
+
+    Parameters
+    ----------
+    mesh : RadiosityMesh
+    patch : int
+    packed, geometry : optional
+        As for :func:`analytic_column`.
+    visibility_samples : int in [1, 64], keyword-only
+    index : bool, keyword-only
+        Walk the occluders' BVH (True) or test the pair's linearly scanned
+        candidates (False); the answers are the same.
+
+    Returns
+    -------
+    element : (R,) int64
+        The element of each ray.
+    a, b : (R, 3) float64
+        Its ends on the element and on the patch.
+    weight : (R,) float64
+        Its weight cos(theta_e) cos(theta_p) / r**2, up to a factor per pair.
+    blocked : (R,) bool
+        Whether a scene polygon blocks it.
+    """
+    if not 0 <= patch < mesh.n_patches:
+        raise FormFactorError(f"patch {patch} outside [0, {mesh.n_patches})")
+    k = _check_samples(visibility_samples)
+    if packed is None:
+        packed = pack_polygons(mesh.scene.polygons)
+    _check_tree(packed)
+    etri = (geometry if geometry is not None else element_geometry(mesh))[0]
+    n = mesh.n_elements * k * k
+    out_e = np.empty(n, np.int64)
+    out_a = np.empty((n, 3))
+    out_b = np.empty((n, 3))
+    out_w = np.empty(n)
+    out_blocked = np.empty(n, np.bool_)
+    r = _rays_kernel(int(patch), np.ascontiguousarray(mesh.nodes[mesh.patches[patch]]),
+                     np.ascontiguousarray(mesh.patch_normal[patch]), int(mesh.patch_polygon[patch]),
+                     etri, mesh.element_normal, mesh.element_polygon, k, packed.occluders,
+                     packed.occluder_box, packed.occluder_front, *packed.occluder_tree, bool(index),
+                     *packed.args(), out_e, out_a, out_b, out_w, out_blocked)
+    return out_e[:r], out_a[:r], out_b[:r], out_w[:r], out_blocked[:r]
 
 
 def segments_visible(a, b, skip_a=None, skip_b=None, *, packed):

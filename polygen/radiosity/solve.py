@@ -33,6 +33,7 @@ arrives at b, so reciprocity reads A_a F(a -> b) = A_b F(b -> a).
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -53,6 +54,7 @@ __all__ = [
     "SolverError",
     "RadiosityResult",
     "FormFactorColumns",
+    "COLUMN_CACHE_BYTES",
     "progressive_refinement",
     "gauss_seidel",
     "form_factor_matrix",
@@ -64,6 +66,14 @@ PARALLEL_MIN_ELEMENTS = {"hemicube": 20000, "analytic": 2000}
 """Mesh size from which the form-factor kernels run multi-threaded by default: thread
 start-up dominates below (the analytic path does ~10x more work per element; measured on
 the ~10k-element Cornell box, 2 cores: 32 s single, 12-18 s multi-threaded)."""
+
+
+COLUMN_CACHE_BYTES = 256 * 2**20
+"""Memory the progressive solver may keep form-factor columns in, for patches that shoot again.
+
+A patch shoots as often as it gathers enough unshot power: on the 12 x 15 sphere's DM
+mesh (22,560 elements, 5640 patches) the 1 % solve's 4459 shots are of 1470 patches, each
+wall patch shooting ~19 times; its columns fit in ~0.1 GB (sparse ones as index/value pairs)."""
 
 
 class SolverError(ValueError):
@@ -144,15 +154,29 @@ class FormFactorColumns:
         Multi-threaded kernels; None: only for meshes of at least
         ``PARALLEL_MIN_ELEMENTS[method]`` elements (thread start-up dominates
         below).
+    cache_bytes : int >= 0, keyword-only
+        Keep computed columns up to this many bytes (a column with few
+        non-zeros as index/value pairs), so a patch that shoots again costs
+        no second column; once full, new columns are not kept (progressive
+        refinement shoots patches nearly round-robin, where dropping the
+        least recently used would keep none that comes back).  A column is a
+        deterministic function of (mesh, patch, settings), so a kept one is
+        the column bit for bit.  0: keep none.
+
+    Attributes
+    ----------
+    computed, reused : int
+        Columns computed, and returned from the cache, so far.
 
     Notes
     -----
-    The object caches per-mesh arrays; a mesh is immutable, so it stays
-    valid.  Calls may run from several threads.
+    The object caches per-mesh arrays and columns; a mesh is immutable, so
+    they stay valid.  Calls may run from several threads (the column cache
+    is locked).
     """
 
     def __init__(self, mesh, method="analytic", *, resolution=100,
-                 visibility_samples=VISIBILITY_SAMPLES, parallel=None):
+                 visibility_samples=VISIBILITY_SAMPLES, parallel=None, cache_bytes=0):
         if method not in ("hemicube", "analytic"):
             raise SolverError(f"form_factors must be 'analytic' or 'hemicube', got {method!r}")
         self.mesh = mesh
@@ -169,14 +193,43 @@ class FormFactorColumns:
         else:
             self.packed = pack_polygons(mesh.scene.polygons)
             self.geometry = element_geometry(mesh)
+        self.cache_bytes = _check_int("cache_bytes", cache_bytes, 0, None)
+        self._cache = {}  # patch -> column, or (indices, values) of its non-zeros
+        self._cache_used = 0
+        self._lock = threading.Lock()
+        self.computed = 0
+        self.reused = 0
 
     def __call__(self, patch):
         """(M,) float64 F(e -> patch)."""
+        patch = int(patch)
+        with self._lock:
+            kept = self._cache.get(patch)
+            if kept is not None:
+                self.reused += 1
+        if kept is not None:
+            if isinstance(kept, tuple):
+                out = np.zeros(self.mesh.n_elements)
+                out[kept[0]] = kept[1]
+                return out
+            return kept.copy()
         if self.method == "hemicube":
-            return hemicube_column(self.mesh, patch, delta=self.delta, parallel=self.parallel)
-        return analytic_column(self.mesh, patch, packed=self.packed, geometry=self.geometry,
-                               visibility_samples=self.visibility_samples,
-                               parallel=self.parallel)
+            col = hemicube_column(self.mesh, patch, delta=self.delta, parallel=self.parallel)
+        else:
+            col = analytic_column(self.mesh, patch, packed=self.packed, geometry=self.geometry,
+                                  visibility_samples=self.visibility_samples,
+                                  parallel=self.parallel)
+        with self._lock:
+            self.computed += 1
+            if self.cache_bytes and patch not in self._cache:
+                nz = np.flatnonzero(col)
+                kept = ((nz.astype(np.int32), col[nz]) if 12 * len(nz) < col.nbytes
+                        else col.copy())
+                size = kept.nbytes if isinstance(kept, np.ndarray) else 12 * len(nz)
+                if self._cache_used + size <= self.cache_bytes:
+                    self._cache[patch] = kept
+                    self._cache_used += size
+        return col
 
 
 def _check_int(name, value, lo, hi):
@@ -284,7 +337,8 @@ def _ambient(mesh, unshot):
 
 def progressive_refinement(mesh, *, form_factors="analytic", resolution=100,
                            visibility_samples=VISIBILITY_SAMPLES, tol=1e-3, max_shots=None,
-                           ambient=False, progress=False, parallel=None):
+                           ambient=False, progress=False, parallel=None,
+                           cache_bytes=COLUMN_CACHE_BYTES):
     """Progressive refinement radiosity: shoot from patches to elements (2.2.2).
 
     Parameters
@@ -314,10 +368,14 @@ def progressive_refinement(mesh, *, form_factors="analytic", resolution=100,
         Show a tqdm bar of the unshot fraction.
     parallel : bool or None, keyword-only
         Multi-threaded form-factor kernels (default: for large meshes).
+    cache_bytes : int >= 0, keyword-only
+        Memory for the columns of patches that may shoot again (see
+        :class:`FormFactorColumns`); the result is the same whatever it is.
 
     Returns
     -------
     RadiosityResult
+        ``stats`` counts the shots, and the columns computed and reused.
     """
     _check_mesh(mesh)
     tol = _check_tol(tol)
@@ -325,7 +383,8 @@ def progressive_refinement(mesh, *, form_factors="analytic", resolution=100,
     max_shots = 50 * n_p if max_shots is None else _check_int("max_shots", max_shots, 0, None)
     t0 = time.perf_counter()
     columns = FormFactorColumns(mesh, form_factors, resolution=resolution,
-                                visibility_samples=visibility_samples, parallel=parallel)
+                                visibility_samples=visibility_samples, parallel=parallel,
+                                cache_bytes=cache_bytes)
     rho = mesh.element_reflectance
     area = mesh.element_area
     direct = direct_irradiance(mesh)
@@ -369,7 +428,9 @@ def progressive_refinement(mesh, *, form_factors="analytic", resolution=100,
                            method=f"progressive/{form_factors}",
                            seconds=time.perf_counter() - t0,
                            stats={"n_shots": len(shots), "n_patches": n_p,
-                                  "n_elements": mesh.n_elements})
+                                  "n_elements": mesh.n_elements,
+                                  "columns_computed": columns.computed,
+                                  "columns_reused": columns.reused})
 
 
 def form_factor_matrix(mesh, *, form_factors="analytic", resolution=100,
