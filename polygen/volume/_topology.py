@@ -659,6 +659,21 @@ def _chunk_bounds(n, n_chunks):
     return bounds
 
 
+@njit
+def _bucket_table_size(nc_off, lo, hi, per_cell):
+    """``(cap, size)`` for the node buckets ``lo:hi``: ``cap`` entries at most in one bucket
+    (its cells times ``per_cell``), ``size`` the power of two >= 16 and >= 2 cap of an
+    open-addressing table that holds them at load factor <= 1/2."""
+    big = 0
+    for a in range(lo, hi):
+        big = max(big, nc_off[a + 1] - nc_off[a])
+    cap = big * per_cell
+    size = 16
+    while size < 2 * cap:
+        size *= 2
+    return cap, size
+
+
 _SERIAL_BELOW = 1 << 17  # fewer entries than this: one thread (a parallel launch costs more than the work)
 
 
@@ -749,15 +764,9 @@ def face_neighbors_by_node(cells, local_faces, node_faces, face_masks, nc_off, n
     bounds = _chunk_bounds(n_nodes, n_chunks)
     bad = np.full(n_chunks, -1, np.int64)
     for ch in prange(n_chunks):
-        big = 0
-        for a in range(bounds[ch], bounds[ch + 1]):
-            big = max(big, nc_off[a + 1] - nc_off[a])
-        cap = big * node_faces.shape[1]
         # the bucket's faces matched by open addressing on their other nodes, in a table stamped with
         # a + 1 (never cleared): each face is found once more, by its neighbour, with no sort
-        size = 16
-        while size < 2 * cap:
-            size *= 2
+        cap, size = _bucket_table_size(nc_off, bounds[ch], bounds[ch + 1], node_faces.shape[1])
         mask = size - 1
         t_k1 = np.empty(size, np.int64)
         t_k2 = np.empty(size, np.int64)
@@ -869,15 +878,9 @@ def edges_by_node(cells, local_edges, node_edges, nc_off, nc, cell_edges):
     count = np.zeros(n_nodes + 1, np.int64)
     low = np.int64(0xFFFFFFFF)
     for ch in prange(n_chunks):
-        big = 0
-        for a in range(bounds[ch], bounds[ch + 1]):
-            big = max(big, nc_off[a + 1] - nc_off[a])
-        cap = big * node_edges.shape[1]
-        keys = np.empty(cap, np.int64)
         # the bucket's distinct far nodes b, by open addressing in a table stamped with a + 1 (never cleared)
-        size = 16
-        while size < 2 * cap:
-            size *= 2
+        cap, size = _bucket_table_size(nc_off, bounds[ch], bounds[ch + 1], node_edges.shape[1])
+        keys = np.empty(cap, np.int64)
         mask = size - 1
         t_node = np.empty(size, np.int64)
         t_stamp = np.zeros(size, np.int64)
