@@ -253,6 +253,11 @@ class PreparedPartition:
 
     def extract(self, value, normals="mean"):
         """This partition's part of the surface ``S = value``, vertices keyed by global id pairs (a dict)."""
+        iso, counters = self.surface(value)
+        return self._piece(iso, normals) | counters
+
+    def surface(self, value):
+        """This partition's :class:`IsoSurface` of ``value`` (local keys, no normals) and its counters."""
         # normals are made on the stitched surface (a seam vertex's triangles are on both sides): none here
         iso = self.method.extract(value, normals=None)
         # the method is complete on the partition when its theorems hold there; a piece of the surface it
@@ -274,12 +279,20 @@ class PreparedPartition:
             iso = _one_vertex_per_key(_concat(iso, extra, np.isin(extra.triangle_cells, iso.triangle_cells,
                                                                   invert=True)))
         t_seam = time.perf_counter() - t0
-        return self._piece(iso, normals) | {
-            "cells_tested": iso.cells_tested + tested, "seam_seeds": seam_seeds,
-            "cells_intersected": iso.cells_intersected, "vertex_lookups": iso.vertex_lookups,
-            "t1": iso.t1 + t_seam, "t2": iso.t2, "t3": iso.t3, "method": iso.method}
+        return iso, {"cells_tested": iso.cells_tested + tested, "seam_seeds": seam_seeds,
+                     "cells_intersected": iso.cells_intersected, "vertex_lookups": iso.vertex_lookups,
+                     "t1": iso.t1 + t_seam, "t2": iso.t2, "t3": iso.t3, "method": iso.method}
 
-    def _piece(self, iso, normals):
+    def piece_bytes_bound(self, iso, normals):
+        """An upper bound on the bytes :meth:`_piece` allocates with ``empty`` for ``iso`` (each array rounded
+        up to 64 bytes)."""
+        n, m = iso.vertices.shape[0], iso.triangles.shape[0]
+        ti = 4 if n < 2**31 else 8
+        ci = 4 if self._cells32 else 8
+        nb = [8 * n, 24 * n, 8 * n, 3 * ti * m, 8 * m, ci * m] + ([24 * n] if normals is not None else [])
+        return sum(-(-b // 64) * 64 for b in nb)
+
+    def _piece(self, iso, normals, empty=np.empty):
         """The arrays of a piece (see :func:`merge`): global keys, seam marks, this side's normals.
 
         A vertex both of whose edge nodes lie on another partition too may be
@@ -288,32 +301,41 @@ class PreparedPartition:
         final here (all its triangles are here, summed in the order the
         stitched surface lists them), and only the seam vertices and the
         triangles touching them (``seam``, ``seam_tris``) need the stitch.
+
+        ``empty(shape, dtype)`` allocates the arrays that travel (keys,
+        vertices, seam, triangles, seam_tris, triangle_cells, normals:
+        :meth:`piece_bytes_bound` bounds their bytes), so a worker can hand out
+        views on a shared-memory block written in place; ``seam`` and
+        ``seam_tris`` get their upper bound (``n``, ``m`` rows) and travel as
+        their first rows.
         """
         t0 = time.perf_counter()
         vol = self.vol
         n = iso.vertices.shape[0]
-        gkeys = np.empty(n, np.int64)
+        gkeys = empty(n, np.int64)
+        verts = empty((n, 3), np.float64)
+        verts[...] = iso.vertices
         seam = np.empty(n, np.bool_)
-        _global_keys(np.ascontiguousarray(iso.vertex_keys, np.int64), vol.edges, self.global_ids, self._shared_node,
-                     self.n_ids, gkeys, seam)
+        seam_at = empty(n, np.int64)
+        n_seam = _global_keys(np.ascontiguousarray(iso.vertex_keys, np.int64), vol.edges, self.global_ids,
+                              self._shared_node, self.n_ids, gkeys, seam, seam_at)
         tri_in = np.ascontiguousarray(iso.triangles, np.int64)
         m = tri_in.shape[0]
-        tri = np.empty((m, 3), np.int32 if n < 2**31 else np.int64)
-        seam_tris = np.empty(m, np.int64)
-        nrm = np.empty((n if normals is not None else 0, 3))
+        tri = empty((m, 3), np.int32 if n < 2**31 else np.int64)
+        seam_tris = empty(m, np.int64)
+        gcells = empty(m, np.int32 if self._cells32 else np.int64)
+        nrm = empty((n, 3), np.float64) if normals is not None else np.empty((0, 3))
         flat = np.zeros(n if normals is not None else 0, np.bool_)
-        n_seam_tris, n_flat = _piece_triangles(iso.vertices, tri_in, seam, tri, seam_tris, nrm, flat)
+        n_seam_tris, n_flat = _piece_triangles(verts, tri_in, seam, tri, seam_tris, nrm, flat)
+        _global_cells(np.ascontiguousarray(iso.triangle_cells, np.int64),
+                      np.zeros(0, np.int64) if self.cell_ids is None else self.cell_ids, self.cell_offset, gcells)
         fallback = None
         if normals is not None:
             fallback = (np.zeros(0, np.int64), np.zeros((0, 3)))
             if n_flat:
                 fallback = self._fallback(iso, gkeys, seam, nrm, flat)
-        cells = iso.triangle_cells
-        gcells = self.cell_ids[cells] if self.cell_ids is not None else cells + self.cell_offset
-        if self._cells32:
-            gcells = gcells.astype(np.int32)
-        return {"keys": gkeys, "vertices": iso.vertices, "normals": nrm if normals is not None else None,
-                "seam": np.flatnonzero(seam), "triangles": tri, "seam_tris": seam_tris[:n_seam_tris].copy(),
+        return {"keys": gkeys, "vertices": verts, "normals": nrm if normals is not None else None,
+                "seam": seam_at[:n_seam], "triangles": tri, "seam_tris": seam_tris[:n_seam_tris],
                 "triangle_cells": gcells, "fallback": fallback, "flat": int(flat.sum()),
                 "piece_s": time.perf_counter() - t0}
 
@@ -347,10 +369,12 @@ class PreparedPartition:
 
 
 @njit
-def _global_keys(keys, edges, gids, shared, n_ids, out, seam):
+def _global_keys(keys, edges, gids, shared, n_ids, out, seam, seam_at):
     """Global pair keys of a piece's vertices (``a * n_ids + b`` over the edge's global ids ``a < b``,
-    ``a * n_ids + a`` on node ``a``), and whether both nodes lie on another partition too (a seam vertex)."""
+    ``a * n_ids + a`` on node ``a``), whether both nodes lie on another partition too (a seam vertex), and
+    the seam vertices' indices in ascending order (``seam_at``; their count returned)."""
     ne = edges.shape[0]
+    ns = 0
     for v in range(keys.shape[0]):
         k = keys[v]
         if k < ne:
@@ -359,6 +383,22 @@ def _global_keys(keys, edges, gids, shared, n_ids, out, seam):
             a = b = k - ne
         out[v] = gids[a] * n_ids + gids[b]
         seam[v] = shared[a] and shared[b]
+        if seam[v]:
+            seam_at[ns] = v
+            ns += 1
+    return ns
+
+
+@njit
+def _global_cells(cells, cell_ids, offset, out):
+    """Global cell ids of a piece's triangles: ``cell_ids[cells]`` (a split volume's), else ``cells + offset``
+    (pieces from files, numbered piece after piece), in ``out``'s dtype."""
+    if cell_ids.shape[0] > 0:
+        for t in range(cells.shape[0]):
+            out[t] = cell_ids[cells[t]]
+    else:
+        for t in range(cells.shape[0]):
+            out[t] = cells[t] + offset
 
 
 @njit
