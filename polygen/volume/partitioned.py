@@ -445,9 +445,12 @@ def _piece_triangles(vertices, triangles, seam, tri_out, seam_tris, nrm, flat):
 
 
 @njit
-def _take_kept(keys, vertices, normals, keep, out_keys, out_vertices, out_normals, row0):
-    """Rows ``keep`` (all when ``keep`` is empty) of a piece's keys, vertices and normals (when
-    ``normals`` has rows) written from ``row0`` on; the next free row."""
+def _merge_piece(keys, vertices, normals, keep, tri, cells, new_index, out_keys, out_vertices, out_normals,
+                 out_tri, out_cells, row0, tri0):
+    """One piece written into the merged arrays in one pass: its kept vertices (``keep``; all when empty)
+    with their keys and normals (when ``normals`` has rows) from row ``row0`` on, its triangles in the merged
+    numbering (``new_index[v]``, or ``row0 + v`` when ``new_index`` is empty: nothing dropped) and global
+    cell ids from row ``tri0`` on, in the merged arrays' dtypes. Returns the next free vertex row."""
     r = row0
     every = keep.shape[0] == 0
     with_normals = normals.shape[0] > 0
@@ -460,15 +463,12 @@ def _take_kept(keys, vertices, normals, keep, out_keys, out_vertices, out_normal
                 for d in range(3):
                     out_normals[r, d] = normals[i, d]
             r += 1
-    return r
-
-
-@njit
-def _remap_triangles(tri, new_index, out, row0):
-    """``out[row0 + t] = new_index[tri[t]]``: a piece's triangles in the merged numbering."""
+    mapped = new_index.shape[0] > 0
     for t in range(tri.shape[0]):
         for d in range(3):
-            out[row0 + t, d] = new_index[tri[t, d]]
+            out_tri[tri0 + t, d] = new_index[tri[t, d]] if mapped else row0 + tri[t, d]
+        out_cells[tri0 + t] = cells[t]
+    return r
 
 
 @njit
@@ -642,37 +642,38 @@ def merge(pieces, *, n_ids):
     for i, p in enumerate(pieces):
         here = sowner == i
         gone = sidx[here & dup]
+        kept_here = here & ~dup
         if gone.size:
             keep = np.ones(sizes[i], bool)
             keep[gone] = False
             new = base + np.cumsum(keep) - 1
             new[gone] = first_new[inv[here & dup]]  # kept by an earlier piece
+            first_new[inv[kept_here]] = new[sidx[kept_here]]
             base += sizes[i] - gone.size
-        else:
-            keep = None
-            new = np.arange(base, base + sizes[i])
+        else:  # nothing dropped: vertex v goes to row base + v (no map made)
+            keep = new = None
+            first_new[inv[kept_here]] = base + sidx[kept_here]
             base += sizes[i]
-        kept_here = here & ~dup
-        first_new[inv[kept_here]] = new[sidx[kept_here]]
         maps.append(new)
         keeps.append(keep)
 
-    # the kept vertices of every piece, in piece order, copied in one pass each (new arrays, never a
-    # piece's: finish writes the seam normals into them, and pieces may be views on shared memory)
+    # every piece written into the merged arrays in one pass each, in piece order: its kept vertices, its
+    # triangles renumbered, its cell ids (new arrays, never a piece's: finish writes the seam normals into
+    # them, and pieces may be views on shared memory)
     with_normals = pieces[0].get("normals") is not None
     keys, verts = np.empty(base, np.int64), np.empty((base, 3))
     nrm = np.empty((base, 3)) if with_normals else None
-    no_keep, no_nrm = np.zeros(0, np.bool_), np.zeros((0, 3))
-    row0 = 0
-    for p, kp in zip(pieces, keeps):
-        row0 = _take_kept(p["keys"], p["vertices"], p["normals"] if with_normals else no_nrm,
-                          no_keep if kp is None else kp, keys, verts, nrm if with_normals else no_nrm, row0)
+    no_keep, no_map, no_nrm = np.zeros(0, np.bool_), np.zeros(0, np.int64), np.zeros((0, 3))
     tri_sizes = [p["triangles"].shape[0] for p in pieces]
     tri_off = np.cumsum([0] + tri_sizes)
     tri = np.empty((tri_off[-1], 3), np.int64)
-    for p, new, row0 in zip(pieces, maps, tri_off[:-1]):
-        _remap_triangles(p["triangles"], new, tri, row0)
-    tcell = np.concatenate([p["triangle_cells"] for p in pieces], dtype=np.int64)
+    tcell = np.empty(tri_off[-1], np.int64)
+    row0 = 0
+    for p, kp, new, t0_ in zip(pieces, keeps, maps, tri_off[:-1]):
+        row0 = _merge_piece(p["keys"], p["vertices"], p["normals"] if with_normals else no_nrm,
+                            no_keep if kp is None else kp, p["triangles"], p["triangle_cells"],
+                            no_map if new is None else new, keys, verts, nrm if with_normals else no_nrm,
+                            tri, tcell, row0, int(t0_))
     seam_tris = np.concatenate([p["seam_tris"] + o for p, o in zip(pieces, tri_off[:-1])]).astype(np.int64, copy=False)
     seam = np.sort(first_new)
     # the shared-face-at-C triangles: all three vertices on nodes (seam vertices), made by a cell on each side
