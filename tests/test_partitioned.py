@@ -178,6 +178,41 @@ def test_pvtu_round_trip(tmp_path, data3):
         assert_same_as_single(data3, single, stitched)
 
 
+@pytest.mark.parametrize("k", [2, 3, 7])
+def test_weighted_split_cuts_at_equal_weight(data3, k):
+    """Cut by weights: each Morton range holds 1/k of the total weight to within one cell's weight (the
+    closed form of cutting a running sum); unit weights give equal cell counts, as the default."""
+    from polygen.volume.partitioned import span_weights
+
+    w = span_weights(data3)
+    s = data3.scalars()[data3.cells]
+    np.testing.assert_array_equal(w, s.max(axis=1) - s.min(axis=1))
+    pvol = PartitionedVolume.split(data3, k, weights=w)
+    got = np.array([w[p.cell_ids].sum() for p in pvol.pieces])
+    assert got.sum() == pytest.approx(w.sum(), rel=1e-12)
+    assert np.abs(got - w.sum() / k).max() <= 2 * w.max()  # a range ends within one cell of its share
+    assert sorted(np.concatenate([p.cell_ids for p in pvol.pieces]).tolist()) == list(range(data3.n_cells))
+    sizes = [p.cell_ids.size for p in PartitionedVolume.split(data3, k, weights=np.ones(data3.n_cells)).pieces]
+    assert max(sizes) - min(sizes) <= 1  # unit weights: equal cell counts, as the default
+    # zero weight everywhere but one cell: every range still holds a cell
+    z = np.zeros(data3.n_cells)
+    z[5] = 1.0
+    assert all(p.cell_ids.size for p in PartitionedVolume.split(data3, k, weights=z).pieces)
+    with pytest.raises(PartitionError, match="weights"):
+        PartitionedVolume.split(data3, k, weights=-w)
+    with pytest.raises(PartitionError, match="weights"):
+        PartitionedVolume.split(data3, k, weights=w[:-1])
+
+
+@pytest.mark.parametrize("k", [2, 5])
+def test_span_weighted_split_stitched_equals_single(data3, k):
+    from polygen.volume.partitioned import span_weights
+
+    prepared = PartitionedVolume.split(data3, k, weights=span_weights(data3)).prepare()
+    for v in isovalues(data3.scalars(), 40):
+        assert_same_as_single(data3, data3.isosurface(v), prepared.extract(v))
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("k", [2, 8])
 def test_2M_split_stitched_equals_single(k):

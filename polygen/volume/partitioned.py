@@ -79,7 +79,7 @@ from polygen.volume.thinning import ThinningWarning
 from polygen.volume.surface import IsoSurface, IsoSurfaceError, check_normals, check_value
 
 __all__ = ["PartitionedVolume", "PartitionedMethod", "PartitionError", "StitchedIsoSurface", "GLOBAL_IDS",
-           "stitch", "tree_stitch", "merge", "finish", "reduce_tree", "scale_model"]
+           "stitch", "tree_stitch", "merge", "finish", "reduce_tree", "scale_model", "span_weights"]
 
 #: the point array that numbers the nodes globally (as ParaView's D3 filter and VTK's redistribution name it)
 GLOBAL_IDS = "GlobalNodeId"
@@ -856,7 +856,7 @@ class PartitionedVolume:
                f"{', ...' if self.n_partitions > 4 else ''})"
 
     @classmethod
-    def split(cls, vol, k):
+    def split(cls, vol, k, *, weights=None):
         """``vol`` in ``k`` partitions: contiguous ranges of its cells along a Morton curve.
 
         Global node and cell ids are ``vol``'s own; each partition holds its
@@ -868,6 +868,12 @@ class PartitionedVolume:
         vol : UnstructuredVolume
         k : int
             Number of partitions, ``1 <= k <= vol.n_cells``.
+        weights : (n_cells,) array_like of float, optional, keyword-only
+            Each cell's expected work: the ranges are cut where the running
+            sum of weights along the curve passes ``i / k`` of the total
+            (each range keeps at least one cell). Default: every cell the same
+            (ranges of equal cell counts). :func:`span_weights` gives a sweep's
+            expected work (a partition's workers finish together).
         """
         if not isinstance(vol, UnstructuredVolume):
             raise PartitionError(f"expected an UnstructuredVolume; got {type(vol).__name__}")
@@ -878,8 +884,23 @@ class PartitionedVolume:
         scale = (2**21 - 1) / span if span > 0 else 0.0
         order = np.argsort(_topo.morton_codes(_topo.cell_centroids(vol.points, vol.cells), lo, scale),
                            kind="stable")
+        if weights is None:
+            chunks = np.array_split(order, int(k))
+        else:
+            w = np.asarray(weights, np.float64)
+            if w.shape != (vol.n_cells,) or not np.all(np.isfinite(w)) or (w.size and w.min() < 0):
+                raise PartitionError(f"weights must be {vol.n_cells} finite non-negative numbers (one per cell); "
+                                     f"got shape {w.shape}")
+            cw = np.cumsum(w[order])
+            if not cw.size or cw[-1] <= 0:
+                chunks = np.array_split(order, int(k))
+            else:
+                cuts = np.searchsorted(cw, cw[-1] * np.arange(1, k) / k, side="right")
+                # at least one cell per range: cuts strictly increasing, cut i in i .. n - k + i
+                d = np.minimum(np.maximum.accumulate(np.maximum(cuts - np.arange(1, k), 0)), vol.n_cells - k)
+                chunks = np.split(order, d + np.arange(1, k))
         pieces = []
-        for i, chunk in enumerate(np.array_split(order, int(k))):
+        for i, chunk in enumerate(chunks):
             chunk = np.sort(chunk)  # the volume's own cell order inside a partition (a cache's is Morton already)
             cells = vol.cells[chunk]
             nodes = np.unique(cells)
@@ -1011,6 +1032,20 @@ def _check_normals(normals):
     if normals == "gradient":
         raise IsoSurfaceError("normals='gradient' is not available across partitions (a seam node's gradient "
                               "needs the cells of both sides); use 'mean' or None")
+
+
+def span_weights(vol, field=None):
+    """(n_cells,) float64: each cell's field range (max - min over its nodes), for :meth:`PartitionedVolume.split`.
+
+    A surface ``S = C`` crosses a cell when ``C`` lies inside its range, so
+    over a sweep of values spread evenly over the field's range a cell is
+    crossed in proportion to its range: cut by these weights, the partitions
+    share a sweep's extraction evenly (cut by cell counts, the busiest of two
+    partitions of 2M and 10M did 8-9 % more than the mean,
+    ``benchmarks/results/partitioned*.md``).
+    """
+    s = vol.scalars(field)[vol.cells]
+    return s.max(axis=1) - s.min(axis=1)
 
 
 # ----------------------------------------------------------------- a model on paper
