@@ -553,6 +553,22 @@ def test_dask_shared_memory_equals_tcp_and_local(client, data3):
     on_dask.close()
 
 
+def test_chunks_of_a_query():
+    """The values in order, CHUNKS chunks with the last cut in halves down to one value (its stitch is the
+    one the workers do not hide); a given size cuts evenly."""
+    from polygen.volume.distributed import CHUNKS, _chunked
+
+    for n in (1, 2, 7, 20, 61):
+        values = list(range(n))
+        chunks = _chunked(values)
+        assert [v for c in chunks for v in c] == values and all(chunks)
+        assert len(chunks[-1]) == 1
+        size = -(-n // CHUNKS)
+        assert max(map(len, chunks)) == size == len(chunks[0])
+        assert [len(c) for c in _chunked(values, 3)] == [3] * (n // 3) + ([n % 3] if n % 3 else [])
+    assert [len(c) for c in _chunked(list(range(20)))] == [4, 4, 4, 4, 2, 1, 1]
+
+
 def test_unlink_of_a_block_a_killed_worker_left_empty():
     """A worker killed between creating a block and sizing it leaves an empty one (it cannot be mapped):
     the client's clean-up unlinks it by name; a block already gone is no error."""

@@ -198,8 +198,9 @@ class DaskPartitionedMethod:
         else in Dask's messages.
     chunk_values : int or None
         Values per actor call when the client stitches (default: the
-        query's values in ``CHUNKS`` chunks): the client stitches a chunk
-        while the workers extract the next.
+        query's values in ``CHUNKS`` chunks, the last cut in halves down to
+        one value): the client stitches a chunk while the workers extract
+        the next.
     phases_last : dict
         Client stitch only: ``wait_s`` (waiting for pieces) and
         ``stitch_s`` (mapping them, stitching) of the last query.
@@ -349,8 +350,7 @@ class DaskPartitionedMethod:
         sent at once. Each partition answers its calls in order, and the
         client stitches chunk ``c`` while the workers extract the next.
         """
-        size = self.chunk_values or max(1, -(-len(values) // CHUNKS))
-        chunks = [values[i:i + size] for i in range(0, len(values), size)]
+        chunks = _chunked(values, self.chunk_values)
         shared = self.transport == "shared-memory"
         uid = uuid.uuid4().hex[:16]
         names = [[f"polygen-{uid}-{c}-{i}" for i in range(len(self.actors))] for c in range(len(chunks))]
@@ -622,6 +622,23 @@ def _view(buf, off, dtype, shape):
     if off < 0:  # an empty array
         return np.zeros(shape, np.dtype(dtype))
     return np.ndarray(shape, np.dtype(dtype), buffer=buf, offset=off)
+
+
+def _chunked(values, size=None):
+    """``values`` in chunks of ``size``; by default ``CHUNKS`` chunks, the last one cut in halves down to one
+    value (4 -> 2, 1, 1): the client's stitch of the last chunk waits for nothing else, so it is kept short."""
+    if size:
+        return [values[i:i + size] for i in range(0, len(values), size)]
+    size = max(1, -(-len(values) // CHUNKS))
+    chunks = [values[i:i + size] for i in range(0, len(values), size)]
+    if chunks:
+        last, tail = chunks.pop(), []
+        while last:
+            h = -(-len(last) // 2) if len(last) > 2 else 1
+            tail.append(last[:h])
+            last = last[h:]
+        chunks += tail
+    return chunks
 
 
 def _unlink_quietly(name):
