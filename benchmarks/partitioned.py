@@ -199,7 +199,10 @@ def _write(name, vol, rows):
              "the workers: the stitched surface (positions, normals, triangles and global cell ids as int32, global "
              "vertex keys); bytes_workers_per_query: pieces moved between workers per value (merge inputs made on the "
              "other worker)",
-             "the machine is shared: wall clocks at a load above 2 include waiting for a core; compare the CPU seconds"]
+             "the machine is shared: wall clocks at a load above 2 include waiting for a core; compare the CPU seconds "
+             "(at a high load the ratio of wall clocks also favours the partitioned run, whose three processes get a "
+             "larger share of the cores than the single volume's one)",
+             "where the overhead goes, stage by stage: partitioned_overhead.md"]
     path = write_results("partitioned" if name == "2M" else f"partitioned_{name}", rows, cols,
                          title=f"Partitioned volumes on Dask: {name}", notes=notes)
     model = _model(vol, rows)

@@ -553,6 +553,31 @@ def test_dask_shared_memory_equals_tcp_and_local(client, data3):
     on_dask.close()
 
 
+def test_dask_shared_memory_blocks_kept_between_queries(client, data3):
+    """The blocks are made by the first query and reused by the next (no block made, the same arrays), grown
+    when a chunk needs more; close() lets the client's mappings go; no block name is left."""
+    from polygen.volume.distributed import SLOTS
+
+    values = list(isovalues(data3.scalars(), 8))
+    on_dask = dask_prepare(PartitionedVolume.split(data3, 2), client=client, stitch_on="client")
+    first = on_dask.extract_many(values)
+    assert len(on_dask._maps) == 2 * SLOTS  # 8 values: chunks 2, 2, 2, 1, 1 over 3 slots
+    again = on_dask.extract_many(values)
+    calls = on_dask.phases_last["calls"]
+    assert len(calls) == 2 * 5 and not any(c["fresh"] for c in calls)
+    for a, b in zip(first, again):
+        _same_arrays(a, b, counters=False)
+    assert _left_blocks(on_dask) == []
+    on_dask.chunk_values = 8  # one chunk of every value: more than slot 0's block holds
+    grown = on_dask.extract_many(values)
+    assert [c["fresh"] for c in on_dask.phases_last["calls"]] == [True, True]
+    for a, b in zip(first, grown):
+        _same_arrays(a, b, counters=False)
+    assert _left_blocks(on_dask) == []
+    on_dask.close()
+    assert on_dask._maps == {}
+
+
 def test_chunks_of_a_query():
     """The values in order, CHUNKS chunks with the last cut in halves down to one value (its stitch is the
     one the workers do not hide); a given size cuts evenly."""

@@ -12,11 +12,15 @@ cell ids) and stitches them in one of two places (``stitch_on``):
   machine): the values are cut into chunks and every chunk's actor calls
   are sent at once; each partition answers them in order, and the client
   stitches chunk ``c`` (the seam-only merge) while the workers extract
-  chunk ``c + 1``. The pieces travel through POSIX **shared memory**: a
-  worker writes them into one block named by the client, the client maps
-  it, unlinks the name at once and closes the mapping after the stitch
-  (which copies what it keeps). Over TCP instead when a worker is
-  elsewhere or shared memory is missing.
+  chunk ``c + 1``. The pieces travel through POSIX **shared memory**: each
+  partition keeps a few blocks (one per slot, ``SLOTS``; made once, grown
+  when a chunk needs more) and writes its pieces straight into one while it
+  makes them; the client maps each block once (unlinking its name at once),
+  stitches from it (the stitch copies what it keeps) and sends the call
+  that reuses a slot only once that slot's chunk is stitched. The last
+  chunk is cut down to one value (its stitch is not hidden behind the
+  workers'). Over TCP instead when a worker is elsewhere or shared memory
+  is missing.
 * **on the workers**: one small task per partition and chunk of values,
   which asks the partition's actor on its own worker for its pieces; the
   pieces are merged pairwise up a tree of neighbouring partitions
@@ -33,9 +37,8 @@ calls to its actors fail; the partitions it held are prepared again on the
 workers that remain and the query is asked again, once. If that fails too,
 or no worker remains, :class:`~polygen.volume.partitioned.PartitionError`
 says which partition was lost: a query never returns part of a surface.
-Shared-memory blocks of a failed query are unlinked by the client once all
-its calls have answered or failed (a worker killed before handing a block
-over leaves it to that worker's resource tracker, which unlinks it).
+Shared-memory blocks made by a failed query and never mapped are unlinked
+by the client, by name, once all its calls have answered or failed.
 
 Dask is optional (``pip install polygen[distributed]``); this module imports
 it when it is used, with a clear message when it is missing.
