@@ -206,7 +206,12 @@ class DaskPartitionedMethod:
         the next.
     phases_last : dict
         Client stitch only: ``wait_s`` (waiting for pieces) and
-        ``stitch_s`` (mapping them, stitching) of the last query.
+        ``stitch_s`` (mapping them, stitching) of the last query; through
+        shared memory also ``calls``, each call's ``timing`` from its worker
+        (``start``, ``end`` on ``time.perf_counter``'s clock -- the machine's
+        monotonic clock on Linux --, ``cpu_s``, ``surface_cpu_s``,
+        ``piece_cpu_s``, ``fresh``: a block made for it) with its ``chunk``,
+        ``partition`` and the client's ``sent``, ``waited`` and ``gathered``.
     blocks_last : list of str
         The shared-memory block names the last query handed out (all
         unlinked when it returns or raises).
@@ -361,7 +366,7 @@ class DaskPartitionedMethod:
         sent = [0.0] * len(chunks)
 
         def send(c):
-            row = []
+            calls[c] = row = []  # the calls sent so far, for the clean-up if one cannot be sent
             for i, a in enumerate(self.actors):
                 try:
                     if shared:
@@ -373,7 +378,6 @@ class DaskPartitionedMethod:
                         row.append(a.extract_many(chunks[c], normals))
                 except Exception as e:  # noqa: BLE001  dask: "Worker holding Actor was lost"
                     raise _Lost(i, e) from e
-            calls[c] = row
             sent[c] = time.perf_counter()
 
         try:
