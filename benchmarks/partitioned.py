@@ -31,6 +31,7 @@ model on paper of a 1B-cell volume on 64 workers built from these numbers.
     python benchmarks/partitioned.py            # 2M, 2, 4 and 8 partitions
     python benchmarks/partitioned.py 10M 2      # another data set and partition counts (results/partitioned_10M.*)
     python benchmarks/partitioned.py 2M 2 client  # and only one mode
+    python benchmarks/partitioned.py 10M 2 client cells,span  # and the split by span weights too
 """
 
 import os
@@ -51,13 +52,14 @@ REPEAT = 2
 WORKERS = 2
 
 
-def main(name="2M", parts=None, modes=None):
+def main(name="2M", parts=None, modes=None, splits="cells"):
     parts = PARTITIONS if parts is None else tuple(int(k) for k in parts.split(","))
     modes = MODES if modes is None else tuple(modes.split(","))
+    splits = tuple(splits.split(","))
     from polygen.volume import datasets, isovalues, methods
     from polygen.volume.distributed import local_client
     from polygen.volume.distributed import prepare as dask_prepare
-    from polygen.volume.partitioned import PartitionedVolume
+    from polygen.volume.partitioned import PartitionedVolume, span_weights
 
     vol = datasets.load(name)
     field = "fem" if "fem" in vol.fields else next(iter(vol.fields))
@@ -82,9 +84,9 @@ def main(name="2M", parts=None, modes=None):
 
     client = local_client(WORKERS)
     try:
-        for k in parts:
+        for k, how in [(k, how) for k in parts for how in splits]:
             t0 = time.perf_counter()
-            pvol = PartitionedVolume.split(vol, k)
+            pvol = PartitionedVolume.split(vol, k, weights=span_weights(vol, field) if how == "span" else None)
             split_s = time.perf_counter() - t0
             prepared = dask_prepare(pvol, field, client=client)
             prepared.extract_many(values[:2])
@@ -111,7 +113,8 @@ def main(name="2M", parts=None, modes=None):
                     piece += [p.get("piece_s", np.nan) for p in s.partitions]
                 phases = got["phases"] if mode == "client" else {}
                 cells = np.array([i["n_cells"] for i in prepared.infos])
-                row = {"run": f"{k} partitions on {WORKERS} workers, stitched on the {mode}", "partitions": k,
+                row = {"run": f"{k} partitions{' (span-weighted)' if how == 'span' else ''} on {WORKERS} workers, "
+                              f"stitched on the {mode}", "partitions": k, "split": how,
                        "stitch_on": mode, "split_s": split_s,
                        "prepare_s": prepared.preprocess_s, "prepare_part_max_s": max(prepared.prepare_s),
                        "prepare_part_sum_s": sum(prepared.prepare_s), "query_s": t, "wait_s": got["wait"],
@@ -174,9 +177,12 @@ def _write(name, vol, rows):
              f"k partitions: LocalCluster(n_workers={WORKERS}, threads_per_worker=1, processes=True); prepare_s = "
              "wall clock of preparing every partition on the workers (pieces sent from here) and checking the seams; "
              "query_s = one extract_many of the 20 values, best of 2, interleaved with the single volume's (whose query_s "
-             "is its best over the whole run): stitched on the client = one actor call per partition and chunk of 4 "
-             "values (all sent at once), the pieces through shared memory (every worker on this machine), stitched "
-             "here chunk by chunk while the workers extract the next (seam-only merge); on the workers = a task per "
+             "is its best over the whole run): stitched on the client = one actor call per partition and chunk of "
+             "values (4, 4, 4, 4, 2, 1, 1), up to 3 chunks ahead of the client's stitch, the pieces written by the "
+             "workers straight into shared-memory blocks kept from query to query (every worker on this machine), "
+             "stitched here chunk by chunk while the workers extract the next (seam-only merge); span-weighted: "
+             "Morton ranges cut at equal total cell field range (span_weights: a sweep's expected crossings) instead "
+             "of equal cell counts; on the workers = a task per "
              "partition and chunk of values, the pieces merged pairwise on the workers, the seam normals at the root, "
              "the surfaces to the client",
              "load: the 1-minute load average when the query started (this machine has 2 cores and is shared); "
@@ -193,7 +199,10 @@ def _write(name, vol, rows):
              "the workers: the stitched surface (positions, normals, triangles and global cell ids as int32, global "
              "vertex keys); bytes_workers_per_query: pieces moved between workers per value (merge inputs made on the "
              "other worker)",
-             "the machine is shared: wall clocks at a load above 2 include waiting for a core; compare the CPU seconds"]
+             "the machine is shared: wall clocks at a load above 2 include waiting for a core; compare the CPU seconds "
+             "(at a high load the ratio of wall clocks also favours the partitioned run, whose three processes get a "
+             "larger share of the cores than the single volume's one)",
+             "where the overhead goes, stage by stage: partitioned_overhead.md"]
     path = write_results("partitioned" if name == "2M" else f"partitioned_{name}", rows, cols,
                          title=f"Partitioned volumes on Dask: {name}", notes=notes)
     model = _model(vol, rows)
@@ -251,5 +260,5 @@ def _model(vol, rows):
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:4])
+    main(*sys.argv[1:5])
     print(f"results in {RESULTS}/partitioned.md; {machine()}")

@@ -178,6 +178,41 @@ def test_pvtu_round_trip(tmp_path, data3):
         assert_same_as_single(data3, single, stitched)
 
 
+@pytest.mark.parametrize("k", [2, 3, 7])
+def test_weighted_split_cuts_at_equal_weight(data3, k):
+    """Cut by weights: each Morton range holds 1/k of the total weight to within one cell's weight (the
+    closed form of cutting a running sum); unit weights give equal cell counts, as the default."""
+    from polygen.volume.partitioned import span_weights
+
+    w = span_weights(data3)
+    s = data3.scalars()[data3.cells]
+    np.testing.assert_array_equal(w, s.max(axis=1) - s.min(axis=1))
+    pvol = PartitionedVolume.split(data3, k, weights=w)
+    got = np.array([w[p.cell_ids].sum() for p in pvol.pieces])
+    assert got.sum() == pytest.approx(w.sum(), rel=1e-12)
+    assert np.abs(got - w.sum() / k).max() <= 2 * w.max()  # a range ends within one cell of its share
+    assert sorted(np.concatenate([p.cell_ids for p in pvol.pieces]).tolist()) == list(range(data3.n_cells))
+    sizes = [p.cell_ids.size for p in PartitionedVolume.split(data3, k, weights=np.ones(data3.n_cells)).pieces]
+    assert max(sizes) - min(sizes) <= 1  # unit weights: equal cell counts, as the default
+    # zero weight everywhere but one cell: every range still holds a cell
+    z = np.zeros(data3.n_cells)
+    z[5] = 1.0
+    assert all(p.cell_ids.size for p in PartitionedVolume.split(data3, k, weights=z).pieces)
+    with pytest.raises(PartitionError, match="weights"):
+        PartitionedVolume.split(data3, k, weights=-w)
+    with pytest.raises(PartitionError, match="weights"):
+        PartitionedVolume.split(data3, k, weights=w[:-1])
+
+
+@pytest.mark.parametrize("k", [2, 5])
+def test_span_weighted_split_stitched_equals_single(data3, k):
+    from polygen.volume.partitioned import span_weights
+
+    prepared = PartitionedVolume.split(data3, k, weights=span_weights(data3)).prepare()
+    for v in isovalues(data3.scalars(), 40):
+        assert_same_as_single(data3, data3.isosurface(v), prepared.extract(v))
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("k", [2, 8])
 def test_2M_split_stitched_equals_single(k):
@@ -516,6 +551,47 @@ def test_dask_shared_memory_equals_tcp_and_local(client, data3):
         for surfaces in got.values():
             _same_arrays(here, surfaces[j], counters=False)
     on_dask.close()
+
+
+def test_dask_shared_memory_blocks_kept_between_queries(client, data3):
+    """The blocks are made by the first query and reused by the next (no block made, the same arrays), grown
+    when a chunk needs more; close() lets the client's mappings go; no block name is left."""
+    from polygen.volume.distributed import SLOTS
+
+    values = list(isovalues(data3.scalars(), 8))
+    on_dask = dask_prepare(PartitionedVolume.split(data3, 2), client=client, stitch_on="client")
+    first = on_dask.extract_many(values)
+    assert len(on_dask._maps) == 2 * SLOTS  # 8 values: chunks 2, 2, 2, 1, 1 over 3 slots
+    again = on_dask.extract_many(values)
+    calls = on_dask.phases_last["calls"]
+    assert len(calls) == 2 * 5 and not any(c["fresh"] for c in calls)
+    for a, b in zip(first, again):
+        _same_arrays(a, b, counters=False)
+    assert _left_blocks(on_dask) == []
+    on_dask.chunk_values = 8  # one chunk of every value: more than slot 0's block holds
+    grown = on_dask.extract_many(values)
+    assert [c["fresh"] for c in on_dask.phases_last["calls"]] == [True, True]
+    for a, b in zip(first, grown):
+        _same_arrays(a, b, counters=False)
+    assert _left_blocks(on_dask) == []
+    on_dask.close()
+    assert on_dask._maps == {}
+
+
+def test_chunks_of_a_query():
+    """The values in order, CHUNKS chunks with the last cut in halves down to one value (its stitch is the
+    one the workers do not hide); a given size cuts evenly."""
+    from polygen.volume.distributed import CHUNKS, _chunked
+
+    for n in (1, 2, 7, 20, 61):
+        values = list(range(n))
+        chunks = _chunked(values)
+        assert [v for c in chunks for v in c] == values and all(chunks)
+        assert len(chunks[-1]) == 1
+        size = -(-n // CHUNKS)
+        assert max(map(len, chunks)) == size == len(chunks[0])
+        assert [len(c) for c in _chunked(values, 3)] == [3] * (n // 3) + ([n % 3] if n % 3 else [])
+    assert [len(c) for c in _chunked(list(range(20)))] == [4, 4, 4, 4, 2, 1, 1]
 
 
 def test_unlink_of_a_block_a_killed_worker_left_empty():

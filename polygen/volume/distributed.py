@@ -12,11 +12,15 @@ cell ids) and stitches them in one of two places (``stitch_on``):
   machine): the values are cut into chunks and every chunk's actor calls
   are sent at once; each partition answers them in order, and the client
   stitches chunk ``c`` (the seam-only merge) while the workers extract
-  chunk ``c + 1``. The pieces travel through POSIX **shared memory**: a
-  worker writes them into one block named by the client, the client maps
-  it, unlinks the name at once and closes the mapping after the stitch
-  (which copies what it keeps). Over TCP instead when a worker is
-  elsewhere or shared memory is missing.
+  chunk ``c + 1``. The pieces travel through POSIX **shared memory**: each
+  partition keeps a few blocks (one per slot, ``SLOTS``; made once, grown
+  when a chunk needs more) and writes its pieces straight into one while it
+  makes them; the client maps each block once (unlinking its name at once),
+  stitches from it (the stitch copies what it keeps) and sends the call
+  that reuses a slot only once that slot's chunk is stitched. The last
+  chunk is cut down to one value (its stitch is not hidden behind the
+  workers'). Over TCP instead when a worker is elsewhere or shared memory
+  is missing.
 * **on the workers**: one small task per partition and chunk of values,
   which asks the partition's actor on its own worker for its pieces; the
   pieces are merged pairwise up a tree of neighbouring partitions
@@ -33,9 +37,8 @@ calls to its actors fail; the partitions it held are prepared again on the
 workers that remain and the query is asked again, once. If that fails too,
 or no worker remains, :class:`~polygen.volume.partitioned.PartitionError`
 says which partition was lost: a query never returns part of a surface.
-Shared-memory blocks of a failed query are unlinked by the client once all
-its calls have answered or failed (a worker killed before handing a block
-over leaves it to that worker's resource tracker, which unlinks it).
+Shared-memory blocks made by a failed query and never mapped are unlinked
+by the client, by name, once all its calls have answered or failed.
 
 Dask is optional (``pip install polygen[distributed]``); this module imports
 it when it is used, with a clear message when it is missing.
@@ -62,6 +65,9 @@ RETRIES = 1
 #: chunks a query's values are cut into when the client stitches (``DaskPartitionedMethod.chunk_values``
 #: unset): the client stitches one chunk while the workers extract the next
 CHUNKS = 5
+#: shared-memory blocks per partition (kept between queries): the workers extract up to this many chunks
+#: ahead of the client's stitch
+SLOTS = 3
 #: how long a query that failed waits for its other calls before unlinking their shared-memory blocks
 SWEEP_TIMEOUT_S = 60
 
@@ -195,11 +201,17 @@ class DaskPartitionedMethod:
         else in Dask's messages.
     chunk_values : int or None
         Values per actor call when the client stitches (default: the
-        query's values in ``CHUNKS`` chunks): the client stitches a chunk
-        while the workers extract the next.
+        query's values in ``CHUNKS`` chunks, the last cut in halves down to
+        one value): the client stitches a chunk while the workers extract
+        the next.
     phases_last : dict
         Client stitch only: ``wait_s`` (waiting for pieces) and
-        ``stitch_s`` (mapping them, stitching) of the last query.
+        ``stitch_s`` (mapping them, stitching) of the last query; through
+        shared memory also ``calls``, each call's ``timing`` from its worker
+        (``start``, ``end`` on ``time.perf_counter``'s clock -- the machine's
+        monotonic clock on Linux --, ``cpu_s``, ``surface_cpu_s``,
+        ``piece_cpu_s``, ``fresh``: a block made for it) with its ``chunk``,
+        ``partition`` and the client's ``sent``, ``waited`` and ``gathered``.
     blocks_last : list of str
         The shared-memory block names the last query handed out (all
         unlinked when it returns or raises).
@@ -230,6 +242,7 @@ class DaskPartitionedMethod:
         self.phases_last = {}
         self.blocks_last = []
         self.chunk_values = None
+        self._maps = {}  # (partition, slot) -> the SharedMemory block mapped here
         t0 = time.perf_counter()
         workers = self._workers()
         self._futures = [None] * len(self.pieces)
@@ -337,61 +350,81 @@ class DaskPartitionedMethod:
     def _run_on_client(self, values, normals):
         """All pieces sent here and stitched here, chunk after chunk of values.
 
-        Every chunk's actor calls are sent at once; each partition answers
-        them in order, so the client stitches chunk ``c`` while the workers
-        extract chunk ``c + 1``.
+        Through shared memory, each partition writes chunk ``c`` into its
+        block of slot ``c % SLOTS`` (kept from query to query, mapped here
+        once); the call of chunk ``c + SLOTS`` is sent once chunk ``c`` is
+        stitched (its slot free again), so the workers extract ahead of the
+        client by up to ``SLOTS`` chunks. Over TCP every chunk's calls are
+        sent at once. Each partition answers its calls in order, and the
+        client stitches chunk ``c`` while the workers extract the next.
         """
-        size = self.chunk_values or max(1, -(-len(values) // CHUNKS))
-        chunks = [values[i:i + size] for i in range(0, len(values), size)]
+        chunks = _chunked(values, self.chunk_values)
         shared = self.transport == "shared-memory"
         uid = uuid.uuid4().hex[:16]
         names = [[f"polygen-{uid}-{c}-{i}" for i in range(len(self.actors))] for c in range(len(chunks))]
-        if shared:
-            self.blocks_last += [n for row in names for n in row]
-        calls = []
-        try:
-            for c, chunk in enumerate(chunks):
-                row = []
-                for i, a in enumerate(self.actors):
-                    try:
-                        row.append(a.extract_many_shared(chunk, normals, names[c][i]) if shared
-                                   else a.extract_many(chunk, normals))
-                    except Exception as e:  # noqa: BLE001  dask: "Worker holding Actor was lost"
-                        raise _Lost(i, e) from e
-                calls.append(row)
-            surfaces, made = [], 0
-            self.phases_last = {"wait_s": 0.0, "stitch_s": 0.0}
-            for c, (chunk, row) in enumerate(zip(chunks, calls)):
-                t0 = time.perf_counter()
-                answers = self._gather(row, what="query")
-                t1 = time.perf_counter()
-                blocks = []
+        calls = [None] * len(chunks)
+        sent = [0.0] * len(chunks)
+
+        def send(c):
+            calls[c] = row = []  # the calls sent so far, for the clean-up if one cannot be sent
+            for i, a in enumerate(self.actors):
                 try:
                     if shared:
-                        pieces = []
-                        for name, answer in zip(names[c], answers):
-                            shm, per = _open_shared(name, answer)
-                            blocks.append(shm)
-                            pieces.append(per)
-                        per = None
-                        made += sum(a["nbytes"] for a in answers)
+                        held = self._maps.get((i, c % SLOTS))
+                        self.blocks_last.append(names[c][i])
+                        row.append(a.extract_many_shared(chunks[c], normals, names[c][i], c % SLOTS,
+                                                         None if held is None else held.name))
                     else:
-                        pieces = answers
-                        made += sum(_nbytes(p) for per in pieces for p in per)
-                    surfaces += [stitch(v, [per[j] for per in pieces], n_ids=self.n_ids, normals=normals)
-                                 for j, v in enumerate(chunk)]
-                finally:
-                    # the stitch copied what it kept (merge makes new arrays): no view on a block outlives it
-                    pieces = answers = None
-                    for shm in blocks:
-                        with contextlib.suppress(BufferError):  # a view held by a traceback: closed when freed
-                            shm.close()
+                        row.append(a.extract_many(chunks[c], normals))
+                except Exception as e:  # noqa: BLE001  dask: "Worker holding Actor was lost"
+                    raise _Lost(i, e) from e
+            sent[c] = time.perf_counter()
+
+        try:
+            for c in range(min(SLOTS, len(chunks)) if shared else len(chunks)):
+                send(c)
+            surfaces, made = [], 0
+            self.phases_last = {"wait_s": 0.0, "stitch_s": 0.0, "calls": []}
+            for c, chunk in enumerate(chunks):
+                t0 = time.perf_counter()
+                answers = self._gather(calls[c], what="query")
+                t1 = time.perf_counter()
+                if shared:
+                    pieces = [self._mapped(i, c % SLOTS, answer) for i, answer in enumerate(answers)]
+                    made += sum(a["nbytes"] for a in answers)
+                    self.phases_last["calls"] += [a["timing"] | {"chunk": c, "partition": i, "sent": sent[c],
+                                                                 "waited": t0, "gathered": t1}
+                                                  for i, a in enumerate(answers)]
+                else:
+                    pieces = answers
+                    made += sum(_nbytes(p) for per in pieces for p in per)
+                # the stitch copies what it keeps (merge makes new arrays): no view on a block outlives it
+                surfaces += [stitch(v, [per[j] for per in pieces], n_ids=self.n_ids, normals=normals)
+                             for j, v in enumerate(chunk)]
+                pieces = answers = None
+                if shared and c + SLOTS < len(chunks):
+                    send(c + SLOTS)
                 self.phases_last["wait_s"] += t1 - t0
                 self.phases_last["stitch_s"] += time.perf_counter() - t1
             return surfaces, 0, made
         finally:
             if shared:
-                self._sweep(calls, names)
+                self._sweep([row for row in calls if row is not None], names)
+
+    def _mapped(self, i, slot, answer):
+        """Partition ``i``'s pieces in its block of ``slot``: views on the block, mapped here once (a block
+        named for the first time is mapped, its name unlinked at once, and the slot's former block closed)."""
+        from multiprocessing import shared_memory
+
+        held = self._maps.get((i, slot))
+        if held is None or held.name != answer["name"]:
+            shm = shared_memory.SharedMemory(name=answer["name"])
+            shm.unlink()  # the name goes; the block lives while this mapping and the worker's do
+            if held is not None:
+                with contextlib.suppress(BufferError):  # a view held by a traceback: closed when freed
+                    held.close()
+            self._maps[i, slot] = held = shm
+        return _views(held.buf, answer["pieces"])
 
     def _sweep(self, calls, names):
         """After a query: every call answered or failed, then every block name handed out unlinked (a query
@@ -463,7 +496,11 @@ class DaskPartitionedMethod:
         return self.extract_many([value], normals=normals)[0]
 
     def close(self):
-        """Release the actors (the partitions on the workers)."""
+        """Release the actors (the partitions on the workers) and the shared-memory blocks mapped here."""
+        for shm in self._maps.values():
+            with contextlib.suppress(BufferError):
+                shm.close()
+        self._maps = {}
         for f in self._futures:
             if f is not None:
                 f.release()
@@ -474,76 +511,141 @@ class DaskPartitionedMethod:
 class SharedMemoryPartition(PreparedPartition):
     """A partition on a worker of this machine: its pieces can travel through shared memory.
 
-    :meth:`extract_many_shared` writes the pieces' arrays into one POSIX
-    shared-memory block named by the client and returns only where each
-    array lies; the client maps the block, stitches from it and unlinks it
-    (:func:`_open_shared`). Measured on 2M in two partitions (load ~10): the
-    pieces over TCP cost the client 0.15 s of CPU per 20 values (≈ 3 ms per
-    MB), about as much as its stitch.
+    :meth:`extract_many_shared` writes the pieces' arrays straight into a
+    POSIX shared-memory block (one per slot, kept from query to query and
+    grown when a chunk needs more) and returns only where each array lies;
+    the client maps each block once and stitches from it. A block made
+    anew each call cost its pages twice (zeroed on the worker's first touch,
+    faulted in on the client's) and a copy of every piece: measured on 2M in
+    two partitions, 0.046 s of the workers' CPU per 20 values, a quarter of
+    their extraction (``benchmarks/results/partitioned_overhead.md``).
 
-    Ownership: the block is the client's as soon as it exists; the worker
-    takes it off its own resource tracker once written (else the tracker
-    would unlink it at the worker's exit, or warn that it leaked). A worker
-    killed before that leaves it to its tracker, which unlinks it; after
-    that, to the client, which unlinks every name it handed out once the
-    query's calls have all answered or failed.
+    Ownership: a block is named by the client (a fresh name per call, used
+    only when a block is made); the worker takes it off its own resource
+    tracker once made, and the client unlinks the name as soon as it maps
+    it -- or, a block it never mapped (a query that failed), once the
+    query's calls have all answered or failed. The memory goes when the last
+    mapping closes (the worker's actor released, the client's ``close``).
+    The client says which block it holds for the slot (``mapped``): any
+    other means a new block, so the two sides never disagree on one.
     """
 
-    def extract_many_shared(self, values, normals, name):
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._blocks = {}  # slot -> its SharedMemory block
+
+    def extract_many_shared(self, values, normals, name, slot=0, mapped=None):
         from multiprocessing import resource_tracker, shared_memory
 
-        pieces = self.extract_many(values, normals)
-        specs, arrays, size = [], [], 0
-        for piece in pieces:
-            spec = {}
-            for k, v in piece.items():
-                if isinstance(v, np.ndarray):
-                    spec[k] = ("shm", size, v.dtype.str, v.shape)
-                    arrays.append((size, v))
-                    size += _pad(v)
-                elif k == "fallback" and v is not None:
-                    at = (size, size + _pad(v[0]))
-                    spec[k] = ("shm-pair",) + tuple((o, a.dtype.str, a.shape) for o, a in zip(at, v))
-                    arrays += list(zip(at, v))
-                    size = at[1] + _pad(v[1])
-                else:
-                    spec[k] = v
-            specs.append(spec)
-        shm = shared_memory.SharedMemory(name=name, create=True, size=max(size, 1))
-        try:
-            for off, a in arrays:
-                np.ndarray(a.shape, a.dtype, buffer=shm.buf, offset=off)[...] = a
-        finally:
-            shm.close()
-        resource_tracker.unregister(shm._name, "shared_memory")  # the client's now (it unlinks it)
-        return {"nbytes": sum(a.nbytes for _, a in arrays), "block_bytes": size, "pieces": specs}
+        t0, c0 = time.perf_counter(), time.thread_time()
+        with self._lock:
+            found = [self.surface(v) for v in values]
+            c1 = time.thread_time()
+            # the fallback rows (seam vertices touching only zero-area triangles) are copied in after
+            need = sum(self.piece_bytes_bound(iso, normals) + 32 * iso.vertices.shape[0] + 128 for iso, _ in found)
+            blocks = self._blocks
+            shm = blocks.get(slot)
+            fresh = shm is None or shm.name != mapped or shm.size < need
+            if fresh:
+                if shm is not None:
+                    with contextlib.suppress(BufferError):
+                        shm.close()
+                # room to grow: a sweep's chunks differ in size (untouched pages cost nothing)
+                shm = shared_memory.SharedMemory(name=name, create=True, size=need + need // 4 + 4096)
+                resource_tracker.unregister(shm._name, "shared_memory")  # the client unlinks it
+                blocks[slot] = shm
+            arena = _Arena(shm.buf)
+            pieces = [self._piece(iso, normals, arena.empty) | counters for iso, counters in found]
+            specs = [arena.spec(p) for p in pieces]
+            nbytes = arena.nbytes
+            pieces = arena = None
+        c2 = time.thread_time()
+        return {"name": shm.name, "nbytes": nbytes, "block_bytes": shm.size, "pieces": specs,
+                "timing": {"start": t0, "end": time.perf_counter(), "cpu_s": c2 - c0, "surface_cpu_s": c1 - c0,
+                           "piece_cpu_s": c2 - c1, "fresh": fresh}}
 
 
-def _pad(a):
-    """``a``'s bytes rounded up to 64 (each array of a block starts on a cache line)."""
-    return -(-a.nbytes // 64) * 64
+class _Arena:
+    """Arrays laid one after another in a shared-memory block (each on a 64-byte line)."""
+
+    def __init__(self, buf):
+        self.buf = buf
+        self.base = np.frombuffer(buf, np.uint8).ctypes.data
+        self.cap = len(buf)
+        self.size = 0
+        self.nbytes = 0
+
+    def empty(self, shape, dtype):
+        dtype = np.dtype(dtype)
+        shape = (shape,) if np.isscalar(shape) else tuple(shape)
+        nb = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+        off = self.size
+        if off + nb > self.cap:
+            raise PartitionError(f"a piece outgrew its shared-memory block ({off + nb} > {self.cap} bytes)")
+        self.size += -(-nb // 64) * 64
+        return np.ndarray(shape, dtype, buffer=self.buf, offset=off)
+
+    def _where(self, a):
+        """(offset, dtype, shape) of ``a`` in the block, copied in if it lies elsewhere (offset -1: empty)."""
+        if a.size == 0:
+            return -1, a.dtype.str, a.shape
+        off = a.ctypes.data - self.base
+        if not (a.flags.c_contiguous and 0 <= off and off + a.nbytes <= self.cap):
+            b = self.empty(a.shape, a.dtype)
+            b[...] = a
+            off = b.ctypes.data - self.base
+        self.nbytes += a.nbytes
+        return off, a.dtype.str, a.shape
+
+    def spec(self, piece):
+        out = {}
+        for k, v in piece.items():
+            if isinstance(v, np.ndarray):
+                out[k] = ("shm",) + self._where(v)
+            elif k == "fallback" and v is not None:
+                out[k] = ("shm-pair",) + tuple(self._where(a) for a in v)
+            else:
+                out[k] = v
+        return out
 
 
-def _open_shared(name, answer):
-    """The pieces written by :meth:`SharedMemoryPartition.extract_many_shared`: views on the mapped block,
-    which is unlinked at once (its name is gone; the mapping lives until the returned ``shm`` is closed)."""
-    from multiprocessing import shared_memory
-
-    shm = shared_memory.SharedMemory(name=name)
-    shm.unlink()
-    buf = shm.buf
+def _views(buf, specs):
+    """The pieces :meth:`SharedMemoryPartition.extract_many_shared` wrote: views on the mapped block."""
     pieces = []
-    for spec in answer["pieces"]:
+    for spec in specs:
         piece = {}
         for k, v in spec.items():
             if isinstance(v, tuple) and v and v[0] == "shm":
-                piece[k] = np.ndarray(v[3], np.dtype(v[2]), buffer=buf, offset=v[1])
+                piece[k] = _view(buf, *v[1:])
             elif isinstance(v, tuple) and v and v[0] == "shm-pair":
-                piece[k] = tuple(np.ndarray(sh, np.dtype(dt), buffer=buf, offset=off) for off, dt, sh in v[1:])
+                piece[k] = tuple(_view(buf, *w) for w in v[1:])
             else:
                 piece[k] = v
         pieces.append(piece)
-    return shm, pieces
+    return pieces
+
+
+def _view(buf, off, dtype, shape):
+    if off < 0:  # an empty array
+        return np.zeros(shape, np.dtype(dtype))
+    return np.ndarray(shape, np.dtype(dtype), buffer=buf, offset=off)
+
+
+def _chunked(values, size=None):
+    """``values`` in chunks of ``size``; by default ``CHUNKS`` chunks, the last one cut in halves down to one
+    value (4 -> 2, 1, 1): the client's stitch of the last chunk waits for nothing else, so it is kept short."""
+    if size:
+        return [values[i:i + size] for i in range(0, len(values), size)]
+    size = max(1, -(-len(values) // CHUNKS))
+    chunks = [values[i:i + size] for i in range(0, len(values), size)]
+    if chunks:
+        last, tail = chunks.pop(), []
+        while last:
+            h = -(-len(last) // 2) if len(last) > 2 else 1
+            tail.append(last[:h])
+            last = last[h:]
+        chunks += tail
+    return chunks
 
 
 def _unlink_quietly(name):

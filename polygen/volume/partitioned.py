@@ -79,7 +79,7 @@ from polygen.volume.thinning import ThinningWarning
 from polygen.volume.surface import IsoSurface, IsoSurfaceError, check_normals, check_value
 
 __all__ = ["PartitionedVolume", "PartitionedMethod", "PartitionError", "StitchedIsoSurface", "GLOBAL_IDS",
-           "stitch", "tree_stitch", "merge", "finish", "reduce_tree", "scale_model"]
+           "stitch", "tree_stitch", "merge", "finish", "reduce_tree", "scale_model", "span_weights"]
 
 #: the point array that numbers the nodes globally (as ParaView's D3 filter and VTK's redistribution name it)
 GLOBAL_IDS = "GlobalNodeId"
@@ -253,6 +253,11 @@ class PreparedPartition:
 
     def extract(self, value, normals="mean"):
         """This partition's part of the surface ``S = value``, vertices keyed by global id pairs (a dict)."""
+        iso, counters = self.surface(value)
+        return self._piece(iso, normals) | counters
+
+    def surface(self, value):
+        """This partition's :class:`IsoSurface` of ``value`` (local keys, no normals) and its counters."""
         # normals are made on the stitched surface (a seam vertex's triangles are on both sides): none here
         iso = self.method.extract(value, normals=None)
         # the method is complete on the partition when its theorems hold there; a piece of the surface it
@@ -274,12 +279,20 @@ class PreparedPartition:
             iso = _one_vertex_per_key(_concat(iso, extra, np.isin(extra.triangle_cells, iso.triangle_cells,
                                                                   invert=True)))
         t_seam = time.perf_counter() - t0
-        return self._piece(iso, normals) | {
-            "cells_tested": iso.cells_tested + tested, "seam_seeds": seam_seeds,
-            "cells_intersected": iso.cells_intersected, "vertex_lookups": iso.vertex_lookups,
-            "t1": iso.t1 + t_seam, "t2": iso.t2, "t3": iso.t3, "method": iso.method}
+        return iso, {"cells_tested": iso.cells_tested + tested, "seam_seeds": seam_seeds,
+                     "cells_intersected": iso.cells_intersected, "vertex_lookups": iso.vertex_lookups,
+                     "t1": iso.t1 + t_seam, "t2": iso.t2, "t3": iso.t3, "method": iso.method}
 
-    def _piece(self, iso, normals):
+    def piece_bytes_bound(self, iso, normals):
+        """An upper bound on the bytes :meth:`_piece` allocates with ``empty`` for ``iso`` (each array rounded
+        up to 64 bytes)."""
+        n, m = iso.vertices.shape[0], iso.triangles.shape[0]
+        ti = 4 if n < 2**31 else 8
+        ci = 4 if self._cells32 else 8
+        nb = [8 * n, 24 * n, 8 * n, 3 * ti * m, 8 * m, ci * m] + ([24 * n] if normals is not None else [])
+        return sum(-(-b // 64) * 64 for b in nb)
+
+    def _piece(self, iso, normals, empty=np.empty):
         """The arrays of a piece (see :func:`merge`): global keys, seam marks, this side's normals.
 
         A vertex both of whose edge nodes lie on another partition too may be
@@ -288,32 +301,41 @@ class PreparedPartition:
         final here (all its triangles are here, summed in the order the
         stitched surface lists them), and only the seam vertices and the
         triangles touching them (``seam``, ``seam_tris``) need the stitch.
+
+        ``empty(shape, dtype)`` allocates the arrays that travel (keys,
+        vertices, seam, triangles, seam_tris, triangle_cells, normals:
+        :meth:`piece_bytes_bound` bounds their bytes), so a worker can hand out
+        views on a shared-memory block written in place; ``seam`` and
+        ``seam_tris`` get their upper bound (``n``, ``m`` rows) and travel as
+        their first rows.
         """
         t0 = time.perf_counter()
         vol = self.vol
         n = iso.vertices.shape[0]
-        gkeys = np.empty(n, np.int64)
+        gkeys = empty(n, np.int64)
+        verts = empty((n, 3), np.float64)
+        verts[...] = iso.vertices
         seam = np.empty(n, np.bool_)
-        _global_keys(np.ascontiguousarray(iso.vertex_keys, np.int64), vol.edges, self.global_ids, self._shared_node,
-                     self.n_ids, gkeys, seam)
+        seam_at = empty(n, np.int64)
+        n_seam = _global_keys(np.ascontiguousarray(iso.vertex_keys, np.int64), vol.edges, self.global_ids,
+                              self._shared_node, self.n_ids, gkeys, seam, seam_at)
         tri_in = np.ascontiguousarray(iso.triangles, np.int64)
         m = tri_in.shape[0]
-        tri = np.empty((m, 3), np.int32 if n < 2**31 else np.int64)
-        seam_tris = np.empty(m, np.int64)
-        nrm = np.empty((n if normals is not None else 0, 3))
+        tri = empty((m, 3), np.int32 if n < 2**31 else np.int64)
+        seam_tris = empty(m, np.int64)
+        gcells = empty(m, np.int32 if self._cells32 else np.int64)
+        nrm = empty((n, 3), np.float64) if normals is not None else np.empty((0, 3))
         flat = np.zeros(n if normals is not None else 0, np.bool_)
-        n_seam_tris, n_flat = _piece_triangles(iso.vertices, tri_in, seam, tri, seam_tris, nrm, flat)
+        n_seam_tris, n_flat = _piece_triangles(verts, tri_in, seam, tri, seam_tris, nrm, flat)
+        _global_cells(np.ascontiguousarray(iso.triangle_cells, np.int64),
+                      np.zeros(0, np.int64) if self.cell_ids is None else self.cell_ids, self.cell_offset, gcells)
         fallback = None
         if normals is not None:
             fallback = (np.zeros(0, np.int64), np.zeros((0, 3)))
             if n_flat:
                 fallback = self._fallback(iso, gkeys, seam, nrm, flat)
-        cells = iso.triangle_cells
-        gcells = self.cell_ids[cells] if self.cell_ids is not None else cells + self.cell_offset
-        if self._cells32:
-            gcells = gcells.astype(np.int32)
-        return {"keys": gkeys, "vertices": iso.vertices, "normals": nrm if normals is not None else None,
-                "seam": np.flatnonzero(seam), "triangles": tri, "seam_tris": seam_tris[:n_seam_tris].copy(),
+        return {"keys": gkeys, "vertices": verts, "normals": nrm if normals is not None else None,
+                "seam": seam_at[:n_seam], "triangles": tri, "seam_tris": seam_tris[:n_seam_tris],
                 "triangle_cells": gcells, "fallback": fallback, "flat": int(flat.sum()),
                 "piece_s": time.perf_counter() - t0}
 
@@ -347,10 +369,12 @@ class PreparedPartition:
 
 
 @njit
-def _global_keys(keys, edges, gids, shared, n_ids, out, seam):
+def _global_keys(keys, edges, gids, shared, n_ids, out, seam, seam_at):
     """Global pair keys of a piece's vertices (``a * n_ids + b`` over the edge's global ids ``a < b``,
-    ``a * n_ids + a`` on node ``a``), and whether both nodes lie on another partition too (a seam vertex)."""
+    ``a * n_ids + a`` on node ``a``), whether both nodes lie on another partition too (a seam vertex), and
+    the seam vertices' indices in ascending order (``seam_at``; their count returned)."""
     ne = edges.shape[0]
+    ns = 0
     for v in range(keys.shape[0]):
         k = keys[v]
         if k < ne:
@@ -359,6 +383,22 @@ def _global_keys(keys, edges, gids, shared, n_ids, out, seam):
             a = b = k - ne
         out[v] = gids[a] * n_ids + gids[b]
         seam[v] = shared[a] and shared[b]
+        if seam[v]:
+            seam_at[ns] = v
+            ns += 1
+    return ns
+
+
+@njit
+def _global_cells(cells, cell_ids, offset, out):
+    """Global cell ids of a piece's triangles: ``cell_ids[cells]`` (a split volume's), else ``cells + offset``
+    (pieces from files, numbered piece after piece), in ``out``'s dtype."""
+    if cell_ids.shape[0] > 0:
+        for t in range(cells.shape[0]):
+            out[t] = cell_ids[cells[t]]
+    else:
+        for t in range(cells.shape[0]):
+            out[t] = cells[t] + offset
 
 
 @njit
@@ -405,9 +445,12 @@ def _piece_triangles(vertices, triangles, seam, tri_out, seam_tris, nrm, flat):
 
 
 @njit
-def _take_kept(keys, vertices, normals, keep, out_keys, out_vertices, out_normals, row0):
-    """Rows ``keep`` (all when ``keep`` is empty) of a piece's keys, vertices and normals (when
-    ``normals`` has rows) written from ``row0`` on; the next free row."""
+def _merge_piece(keys, vertices, normals, keep, tri, cells, new_index, out_keys, out_vertices, out_normals,
+                 out_tri, out_cells, row0, tri0):
+    """One piece written into the merged arrays in one pass: its kept vertices (``keep``; all when empty)
+    with their keys and normals (when ``normals`` has rows) from row ``row0`` on, its triangles in the merged
+    numbering (``new_index[v]``, or ``row0 + v`` when ``new_index`` is empty: nothing dropped) and global
+    cell ids from row ``tri0`` on, in the merged arrays' dtypes. Returns the next free vertex row."""
     r = row0
     every = keep.shape[0] == 0
     with_normals = normals.shape[0] > 0
@@ -420,15 +463,12 @@ def _take_kept(keys, vertices, normals, keep, out_keys, out_vertices, out_normal
                 for d in range(3):
                     out_normals[r, d] = normals[i, d]
             r += 1
-    return r
-
-
-@njit
-def _remap_triangles(tri, new_index, out, row0):
-    """``out[row0 + t] = new_index[tri[t]]``: a piece's triangles in the merged numbering."""
+    mapped = new_index.shape[0] > 0
     for t in range(tri.shape[0]):
         for d in range(3):
-            out[row0 + t, d] = new_index[tri[t, d]]
+            out_tri[tri0 + t, d] = new_index[tri[t, d]] if mapped else row0 + tri[t, d]
+        out_cells[tri0 + t] = cells[t]
+    return r
 
 
 @njit
@@ -602,37 +642,38 @@ def merge(pieces, *, n_ids):
     for i, p in enumerate(pieces):
         here = sowner == i
         gone = sidx[here & dup]
+        kept_here = here & ~dup
         if gone.size:
             keep = np.ones(sizes[i], bool)
             keep[gone] = False
             new = base + np.cumsum(keep) - 1
             new[gone] = first_new[inv[here & dup]]  # kept by an earlier piece
+            first_new[inv[kept_here]] = new[sidx[kept_here]]
             base += sizes[i] - gone.size
-        else:
-            keep = None
-            new = np.arange(base, base + sizes[i])
+        else:  # nothing dropped: vertex v goes to row base + v (no map made)
+            keep = new = None
+            first_new[inv[kept_here]] = base + sidx[kept_here]
             base += sizes[i]
-        kept_here = here & ~dup
-        first_new[inv[kept_here]] = new[sidx[kept_here]]
         maps.append(new)
         keeps.append(keep)
 
-    # the kept vertices of every piece, in piece order, copied in one pass each (new arrays, never a
-    # piece's: finish writes the seam normals into them, and pieces may be views on shared memory)
+    # every piece written into the merged arrays in one pass each, in piece order: its kept vertices, its
+    # triangles renumbered, its cell ids (new arrays, never a piece's: finish writes the seam normals into
+    # them, and pieces may be views on shared memory)
     with_normals = pieces[0].get("normals") is not None
     keys, verts = np.empty(base, np.int64), np.empty((base, 3))
     nrm = np.empty((base, 3)) if with_normals else None
-    no_keep, no_nrm = np.zeros(0, np.bool_), np.zeros((0, 3))
-    row0 = 0
-    for p, kp in zip(pieces, keeps):
-        row0 = _take_kept(p["keys"], p["vertices"], p["normals"] if with_normals else no_nrm,
-                          no_keep if kp is None else kp, keys, verts, nrm if with_normals else no_nrm, row0)
+    no_keep, no_map, no_nrm = np.zeros(0, np.bool_), np.zeros(0, np.int64), np.zeros((0, 3))
     tri_sizes = [p["triangles"].shape[0] for p in pieces]
     tri_off = np.cumsum([0] + tri_sizes)
     tri = np.empty((tri_off[-1], 3), np.int64)
-    for p, new, row0 in zip(pieces, maps, tri_off[:-1]):
-        _remap_triangles(p["triangles"], new, tri, row0)
-    tcell = np.concatenate([p["triangle_cells"] for p in pieces], dtype=np.int64)
+    tcell = np.empty(tri_off[-1], np.int64)
+    row0 = 0
+    for p, kp, new, t0_ in zip(pieces, keeps, maps, tri_off[:-1]):
+        row0 = _merge_piece(p["keys"], p["vertices"], p["normals"] if with_normals else no_nrm,
+                            no_keep if kp is None else kp, p["triangles"], p["triangle_cells"],
+                            no_map if new is None else new, keys, verts, nrm if with_normals else no_nrm,
+                            tri, tcell, row0, int(t0_))
     seam_tris = np.concatenate([p["seam_tris"] + o for p, o in zip(pieces, tri_off[:-1])]).astype(np.int64, copy=False)
     seam = np.sort(first_new)
     # the shared-face-at-C triangles: all three vertices on nodes (seam vertices), made by a cell on each side
@@ -815,7 +856,7 @@ class PartitionedVolume:
                f"{', ...' if self.n_partitions > 4 else ''})"
 
     @classmethod
-    def split(cls, vol, k):
+    def split(cls, vol, k, *, weights=None):
         """``vol`` in ``k`` partitions: contiguous ranges of its cells along a Morton curve.
 
         Global node and cell ids are ``vol``'s own; each partition holds its
@@ -827,6 +868,12 @@ class PartitionedVolume:
         vol : UnstructuredVolume
         k : int
             Number of partitions, ``1 <= k <= vol.n_cells``.
+        weights : (n_cells,) array_like of float, optional, keyword-only
+            Each cell's expected work: the ranges are cut where the running
+            sum of weights along the curve passes ``i / k`` of the total
+            (each range keeps at least one cell). Default: every cell the same
+            (ranges of equal cell counts). :func:`span_weights` gives a sweep's
+            expected work (a partition's workers finish together).
         """
         if not isinstance(vol, UnstructuredVolume):
             raise PartitionError(f"expected an UnstructuredVolume; got {type(vol).__name__}")
@@ -837,8 +884,23 @@ class PartitionedVolume:
         scale = (2**21 - 1) / span if span > 0 else 0.0
         order = np.argsort(_topo.morton_codes(_topo.cell_centroids(vol.points, vol.cells), lo, scale),
                            kind="stable")
+        if weights is None:
+            chunks = np.array_split(order, int(k))
+        else:
+            w = np.asarray(weights, np.float64)
+            if w.shape != (vol.n_cells,) or not np.all(np.isfinite(w)) or (w.size and w.min() < 0):
+                raise PartitionError(f"weights must be {vol.n_cells} finite non-negative numbers (one per cell); "
+                                     f"got shape {w.shape}")
+            cw = np.cumsum(w[order])
+            if not cw.size or cw[-1] <= 0:
+                chunks = np.array_split(order, int(k))
+            else:
+                cuts = np.searchsorted(cw, cw[-1] * np.arange(1, k) / k, side="right")
+                # at least one cell per range: cuts strictly increasing, cut i in i .. n - k + i
+                d = np.minimum(np.maximum.accumulate(np.maximum(cuts - np.arange(1, k), 0)), vol.n_cells - k)
+                chunks = np.split(order, d + np.arange(1, k))
         pieces = []
-        for i, chunk in enumerate(np.array_split(order, int(k))):
+        for i, chunk in enumerate(chunks):
             chunk = np.sort(chunk)  # the volume's own cell order inside a partition (a cache's is Morton already)
             cells = vol.cells[chunk]
             nodes = np.unique(cells)
@@ -970,6 +1032,20 @@ def _check_normals(normals):
     if normals == "gradient":
         raise IsoSurfaceError("normals='gradient' is not available across partitions (a seam node's gradient "
                               "needs the cells of both sides); use 'mean' or None")
+
+
+def span_weights(vol, field=None):
+    """(n_cells,) float64: each cell's field range (max - min over its nodes), for :meth:`PartitionedVolume.split`.
+
+    A surface ``S = C`` crosses a cell when ``C`` lies inside its range, so
+    over a sweep of values spread evenly over the field's range a cell is
+    crossed in proportion to its range: cut by these weights, the partitions
+    share a sweep's extraction evenly (cut by cell counts, the busiest of two
+    partitions of 2M and 10M did 8-9 % more than the mean,
+    ``benchmarks/results/partitioned*.md``).
+    """
+    s = vol.scalars(field)[vol.cells]
+    return s.max(axis=1) - s.min(axis=1)
 
 
 # ----------------------------------------------------------------- a model on paper
