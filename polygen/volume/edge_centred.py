@@ -79,6 +79,7 @@ import time
 
 import numpy as np
 
+from polygen import _jit
 from polygen._jit import parallel_kernels_may_overlap
 from polygen.volume import _edge_centred_kernels as _k
 from polygen.volume import _edge_walk_kernels as _w
@@ -502,16 +503,16 @@ class EdgeCentredTable:
                 cap = 2 * self._vkey.shape[0]
                 self._vkey = np.empty(cap, np.int32)
                 self._vend = np.empty((cap, 2), np.int32)
-        tri = self._tris[:n_t].astype(np.int64)
-        tri_cell = self._tri_cell[:n_t].astype(np.int64)
-        keys = self._vkey[:n_v].astype(np.int64)
+        tri = _jit.astype(self._tris[:n_t], np.int64)
+        tri_cell = _jit.astype(self._tri_cell[:n_t], np.int64)
+        keys = _jit.astype(self._vkey[:n_v], np.int64)
         vend = self._vend[:n_v]
         tri, tri_cell, keys, vend, collapsed = _drop_at_nodes(any_node, tri, tri_cell, keys, vend, self.n_edges)
         n_v = keys.shape[0]
         t2 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
-        vertices = np.empty((n_v, 3))
+        vertices = _jit.empty((n_v, 3))
         if n_v:
             _k.positions(np.ascontiguousarray(vend), n_v, self.points, self.s, value, vertices)
         nrm = vertex_normals(normals, vertices, tri, keys, edges=np.ascontiguousarray(self.vol.edges), s=self.s,
@@ -631,9 +632,9 @@ class EdgeCentredTable:
         v_base = np.zeros(threads + 1, np.int64)
         v_base[1:] = np.cumsum(counters[:, 1])
         n_t, n_v = int(t_base[-1]), int(v_base[-1])
-        tri = np.empty((n_t, 3), np.int64)
-        tri_cell_out = np.empty(n_t, np.int64)
-        keys = np.empty(n_v, np.int64)
+        tri = _jit.empty((n_t, 3), np.int64)
+        tri_cell_out = _jit.empty(n_t, np.int64)
+        keys = _jit.empty(n_v, np.int64)
         ends = np.empty((n_v, 2), np.int32)
         _k.gather_parallel(tris, tri_cell, vkey, vend, counters, t_base, v_base, tri, tri_cell_out, keys, ends)
         n_node_v = int(counters[:, 7].sum())
@@ -643,7 +644,7 @@ class EdgeCentredTable:
         t2 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
-        vertices = np.empty((n_v, 3))
+        vertices = _jit.empty((n_v, 3))
         mean_kernel = None
         if n_t >= self.STAGE3_PARALLEL_TRIANGLES:  # positions and mean normals by the threads too
             if n_v:

@@ -70,6 +70,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from polygen import _jit
 from polygen.volume import marching as _m
 from polygen.volume import registry as _registry
 from polygen.volume.mesh import UnstructuredVolume, VolumeError
@@ -661,13 +662,13 @@ def merge(pieces, *, n_ids):
     # triangles renumbered, its cell ids (new arrays, never a piece's: finish writes the seam normals into
     # them, and pieces may be views on shared memory)
     with_normals = pieces[0].get("normals") is not None
-    keys, verts = np.empty(base, np.int64), np.empty((base, 3))
-    nrm = np.empty((base, 3)) if with_normals else None
+    keys, verts = _jit.empty(base, np.int64), _jit.empty((base, 3))
+    nrm = _jit.empty((base, 3)) if with_normals else None
     no_keep, no_map, no_nrm = np.zeros(0, np.bool_), np.zeros(0, np.int64), np.zeros((0, 3))
     tri_sizes = [p["triangles"].shape[0] for p in pieces]
     tri_off = np.cumsum([0] + tri_sizes)
-    tri = np.empty((tri_off[-1], 3), np.int64)
-    tcell = np.empty(tri_off[-1], np.int64)
+    tri = _jit.empty((tri_off[-1], 3), np.int64)
+    tcell = _jit.empty(tri_off[-1], np.int64)
     row0 = 0
     for p, kp, new, t0_ in zip(pieces, keeps, maps, tri_off[:-1]):
         row0 = _merge_piece(p["keys"], p["vertices"], p["normals"] if with_normals else no_nrm,

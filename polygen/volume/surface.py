@@ -17,6 +17,7 @@ import time
 
 import numpy as np
 
+from polygen import _jit
 from polygen.volume import io as _io
 from polygen.volume import marching as _m
 from polygen.volume.errors import IsoSurfaceError
@@ -473,7 +474,7 @@ def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad, 
     """
     if normals is None:
         return None
-    nrm = np.empty_like(vertices)
+    nrm = _jit.empty(vertices.shape, vertices.dtype)
     if vertices.shape[0]:
         if normals == "mean":
             (_m._mean_normals if mean_kernel is None else mean_kernel)(vertices, tri, nrm)
