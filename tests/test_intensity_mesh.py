@@ -467,3 +467,49 @@ def test_width_floor_checked():
     with pytest.raises(MeshError, match="width_floor"):
         intensity_bubble_mesh(scenes.three_rectangles_box(), size_initial=4.0, size_min=8.0,
                               size_max=2.0, width_floor=0.0, segments={})
+
+
+def test_narrow_lines_keep_d0_and_narrow_penumbrae():
+    """A square with a D0 line, a penumbra band 0.3 wide, one 3 wide and a wedge 0.1 -> 1.5
+    wide; patch size 1, elements 0.5: the D0 line and the narrow band's lines kept whole, the
+    wide band's dropped, the wedge's straight side kept where the wedge is narrower than 0.5
+    (the chord across it, 0.1 + 0.14 y, is under 0.5 for y < 2.857), up to one piece."""
+    from polygen.discontinuity.combined import narrow_lines
+    from polygen.radiosity.layout import Segments
+    from polygen.radiosity.scene import Polygon
+
+    poly = Polygon(np.array([[0, 0, 0], [20, 0, 0], [20, 10, 0], [0, 10, 0]], float), name="sq")
+
+    def seg(x0, y0, x1, y1):
+        return [[x0, y0, 0.0], [x1, y1, 0.0]]
+
+    ends = [seg(1, 0, 1, 10), seg(2, 0, 2, 10), seg(2.3, 0, 2.3, 10), seg(6, 0, 6, 10),
+            seg(9, 0, 9, 10), seg(12, 0, 12, 10), seg(12.1, 0, 13.5, 10)]
+    kinds = ["D0", "D1", "D1", "D1", "D1", "D1", "D1"]
+    found = Segments(np.array(ends), kinds)
+    pen = poly.to_2d(np.array([[2.15, 5, 0], [7.5, 5, 0], [12.3, 5, 0]]))
+    step = 0.25
+    kept = narrow_lines(poly, found, found, pen, 1.0, step=step, element_levels=1)
+    e3 = poly.to_3d(kept.ends.reshape(-1, 2)).reshape(-1, 2, 3)
+    x = e3[..., 0]
+    kinds = np.asarray(kept.kinds)
+    length = np.linalg.norm(e3[:, 1] - e3[:, 0], axis=1)
+
+    def total(x0, kind="D1"):
+        on = np.all(np.abs(x - x0) < 1e-9, axis=1) & (kinds == kind)
+        return length[on].sum(), e3[on]
+
+    assert total(1.0, "D0")[0] == pytest.approx(10.0)
+    assert total(2.0)[0] == pytest.approx(10.0) and total(2.3)[0] == pytest.approx(10.0)
+    assert total(6.0)[0] == 0.0 and total(9.0)[0] == 0.0
+    wedge, pieces = total(12.0)
+    assert abs(wedge - (0.5 - 0.1) / 0.14) <= step
+    assert pieces[..., 1].min() == pytest.approx(0.0)
+    # a piece of the wedge's slanted side is kept only where the chord is narrow too
+    slanted = ~np.any(np.abs(x - np.round(x, 1)) < 1e-9, axis=1)
+    assert np.all(e3[slanted][..., 1] < 3.6)
+    # nothing narrow: nothing kept but D0
+    wide = narrow_lines(poly, found, found, pen, 0.1, step=step)
+    assert list(np.asarray(wide.kinds)) == ["D0"]
+    with pytest.raises(MeshError, match="step"):
+        narrow_lines(poly, found, found, pen, 1.0, step=0.0)
