@@ -513,3 +513,43 @@ def test_narrow_lines_keep_d0_and_narrow_penumbrae():
     assert list(np.asarray(wide.kinds)) == ["D0"]
     with pytest.raises(MeshError, match="step"):
         narrow_lines(poly, found, found, pen, 1.0, step=0.0)
+
+
+def test_size_grids_per_region_of_other_layouts(cut):
+    """``layouts=``: the mesh's own layouts give the same grids; no layouts (every line
+    dropped) one grid per polygon; a subset of the lines one grid per region of the subset,
+    within the sizes of the nodes of the mesh's regions inside it."""
+    from polygen.radiosity.layout import RegionSize, Segments, polygon_layout
+
+    sd, m = cut
+    sizes = 0.5 + (np.arange(m.n_nodes) % 5) * 0.3
+    own = polygon_size_grids(m, sizes, grid=0.5)
+    same = polygon_size_grids(m, sizes, grid=0.5, layouts=m.layouts)
+    for a, b in zip(own, same):
+        if isinstance(a, RegionSize):
+            assert len(a.sizes) == len(b.sizes) and np.array_equal(a.at, b.at)
+            for ga, gb in zip(a.sizes, b.sizes):
+                assert np.array_equal(np.asarray(getattr(ga, "values", ga)),
+                                      np.asarray(getattr(gb, "values", gb)))
+    none = polygon_size_grids(m, sizes, grid=0.5, layouts=[None] * len(m.scene.polygons))
+    assert not any(isinstance(g, RegionSize) for g in none)
+    k = max(sd.segments, key=lambda k: len(sd.segments[k]))   # the floor: most lines
+    poly = m.scene.polygons[k]
+    ends, kinds = sd.segments[k].in_plane(poly)
+    kinds = list(np.broadcast_to(np.asarray(kinds), (len(ends),)))
+    for j in range(1, len(ends)):   # the fewest first lines that cut the floor in two or more
+        sub = polygon_layout(poly, Segments(ends[:j], kinds[:j]))
+        if sub.n_regions >= 2:
+            break
+    assert 2 <= sub.n_regions < m.layouts[k].n_regions
+    lays = [None] * len(m.scene.polygons)
+    lays[k] = sub
+    g = polygon_size_grids(m, sizes, grid=0.5, layouts=lays)[k]
+    assert isinstance(g, RegionSize) and len(g.sizes) == sub.n_regions
+    xy, tris, el, nodes = m.polygon_elements(k)
+    reg = sub.region_of(m.layouts[k].region_point)[m.element_region[el]]
+    for gr, at in zip(g.sizes, g.at):
+        r = sub.region_of(at[None])[0]
+        ns = sizes[nodes[np.unique(tris[reg == r])]]
+        vals = np.asarray(getattr(gr, "values", [gr]))
+        assert vals.min() >= ns.min() - 1e-12 and vals.max() <= ns.max() + 1e-12
