@@ -38,6 +38,7 @@ smallest angle) is recorded too.  Writes
     python benchmarks/intensity_mesh.py [--image 160] [--quick]
     python benchmarks/intensity_mesh.py --fine-first
     python benchmarks/intensity_mesh.py --only plate
+    python benchmarks/intensity_mesh.py --only narrow
     python benchmarks/intensity_mesh.py --calibrate
 
 ``--only plate`` runs only the plate row: the first mesh and radiosity at ``size_initial``
@@ -45,6 +46,12 @@ smallest angle) is recorded too.  Writes
 3 (wall and CPU), and its phases one by one (IDW, element matrix, nested-dissection order,
 free-DOF CSC assembly with the held values' right-hand side, SuperLU factorisation, solve);
 writes ``intensity_mesh_plate.json``.
+
+``--only narrow`` (issue 15) runs only the combination with ``lines="narrow"`` (D0 lines, and
+D1 lines only where the penumbra they bound is narrower than the element the first pass's size
+grid asks there; criterion fixed before measuring), with and without the width cap, at the
+combination's settings, and compares it with both parents' curves of the last full run (and
+of ``--fine-first``) by ``error_at_elements``; writes ``intensity_mesh_narrow.json`` and ``.md``.
 
 ``--calibrate`` (issue 15) anchors Table 4.1's second mesh to the thesis by a rule fixed
 before any quality or error was measured at its result: the thesis's second mesh keeps
@@ -497,7 +504,7 @@ def narrow_only(sc, cam, solve, args):
                   ["table", "mesh", "first_elements", "elements", "rms_error", "this method",
                    "this method, fine first too", "simplified DM", "lines", "pieces_kept", "mean_q", "min_angle", "seconds"],
                   title="The combination with lines='narrow' (issue 15) against both parents",
-                  notes=[narrow_only.__doc__.split("\n\n")[1].replace("\n", " ").strip(),
+                  notes=[" ".join(narrow_only.__doc__.split("\n\n")[1].split()),
                          "lines: merged lines of the first mesh; pieces_kept: D0 lines and "
                          "kept D1 pieces (step: the finest element) of the second mesh",
                          "this method, simplified DM: that parent's error interpolated at the "
