@@ -294,6 +294,34 @@ def test_combined_loop_keeps_the_lines(cut):
                              discontinuity=sd, segments={})
 
 
+@pytest.mark.slow
+def test_combined_loop_narrow_lines(cut):
+    """lines="narrow": the first mesh keeps all the merged lines, the second only the chosen
+    pieces (fewer, none outside the merged lines' polygons), with its regions cut by them."""
+    from polygen.discontinuity.combined import combined_bubble_mesh
+    from polygen.radiosity.mesh import MeshError as _ME
+
+    sd, _ = cut
+    r = combined_bubble_mesh(sd.scene, size_initial=4.0, size_min=8.0, size_max=2.0,
+                             solve={"tol": 0.05}, discontinuity=sd, lines="narrow")
+    lines, kept = r.parameters["segments"], r.parameters["second_segments"]
+    assert r.parameters["lines"] == "narrow" and set(kept) <= set(lines)
+    assert 0 < sum(len(s) for s in kept.values())
+
+    def length(d):
+        return sum(float(np.linalg.norm(s.ends[:, 1] - s.ends[:, 0], axis=-1).sum())
+                   for s in d.values())
+
+    assert length(kept) < length(lines)
+    for k in lines:
+        n1 = len(np.unique(r.first_mesh.element_region[r.first_mesh.element_polygon == k]))
+        n2 = len(np.unique(r.second_mesh.element_region[r.second_mesh.element_polygon == k]))
+        assert n1 > 1 and n2 <= n1
+    with pytest.raises(_ME, match="lines"):
+        combined_bubble_mesh(sd.scene, size_initial=4.0, size_min=8.0, size_max=2.0,
+                             discontinuity=sd, lines="some")
+
+
 #: Table 4.1's size_min, anchored to the thesis before measuring quality or error: the
 #: bisection of ``benchmarks/intensity_mesh.py --calibrate`` (results/intensity_mesh_calibrate.md)
 #: on the thesis's second / first element ratio, 1396 / 1976 = 0.706, rounded to 0.05.
