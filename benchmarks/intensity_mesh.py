@@ -38,6 +38,7 @@ smallest angle) is recorded too.  Writes
     python benchmarks/intensity_mesh.py [--image 160] [--quick]
     python benchmarks/intensity_mesh.py --fine-first
     python benchmarks/intensity_mesh.py --only plate
+    python benchmarks/intensity_mesh.py --only narrow
     python benchmarks/intensity_mesh.py --calibrate
 
 ``--only plate`` runs only the plate row: the first mesh and radiosity at ``size_initial``
@@ -45,6 +46,12 @@ smallest angle) is recorded too.  Writes
 3 (wall and CPU), and its phases one by one (IDW, element matrix, nested-dissection order,
 free-DOF CSC assembly with the held values' right-hand side, SuperLU factorisation, solve);
 writes ``intensity_mesh_plate.json``.
+
+``--only narrow`` (issue 15) runs only the combination with ``lines="narrow"`` (D0 lines, and
+D1 lines only where the penumbra they bound is narrower than the element the first pass's size
+grid asks there; criterion fixed before measuring), with and without the width cap, at the
+combination's settings, and compares it with both parents' curves of the last full run (and
+of ``--fine-first``) by ``error_at_elements``; writes ``intensity_mesh_narrow.json`` and ``.md``.
 
 ``--calibrate`` (issue 15) anchors Table 4.1's second mesh to the thesis by a rule fixed
 before any quality or error was measured at its result: the thesis's second mesh keeps
@@ -248,8 +255,9 @@ def main(argv=None):
                     help="only the loop from a finer first mesh and its adaptive re-mesh")
     ap.add_argument("--calibrate", action="store_true",
                     help="only the bisection of Table 4.1's size_min on the thesis's ratio")
-    ap.add_argument("--only", choices=["plate"],
-                    help="only this row (plate: the 200 x 200 size grid, by phase)")
+    ap.add_argument("--only", choices=["plate", "narrow"],
+                    help="only this row (plate: the 200 x 200 size grid, by phase; narrow: "
+                         "the combination with lines='narrow' against the parents' curves)")
     args = ap.parse_args(argv)
     solve = {"tol": args.tol, "ambient": True}
     sc = scenes.three_rectangles_box()
@@ -260,6 +268,8 @@ def main(argv=None):
         return calibrate(sc, solve, args)
     if args.only == "plate":
         return plate_only(sc, solve, args)
+    if args.only == "narrow":
+        return narrow_only(sc, cam, solve, args)
     sizes = [4.0] if args.quick else [2.4, 1.7]
     main_size = 4.0 if args.quick else 1.7
     SWEEP = (2.0, 1.5)   # size_min / size_initial besides Table 4.1's (2.0: the earlier setting)
@@ -431,6 +441,80 @@ def main(argv=None):
          "quality": quals, "discontinuity_timings": sd.timings, "combination_vs_parents": versus,
          "reference_elements": ref_mesh.n_elements, "reference_seconds": t_ref,
          "rows": rows}, indent=2) + "\n")
+
+
+def narrow_only(sc, cam, solve, args):
+    """The combination with ``lines="narrow"`` (issue 15), with and without the width cap.
+
+    The criterion, fixed before measuring: D0 lines always; D1 lines only on the stretches
+    where the penumbra they bound is narrower than the element the first pass's size grid
+    asks there (:func:`polygen.discontinuity.combined.narrow_lines`).  The combination's
+    settings (size_initial 2.4, 1.7, the size_min sweep at 1.7); the parents' curves (this
+    method with its sweep, simplified DM) are the full run's (``intensity_mesh.json``, same
+    scene, parameters, reference and seeds: deterministic), each interpolated in log-log at
+    the combination's element count (``error_at_elements``).
+    """
+    full = json.loads((RESULTS / "intensity_mesh.json").read_text())
+    curves = full["curves"]
+    parents = {"this method": sorted((p["n_elements"], p["error"]) for p in
+                                     curves["intensity"] + curves["intensity, other size_min"]),
+               "simplified DM": sorted((p["n_elements"], p["error"])
+                                       for p in curves["simplified DM"])}
+    # notebook 04's curve of this method: with the fine first mesh's points (--fine-first)
+    fine = json.loads((RESULTS / "intensity_mesh_fine_first.json").read_text())["rows"]
+    parents["this method, fine first too"] = sorted(parents["this method"] + [
+        (r["elements"], r["rms_error"]) for r in fine if r["mesh"].startswith("this method")])
+    sd = simplified_discontinuity(sc)
+    main_size, rows, runs = 1.7, [], []
+    for cap in (True, False):
+        for si, f in ((2.4, SIZE_MIN_RATIO), (1.7, SIZE_MIN_RATIO), (1.7, 2.0), (1.7, 1.5)):
+            first = None if f == SIZE_MIN_RATIO else base
+            q = combined_bubble_mesh(sc, size_initial=si, size_min=f * si, size_max=si / 2,
+                                     solve=solve, discontinuity=sd, improve=IMPROVE,
+                                     width_cap=cap, lines="narrow", first=first)
+            if si == main_size and f == SIZE_MIN_RATIO:
+                base = q
+            label = (f"combination {si:g}" + ("" if f == SIZE_MIN_RATIO else
+                                              f", size_min {f:g} x")
+                     + (", width cap" if cap else ", no cap") + ", narrow lines")
+            print(f"{label}: {q.first_mesh.n_elements} -> {q.second_mesh.n_elements} "
+                  f"elements, {q.total_seconds:.1f} s", flush=True)
+            runs.append((label, q))
+    ref_mesh = mesh_scene(sc, 1.1, element_levels=2)
+    reference = shade(ref_mesh, progressive_refinement(ref_mesh, **solve).display_radiosity(
+        ref_mesh), cam)
+    assert ref_mesh.n_elements == full["reference_elements"]
+    for label, q in runs:
+        p = loop_point(label, q, cam, reference)
+        n_all = sum(len(v) for v in q.parameters["segments"].values())
+        n_kept = sum(len(v) for v in q.parameters["second_segments"].values())
+        row = {"table": "narrow lines vs parents", "mesh": label,
+               "first_elements": q.first_mesh.n_elements, "elements": p.n_elements,
+               "rms_error": round(p.error, 5), "lines": n_all, "pieces_kept": n_kept,
+               "seconds": round(p.seconds, 1)}
+        row["mean_q"], row["min_angle"] = quality(q.second_mesh)
+        for name, curve in parents.items():
+            e = error_at_elements(curve, p.n_elements)
+            row[name] = None if e is None else round(e, 5)
+        rows.append(row)
+        print(row, flush=True)
+    if args.quick:
+        return
+    write_results("intensity_mesh_narrow", rows,
+                  ["table", "mesh", "first_elements", "elements", "rms_error", "this method",
+                   "this method, fine first too", "simplified DM", "lines", "pieces_kept", "mean_q", "min_angle", "seconds"],
+                  title="The combination with lines='narrow' (issue 15) against both parents",
+                  notes=[" ".join(narrow_only.__doc__.split("\n\n")[1].split()),
+                         "lines: merged lines of the first mesh; pieces_kept: D0 lines and "
+                         "kept D1 pieces (step: the finest element) of the second mesh",
+                         "this method, simplified DM: that parent's error interpolated at the "
+                         "combination's element count (empty: outside its curve's range); "
+                         "'this method, fine first too': its curve with the --fine-first points "
+                         "(intensity_mesh_fine_first.json), as notebook 04 compares",
+                         f"load average at the end: {os.getloadavg()[0]:.1f} on "
+                         f"{os.cpu_count()} CPUs"])
+    (RESULTS / "intensity_mesh_narrow.json").write_text(json.dumps(
+        {"machine": machine(), "rows": rows, "parents": parents}, indent=2) + "\n")
 
 
 #: Table 4.1's second / first element ratio in the thesis (1396 / 1976).

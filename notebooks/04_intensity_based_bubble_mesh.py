@@ -500,6 +500,17 @@ plt.show()
 #   simplified DM's 0.040; 1720 with 0.029 against simplified DM's 0.033. So the combination
 #   beat simplified DM but not this method without the cap, and beats neither with it;
 #   `combined_bubble_mesh(width_cap=False)` gives the uncapped meshes.
+# * **Keeping only the lines of narrow penumbrae does not change that.** The hypothesis and
+#   its criterion, fixed before measuring: under an area light a penumbra wider than the
+#   elements is a smooth ramp that the size grid resolves, so `combined_bubble_mesh(lines=
+#   "narrow")` keeps the D0 lines, and the D1 lines only on the stretches where the penumbra
+#   they bound is narrower than the element the first pass's size grid asks there
+#   (`narrow_lines`). At the same settings it saves 11–23 % of the elements at about the same
+#   error (width-capped: 2096 elements with 0.0399 instead of 2352 with 0.0399; 2808 with
+#   0.0196 instead of 3664 with 0.0177) and beats simplified DM at 4 of its 6 points within
+#   that curve (2808: 0.0196 against 0.0224; uncapped, 1736: 0.0307 against 0.0331), but this
+#   method at none of its 8 (2808: 0.0196 against 0.0158; uncapped, 1400: 0.0348 against
+#   0.0310), so the default stays `lines="all"` (`benchmarks/results/intensity_mesh_narrow.md`).
 # * **What the default run shows**: nothing about error. This notebook's run solves the
 #   meshes at `size_initial` 2.4 but has no reference solution (the benchmark's, 19328
 #   elements, takes 4–6 minutes here), so the curves are the benchmark's stored ones, and no

@@ -294,6 +294,34 @@ def test_combined_loop_keeps_the_lines(cut):
                              discontinuity=sd, segments={})
 
 
+@pytest.mark.slow
+def test_combined_loop_narrow_lines(cut):
+    """lines="narrow": the first mesh keeps all the merged lines, the second only the chosen
+    pieces (fewer, none outside the merged lines' polygons), with its regions cut by them."""
+    from polygen.discontinuity.combined import combined_bubble_mesh
+    from polygen.radiosity.mesh import MeshError as _ME
+
+    sd, _ = cut
+    r = combined_bubble_mesh(sd.scene, size_initial=4.0, size_min=8.0, size_max=2.0,
+                             solve={"tol": 0.05}, discontinuity=sd, lines="narrow")
+    lines, kept = r.parameters["segments"], r.parameters["second_segments"]
+    assert r.parameters["lines"] == "narrow" and set(kept) <= set(lines)
+    assert 0 < sum(len(s) for s in kept.values())
+
+    def length(d):
+        return sum(float(np.linalg.norm(s.ends[:, 1] - s.ends[:, 0], axis=-1).sum())
+                   for s in d.values())
+
+    assert length(kept) < length(lines)
+    for k in lines:
+        n1 = len(np.unique(r.first_mesh.element_region[r.first_mesh.element_polygon == k]))
+        n2 = len(np.unique(r.second_mesh.element_region[r.second_mesh.element_polygon == k]))
+        assert n1 > 1 and n2 <= n1
+    with pytest.raises(_ME, match="lines"):
+        combined_bubble_mesh(sd.scene, size_initial=4.0, size_min=8.0, size_max=2.0,
+                             discontinuity=sd, lines="some")
+
+
 #: Table 4.1's size_min, anchored to the thesis before measuring quality or error: the
 #: bisection of ``benchmarks/intensity_mesh.py --calibrate`` (results/intensity_mesh_calibrate.md)
 #: on the thesis's second / first element ratio, 1396 / 1976 = 0.706, rounded to 0.05.
@@ -467,3 +495,89 @@ def test_width_floor_checked():
     with pytest.raises(MeshError, match="width_floor"):
         intensity_bubble_mesh(scenes.three_rectangles_box(), size_initial=4.0, size_min=8.0,
                               size_max=2.0, width_floor=0.0, segments={})
+
+
+def test_narrow_lines_keep_d0_and_narrow_penumbrae():
+    """A square with a D0 line, a penumbra band 0.3 wide, one 3 wide and a wedge 0.1 -> 1.5
+    wide; patch size 1, elements 0.5: the D0 line and the narrow band's lines kept whole, the
+    wide band's dropped, the wedge's straight side kept where the wedge is narrower than 0.5
+    (the chord across it, 0.1 + 0.14 y, is under 0.5 for y < 2.857), up to one piece."""
+    from polygen.discontinuity.combined import narrow_lines
+    from polygen.radiosity.layout import Segments
+    from polygen.radiosity.scene import Polygon
+
+    poly = Polygon(np.array([[0, 0, 0], [20, 0, 0], [20, 10, 0], [0, 10, 0]], float), name="sq")
+
+    def seg(x0, y0, x1, y1):
+        return [[x0, y0, 0.0], [x1, y1, 0.0]]
+
+    ends = [seg(1, 0, 1, 10), seg(2, 0, 2, 10), seg(2.3, 0, 2.3, 10), seg(6, 0, 6, 10),
+            seg(9, 0, 9, 10), seg(12, 0, 12, 10), seg(12.1, 0, 13.5, 10)]
+    kinds = ["D0", "D1", "D1", "D1", "D1", "D1", "D1"]
+    found = Segments(np.array(ends), kinds)
+    pen = poly.to_2d(np.array([[2.15, 5, 0], [7.5, 5, 0], [12.3, 5, 0]]))
+    step = 0.25
+    kept = narrow_lines(poly, found, found, pen, 1.0, step=step, element_levels=1)
+    e3 = poly.to_3d(kept.ends.reshape(-1, 2)).reshape(-1, 2, 3)
+    x = e3[..., 0]
+    kinds = np.asarray(kept.kinds)
+    length = np.linalg.norm(e3[:, 1] - e3[:, 0], axis=1)
+
+    def total(x0, kind="D1"):
+        on = np.all(np.abs(x - x0) < 1e-9, axis=1) & (kinds == kind)
+        return length[on].sum(), e3[on]
+
+    assert total(1.0, "D0")[0] == pytest.approx(10.0)
+    assert total(2.0)[0] == pytest.approx(10.0) and total(2.3)[0] == pytest.approx(10.0)
+    assert total(6.0)[0] == 0.0 and total(9.0)[0] == 0.0
+    wedge, pieces = total(12.0)
+    assert abs(wedge - (0.5 - 0.1) / 0.14) <= step
+    assert pieces[..., 1].min() == pytest.approx(0.0)
+    # a piece of the wedge's slanted side is kept only where the chord is narrow too
+    slanted = ~np.any(np.abs(x - np.round(x, 1)) < 1e-9, axis=1)
+    assert np.all(e3[slanted][..., 1] < 3.6)
+    # nothing narrow: nothing kept but D0
+    wide = narrow_lines(poly, found, found, pen, 0.1, step=step)
+    assert list(np.asarray(wide.kinds)) == ["D0"]
+    with pytest.raises(MeshError, match="step"):
+        narrow_lines(poly, found, found, pen, 1.0, step=0.0)
+
+
+def test_size_grids_per_region_of_other_layouts(cut):
+    """``layouts=``: the mesh's own layouts give the same grids; no layouts (every line
+    dropped) one grid per polygon; a subset of the lines one grid per region of the subset,
+    within the sizes of the nodes of the mesh's regions inside it."""
+    from polygen.radiosity.layout import RegionSize, Segments, polygon_layout
+
+    sd, m = cut
+    sizes = 0.5 + (np.arange(m.n_nodes) % 5) * 0.3
+    own = polygon_size_grids(m, sizes, grid=0.5)
+    same = polygon_size_grids(m, sizes, grid=0.5, layouts=m.layouts)
+    for a, b in zip(own, same):
+        if isinstance(a, RegionSize):
+            assert len(a.sizes) == len(b.sizes) and np.array_equal(a.at, b.at)
+            for ga, gb in zip(a.sizes, b.sizes):
+                assert np.array_equal(np.asarray(getattr(ga, "values", ga)),
+                                      np.asarray(getattr(gb, "values", gb)))
+    none = polygon_size_grids(m, sizes, grid=0.5, layouts=[None] * len(m.scene.polygons))
+    assert not any(isinstance(g, RegionSize) for g in none)
+    k = max(sd.segments, key=lambda k: len(sd.segments[k]))   # the floor: most lines
+    poly = m.scene.polygons[k]
+    ends, kinds = sd.segments[k].in_plane(poly)
+    kinds = list(np.broadcast_to(np.asarray(kinds), (len(ends),)))
+    for j in range(1, len(ends)):   # the fewest first lines that cut the floor in two or more
+        sub = polygon_layout(poly, Segments(ends[:j], kinds[:j]))
+        if sub.n_regions >= 2:
+            break
+    assert 2 <= sub.n_regions < m.layouts[k].n_regions
+    lays = [None] * len(m.scene.polygons)
+    lays[k] = sub
+    g = polygon_size_grids(m, sizes, grid=0.5, layouts=lays)[k]
+    assert isinstance(g, RegionSize) and len(g.sizes) == sub.n_regions
+    xy, tris, el, nodes = m.polygon_elements(k)
+    reg = sub.region_of(m.layouts[k].region_point)[m.element_region[el]]
+    for gr, at in zip(g.sizes, g.at):
+        r = sub.region_of(at[None])[0]
+        ns = sizes[nodes[np.unique(tris[reg == r])]]
+        vals = np.asarray(getattr(gr, "values", [gr]))
+        assert vals.min() >= ns.min() - 1e-12 and vals.max() <= ns.max() + 1e-12

@@ -30,9 +30,12 @@ from polygen.discontinuity.simplified import simplified_discontinuity
 from polygen.mesh2d import merge_close_segments
 from polygen.radiosity.intensity import intensity_bubble_mesh
 from polygen.radiosity.layout import Segments
+from polygen.radiosity.mesh import MeshError
 from polygen.radiosity.scene import Scene, SceneError
 
-__all__ = ["combined_bubble_mesh", "merged_lines"]
+__all__ = ["combined_bubble_mesh", "merged_lines", "narrow_lines"]
+
+LINES = ("all", "narrow")
 
 
 def merged_lines(scene, segments, *, gap):
@@ -62,8 +65,129 @@ def merged_lines(scene, segments, *, gap):
     return out
 
 
+def _nearest_on_segments(p, seg):
+    """Distance from each point to a set of segments, and the nearest point on them."""
+    a, d = seg[:, 0], seg[:, 1] - seg[:, 0]                      # (E, 2)
+    ll = np.maximum((d * d).sum(axis=1), 1e-300)
+    t = np.clip(((p[:, None, :] - a[None]) * d[None]).sum(axis=2) / ll, 0.0, 1.0)  # (K, E)
+    q = a[None] + t[..., None] * d[None]
+    dist = np.linalg.norm(q - p[:, None, :], axis=2)
+    j = np.argmin(dist, axis=1)
+    i = np.arange(len(p))
+    return dist[i, j], q[i, j]
+
+
+def narrow_lines(polygon, found, lines, penumbra_points, size, *, step, near=0.0,
+                 element_levels=1):
+    """The lines worth meshing along: D0 always, D1 only where the penumbra is narrow.
+
+    Under an area light a penumbra is a smooth ramp, which a size grid resolves where it is
+    wider than the elements there; a D1 line only helps where the intensity changes over a
+    distance shorter than the elements.  So every D0 line is kept whole, and every D1 line
+    is cut into pieces about ``step`` long and kept on the pieces whose midpoint lies on the
+    boundary of a penumbra region (of the lines as found) that is narrower there than the
+    element the size field asks for: ``width < size / 2**element_levels``.  The width is
+    the penumbra region's local width (:func:`polygen.mesh2d.region_width.region_width`)
+    at the nearest point of its boundary, within ``near`` of the midpoint (the narrowest
+    of such regions; none: the piece bounds no penumbra and is dropped); the size is the
+    smaller of the size field's values in the two regions of ``lines`` beside the piece.
+
+    Parameters
+    ----------
+    polygon : Polygon
+    found : Segments
+        The polygon's discontinuity lines as found (``SimplifiedDiscontinuity.segments``):
+        the penumbra regions are measured among these.
+    lines : Segments
+        The lines to choose from (e.g. :func:`merged_lines`' for this polygon): each piece
+        of them lies on (within ``near`` of) a line of ``found``.
+    penumbra_points : (R, 2) float64
+        A point in every penumbra region of ``found``
+        (``SimplifiedDiscontinuity.penumbra_points``).
+    size : number, callable, GridSize or RegionSize
+        The patch size over the layout of ``lines`` (a RegionSize: per region of it).
+    step : float, keyword-only
+        Length of the pieces, > 0 (the finest element's size).
+    near : float, keyword-only
+        How far a piece may lie from the penumbra boundary it stands for, >= 0 (the merge
+        gap: merging moves line ends by at most that).
+    element_levels : int, keyword-only
+        Elements per patch side, ``2**element_levels``.
+
+    Returns
+    -------
+    Segments or None
+        The kept pieces, 2-D in the polygon's frame (runs of consecutive kept pieces
+        joined); None when nothing is kept.
+    """
+    from polygen.mesh2d import as_size_function
+    from polygen.mesh2d.region_width import region_boundary, region_width
+    from polygen.radiosity.layout import RegionSize, polygon_layout
+
+    step, near = float(step), float(near)
+    if not (np.isfinite(step) and step > 0):
+        raise MeshError(f"step must be finite and > 0, got {step}")
+    if not (np.isfinite(near) and near >= 0):
+        raise MeshError(f"near must be finite and >= 0, got {near}")
+    ends, kinds = lines.in_plane(polygon)
+    ends = np.asarray(ends, dtype=np.float64).reshape(-1, 2, 2)
+    kinds = list(np.broadcast_to(np.asarray(kinds), (len(ends),)))
+    if len(ends) == 0:
+        return None
+    lay0 = polygon_layout(polygon, found)
+    pp = np.asarray(penumbra_points, dtype=np.float64).reshape(-1, 2)
+    pen = np.unique(lay0.region_of(pp)) if len(pp) else np.zeros(0, np.int64)
+    pen = [int(r) for r in pen if r >= 0]
+    bounds = [region_boundary(lay0, r) for r in pen]
+    lay1 = polygon_layout(polygon, lines)
+    per = (size.resolve(polygon, lay1) if isinstance(size, RegionSize)
+           else [size] * lay1.n_regions)
+    fields = [as_size_function(f) for f in per]
+    tol = 1e-9 * max(1.0, float(np.abs(polygon.exterior_2d).max()))
+    out, out_kinds = [], []
+    for (a, b), kind in zip(ends, kinds):
+        if kind == "D0":
+            out.append((a, b))
+            out_kinds.append("D0")
+            continue
+        length = float(np.linalg.norm(b - a))
+        n = max(1, int(np.ceil(length / step - 1e-9)))
+        t = np.linspace(0.0, 1.0, n + 1)
+        mid = a + 0.5 * (t[:-1] + t[1:])[:, None] * (b - a)
+        width = np.full(n, np.inf)
+        for r, seg in zip(pen, bounds):
+            dist, q = _nearest_on_segments(mid, seg)
+            on = dist <= near + tol
+            if on.any():
+                width[on] = np.minimum(width[on], region_width(lay0, r, q[on]))
+        nrm = np.array([-(b - a)[1], (b - a)[0]]) / max(length, 1e-300)
+        eps = max(1e-6 * step, 10 * tol)
+        sz = np.full(n, np.inf)
+        for side in (1.0, -1.0):
+            x = mid + side * eps * nrm
+            reg = lay1.region_of(x)
+            for r in np.unique(reg[reg >= 0]):
+                m = reg == r
+                sz[m] = np.minimum(sz[m], fields[r](x[m]))
+        keep = width < sz / 2 ** int(element_levels)
+        i = 0
+        while i < n:
+            if not keep[i]:
+                i += 1
+                continue
+            j = i
+            while j + 1 < n and keep[j + 1]:
+                j += 1
+            out.append((a + t[i] * (b - a), a + t[j + 1] * (b - a)))
+            out_kinds.append("D1")
+            i = j + 1
+    if not out:
+        return None
+    return Segments(np.asarray(out, dtype=np.float64), out_kinds)
+
+
 def combined_bubble_mesh(scene, *, size_initial, size_min, size_max, discontinuity=None,
-                         merge_gap=None, width_cap=True, **kwargs):
+                         merge_gap=None, width_cap=True, lines="all", **kwargs):
     """The two-pass loop of Fig. 4.3 on a mesh cut by the scene's discontinuity lines.
 
     Parameters
@@ -89,6 +213,13 @@ def combined_bubble_mesh(scene, *, size_initial, size_min, size_max, discontinui
         costs elements: on the scene of Fig. 4.8 at ``size_initial`` 2.4 the first mesh has
         2440 elements instead of 1288 (smallest angle 12.3 degrees instead of 6.9), and the
         image error per element is worse (benchmarks/results/intensity_mesh.md).
+    lines : {"all", "narrow"}, keyword-only
+        The second mesh's lines: "all" (the merged lines, as the first mesh), or "narrow":
+        the D0 lines and the stretches of D1 lines along a penumbra narrower than the
+        elements the first pass's size grids ask for there (:func:`narrow_lines`, pieces of
+        the finest element's length, within the merge gap of the penumbra found); the
+        first mesh keeps all the merged lines, and the second mesh's size grids are built
+        per region of the kept lines.
     **kwargs
         Other keywords of :func:`~polygen.radiosity.intensity_bubble_mesh`
         (``grid``, ``element_levels``, ``seed``, ``solve``, ``first`` ...).
@@ -104,10 +235,14 @@ def combined_bubble_mesh(scene, *, size_initial, size_min, size_max, discontinui
     SceneError
         ``scene`` is not a Scene, or ``discontinuity`` is of another scene.
     MeshError
-        As :func:`~polygen.radiosity.intensity_bubble_mesh`.
+        ``lines`` not one of "all", "narrow"; as
+        :func:`~polygen.radiosity.intensity_bubble_mesh`.
     """
     if not isinstance(scene, Scene):
         raise SceneError(f"scene must be a Scene, got {type(scene).__name__}")
+    if lines not in LINES:
+        raise MeshError(f"lines must be one of {LINES}, got {lines!r}")
+    lines_mode = lines
     if discontinuity is None:
         discontinuity = simplified_discontinuity(scene)
     elif discontinuity.scene is not scene:
@@ -123,8 +258,27 @@ def combined_bubble_mesh(scene, *, size_initial, size_min, size_max, discontinui
             lines = first.parameters["segments"]   # the same merged lines, for `first=`
         else:
             lines = merged_lines(scene, discontinuity.segments, gap=merge_gap)
-    floor = float(size_max) / 2 ** int(kwargs.get("element_levels", 1)) if width_cap else None
+    levels = int(kwargs.get("element_levels", 1))
+    finest = float(size_max) / 2 ** levels
+    floor = finest if width_cap else None
+    choose = None
+    if lines_mode == "narrow":
+        found, pens = discontinuity.segments, discontinuity.penumbra_points
+
+        def choose(first_mesh, grids):
+            out = {}
+            for k, sg in lines.items():
+                poly = scene.polygons[k]
+                kept = narrow_lines(poly, found[k], sg, pens.get(k, np.zeros((0, 2))),
+                                    grids[k], step=finest, near=merge_gap,
+                                    element_levels=levels)
+                if kept is not None:
+                    out[k] = kept
+            return out
+
     run = intensity_bubble_mesh(scene, size_initial=size_initial, size_min=size_min,
-                                size_max=size_max, segments=lines, width_floor=floor, **kwargs)
+                                size_max=size_max, segments=lines, width_floor=floor,
+                                second_segments=choose, **kwargs)
     run.parameters["merge_gap"] = float(merge_gap)
+    run.parameters["lines"] = lines_mode
     return run

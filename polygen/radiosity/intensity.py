@@ -169,7 +169,7 @@ def _grid(xy, sizes, bounds, grid, nu, k, poly, where=""):
         raise MeshError(f"polygon {k} ({poly.name!r}){where}: {exc}") from None
 
 
-def polygon_size_grids(mesh, node_sizes, *, grid, nu=0.3):
+def polygon_size_grids(mesh, node_sizes, *, grid, nu=0.3, layouts=None):
     """One element-size grid per polygon of a mesh (4.3.2), per region where it has regions.
 
     Parameters
@@ -182,6 +182,11 @@ def polygon_size_grids(mesh, node_sizes, *, grid, nu=0.3):
         (:func:`polygen.mesh2d.grid_lattice`).
     nu : float, keyword-only
         The plate's Poisson ratio.
+    layouts : list of (PlanarGraph or None) or None, keyword-only
+        Build the grids per region of these layouts instead of the mesh's own (one per
+        polygon, None: no regions), e.g. of a subset of the mesh's lines: each region of
+        the mesh must lie in one region of these (the region holding its ``region_point``
+        gets its nodes).
 
     Returns
     -------
@@ -207,6 +212,13 @@ def polygon_size_grids(mesh, node_sizes, *, grid, nu=0.3):
         xy, tris, el, nodes = mesh.polygon_elements(k)
         ext = poly.exterior_2d
         reg = None if regions is None else regions[el]
+        lay = mesh.layouts[k] if mesh.layouts is not None else None
+        if layouts is not None:
+            if layouts[k] is None or reg is None:
+                reg, lay = None, None
+            else:
+                reg = layouts[k].region_of(lay.region_point)[reg]
+                lay = layouts[k]
         if reg is None or len(np.unique(reg)) == 1:
             p, f = _finest_per_site(xy, s[nodes])
             out.append(_grid(p, f, (*ext.min(axis=0), *ext.max(axis=0)), grid, nu, k, poly))
@@ -221,7 +233,7 @@ def polygon_size_grids(mesh, node_sizes, *, grid, nu=0.3):
             except (ValueError, PlateError):
                 g = float(f.min())
             sizes.append(g)
-            at.append(mesh.layouts[k].region_point[r])
+            at.append(lay.region_point[r])
         out.append(RegionSize(sizes, at=np.array(at)))
     return out
 
@@ -314,7 +326,7 @@ def _solve(mesh, solve):
 def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
                           element_levels=1, nu=0.3, seed=0, solve=None,
                           adaptive_threshold=None, solve_adaptive=False, first=None,
-                          segments=None, improve=0, width_floor=None):
+                          segments=None, improve=0, width_floor=None, second_segments=None):
     """The two-pass loop of Fig. 4.3.
 
     Parameters
@@ -369,6 +381,12 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
         With ``segments``: cap every region's size (both meshes) by the region's local
         width, never below this (:func:`width_capped_sizes`), so that a region narrower than
         its size is not meshed by skinny triangles; None (the default): no cap.
+    second_segments : callable or None, keyword-only
+        With ``segments``: ``second_segments(first_mesh, size_grids) -> segments`` chooses
+        the second mesh's lines from the first mesh and its per-region size grids; they
+        must be a subset of ``segments`` (every region of the first mesh inside one region
+        of theirs), and the size grids are rebuilt per region of theirs
+        (:func:`polygon_size_grids`'s ``layouts``).  None (the default): ``segments``.
 
     Returns
     -------
@@ -428,16 +446,27 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
     d = intensity_variation(first, inten)
     fsize = size_function(d, size_min=smin, size_max=smax)
     grids = polygon_size_grids(first, fsize, grid=grid, nu=nu)
+    segments2, layouts2 = segments, first.layouts
+    if second_segments is not None and segments is not None:
+        from polygen.radiosity.layout import polygon_layout
+        from polygen.radiosity.mesh import _segments_per_polygon
+
+        segments2 = second_segments(first, grids)
+        layouts2 = [None if sg is None or len(sg) == 0 else polygon_layout(poly, sg)
+                    for poly, sg in zip(scene.polygons,
+                                        _segments_per_polygon(segments2, scene))]
+        grids = polygon_size_grids(first, fsize, grid=grid, nu=nu, layouts=layouts2)
+        layouts2 = None
     clock.stop("size_function")
 
     clock.start()
     mesher2 = mesher if not improve else _seeded(seed, improve=int(improve))
     spec = grids
-    if width_floor is not None and segments is not None:
-        spec = width_capped_sizes(scene, grids, segments, floor=width_floor,
-                                  layouts=first.layouts)
+    if width_floor is not None and segments2 is not None:
+        spec = width_capped_sizes(scene, grids, segments2, floor=width_floor,
+                                  layouts=layouts2)
     second = mesh_scene(scene, spec, element_levels=element_levels, mesher=mesher2,
-                        segments=segments)
+                        segments=segments2)
     clock.stop("second_mesh")
 
     clock.start()
@@ -456,7 +485,8 @@ def intensity_bubble_mesh(scene, *, size_initial, size_min, size_max, grid=None,
     params = {"size_initial": si, "size_min": smin, "size_max": smax, "grid": grid,
               "element_levels": element_levels, "nu": nu, "seed": seed, "solve": solve,
               "adaptive_threshold": adaptive_threshold, "segments": segments,
-              "improve": int(improve), "width_floor": width_floor}
+              "improve": int(improve), "width_floor": width_floor,
+              "second_segments": segments2}
     return IntensityMesh(first, r1, b1, inten, d, fsize, grids, second, r2, b2, clock.wall,
                          clock.cpu, ada, ada_b, params)
 
