@@ -243,7 +243,7 @@ def _hull(V, atol):
 
 
 def clip_solid(V, n, d, *, tol=1e-9):
-    """The convex solid ``conv(V)`` cut to ``n . x <= d``: its vertices (k, 3), (0, 3) if flat.
+    """The convex solid conv(V) cut to the half-space ``n @ x <= d``: its vertices (k, 3).
 
     Parameters
     ----------
@@ -252,6 +252,12 @@ def clip_solid(V, n, d, *, tol=1e-9):
     d : float
     tol : float, keyword-only
         Relative to the solid's size.
+
+    Returns
+    -------
+    (k', 3) float64
+        The cut solid's vertices (with points on its faces), ``V`` itself
+        when the whole solid is kept, (0, 3) when nothing of volume is.
     """
     V = np.asarray(V, dtype=np.float64)
     size = float(np.max(np.ptp(V, axis=0))) or 1.0
