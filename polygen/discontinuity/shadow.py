@@ -699,6 +699,7 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
     t_sdw = t_isr = 0.0
     cnt = dict(polyhedra=0, rebuilt=0, candidates=0, receiver_tests=0, node_tests=0, sections=0,
                solids=0)
+    t0 = time.perf_counter()  # finding the solids counts in T_sdw
     if solids is True:
         groups = tuple(_solids.convex_solids(scene, tol=tol))
     elif solids is False or solids is None:
@@ -710,6 +711,7 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
         raise ShadowError("solids: a polygon is declared in two solids")
     cnt["solids"] = len(groups)
     solid_vertices = [np.vstack([polys[k].vertices for k in g]) for g in groups]
+    t_sdw += time.perf_counter() - t0
     pieces = [[pc.vertices for pc in p.convex_pieces()] for p in polys]
     rboxes = np.array([[p.vertices.min(axis=0) - atol, p.vertices.max(axis=0) + atol]
                        for p in polys])

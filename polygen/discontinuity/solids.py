@@ -130,7 +130,9 @@ def convex_solids(scene, *, tol=1e-9):
     opposite directions (a closed surface, consistently oriented), and
     every vertex lies on or behind every face's plane (convex, faces
     pointing out).  Lights, two-sided polygons and polygons with holes
-    are never faces of a solid.
+    are never faces of a solid.  Faces must meet edge to edge: a face
+    whose edge is split by a neighbour's vertex (a T-junction), or two
+    solids sharing an edge, leave their polygons to the per-polygon rule.
 
     Parameters
     ----------
