@@ -449,7 +449,12 @@ for name, rows in paired.items():
 # and 0.74 of the uniform mesh's elements — better than the per-face meshes' 11.8, 11.0 and 7.7,
 # but not ≤ 0.60. Against the two coarser points it cannot be: the DM's coarse size 3.3 is the
 # uniform 3.3 mesh's (1920 elements) before any penumbra refinement. Adaptive subdivision reaches
-# 0.0268 with 2403 elements.
+# 0.0268 with 2403 elements. Paired at the same F (the table above, C = 3.3): the sphere's DM has
+# 0.61 of the uniform mesh's elements at F = 1.6 with 0.90 of its error (2160 against 3552
+# elements; 0.0291 against 0.0323), so the claim misses there by 0.008 in the ratio, and 0.22 at
+# F = 0.75 with 2.1× its error (2608 against 11,624; 0.0290 against 0.0137), for the chair's
+# reason: the penumbra pixels (1 % of the image under the 0.2 light) carry 0.02–0.03 of the
+# uniform mesh's squared error.
 #
 # **Why the DM's penumbra error did not fall with F** (last run, solves to 10 % unshot: room
 # 0.031 → 0.042 as F = 1.6 → 0.75, uniform 0.029 → 0.014). Measured on the room:
