@@ -59,9 +59,10 @@ ROOM_CAMERA = dict(position=[5.0, 8.5, 0.3], look_at=[5.0, 0.0, 6.5], fov=80.0, 
 SETUPS = {name: dict(uniform=[3.3, 2.5, 1.8], coarse=3.3, penumbra=[1.6, 1.1, 0.75], rounds=2,
                      fine=0.6, rest=1.4)
           for name in ("two_rectangles_room", "chair_scene", "sphere_scene")}
-SETUPS["sphere_scene"]["penumbra"] = [1.6, 0.75]  # two DM points: its meshes are 22.5-23.4k elements
-# the sphere is Fig. 3.19's 12 x 15 faces (180 polygons; 5137 lines on the floor, so every DM mesh has
-# 22.5-23.4k elements whatever the penumbra size). Its 3.3/1.6 mesh (22,560 elements, 5640 patches) took
+SETUPS["sphere_scene"]["penumbra"] = [1.6, 0.75]  # two DM points (chosen when its meshes were 22.5k+)
+# the sphere is Fig. 3.19's 12 x 15 faces (180 polygons). With every face its own occluder it put 5137
+# lines on the floor, so every DM mesh had 22.5-23.4k elements whatever the penumbra size; as one convex
+# solid (issue 14, the default) it puts 33 there. The per-face 3.3/1.6 mesh (22,560 elements, 5640 patches) took
 # 302 s (load 2) for one solve to 1 % unshot with the linear occluder scan, and the curves ran on a 6 x 8
 # stand-in; with the rays' BVH and the kept columns of patches that shoot again (4459 shots of 1470
 # patches) the same solve is ~2x + ~3x faster (issue 14; numbers in discontinuity.md)
@@ -193,7 +194,10 @@ def _reach(curve, target):
     return min(ok) if ok else None
 
 
-def error_part(names, image, solve, threshold, log, scaled_only=False, save=None):
+def error_part(names, image, solve, threshold, log, scaled_only=False, save=None, keep=(), old=None):
+    """``keep``: curves ("uniform", "adaptive", "conventional") taken from ``old`` (the previous
+    run's curves of the scene, same solve) instead of being recomputed: for a change that
+    touches only the simplified method."""
     curves, rows = {}, []
     for name in names:
         cfg = SETUPS[name]
@@ -203,11 +207,16 @@ def error_part(names, image, solve, threshold, log, scaled_only=False, save=None
         t0 = time.perf_counter()
         sd = simplified_discontinuity(sc)
         t_sd = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        cd = conventional_discontinuity(sc)
-        t_cd = time.perf_counter() - t0
+        prev = (old or {}).get(name, {})
+        kept = [k for k in keep if k in prev and prev.get("solve") == solve and not scaled_only]
+        if "conventional" in kept:
+            cd, t_cd = None, prev["T_d_conventional"]
+        else:
+            t0 = time.perf_counter()
+            cd = conventional_discontinuity(sc)
+            t_cd = time.perf_counter() - t0
         c = {"solve": dict(solve), "reference_elements": n_ref, "T_d_simplified": t_sd,
-             "T_d_conventional": t_cd,
+             "T_d_conventional": t_cd, "kept": kept,
              "scene_kwargs": SCENE_KW.get(name, {}), "polygons": len(sc.polygons)}
         if scaled_only:
             # both sizes scaled together: the coarse size of each uniform mesh, a third of it in
@@ -235,10 +244,15 @@ def error_part(names, image, solve, threshold, log, scaled_only=False, save=None
             if save is not None:
                 save(curves, rows)
             continue
-        c["uniform"] = [p.__dict__ for p in uniform_curve(sc, cam, ref, cfg["uniform"], solve=solve)]
-        c["adaptive"] = [p.__dict__ for p in adaptive_curve(sc, cam, ref, cfg["coarse"], cfg["rounds"],
-                                                            threshold=threshold, solve=solve)]
-        c["conventional"] = _dm_curve(sc, cam, ref, "conventional", cd, cfg["coarse"], cfg["penumbra"], solve)
+        c.update({k: prev[k] for k in kept})
+        if "uniform" not in kept:
+            c["uniform"] = [p.__dict__ for p in uniform_curve(sc, cam, ref, cfg["uniform"], solve=solve)]
+        if "adaptive" not in kept:
+            c["adaptive"] = [p.__dict__ for p in adaptive_curve(sc, cam, ref, cfg["coarse"], cfg["rounds"],
+                                                                threshold=threshold, solve=solve)]
+        if "conventional" not in kept:
+            c["conventional"] = _dm_curve(sc, cam, ref, "conventional", cd, cfg["coarse"], cfg["penumbra"],
+                                          solve)
         c["simplified"] = _dm_curve(sc, cam, ref, "simplified", sd, cfg["coarse"], cfg["penumbra"], solve)
         c["N_f2"] = len(sc.polygons) - sd.counters["receivers"] + sd.counters["regions"]
         c["N_d"] = sd.counters["discontinuity_edges"]
@@ -284,23 +298,29 @@ def speed_part(log):
     rows = []
     for n_lat, n_lon in SPHERES:
         sc = scenes.sphere_scene(n_lat=n_lat, n_lon=n_lon)
-        simplified_discontinuity(sc)  # warm
-        best = None
-        for _ in range(2):
-            t0 = time.perf_counter()
-            sd = simplified_discontinuity(sc)
-            t = time.perf_counter() - t0
-            if best is None or t < best[0]:
-                best = (t, sd)
-        t, sd = best
-        row = dict(polygons=len(sc.polygons), sphere_faces=n_lat * n_lon, total_s=t)
+        # every face its own occluder (the thesis's method: the receiver tests grow with the
+        # polygon count), and the sphere as one convex solid (issue 14)
+        best = {}
+        for solids in (False, True):
+            simplified_discontinuity(sc, solids=solids)  # warm
+            for _ in range(2):
+                t0 = time.perf_counter()
+                sd = simplified_discontinuity(sc, solids=solids)
+                t = time.perf_counter() - t0
+                if solids not in best or t < best[solids][0]:
+                    best[solids] = (t, sd)
+        t, sd = best[False]
+        row = dict(polygons=len(sc.polygons), sphere_faces=n_lat * n_lon, total_s=t,
+                   total_s_solid=best[True][0], edges=sd.counters["discontinuity_edges"],
+                   edges_solid=best[True][1].counters["discontinuity_edges"])
         row.update({k: v for k, v in sd.timings.items()})
         rows.append(row)
-        log(f"  sphere {n_lat}x{n_lon}: {len(sc.polygons)} polygons, {t:.2f} s, "
-            f"T_isr {sd.timings['T_isr']:.3f} s")
+        log(f"  sphere {n_lat}x{n_lon}: {len(sc.polygons)} polygons, per face {t:.2f} s, "
+            f"T_isr {sd.timings['T_isr']:.3f} s, {row['edges']} edges; one solid "
+            f"{row['total_s_solid']:.2f} s, {row['edges_solid']} edges")
     n = np.log([r["polygons"] for r in rows])
     slopes = {k: float(np.polyfit(n, np.log([max(r[k], 1e-6) for r in rows]), 1)[0])
-              for k in ("T_isr", "T_sdw", "total_s")}
+              for k in ("T_isr", "T_sdw", "total_s", "total_s_solid")}
     return rows, slopes
 
 
@@ -321,6 +341,7 @@ def solve_part(solve, log, n_columns=40):
     res = progressive_refinement(m, **solve)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     row = dict(elements=m.n_elements, patches=m.n_patches, occluders=None, mesh_s=t_mesh, solve=dict(solve),
+               solids=True,
                shots=len(res.shots), columns_computed=res.stats["columns_computed"], solve_wall_s=wall,
                solve_cpu_s=cpu, load=[load0, os.getloadavg()[0]])
     log(f"  sphere 12x15 DM: {m.n_elements} elements, solve {len(res.shots)} shots "
@@ -388,6 +409,8 @@ def main(argv=None):
     ap.add_argument("--tol", type=float, default=0.01)
     ap.add_argument("--vis", type=int, default=2)
     ap.add_argument("--threshold", type=float, default=0.1)
+    ap.add_argument("--keep", default="", help="curves kept from the previous run (error part): "
+                    "any of uniform,adaptive,conventional")
     args = ap.parse_args(argv)
     solve = dict(tol=args.tol, ambient=True, visibility_samples=args.vis)
     parts = args.parts.split(",")
@@ -416,7 +439,8 @@ def main(argv=None):
         _write(path, out)
 
     if "error" in parts:
-        error_part(args.scenes.split(","), args.image, solve, args.threshold, log, save=save_error)
+        error_part(args.scenes.split(","), args.image, solve, args.threshold, log, save=save_error,
+                   keep=[k for k in args.keep.split(",") if k], old=dict(out.get("curves", {})))
     if "scaled" in parts:
         error_part(args.scenes.split(","), args.image, solve, args.threshold, log, scaled_only=True,
                    save=save_scaled)
@@ -460,6 +484,10 @@ def _markdown(out):
                             "12 x 15 sphere gives 22.5k-element DM meshes, too slow for this run)."
                             for k, v in out["curves"].items() if v.get("scene_kwargs")), "",
                  "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+        kept = {k: v["kept"] for k, v in out["curves"].items() if v.get("kept")}
+        if kept:
+            lines[-2:-2] = ["Kept from the previous run (same solve; their code is untouched by the change "
+                            "rerun): " + "; ".join(f"{k} {', '.join(v)}" for k, v in kept.items()) + ".", ""]
         lines += ["| " + " | ".join(str(r[c]) for c in cols) + " |" for r in out["error_rows"]]
         lines += ["", "## The claim: simplified DM reaches a uniform mesh's error with <= 60 % of its "
                   "elements", "", "| scene | uniform elements | uniform error | simplified elements "
@@ -515,7 +543,9 @@ def _markdown(out):
                   f"{r['column_index_wall_ms']:.1f} ms wall / {r['column_index_cpu_ms']:.1f} ms CPU, the linear "
                   f"occluder scan it replaced {r['column_linear_wall_ms']:.1f} / {r['column_linear_cpu_ms']:.1f} ms "
                   f"({r['column_linear_cpu_ms'] / r['column_index_cpu_ms']:.1f}x CPU; same columns bit for bit). "
-                  "Before both changes that solve took 302 s at load 2 (issue 14)."]
+                  "Before both changes that solve took 302 s at load 2 (issue 14)."
+                  + ("" if r.get("solids") else " (Measured with every sphere face its own occluder, "
+                     "before the sphere was cast as one convex solid.)")]
     if out.get("rays_speed"):
         keys = ["polygons", "occluders", "elements", "rays", "bvh_us_per_ray", "linear_us_per_ray"]
         lines += ["", "## The visibility rays' cost against the number of occluders (sphere scenes)", "",
@@ -529,8 +559,13 @@ def _markdown(out):
         lines += ["", "log-log slopes against the occluder count: " + ", ".join(
             f"{k} {v:.2f}" for k, v in out["rays_slopes"].items())]
     if out.get("speed"):
-        keys = ["polygons", "total_s", "T_sdw", "T_isr", "T_idd", "T_lop", "T_lit", "T_div"]
+        keys = ["polygons", "total_s", "T_sdw", "T_isr", "T_idd", "T_lop", "T_lit", "T_div", "edges",
+                "total_s_solid", "edges_solid"]
+        keys = [k for k in keys if k in out["speed"][0]]
         lines += ["", "## The discontinuity phase against polygon count (sphere scenes)", "",
+                  "Every sphere face its own occluder (`solids=False`, the thesis's method; its phases), "
+                  "and `_solid`: the sphere as one convex occluder (the default); `edges` the "
+                  "discontinuity edges of all receivers.", "",
                   "| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
         for r in out["speed"]:
             lines.append("| " + " | ".join(f"{r[k]:.4g}" if isinstance(r[k], float) else str(r[k])

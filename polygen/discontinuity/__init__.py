@@ -4,6 +4,8 @@
   3.2-3.4: the umbra by the smallest-angle planes, the penumbra by
   gift-wrapping) and their sections on receivers (:class:`ShadowSection`),
   for a whole scene by :func:`scene_sections`;
+* :mod:`~polygen.discontinuity.solids` -- closed convex solids (the sphere)
+  as one occluder: their polyhedra from the silhouette;
 * :mod:`~polygen.discontinuity.scene_index` -- the bounding-volume
   hierarchy that keeps the receiver tests sub-quadratic;
 * :mod:`~polygen.discontinuity.complex` -- the receiver complex (3.3.2);
@@ -44,6 +46,7 @@ from polygen.discontinuity.shadow import (
     shadow_polyhedron,
     shadow_sections,
 )
+from polygen.discontinuity.solids import check_solid, clip_solid, convex_solids, solid_shadow_polyhedron
 from polygen.discontinuity.states import (
     BRIGHT,
     PENUMBRA,
@@ -82,10 +85,13 @@ __all__ = [
     "UMBRA",
     "UNPROCESSED",
     "bsp_split",
+    "check_solid",
+    "clip_solid",
     "combined_bubble_mesh",
     "conventional_bsp",
     "conventional_discontinuity",
     "conventional_segments",
+    "convex_solids",
     "critical_surfaces",
     "discontinuity_mesh",
     "element_states",
@@ -99,6 +105,7 @@ __all__ = [
     "section_edge_planes",
     "section_segments",
     "shadow_polyhedron",
+    "solid_shadow_polyhedron",
     "shadow_sections",
     "simplified_discontinuity",
 ]

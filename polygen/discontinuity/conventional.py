@@ -139,7 +139,7 @@ def conventional_segments(scene, receiver_index, *, shadows=None):
     scene : Scene
     receiver_index : int
     shadows : SceneShadows, keyword-only, optional
-        ``scene_sections(scene)``, computed when not given.
+        ``scene_sections(scene, solids=False)``, computed when not given.
 
     Returns
     -------
@@ -152,13 +152,16 @@ def conventional_segments(scene, receiver_index, *, shadows=None):
         raise ShadowError(f"receiver_index {receiver_index} out of range (scene has "
                           f"{len(scene.polygons)} polygons)")
     if shadows is None:
-        shadows = scene_sections(scene)
+        shadows = scene_sections(scene, solids=False)
     R = scene.polygons[r]
     lights = scene_lights(scene)
     lo, hi = scene.bounds
     diam = float(np.linalg.norm(hi - lo))
     tol = 1e-9 * diam
     shape = shapely.Polygon(R.exterior_2d, R.holes_2d)
+    if any(s.solid >= 0 for s in shadows.of(r)):
+        raise ShadowError("conventional_segments: the conventional method takes every polygon as "
+                          "its own occluder; pass scene_sections(scene, solids=False)")
     pairs = sorted({(s.light, s.occluder, s.piece) for s in shadows.of(r)})
     segs, kinds, sources, gens = [], [], [], []
     n_surf = n_reach = 0

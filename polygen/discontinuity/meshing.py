@@ -276,7 +276,7 @@ def conventional_discontinuity(scene, *, tol=1e-9, shadows=None):
         Relative tolerance (to the scene's size) of the shadow sections that
         choose each receiver's (light, occluder) pairs.
     shadows : SceneShadows, keyword-only, optional
-        ``scene_sections(scene)``, computed when not given.
+        ``scene_sections(scene, solids=False)``, computed when not given.
 
     Returns
     -------
@@ -298,7 +298,7 @@ def conventional_discontinuity(scene, *, tol=1e-9, shadows=None):
     from polygen.radiosity.layout import LAYOUT_TOL, polygon_layout
 
     if shadows is None:
-        shadows = scene_sections(scene, tol=tol)
+        shadows = scene_sections(scene, solids=False, tol=tol)
     kinds_of_light = [kind for kind, _, _ in scene_lights(scene)]
     segments, pen_pts = {}, {}
     counters = dict(critical_surfaces=0, critical_segments=0, regions=0)

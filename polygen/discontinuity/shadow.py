@@ -538,6 +538,12 @@ class ShadowSection:
         intersection walk of 3.3.3, their faces for the in/out tests of
         3.3.5); built from the light and occluder parts that act on this
         receiver face.
+    solid : int
+        -1 for a polygon occluder; for a closed convex solid cast as one
+        occluder, its index in :attr:`SceneShadows.solids` (``occluder`` is
+        then the solid's first polygon, ``piece`` 0, and the edge indices
+        name rows of :func:`~polygen.discontinuity.solids.solid_shadow_polyhedron`'s
+        planes: the solid's faces first, then the side planes).
     """
 
     light: int
@@ -551,7 +557,7 @@ class ShadowSection:
     umbra_edges: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     penumbra_edges: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     polyhedra: object = None
-
+    solid: int = -1
 
 
 def scene_lights(scene):
@@ -587,11 +593,15 @@ class SceneShadows:
     timings : dict of str -> float
         Seconds: ``t_sdw`` (shadow polyhedra), ``t_isr`` (index queries,
         receiver tests and sections), as Table 3.2's phases.
+    solids : tuple of tuple of int
+        The polygon groups cast as one convex solid each
+        (:attr:`ShadowSection.solid` indexes it); empty with ``solids=False``.
     """
 
     sections: dict
     counters: dict
     timings: dict = field(default_factory=dict)
+    solids: tuple = ()
 
     def of(self, receiver):
         """The sections on one receiver (a list, empty when none)."""
@@ -611,11 +621,12 @@ def _side_of(points, n, d, tol):
     return bool(np.any(s > tol)), bool(np.any(s < -tol))
 
 
-def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
+def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9):
     """Shadow polyhedra of every (light, occluder) pair and their sections on every receiver.
 
     The driver of Fig. 3.5: for each light and each convex piece of each
-    polygon, the shadow polyhedra; then the receivers the penumbra
+    polygon (each closed convex solid as one occluder, see ``solids``),
+    the shadow polyhedra; then the receivers the penumbra
     polyhedron can reach, from a bounding-volume hierarchy over the
     polygons' boxes (:class:`~polygen.discontinuity.scene_index.PolygonIndex`),
     and for each the sections.
@@ -623,6 +634,15 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
     Parameters
     ----------
     scene : Scene
+    solids : bool or sequence of sequence of int, keyword-only
+        True (default): the polygons that form a closed convex solid
+        (:func:`~polygen.discontinuity.solids.convex_solids`, found from the
+        geometry) are one occluder, whose shadow polyhedra come from its
+        silhouette (:func:`~polygen.discontinuity.solids.solid_shadow_polyhedron`),
+        and its own faces receive no section from it.  A sequence declares
+        the groups (polygon indices; each checked by
+        :func:`~polygen.discontinuity.solids.check_solid`).  False: every
+        polygon is its own occluder (3.3.1's rule, the thesis's method).
     use_index : bool, keyword-only
         False tests every polyhedron against every receiver (the thesis's
         O(n^2) T_isr), for comparison.
@@ -654,10 +674,21 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
     * an area light on both sides of an occluder's plane is split by that
       plane: each part shadows the other side;
     * a section is kept when the penumbra section overlaps the receiver
-      with positive area; the umbra section is emptied when it does not.
+      with positive area; the umbra section is emptied when it does not;
+    * a solid is clipped, like a polygon occluder, to the area light's
+      front and to the receiver's lit side; the light is never split by a
+      solid's face (its polyhedra are exact for any convex light outside
+      it).
+
+    Raises
+    ------
+    ShadowError
+        A declared solid that is not a closed convex solid (naming it), a
+        light meeting a solid.
     """
     import shapely
 
+    from polygen.discontinuity import solids as _solids
     from polygen.discontinuity.scene_index import PolygonIndex
 
     polys = scene.polygons
@@ -666,7 +697,21 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
     atol = tol * diam
     cap = np.stack([lo - 0.01 * diam, hi + 0.01 * diam])
     t_sdw = t_isr = 0.0
-    cnt = dict(polyhedra=0, rebuilt=0, candidates=0, receiver_tests=0, node_tests=0, sections=0)
+    cnt = dict(polyhedra=0, rebuilt=0, candidates=0, receiver_tests=0, node_tests=0, sections=0,
+               solids=0)
+    t0 = time.perf_counter()  # finding the solids counts in T_sdw
+    if solids is True:
+        groups = tuple(_solids.convex_solids(scene, tol=tol))
+    elif solids is False or solids is None:
+        groups = ()
+    else:
+        groups = tuple(_solids.check_solid(scene, g, tol=tol) for g in solids)
+    solid_of = {k: i for i, g in enumerate(groups) for k in g}
+    if len(solid_of) != sum(len(g) for g in groups):
+        raise ShadowError("solids: a polygon is declared in two solids")
+    cnt["solids"] = len(groups)
+    solid_vertices = [np.vstack([polys[k].vertices for k in g]) for g in groups]
+    t_sdw += time.perf_counter() - t0
     pieces = [[pc.vertices for pc in p.convex_pieces()] for p in polys]
     rboxes = np.array([[p.vertices.min(axis=0) - atol, p.vertices.max(axis=0) + atol]
                        for p in polys])
@@ -676,10 +721,13 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
                         p.exterior_2d.max(axis=0) + margin * p.diameter]) for p in polys]
     out = {}
 
-    def build(light_arr, O):
+    def build(light_arr, O, solid=-1):
         nonlocal t_sdw
         t0 = time.perf_counter()
-        sp = shadow_polyhedron(light_arr, O, bounds=cap, tol=tol)
+        if solid >= 0:
+            sp = _solids.solid_shadow_polyhedron(light_arr, O, bounds=cap, tol=tol)
+        else:
+            sp = shadow_polyhedron(light_arr, O, bounds=cap, tol=tol)
         t_sdw += time.perf_counter() - t0
         cnt["polyhedra"] += 1
         return sp
@@ -693,9 +741,17 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
             L = light.position
         else:
             L = light
-        queries = []  # (polygon, piece, light part, occluder, polyhedra)
+        queries = []  # (polygon, piece, light part, occluder, polyhedra, solid)
+        for g, V in enumerate(solid_vertices):
+            if kind == "area":
+                V = _solids.clip_solid(V, -nL, -dL, tol=tol)  # in front of the light's plane
+                if not len(V):
+                    continue
+            sp = build(L, V, g)
+            if not sp.penumbra.empty:
+                queries.append((groups[g][0], 0, L, V, sp, g))
         for k, p in enumerate(polys):
-            if k == lpoly:
+            if k == lpoly or k in solid_of:
                 continue
             for j, O in enumerate(pieces[k]):
                 if kind == "area":
@@ -717,7 +773,7 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
                 for part in parts:
                     sp = build(part, O)
                     if not sp.penumbra.empty:
-                        queries.append((k, j, part, O, sp))
+                        queries.append((k, j, part, O, sp, -1))
         t0, sdw0 = time.perf_counter(), t_sdw
         if use_index:
             before, before_items = index.node_tests, index.item_tests
@@ -732,9 +788,9 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
                              dtype=np.int64).reshape(-1, 2)
         cnt["candidates"] += len(pairs)
         for q, r in pairs:
-            k, j, part, O, sp = queries[q]
-            if r == k or r == lpoly:
-                continue
+            k, j, part, O, sp, g = queries[q]
+            if r == k or r == lpoly or (g >= 0 and solid_of.get(int(r)) == g):
+                continue  # a convex solid does not shadow its own faces
             R = polys[r]
             if not use_index:  # the index made this test already
                 cnt["receiver_tests"] += 1
@@ -758,11 +814,17 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
                 if not front:
                     continue
                 this = sp
-                O2 = geo.clip_polygon_3d(O, -n_r, -d_r) if back else O
+                if back:
+                    O2 = (_solids.clip_solid(O, -n_r, -d_r, tol=tol) if g >= 0
+                          else geo.clip_polygon_3d(O, -n_r, -d_r))
+                    if not len(O2):
+                        continue
+                else:
+                    O2 = O
                 lit_changed = kind == "area" and (len(lit) != len(part) or
                                                   np.abs(lit - part).max() > atol)
                 if back or lit_changed:
-                    this = build(lit if kind == "area" else part, O2)
+                    this = build(lit if kind == "area" else part, O2, g)
                     cnt["rebuilt"] += 1
                     if this.penumbra.empty:
                         continue
@@ -782,10 +844,11 @@ def scene_sections(scene, *, use_index=True, margin=0.05, tol=1e-9):
                 out.setdefault(int(r), []).append(ShadowSection(
                     light=li, occluder=int(k), receiver=int(r), umbra=umb, penumbra=pen,
                     side=side, piece=int(j), kind=kind, umbra_edges=ue, penumbra_edges=pe,
-                    polyhedra=this))
+                    polyhedra=this, solid=int(g)))
                 cnt["sections"] += 1
         t_isr += time.perf_counter() - t0 - (t_sdw - sdw0)  # rebuilt polyhedra count in t_sdw
-    return SceneShadows(sections=out, counters=cnt, timings=dict(t_sdw=t_sdw, t_isr=t_isr))
+    return SceneShadows(sections=out, counters=cnt, timings=dict(t_sdw=t_sdw, t_isr=t_isr),
+                        solids=groups)
 
 
 def shadow_sections(scene, receiver_index, **kwargs):

@@ -95,12 +95,18 @@ class SimplifiedDiscontinuity:
         return out
 
 
-def simplified_discontinuity(scene, *, tol=1e-9, use_index=True, margin=0.05, check=False):
+def simplified_discontinuity(scene, *, solids=True, tol=1e-9, use_index=True, margin=0.05,
+                             check=False):
     """Shadow polyhedra, receiver complexes and illumination states for a whole scene.
 
     Parameters
     ----------
     scene : Scene
+    solids : bool or sequence of sequence of int, keyword-only
+        Closed convex solids as one occluder each (True: found from the
+        geometry; a sequence: declared polygon groups; False: every polygon
+        its own occluder).  Passed to
+        :func:`~polygen.discontinuity.shadow.scene_sections`.
     tol : float, keyword-only
         Relative tolerance of the shadow polyhedra (to the scene's size) and
         of the receiver complexes (to each receiver's size).
@@ -116,7 +122,7 @@ def simplified_discontinuity(scene, *, tol=1e-9, use_index=True, margin=0.05, ch
     -------
     SimplifiedDiscontinuity
     """
-    sh = scene_sections(scene, use_index=use_index, margin=margin, tol=tol)
+    sh = scene_sections(scene, solids=solids, use_index=use_index, margin=margin, tol=tol)
     n_lights = len(scene_lights(scene))
     timings = dict(T_sdw=sh.timings["t_sdw"], T_isr=sh.timings["t_isr"], T_idd=0.0, T_lop=0.0,
                    T_lit=0.0, T_div=0.0, T_chk=0.0)
