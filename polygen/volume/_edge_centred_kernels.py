@@ -808,6 +808,238 @@ def construct(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
     return OK, n_p, n_t, n_v, node_vertices > 0
 
 
+# ------------------------------------------------------------------ the construction, tetrahedra with records
+def tet_triangle_slots(tri_table, tri_count, case_mask):
+    """(n_cases, 6) int32: the slot of each triangle corner of each tetrahedron case (no node at the isovalue).
+
+    A tetrahedron's polygon keeps its vertex of code ``w`` in slot
+    ``popcount(mask & ((1 << w) - 1))`` (:func:`_slot`); for the polygons
+    without a node at the isovalue the mask is ``case_mask[case]``, so the
+    slot of every corner of the case table is known in advance.
+    """
+    out = np.full(tri_table.shape, -1, np.int32)
+    for case in range(tri_table.shape[0]):
+        for i in range(3 * int(tri_count[case])):
+            out[case, i] = bin(int(case_mask[case]) & ((1 << int(tri_table[case, i])) - 1)).count("1")
+    return out
+
+
+@njit(inline="always")
+def _u(x):
+    """``x`` as an unsigned 32-bit number: an index the compiler knows is not negative (no wraparound test)."""
+    return np.uint32(x)
+
+
+@njit(inline="always")
+def _tet_bits(x0, x1, x2, x3, value):
+    """``(case, exact)`` of a tetrahedron from its four node values (nodes ``>= value`` / ``== value`` as bits)."""
+    case = (1 if x0 >= value else 0) | (2 if x1 >= value else 0) | (4 if x2 >= value else 0) | (8 if x3 >= value else 0)
+    exact = (1 if x0 == value else 0) | (2 if x1 == value else 0) | (4 if x2 == value else 0) | (8 if x3 == value else 0)
+    return case, exact
+
+
+@njit(cache=_KCACHE)
+def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tri_count, case_mask, tri_slots, local_edges,
+                  n_edges, ec, nc_off, nc, gen, queue, n_queued, tris, tri_cell, vkey, vend, counters):
+    """:func:`construct` for tetrahedra with records, LIFO: the same cells, polygons, vertices and triangles, in
+    the same order.
+
+    ``rec`` is the records flattened ((M * 16,) int32: a cell's nodes at
+    ``16 c + R_NODES``, its edge-list starts at ``16 c + 10``); ``dyn`` the
+    stamps, states and slots flattened, ``dw`` int32 per cell, slots from
+    column ``ds`` (the records themselves, ``dw = 16, ds = 6``, or a copy's own
+    array, ``dw = 6, ds = 2``); ``nodes2`` and ``dyn2`` the same as 2-D
+    arrays for the rare crossing exactly on a node (:func:`_node_vertex`).
+    ``tri_slots``: :func:`tet_triangle_slots`. Returns as :func:`construct`.
+
+    Why a kernel of its own: :func:`construct` serves tetrahedra and
+    hexahedra, records or not, FIFO or LIFO, through runtime arguments, so
+    its loops over the nodes and slots are not unrolled, a row's address is
+    a multiplication by a stride read from memory, and every index loaded
+    from an array (a cell, a node) gets numba's negative-index wraparound
+    test. Here the node count, the record width and the queue order are
+    constants, indices are unsigned, the slot of a triangle corner comes
+    from a table, and the slot of the polygon's own vertex is its rank
+    among the polygon's vertex codes, counted while they are walked.
+    """
+    cap_t = tris.shape[0] - _m.MAX_TRIANGLES
+    cap_v = vkey.shape[0]
+    cap_q = queue.shape[0]
+    sep = dw != 16  # the stamps, states and slots in a line of their own (a copy of the builder)
+    vals = np.empty(8, np.float64)
+    codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+    codes_j = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+    n_p = 0
+    n_t = 0
+    n_v = 0
+    tail = n_queued
+    pops = 0
+    visits = 0
+    touched = 0
+    node_tests = 0
+    node_vertices = 0
+    while tail > 0:  # for-loop (1): the newest cell first
+        tail -= 1
+        c = _u(queue[tail])
+        rb = c * 16
+        db = c * dw
+        pops += 1
+        st = dyn[db + R_STATE]
+        if st == QUEUED:  # a seed nobody reached before: construct P_i
+            x0 = s[_u(rec[rb + 2])]
+            x1 = s[_u(rec[rb + 3])]
+            x2 = s[_u(rec[rb + 4])]
+            x3 = s[_u(rec[rb + 5])]
+            case, exact = _tet_bits(x0, x1, x2, x3, value)
+            if exact == 0:
+                mask = case_mask[case]
+            else:
+                vals[0], vals[1], vals[2], vals[3] = x0, x1, x2, x3
+                mask = _exact_mask(case, exact, vals, value, tri_table, tri_count, local_edges, codes_j)
+            st = case | (exact << 16) | (mask << MASK_SHIFT)
+            dyn[db + R_STATE] = st
+            for w2 in range(4):
+                dyn[db + ds + w2] = -1
+            n_p += 1
+        case = st & 0xFFFF
+        exact = (st >> 16) & 15
+        todo = (st >> MASK_SHIFT) & 0x3FF
+        if exact == 0:
+            k = tri_count[case]
+        else:  # a node at the isovalue: node codes, zero-area triangles dropped
+            for i in range(4):
+                vals[i] = s[_u(rec[rb + R_NODES + i])]
+            k, _ = _polygon_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
+        # the cell lists of its open edges, fetched together, then the records of the cells on all those
+        # lists, before for-loop (2) walks them one by one: the records' misses overlap across the edges,
+        # not only within one edge's list (3-4 % on 2M). A polygon's vertex codes come in increasing
+        # order, so a code's slot is its rank (edges come before nodes)
+        pre = todo & 63
+        sl = 0
+        while pre:
+            w = _ctz(pre)
+            pre &= pre - 1
+            if dyn[db + ds + sl] < 0:
+                _prefetch_item(ec, _u(rec[rb + 10 + w]))
+            sl += 1
+        pre = todo & 63
+        sl = 0
+        while pre:
+            w = _ctz(pre)
+            pre &= pre - 1
+            if dyn[db + ds + sl] < 0:
+                q = _u(rec[rb + 10 + w])
+                while True:
+                    packed = _u(ec[q])
+                    _prefetch_item(rec, (packed >> CELL_SHIFT) * 16)
+                    if sep:
+                        _prefetch_item(dyn, (packed >> CELL_SHIFT) * dw)
+                    q += 1
+                    if packed & LAST:
+                        break
+            sl += 1
+        # for-loop (2): the vertices of P_i not registered yet
+        sl = -1
+        while todo:
+            w = _ctz(todo)
+            todo &= todo - 1
+            sl += 1
+            if dyn[db + ds + sl] >= 0:
+                continue
+            if n_v == cap_v:
+                return FULL_VERTICES, n_p, n_t, n_v, node_vertices > 0
+            if w >= 6 and nc_off.shape[0] == 0:
+                return NEED_NODE_CELLS, n_p, n_t, n_v, True
+            v = n_v
+            n_v += 1
+            if w < 6:  # a vertex on cell edge E_n: its cells, straight from the edge's list
+                lo = _u(rec[rb + 10 + w])
+                vkey[v] = ec[lo - 1]  # the edge's id, just before its list
+                x = rec[rb + R_NODES + local_edges[w, 0]]
+                y = rec[rb + R_NODES + local_edges[w, 1]]
+                vend[v, 0] = min(x, y)
+                vend[v, 1] = max(x, y)
+                q = lo
+                # for-loop (3): every cell C_j sharing E_n; all are crossed, since E_n is
+                while True:
+                    packed = _u(ec[q])
+                    q += 1
+                    j = packed >> CELL_SHIFT
+                    jb = j * dw
+                    g = dyn[jb + R_GEN]
+                    if g != gen or dyn[jb + R_STATE] == QUEUED:  # construct P_j
+                        rj = j * 16
+                        x0 = s[_u(rec[rj + 2])]
+                        x1 = s[_u(rec[rj + 3])]
+                        x2 = s[_u(rec[rj + 4])]
+                        x3 = s[_u(rec[rj + 5])]
+                        cj, xj = _tet_bits(x0, x1, x2, x3, value)
+                        if g != gen:
+                            dyn[jb + R_GEN] = gen
+                            touched += 1
+                            if tail == cap_q:
+                                return FULL_QUEUE, n_p, n_t, n_v, node_vertices > 0
+                            queue[tail] = j  # insert C_j into the FIFO
+                            tail += 1
+                        if xj == 0:
+                            mj = case_mask[cj]
+                        else:
+                            vals[0], vals[1], vals[2], vals[3] = x0, x1, x2, x3
+                            mj = _exact_mask(cj, xj, vals, value, tri_table, tri_count, local_edges, codes_j)
+                        stj = cj | (xj << 16) | (mj << MASK_SHIFT)
+                        dyn[jb + R_STATE] = stj
+                        for w2 in range(4):
+                            dyn[jb + ds + w2] = -1
+                        n_p += 1
+                    else:
+                        stj = dyn[jb + R_STATE]
+                    lw = packed & LOCAL  # register V_n into P_j
+                    if (stj >> (MASK_SHIFT + lw)) & 1 == 1:
+                        dyn[jb + ds + _POPCOUNT[(stj >> MASK_SHIFT) & ((1 << lw) - 1)]] = v
+                    if packed & LAST:
+                        break
+                visits += q - lo
+            else:  # a crossing exactly on a node: shared by every cell around the node
+                node = rec[rb + R_NODES + w - 6]
+                vkey[v] = n_edges + node
+                vend[v, 0] = node
+                vend[v, 1] = node
+                node_vertices += 1
+                visits += nc_off[node + 1] - nc_off[node]
+                status, tail, tested, made = _node_vertex(nodes2, dyn2, ds, 4, 4, s, value, faces, tri_table,
+                                                          tri_count, case_mask, local_edges, 6, nc_off, nc, node, v,
+                                                          gen, queue, tail)
+                node_tests += tested
+                touched += tested
+                n_p += made
+                if status != OK:
+                    return status, n_p, n_t, n_v, True
+        # every vertex of P_i is registered: its triangles, as vertex ids
+        if n_t > cap_t:
+            return FULL_TRIANGLES, n_p, n_t, n_v, node_vertices > 0
+        if exact == 0:
+            for t in range(k):
+                for jj in range(3):
+                    tris[n_t, jj] = dyn[db + ds + tri_slots[case, 3 * t + jj]]
+                tri_cell[n_t] = c
+                n_t += 1
+        else:
+            m = (st >> MASK_SHIFT) & 0x3FF
+            for t in range(k):
+                for jj in range(3):
+                    tris[n_t, jj] = dyn[db + ds + _POPCOUNT[m & ((1 << codes[t, jj]) - 1)]]
+                tri_cell[n_t] = c
+                n_t += 1
+    counters[C_POPS] = pops
+    counters[C_VISITS] = visits
+    counters[C_TOUCHED] = touched
+    counters[C_CONSTRUCTED] = n_p
+    counters[C_NODE_TESTS] = node_tests
+    counters[C_NODE_VERTICES] = node_vertices
+    counters[C_LOOKUPS] = 0
+    return OK, n_p, n_t, n_v, node_vertices > 0
+
+
 # (5.2) crossing points from the edge ends: the one kernel of marching, serial stage 3
 positions = _m.crossing_points
 

@@ -304,6 +304,9 @@ class EdgeCentredTable:
     #: every parallel region cost 15-45 ms of waiting whatever its size; 20 000 triangles is where serial
     #: stage 3 takes ~1 ms (2M), far above the start-up of a parallel region on a free core (tens of microseconds)
     STAGE3_PARALLEL_TRIANGLES = 20_000
+    #: a serial query on tetrahedra with records in LIFO order runs the kernel specialised for it
+    #: (``_edge_centred_kernels.construct_tet``); False: the generic one (tests and benchmarks compare them)
+    SPECIALISED_KERNEL = True
 
     def __init__(self, vol, field=None, *, order="lifo", threads=1, layout=None):
         t0 = time.perf_counter()
@@ -483,11 +486,7 @@ class EdgeCentredTable:
                                              self._queue)
             t1 = time.perf_counter() - t0
             t0 = time.perf_counter()
-            status, n_p, n_t, n_v, any_node = _k.construct(
-                self.nodes, self.ids, self.starts, self.dyn, self.ds, self.nn, self.s, value, self.faces,
-                self.table, self.count,
-                self.case_mask, self.local_edges, self.n_edges, self.ec_off, self.ec, *self._nc(), gen,
-                self._queue, n_queued, lifo, self._tris, self._tri_cell, self._vkey, self._vend, counters)
+            status, n_p, n_t, n_v, any_node = self._construct(value, gen, n_queued, lifo, counters)
             if status == _k.OK:
                 break
             restarts += 1  # a buffer was too small (or a table missing): grow (build) it and do the query again
@@ -538,6 +537,30 @@ class EdgeCentredTable:
             cells_intersected=int(n_p), vertex_lookups=int(counters[_k.C_LOOKUPS]), t1=t1, t2=t2, t3=t3,
             method=self.method,
         )
+
+    def _construct(self, value, gen, n_queued, lifo, counters):
+        """t2 by the serial kernel that fits: :func:`_k.construct_tet` (tetrahedra, records, LIFO) or :func:`_k.construct`.
+
+        Both build the same polygons, vertices and triangles in the same
+        order; the first is the generic one specialised (see its docstring).
+        """
+        if self.nn == 4 and self.rec is not None and lifo and self.SPECIALISED_KERNEL:
+            tet = self.__dict__.get("_tet")
+            if tet is None or tet[0] is not self.dyn:  # flat views of the records and of this builder's state
+                rec1, dyn1 = self.rec.view(), self.dyn.view()
+                rec1.shape = dyn1.shape = (-1,)  # views (an assignment to shape never copies)
+                tet = self._tet = (self.dyn, rec1, dyn1, self.dyn.shape[1],
+                                   _k.tet_triangle_slots(self.table, self.count, self.case_mask))
+            _, rec1, dyn1, dw, slots = tet
+            return _k.construct_tet(rec1, dyn1, dw, self.ds, self.nodes, self.dyn, self.s, value, self.faces,
+                                    self.table, self.count, self.case_mask, slots, self.local_edges, self.n_edges,
+                                    self.ec, *self._nc(), gen, self._queue, n_queued, self._tris, self._tri_cell,
+                                    self._vkey, self._vend, counters)
+        return _k.construct(
+            self.nodes, self.ids, self.starts, self.dyn, self.ds, self.nn, self.s, value, self.faces,
+            self.table, self.count,
+            self.case_mask, self.local_edges, self.n_edges, self.ec_off, self.ec, *self._nc(), gen,
+            self._queue, n_queued, lifo, self._tris, self._tri_cell, self._vkey, self._vend, counters)
 
     def _parallel_buffers(self, threads):
         """The serial buffers seen as ``threads`` per-thread parts, and the vertex-id array ``ev`` (made once).
