@@ -833,14 +833,17 @@ def _u(x):
 @njit(inline="always")
 def _tet_bits(x0, x1, x2, x3, value):
     """``(case, exact)`` of a tetrahedron from its four node values (nodes ``>= value`` / ``== value`` as bits)."""
-    case = (1 if x0 >= value else 0) | (2 if x1 >= value else 0) | (4 if x2 >= value else 0) | (8 if x3 >= value else 0)
-    exact = (1 if x0 == value else 0) | (2 if x1 == value else 0) | (4 if x2 == value else 0) | (8 if x3 == value else 0)
+    case = (1 if x0 >= value else 0) | (2 if x1 >= value else 0) | (4 if x2 >= value else 0) | (
+        8 if x3 >= value else 0)
+    exact = (1 if x0 == value else 0) | (2 if x1 == value else 0) | (4 if x2 == value else 0) | (
+        8 if x3 == value else 0)
     return case, exact
 
 
-@njit(cache=_KCACHE)
-def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tri_count, case_mask, tri_slots, local_edges,
-                  n_edges, ec, nc_off, nc, gen, queue, n_queued, tris, tri_cell, vkey, vend, counters):
+@njit(cache=_KCACHE, error_model="numpy")
+def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tri_count, case_mask, tri_slots,
+                  local_edges, n_edges, ec, nc_off, nc, gen, queue, n_queued, tris, tri_cell, vkey, vend, counters,
+                  points, pos, acc, mean):
     """:func:`construct` for tetrahedra with records, LIFO: the same cells, polygons, vertices and triangles, in
     the same order.
 
@@ -850,7 +853,28 @@ def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
     column ``ds`` (the records themselves, ``dw = 16, ds = 6``, or a copy's own
     array, ``dw = 6, ds = 2``); ``nodes2`` and ``dyn2`` the same as 2-D
     arrays for the rare crossing exactly on a node (:func:`_node_vertex`).
-    ``tri_slots``: :func:`tet_triangle_slots`. Returns as :func:`construct`.
+    ``tri_slots``: :func:`tet_triangle_slots`. The outputs are flat too:
+    ``tris`` (3 T,), ``vend`` (2 V,), ``pos`` and ``acc`` (3 V,), and
+    ``points`` (3 N,). Returns as :func:`construct`.
+
+    Stage 3 rides along: each vertex's position (5.2) goes into ``pos[v]``
+    when it is created (:func:`polygen.volume.marching.crossing_points`'s
+    formula: the same bits), and with ``mean`` each triangle's area-weighted
+    normal is added into ``acc`` at its three vertices when it is written
+    (``marching._mean_normals``'s sums, in its order: the same bits), so the
+    vertices' ends, which were just read, are not fetched again by two more
+    passes. ``pos`` and ``acc`` have at least ``vkey``'s rows; ``acc`` is
+    only written with ``mean``.
+
+    Where the time goes on 2M (20 values, 1.1 M triangles): about 60 ns per
+    triangle of work (on data 2, whose records fit in the caches) and as
+    much again waiting for memory: the cell lists of the edges (in 4 KiB
+    pages: a TLB miss too), the records of the cells first reached and
+    their nodes' values, one after the other. So the lists of a cell's
+    crossed edges are fetched as soon as the cell is first reached (they are
+    walked when it is taken from the stack, later), and the records of all
+    the cells around a taken cell's open edges are fetched before the first
+    one is read.
 
     Why a kernel of its own: :func:`construct` serves tetrahedra and
     hexahedra, records or not, FIFO or LIFO, through runtime arguments, so
@@ -858,11 +882,13 @@ def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
     a multiplication by a stride read from memory, and every index loaded
     from an array (a cell, a node) gets numba's negative-index wraparound
     test. Here the node count, the record width and the queue order are
-    constants, indices are unsigned, the slot of a triangle corner comes
-    from a table, and the slot of the polygon's own vertex is its rank
-    among the polygon's vertex codes, counted while they are walked.
+    constants, indices are unsigned and arrays flat, the slot of a triangle
+    corner comes from a table, and the slot of the polygon's own vertex is
+    its rank among the polygon's vertex codes, counted while they are
+    walked. ``error_model="numpy"``: the one division, (5.2), is by ``C2 -
+    C1 != 0`` on a crossed edge, so the check numba would add is dead code.
     """
-    cap_t = tris.shape[0] - _m.MAX_TRIANGLES
+    cap_t = tris.shape[0] // 3 - _m.MAX_TRIANGLES
     cap_v = vkey.shape[0]
     cap_q = queue.shape[0]
     sep = dw != 16  # the stamps, states and slots in a line of their own (a copy of the builder)
@@ -880,7 +906,7 @@ def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
     node_vertices = 0
     while tail > 0:  # for-loop (1): the newest cell first
         tail -= 1
-        c = _u(queue[tail])
+        c = _u(queue[_u(tail)])
         rb = c * 16
         db = c * dw
         pops += 1
@@ -954,11 +980,22 @@ def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
             n_v += 1
             if w < 6:  # a vertex on cell edge E_n: its cells, straight from the edge's list
                 lo = _u(rec[rb + 10 + w])
-                vkey[v] = ec[lo - 1]  # the edge's id, just before its list
+                vkey[_u(v)] = ec[lo - 1]  # the edge's id, just before its list
                 x = rec[rb + R_NODES + local_edges[w, 0]]
                 y = rec[rb + R_NODES + local_edges[w, 1]]
-                vend[v, 0] = min(x, y)
-                vend[v, 1] = max(x, y)
+                na = _u(min(x, y))
+                nb = _u(max(x, y))
+                vend[_u(v) * 2] = na
+                vend[_u(v) * 2 + 1] = nb
+                c1 = s[na]
+                c2 = s[nb]
+                # (5.2) P_c = ((C - C1) P2 - (C - C2) P1) / (C2 - C1)
+                for d in range(3):
+                    pos[_u(v) * 3 + d] = ((value - c1) * points[nb * 3 + d]
+                                          - (value - c2) * points[na * 3 + d]) / (c2 - c1)
+                if mean:
+                    for d in range(3):
+                        acc[_u(v) * 3 + d] = 0.0
                 q = lo
                 # for-loop (3): every cell C_j sharing E_n; all are crossed, since E_n is
                 while True:
@@ -979,7 +1016,7 @@ def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
                             touched += 1
                             if tail == cap_q:
                                 return FULL_QUEUE, n_p, n_t, n_v, node_vertices > 0
-                            queue[tail] = j  # insert C_j into the FIFO
+                            queue[_u(tail)] = j  # insert C_j into the FIFO
                             tail += 1
                         if xj == 0:
                             mj = case_mask[cj]
@@ -987,6 +1024,12 @@ def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
                             vals[0], vals[1], vals[2], vals[3] = x0, x1, x2, x3
                             mj = _exact_mask(cj, xj, vals, value, tri_table, tri_count, local_edges, codes_j)
                         stj = cj | (xj << 16) | (mj << MASK_SHIFT)
+                        if g != gen:  # its edges' cell lists, long before C_j is taken from the stack
+                            pm = mj & 63
+                            while pm:
+                                w3 = _ctz(pm)
+                                pm &= pm - 1
+                                _prefetch_item(ec, _u(rec[rj + 10 + w3]))
                         dyn[jb + R_STATE] = stj
                         for w2 in range(4):
                             dyn[jb + ds + w2] = -1
@@ -1001,9 +1044,13 @@ def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
                 visits += q - lo
             else:  # a crossing exactly on a node: shared by every cell around the node
                 node = rec[rb + R_NODES + w - 6]
-                vkey[v] = n_edges + node
-                vend[v, 0] = node
-                vend[v, 1] = node
+                vkey[_u(v)] = n_edges + node
+                vend[_u(v) * 2] = node
+                vend[_u(v) * 2 + 1] = node
+                for d in range(3):
+                    pos[_u(v) * 3 + d] = points[_u(node) * 3 + d]
+                    if mean:
+                        acc[_u(v) * 3 + d] = 0.0
                 node_vertices += 1
                 visits += nc_off[node + 1] - nc_off[node]
                 status, tail, tested, made = _node_vertex(nodes2, dyn2, ds, 4, 4, s, value, faces, tri_table,
@@ -1017,19 +1064,43 @@ def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
         # every vertex of P_i is registered: its triangles, as vertex ids
         if n_t > cap_t:
             return FULL_TRIANGLES, n_p, n_t, n_v, node_vertices > 0
-        if exact == 0:
-            for t in range(k):
-                for jj in range(3):
-                    tris[n_t, jj] = dyn[db + ds + tri_slots[case, 3 * t + jj]]
-                tri_cell[n_t] = c
-                n_t += 1
-        else:
-            m = (st >> MASK_SHIFT) & 0x3FF
-            for t in range(k):
-                for jj in range(3):
-                    tris[n_t, jj] = dyn[db + ds + _POPCOUNT[m & ((1 << codes[t, jj]) - 1)]]
-                tri_cell[n_t] = c
-                n_t += 1
+        m = (st >> MASK_SHIFT) & 0x3FF
+        for t in range(k):
+            if exact == 0:
+                i0 = dyn[db + ds + tri_slots[case, 3 * t]]
+                i1 = dyn[db + ds + tri_slots[case, 3 * t + 1]]
+                i2 = dyn[db + ds + tri_slots[case, 3 * t + 2]]
+            else:
+                i0 = dyn[db + ds + _POPCOUNT[m & ((1 << codes[t, 0]) - 1)]]
+                i1 = dyn[db + ds + _POPCOUNT[m & ((1 << codes[t, 1]) - 1)]]
+                i2 = dyn[db + ds + _POPCOUNT[m & ((1 << codes[t, 2]) - 1)]]
+            tris[_u(n_t) * 3 + 0] = i0
+            tris[_u(n_t) * 3 + 1] = i1
+            tris[_u(n_t) * 3 + 2] = i2
+            tri_cell[_u(n_t)] = c
+            n_t += 1
+            if mean:  # marching._mean_normals, triangle by triangle in the same order
+                u0 = _u(i0)
+                u1 = _u(i1)
+                u2 = _u(i2)
+                ux = pos[u1 * 3 + 0] - pos[u0 * 3 + 0]
+                uy = pos[u1 * 3 + 1] - pos[u0 * 3 + 1]
+                uz = pos[u1 * 3 + 2] - pos[u0 * 3 + 2]
+                wx = pos[u2 * 3 + 0] - pos[u0 * 3 + 0]
+                wy = pos[u2 * 3 + 1] - pos[u0 * 3 + 1]
+                wz = pos[u2 * 3 + 2] - pos[u0 * 3 + 2]
+                nx = uy * wz - uz * wy
+                ny = uz * wx - ux * wz
+                nz = ux * wy - uy * wx
+                acc[u0 * 3 + 0] += nx
+                acc[u0 * 3 + 1] += ny
+                acc[u0 * 3 + 2] += nz
+                acc[u1 * 3 + 0] += nx
+                acc[u1 * 3 + 1] += ny
+                acc[u1 * 3 + 2] += nz
+                acc[u2 * 3 + 0] += nx
+                acc[u2 * 3 + 1] += ny
+                acc[u2 * 3 + 2] += nz
     counters[C_POPS] = pops
     counters[C_VISITS] = visits
     counters[C_TOUCHED] = touched
@@ -1189,6 +1260,12 @@ def _flood(t, nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
                             dyn[j, R_STATE] = stj
                             for w2 in range(n_slots):
                                 dyn[j, ds + w2] = -1
+                            if nn == 4 and starts.shape[0] > 0:  # its crossed edges' cell lists, early
+                                pm = (stj >> MASK_SHIFT) & 63     # (as construct_tet: walked when it is popped)
+                                while pm:
+                                    w3 = _ctz(pm)
+                                    pm &= pm - 1
+                                    _prefetch_item(ec, starts[j, w3])
                             n_p += 1
                             stack[t, sp] = j
                             sp += 1
