@@ -464,7 +464,10 @@ class EdgeCentredTable:
             ``cells_tested`` counts the seeds tested and the cells whose
             case was computed by the construction; ``t1`` the seed tests,
             ``t2`` the construction (for-loops (1)-(3) with the triangle
-            list), ``t3`` positions and normals.
+            list), ``t3`` positions and normals. (Tetrahedra with records,
+            LIFO, one thread: the construction kernel writes the positions
+            and sums the mean normals as it goes, so ``t2`` includes them and
+            ``t3`` is their copy out and the normalisation.)
         """
         if canonical:
             return canonical_order(self.extract(value, seeds, normals=normals, threads=threads))
