@@ -7,7 +7,10 @@ prepared once (thinning seeds); each value is extracted by the builder with
 each thread runs the serial construction on its own stack, cells and
 contested vertices claimed by compare-and-swap, see ``EdgeCentredTable``), and
 ``threads=2`` with numba limited to one thread ("2 on 1 core": the parallel
-algorithm's total work, one thread after the other), interleaved,
+algorithm's total work, one thread after the other), and ``threads=1`` by the
+generic serial kernel with stage 3 in separate passes ("1 generic": the
+serial path before issue 20's specialised tetrahedron kernel, which builds the
+same arrays), interleaved,
 ``REPEATS`` times, mean normals on, the seed search done beforehand (it is
 the same for both). Per value: the median wall time of ``extract`` (the
 construction ``t2`` and positions/normals ``t3`` included) and of ``t2``
@@ -30,13 +33,14 @@ import numpy as np
 
 from _common import write_results
 from polygen.volume import datasets, isovalues, methods
+from polygen.volume.edge_centred import EdgeCentredTable
 from polygen.volume.surface import same_surface
 
 DATA = ["data4", "2M"]
 REPEATS = 5
 COLUMNS = ["data", "cells", "threads", "median_ms", "max_ms", "sum_ms", "t2_median_ms", "t2_max_ms",
-           "cpu_sum_ms", "triangles (sum)", "vertices (sum)", "contested (sum)", "same as serial", "load before",
-           "load after"]
+           "cpu_sum_ms", "triangles (sum)", "vertices (sum)", "contested (sum)", "largest: cells per thread",
+           "same as serial", "load before", "load after"]
 
 
 def run(name):
@@ -49,10 +53,16 @@ def run(name):
     for v, sd in zip(values, seeds):  # compile and warm the caches; check the surfaces
         ref = b.extract(v, sd, threads=1)
         assert same_surface(ref, b.extract(v, sd, threads=2)), (name, v)
+        EdgeCentredTable.SPECIALISED_KERNEL = False
+        gen = b.extract(v, sd, threads=1)
+        EdgeCentredTable.SPECIALISED_KERNEL = True
+        for a in ("triangles", "vertices", "normals", "vertex_keys", "triangle_cells"):  # the same arrays
+            assert np.array_equal(getattr(ref, a), getattr(gen, a)), (name, v, a)
     load0 = os.getloadavg()[0]
     # "2 on 1 core": the two threads' work run one after the other on one core (numba.set_num_threads(1)):
     # the parallel algorithm's total work, free of waiting for a busy second core
-    kinds = [1, 2, "2 on 1 core"]
+    kinds = [1, 2, "2 on 1 core", "1 generic"]
+    balance = []  # the largest surface's cells per thread, threads=2
     wall = {k: np.zeros((REPEATS, len(values))) for k in kinds}
     t2 = {k: np.zeros((REPEATS, len(values))) for k in kinds}
     cpu = {k: np.zeros((REPEATS, len(values))) for k in kinds}
@@ -60,11 +70,13 @@ def run(name):
     verts = {k: 0 for k in kinds}
     contested = 0
     n_thr = numba.get_num_threads()
+    max_tris = max(b.extract(v, sd).n_triangles for v, sd in zip(values, seeds))
     for r in range(REPEATS):
         for i, (v, sd) in enumerate(zip(values, seeds)):
-            for kind in kinds[r % 3:] + kinds[:r % 3]:
-                th = 1 if kind == 1 else 2
+            for kind in kinds[r % 4:] + kinds[:r % 4]:
+                th = 2 if kind in (2, "2 on 1 core") else 1
                 numba.set_num_threads(1 if kind == "2 on 1 core" else n_thr)
+                EdgeCentredTable.SPECIALISED_KERNEL = kind != "1 generic"
                 c0 = time.thread_time()
                 t0 = time.perf_counter()
                 iso = b.extract(v, sd, threads=th)
@@ -76,6 +88,9 @@ def run(name):
                     verts[kind] += iso.n_vertices
                     if kind == 2:
                         contested += b.stats["contested"]
+                        if iso.n_triangles == max_tris:
+                            balance.append(b.stats["per_thread"])
+    EdgeCentredTable.SPECIALISED_KERNEL = True
     numba.set_num_threads(n_thr)
     load1 = os.getloadavg()[0]
     rows = []
@@ -87,7 +102,8 @@ def run(name):
                      "t2_median_ms": float(np.median(per_value_t2)), "t2_max_ms": float(per_value_t2.max()),
                      "cpu_sum_ms": float(np.median(cpu[th], axis=0).sum() * 1e3),
                      "triangles (sum)": tris[th], "vertices (sum)": verts[th],
-                     "contested (sum)": contested if th != 1 else 0,
+                     "contested (sum)": contested if th in (2, "2 on 1 core") else 0,
+                     "largest: cells per thread": str(balance[0]) if th == 2 and balance else "",
                      "same as serial": True, "load before": round(load0, 2), "load after": round(load1, 2)})
     return rows
 
@@ -96,12 +112,17 @@ def main(names):
     rows = []
     for name in names:
         rows += run(name)
-        print(*rows[-3:], sep="\n", flush=True)
+        print(*rows[-4:], sep="\n", flush=True)
     notes = [f"{REPEATS} interleaved repeats per value; per value the median, then the median / max / sum over "
              "the 20 values; wall = the builder's extract (construction, positions, mean normals) after the seed "
              "search; t2 = the construction alone",
+             "threads = 1: the serial construction (tetrahedra: the specialised kernel construct_tet, positions and "
+             "normal sums written as it goes, so its t2 includes them); '1 generic': the generic kernel with "
+             "stage 3 in separate passes, "
+             "the serial path before (the same arrays, checked)",
              "threads = 2: EdgeCentredTable(..., threads=2); contested: vertices whose id was decided by "
-             "compare-and-swap (edges between the two threads' regions), 2-thread run",
+             "compare-and-swap (edges between the two threads' regions), 2-thread run; largest: cells taken by each "
+             "thread on the largest surface (first repeat)",
              "cpu_sum_ms: CPU time of the calling thread per extract (time.thread_time), median per value, summed: "
              "all the work for 1 thread and for '2 on 1 core' (the parallel algorithm's total work, free of the "
              "machine's load), the main thread's share for 2 threads",

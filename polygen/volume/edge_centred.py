@@ -304,6 +304,9 @@ class EdgeCentredTable:
     #: every parallel region cost 15-45 ms of waiting whatever its size; 20 000 triangles is where serial
     #: stage 3 takes ~1 ms (2M), far above the start-up of a parallel region on a free core (tens of microseconds)
     STAGE3_PARALLEL_TRIANGLES = 20_000
+    #: a serial query on tetrahedra with records in LIFO order runs the kernel specialised for it
+    #: (``_edge_centred_kernels.construct_tet``); False: the generic one (tests and benchmarks compare them)
+    SPECIALISED_KERNEL = True
 
     def __init__(self, vol, field=None, *, order="lifo", threads=1, layout=None):
         t0 = time.perf_counter()
@@ -388,6 +391,7 @@ class EdgeCentredTable:
         new._tri_cell = np.empty_like(self._tri_cell)
         new._vkey = np.empty_like(self._vkey)
         new._vend = np.empty_like(self._vend)
+        new._pos = new._acc = None  # made at its first query
         new._ev = None
         new.stats = {}
         return new
@@ -460,7 +464,10 @@ class EdgeCentredTable:
             ``cells_tested`` counts the seeds tested and the cells whose
             case was computed by the construction; ``t1`` the seed tests,
             ``t2`` the construction (for-loops (1)-(3) with the triangle
-            list), ``t3`` positions and normals.
+            list), ``t3`` positions and normals. (Tetrahedra with records,
+            LIFO, one thread: the construction kernel writes the positions
+            and sums the mean normals as it goes, so ``t2`` includes them and
+            ``t3`` is their copy out and the normalisation.)
         """
         if canonical:
             return canonical_order(self.extract(value, seeds, normals=normals, threads=threads))
@@ -483,11 +490,8 @@ class EdgeCentredTable:
                                              self._queue)
             t1 = time.perf_counter() - t0
             t0 = time.perf_counter()
-            status, n_p, n_t, n_v, any_node = _k.construct(
-                self.nodes, self.ids, self.starts, self.dyn, self.ds, self.nn, self.s, value, self.faces,
-                self.table, self.count,
-                self.case_mask, self.local_edges, self.n_edges, self.ec_off, self.ec, *self._nc(), gen,
-                self._queue, n_queued, lifo, self._tris, self._tri_cell, self._vkey, self._vend, counters)
+            status, n_p, n_t, n_v, any_node, fused = self._construct(value, gen, n_queued, lifo, counters,
+                                                                      normals == "mean")
             if status == _k.OK:
                 break
             restarts += 1  # a buffer was too small (or a table missing): grow (build) it and do the query again
@@ -508,15 +512,19 @@ class EdgeCentredTable:
         keys = _jit.astype(self._vkey[:n_v], np.int64)
         vend = self._vend[:n_v]
         tri, tri_cell, keys, vend, collapsed = _drop_at_nodes(any_node, tri, tri_cell, keys, vend, self.n_edges)
+        fused = fused and keys.shape[0] == n_v  # positions and normal sums of the vertices kept, in their order
         n_v = keys.shape[0]
         t2 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
         vertices = _jit.empty((n_v, 3))
-        if n_v:
+        if fused:
+            vertices[...] = self._pos[:n_v]
+        elif n_v:
             _k.positions(np.ascontiguousarray(vend), n_v, self.points, self.s, value, vertices)
         nrm = vertex_normals(normals, vertices, tri, keys, edges=np.ascontiguousarray(self.vol.edges), s=self.s,
-                             value=value, node_grad=node_grad, points=self.points)
+                             value=value, node_grad=node_grad, points=self.points,
+                             mean_sums=self._acc if fused and normals == "mean" and not any_node else None)
         t3 = time.perf_counter() - t0
 
         self.stats = {
@@ -538,6 +546,44 @@ class EdgeCentredTable:
             cells_intersected=int(n_p), vertex_lookups=int(counters[_k.C_LOOKUPS]), t1=t1, t2=t2, t3=t3,
             method=self.method,
         )
+
+    def _construct(self, value, gen, n_queued, lifo, counters, mean):
+        """t2 by the serial kernel that fits: ``_k.construct_tet`` (tetrahedra, records, LIFO) or ``_k.construct``.
+
+        Both build the same polygons, vertices and triangles in the same
+        order; the first is the generic one specialised (see its docstring),
+        which also writes the vertices' positions into ``self._pos`` and, with
+        ``mean``, their summed triangle normals into ``self._acc`` (query
+        buffers of this builder, as many rows as ``self._vkey``). Returns the
+        kernel's ``(status, n_polygons, n_triangles, n_vertices,
+        any_node_vertex)`` and whether those two were written.
+        """
+        if self.nn == 4 and self.rec is not None and lifo and self.SPECIALISED_KERNEL:
+            cap = self._vkey.shape[0]
+            if getattr(self, "_pos", None) is None or self._pos.shape[0] < cap:
+                self._pos = np.empty((cap, 3))
+                self._acc = np.empty((cap, 3))
+            bufs = (self._tris, self._vend, self.points, self._pos, self._acc)
+            if not all(a.flags.c_contiguous for a in bufs):  # flat views, written through (never a copy)
+                raise AssertionError("a query buffer is not contiguous")  # never: they are all made whole
+            flat = [a.reshape(-1) for a in bufs]
+            tet = self.__dict__.get("_tet")
+            if tet is None or tet[0] is not self.dyn:  # flat views of the records and of this builder's state
+                rec1, dyn1 = self.rec.view(), self.dyn.view()
+                rec1.shape = dyn1.shape = (-1,)  # views (an assignment to shape never copies)
+                tet = self._tet = (self.dyn, rec1, dyn1, self.dyn.shape[1],
+                                   _k.tet_triangle_slots(self.table, self.count, self.case_mask))
+            _, rec1, dyn1, dw, slots = tet
+            return (*_k.construct_tet(rec1, dyn1, dw, self.ds, self.nodes, self.dyn, self.s, value, self.faces,
+                                      self.table, self.count, self.case_mask, slots, self.local_edges, self.n_edges,
+                                      self.ec, *self._nc(), gen, self._queue, n_queued, flat[0], self._tri_cell,
+                                      self._vkey, flat[1], counters, flat[2], flat[3], flat[4], mean),
+                    True)
+        return *_k.construct(
+            self.nodes, self.ids, self.starts, self.dyn, self.ds, self.nn, self.s, value, self.faces,
+            self.table, self.count,
+            self.case_mask, self.local_edges, self.n_edges, self.ec_off, self.ec, *self._nc(), gen,
+            self._queue, n_queued, lifo, self._tris, self._tri_cell, self._vkey, self._vend, counters), False
 
     def _parallel_buffers(self, threads):
         """The serial buffers seen as ``threads`` per-thread parts, and the vertex-id array ``ev`` (made once).
@@ -699,7 +745,8 @@ class EdgeCentredTable:
             "edge_cells": int(self.ec.nbytes),
             "edge_list": int(vol.edges.nbytes),
             "buffers": int(self._queue.nbytes + self._tris.nbytes + self._tri_cell.nbytes + self._vkey.nbytes
-                           + self._vend.nbytes),
+                           + self._vend.nbytes + sum(getattr(self, a, None).nbytes for a in ("_pos", "_acc")
+                                                     if getattr(self, a, None) is not None)),
         }
         if self.ec_off.size:
             out["edge_cells_offsets"] = int(self.ec_off.nbytes)

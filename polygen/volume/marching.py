@@ -653,6 +653,29 @@ def _normalize(out):
 
 
 @njit
+def normalised(sums, out):
+    """``out[v] = sums[v] / |sums[v]|`` for the rows of ``out`` (V, 3) (a zero row copied as it is), as
+    :func:`_normalize` does in place, bit for bit; returns how many rows :func:`zero_rows` would list.
+    ``sums`` (>= V, 3) float64."""
+    n_zero = 0
+    for v in range(out.shape[0]):
+        x = sums[v, 0]
+        y = sums[v, 1]
+        z = sums[v, 2]
+        ln = np.sqrt(x ** 2 + y ** 2 + z ** 2)
+        if ln > 0.0:
+            x /= ln
+            y /= ln
+            z /= ln
+        out[v, 0] = x
+        out[v, 1] = y
+        out[v, 2] = z
+        if not (abs(x) + abs(y) + abs(z) > 0.0):
+            n_zero += 1
+    return n_zero
+
+
+@njit
 def _gradient_normals(keys, edges, s, value, node_grad, out):
     """Vertex normals from the node gradients interpolated along the edge (unit length)."""
     n_edges = edges.shape[0]

@@ -435,7 +435,8 @@ def finish(value, keys, tri, tri_cell, *, points, edges, s, normals, node_grad, 
     )
 
 
-def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad, points=None, mean_kernel=None):
+def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad, points=None, mean_kernel=None,
+                   mean_sums=None):
     """The normals half of stage 3, shared by every construction.
 
     Parameters
@@ -458,6 +459,11 @@ def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad, 
     mean_kernel : callable, optional
         ``(vertices, tri, out)`` filling ``out`` with the ``"mean"`` normals
         in place of the serial kernel (a parallel one for large surfaces).
+    mean_sums : (>= V, 3) float64, optional
+        The ``"mean"`` normals' sums, already accumulated (by a construction
+        that added each triangle's normal as it wrote the triangle, in
+        ``marching._mean_normals``'s order): only normalised here, into a new
+        array.
 
     Returns
     -------
@@ -476,11 +482,14 @@ def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad, 
         return None
     nrm = _jit.empty(vertices.shape, vertices.dtype)
     if vertices.shape[0]:
-        if normals == "mean":
+        n_zero = -1  # not counted
+        if normals == "mean" and mean_sums is not None:
+            n_zero = _m.normalised(mean_sums, nrm)
+        elif normals == "mean":
             (_m._mean_normals if mean_kernel is None else mean_kernel)(vertices, tri, nrm)
         else:
             _m._gradient_normals(keys, edges, s, value, node_grad, nrm)
-        if points is not None:
+        if points is not None and n_zero != 0:
             zero = _m.zero_rows(nrm)
             on_edge = zero[keys[zero] < edges.shape[0]]
             if on_edge.size:
