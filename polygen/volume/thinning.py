@@ -274,7 +274,8 @@ class Skeleton:
     stats : dict
         ``T_topology`` (face neighbours and boundary groups, when not cached),
         ``T_check`` (:func:`boundary_defects`), ``nonmanifold_edges``, ``nonmanifold_nodes``,
-        ``T_pe`` (extrema and marks), ``T_thin`` (classes, n_B, removal),
+        ``T_pe`` (extrema and marks), ``T_thin`` (classes, n_B, removal), ``T_wait`` (on a large
+        volume, the FIFO's wait for the boundary groups numbered beside it),
         ``T_register`` (value classes), ``T_total`` (all but topology), ``extrema``,
         ``skeleton_cells`` (N_e2 of Table 7.1), ``C1`` .. ``C6`` (Table 7.2),
         ``processed``/``removed`` per class, ``walks``, ``pricks``, ``prick_cells``.
@@ -436,51 +437,56 @@ def _edge_table_aside(vol):
     return thread
 
 
-def _extrema_and_defects(vol, s, out):
-    """Into ``out``: the extrema and their seconds, then the boundary defects and theirs (or the exception)."""
+def _extrema_and_defects(vol, s, out, ready=None):
+    """Into ``out``: the extrema and their seconds (then ``ready`` is set), the boundary groups, then the
+    boundary defects and their seconds (or the exception)."""
     try:
         t0 = time.perf_counter()
         out["ext"] = find_extrema(vol, s)
+        out["t_pe"] = time.perf_counter() - t0
+        if ready is not None:
+            ready.set()
+        vol.boundary_groups
+        vol.group_is_void
         t1 = time.perf_counter()
         out["defects"] = boundary_defects(vol)
-        out["t_pe"], out["t_check"] = t1 - t0, time.perf_counter() - t1
+        out["t_check"] = time.perf_counter() - t1
     except BaseException as exc:  # re-raised in the thinning thread
         out["error"] = exc
+    finally:
+        if ready is not None:
+            ready.set()
 
 
 def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
     """:func:`thin_volume` once the node -> cells lists and the face neighbours are there."""
-    # the extrema and the boundary check read neither the components nor the boundary groups: on a large
-    # volume they run in a second thread meanwhile (2M: ~0.17 s of one core taken off the serial path that
-    # ends in the FIFO; the same results)
+    # On a large volume a second thread finds the extrema, then the boundary groups and the boundary check,
+    # while this one labels the cell components: the marks need the extrema and the components, and the
+    # removals of 7.5.2 only whether a node is on the boundary (n_B != 0), not its group -- so the FIFO
+    # starts with a placeholder group on the boundary nodes and records where each node's group comes
+    # from; the groups, which only pricking (7.5.3) reads, are put in once the FIFO is empty
+    # (_k.thin_resume, _k.resolve_labels). The same skeleton, the same removals in the same order.
     side = {}
     helper = None
+    bfn = vol.boundary_face_nodes  # read by both threads: built once, first
     if vol.n_cells >= _ASIDE_MIN_CELLS and (os.cpu_count() or 1) >= 2 and parallel_kernels_may_overlap():
-        vol.boundary_face_nodes  # read by both threads: built once, first
-        helper = threading.Thread(target=_extrema_and_defects, args=(vol, s, side), daemon=True,
+        ready = threading.Event()
+        helper = threading.Thread(target=_extrema_and_defects, args=(vol, s, side, ready), daemon=True,
                                   name="polygen-thinning-extrema")
         helper.start()
-    try:
-        vol.cell_components
-        groups = vol.boundary_groups
-        bfn = vol.boundary_face_nodes
-        is_void_g = vol.group_is_void
-    finally:
-        if helper is not None:
+        try:
+            vol.cell_components
+        finally:
+            ready.wait()
+        if "error" in side:
             helper.join()
-    t_topology = time.perf_counter() - t0
-    if helper is None:
+            raise side["error"]
+    else:
+        vol.cell_components
         _extrema_and_defects(vol, s, side)
-    if "error" in side:
-        raise side["error"]
-    bad_edges, bad_nodes = side["defects"]
-    t_check = side["t_check"]
-    if bad_edges.size or bad_nodes.size:
-        warnings.warn(
-            f"the boundary of this volume is not a 2-manifold ({bad_edges.shape[0]} edges and {bad_nodes.size} "
-            "nodes where cells touch without a shared face, e.g. nodes "
-            f"{(bad_nodes if bad_nodes.size else bad_edges.ravel())[:5].tolist()}): Thms 7.4-7.6 do not apply "
-            "and the skeleton may miss parts of isosurfaces", ThinningWarning, stacklevel=3)
+        if "error" in side:
+            raise side["error"]
+    t_topology = time.perf_counter() - t0
 
     t0 = time.perf_counter()
     ext = side["ext"]
@@ -492,20 +498,52 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
     cls = np.empty(m, np.int8)
     _k.initial_classes(face_nb, marked, cls)
     nb_node = np.zeros(vol.n_points, np.int64)
+    local_faces = np.ascontiguousarray(vol.local_faces, np.int64)
+    fmask = _k.face_masks(local_faces, cells.shape[1])
+    order = np.empty(m if record else 0, np.int64)
+    counters = np.zeros(_k.N_STATS, np.int64)
+    # every FIFO entry is taken once: the initial ones and up to F per removal
+    decisions = np.empty((m * (fmask.shape[0] + 1) if record else 0, 4), np.int64)
+    queue, head, tail = _k.fifo_init(cls, fmask.shape[0])
+    st = np.zeros(_k.N_STATE, np.int64)
+    none = np.empty(0, np.int32)
+    t_wait = 0.0
+    if helper is not None:  # the FIFO with placeholder groups while the helper numbers them
+        nb_node[bfn.ravel()] = 1
+        src = np.empty(vol.n_points, np.int32)
+        labelled = np.empty(vol.n_points, np.int32)
+        _k.thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, np.zeros(1, np.int64),
+                       np.zeros(1, np.bool_), False, order, np.zeros((1, 3), np.int64), counters, decisions,
+                       queue, head, tail, np.zeros(1, np.bool_), st, src, labelled)
+        tw = time.perf_counter()
+        helper.join()
+        t_wait = time.perf_counter() - tw
+        if "error" in side:
+            raise side["error"]
+        nb_node[:] = 0
+    groups = vol.boundary_groups
+    is_void_g = vol.group_is_void
     nb_node[bfn.ravel()] = np.repeat(groups, bfn.shape[1])
+    if helper is not None:
+        _k.resolve_labels(nb_node, src, labelled, st[_k.ST_N_LABELLED])
+    bad_edges, bad_nodes = side["defects"]
+    t_check = side["t_check"]
+    if bad_edges.size or bad_nodes.size:
+        warnings.warn(
+            f"the boundary of this volume is not a 2-manifold ({bad_edges.shape[0]} edges and {bad_nodes.size} "
+            "nodes where cells touch without a shared face, e.g. nodes "
+            f"{(bad_nodes if bad_nodes.size else bad_edges.ravel())[:5].tolist()}): Thms 7.4-7.6 do not apply "
+            "and the skeleton may miss parts of isosurfaces", ThinningWarning, stacklevel=3)
     n_groups = is_void_g.shape[0]
     root = np.arange(n_groups + 1, dtype=np.int64)
     is_void = np.zeros(n_groups + 1, np.bool_)
     is_void[1:] = is_void_g
-    local_faces = np.ascontiguousarray(vol.local_faces, np.int64)
-    fmask = _k.face_masks(local_faces, cells.shape[1])
-    order = np.empty(m if record else 0, np.int64)
     prick_log = np.zeros((n_groups + 1, 3), np.int64)
-    counters = np.zeros(_k.N_STATS, np.int64)
-    # every FIFO entry is taken once: the initial ones and up to F per removal
-    decisions = np.empty((m * (fmask.shape[0] + 1) if record else 0, 4), np.int64)
-    n_removed, n_pricks, n_dec = _k.thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void,
-                                         bool(prick_voids), order, prick_log, counters, decisions)
+    _k.thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, bool(prick_voids), order,
+                   prick_log, counters, decisions, queue, head, tail, np.zeros(n_groups + 1, np.bool_), st,
+                   none, none)
+    n_removed, n_pricks, n_dec = st[_k.ST_N_REMOVED], st[_k.ST_N_PRICKS], st[_k.ST_N_DEC]
+    del queue
     t2 = time.perf_counter()
 
     # 7.5.4: the skeleton and its value classes
@@ -528,7 +566,8 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
         "nonmanifold_edges": int(bad_edges.shape[0]),
         "nonmanifold_nodes": int(bad_nodes.size),
         "T_pe": side["t_pe"] + t1 - t0,  # the extrema's own seconds (in the helper thread or here), marks
-        "T_thin": t2 - t1,
+        "T_thin": t2 - t1 - t_wait,  # classes, n_B, removal (not the wait for the groups, T_wait)
+        "T_wait": t_wait,
         "T_register": t3 - t2,
         "T_total": side["t_pe"] + t3 - t0,
         "extrema": ext.n,
