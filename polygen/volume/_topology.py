@@ -10,7 +10,7 @@ of rows and needs neither a global sort nor a Python loop.
 import numba
 import numpy as np
 
-from polygen._jit import njit, prange
+from polygen._jit import empty, njit, prange
 from polygen.volume._cells import HEX_FACES as HEX_FACE_NODES
 
 
@@ -383,8 +383,9 @@ def _label_components(neighbors, labels, stack):
 def cell_components(neighbors, dtype=np.int64):
     """Connected components of cells through face neighbours: ``(labels (M,) dtype, n)``."""
     m = neighbors.shape[0]
-    labels = np.full(m, -1, dtype)
-    n_comp = _label_components(neighbors, labels, np.empty(m, dtype))
+    labels = empty(m, dtype)
+    labels.fill(-1)
+    n_comp = _label_components(neighbors, labels, empty(m, dtype))
     return labels, n_comp
 
 
@@ -688,7 +689,7 @@ def stable_csr(keys, n_keys):
     """
     if keys.shape[0] < _SERIAL_BELOW:
         return _csr_serial(keys, n_keys)
-    order = np.empty(keys.shape[0], np.int64)
+    order = empty(keys.shape[0], np.int64)
     return _stable_csr(keys, n_keys, numba.get_num_threads(), order, 1), order
 
 
@@ -699,7 +700,7 @@ def node_cells_csr(cells, n_nodes):
     while the cell ids fit) instead of the position.
     """
     k = cells.shape[1]
-    out = np.empty(cells.size, np.int32 if cells.shape[0] < np.iinfo(np.int32).max else np.int64)
+    out = empty(cells.size, np.int32 if cells.shape[0] < np.iinfo(np.int32).max else np.int64)
     flat = cells.reshape(-1)
     if flat.shape[0] < _SERIAL_BELOW:
         offsets, order = _csr_serial(flat, n_nodes)

@@ -167,7 +167,7 @@ _EMPTY_I32 = np.empty(0, np.int32)
 
 def _aligned_records(m, width):
     """(m, width) int32 records starting on a 64-byte boundary (a tetrahedron's record is one cache line)."""
-    raw = np.empty(m * width + 16, np.int32)
+    raw = _jit.empty(m * width + 16, np.int32)  # numba's allocator: no huge-page advice (see polygen._jit.empty)
     start = (-(raw.ctypes.data // 4)) % 16
     return raw[start:start + m * width].reshape(m, width)
 
