@@ -633,9 +633,9 @@ def _same_skeleton(beside, alone):
 
 @pytest.mark.parametrize("name", ["data2", "genus3"])
 def test_extrema_beside_the_topology_give_the_same_skeleton(name, monkeypatch):
-    """The extrema, the boundary groups and the boundary check run in a second thread on large volumes
-    (thinning._thin) while the FIFO runs with placeholder groups: forced on a small one, the skeleton is
-    the one thinning without the thread gives, class for class, group for group."""
+    """The components, the boundary groups and the boundary check run in a second thread on large volumes
+    (thinning._thin) while the FIFO runs with the extremum cells as marks and placeholder groups: forced on
+    a small one, the skeleton is the one thinning without the thread gives, class for class, group for group."""
     from polygen.volume import UnstructuredVolume
     from polygen.volume import thinning as th
 
@@ -645,15 +645,15 @@ def test_extrema_beside_the_topology_give_the_same_skeleton(name, monkeypatch):
     alone = th.thin_volume(fresh())
     monkeypatch.setattr(th, "_ASIDE_MIN_CELLS", 0)
     calls = []
-    real = th._extrema_and_defects
-    monkeypatch.setattr(th, "_extrema_and_defects",
+    real = th._beside_fifo
+    monkeypatch.setattr(th, "_beside_fifo",
                         lambda *a: (calls.append(th.threading.current_thread().name), real(*a))[1])
     resolved = []
     real_resolve = th._k.resolve_labels
     monkeypatch.setattr(th._k, "resolve_labels", lambda *a: (resolved.append(a[3]), real_resolve(*a))[1])
     beside = th.thin_volume(fresh())
     if th.parallel_kernels_may_overlap() and (th.os.cpu_count() or 1) >= 2:
-        assert calls == ["polygen-thinning-extrema"]
+        assert calls == ["polygen-thinning-beside"]
         assert len(resolved) == 1  # the deferred path
         # inner nodes came onto the boundary before the groups were put in (genus3 has no inner node)
         assert (resolved[0] > 0) == (name == "data2")
@@ -708,3 +708,39 @@ def test_deferred_groups_on_random_shapes(cell_type, monkeypatch):
         _same_skeleton(beside, alone)
         voids_with_labels += vol.n_voids > 0 and resolved[-1] > 0
     assert voids_with_labels > 0  # pricking read groups that were put in afterwards
+
+
+def test_part_without_extremum_beside_the_fifo(monkeypatch):
+    """Beside the FIFO the marks are the extremum cells; a face-connected part with no extremum (here:
+    the extrema of one of two disjoint blocks hidden) is found once the components are there and the
+    thinning runs again with its mark -- the skeleton of thinning without the thread, which keeps the part."""
+    from polygen.volume import UnstructuredVolume
+    from polygen.volume import thinning as th
+
+    if not (th.parallel_kernels_may_overlap() and (th.os.cpu_count() or 1) >= 2):
+        pytest.skip("the helper thread needs a thread-safe numba threading layer and two cores")
+    keep = np.zeros((9, 4, 4), bool)
+    keep[:4] = keep[5:] = True
+    vol = grid_volume(keep)  # two disjoint blocks of tetrahedra
+    labels, n = vol.cell_components
+    assert n == 2
+    off, nc = vol.node_cells
+    real = th.find_extrema
+
+    def first_block_only(v, field=None):
+        ext = real(v, field)
+        keep = labels[nc[off[ext.nodes]]] == 0
+        return dataclasses.replace(ext, nodes=ext.nodes[keep], is_max=ext.is_max[keep], is_min=ext.is_min[keep])
+
+    monkeypatch.setattr(th, "find_extrema", first_block_only)
+    monkeypatch.setattr(th, "_ASIDE_MIN_CELLS", 10**12)
+    alone = th.thin_volume(vol, "bumps", record=True)
+    assert (labels[alone.marked] == 1).sum() == 1  # the second block's one mark
+    monkeypatch.setattr(th, "_ASIDE_MIN_CELLS", 0)
+    starts = []
+    real_start = th._k.fifo_init
+    monkeypatch.setattr(th._k, "fifo_init", lambda *a: (starts.append(1), real_start(*a))[1])
+    beside = th.thin_volume(vol, "bumps", record=True)
+    assert len(starts) == 2  # thinned again with the missing mark
+    _same_skeleton(beside, alone)
+    assert (beside.classes[labels == 1] != 0).any()
