@@ -699,8 +699,16 @@ class UnstructuredVolume:
         rep = np.empty(int(edge_ids.max()) + 1, np.int64)
         rep[edge_ids] = owner
         edges_per = np.bincount(labels[rep], minlength=n_groups)
-        node_group = np.unique(np.repeat(labels, k) * self.n_points + bfn.ravel()) // self.n_points
-        nodes_per = np.bincount(node_group, minlength=n_groups)
+        # distinct (group, node) pairs per group: a node of a manifold boundary has one group, so a
+        # node -> group array is checked instead of a np.unique of the pairs (2M: 0.03-0.1 s)
+        face_group = np.repeat(labels, k)
+        group_of = np.full(self.n_points, -1, np.int64)
+        group_of[bfn.ravel()] = face_group
+        if np.array_equal(group_of[bfn.ravel()], face_group):
+            nodes_per = np.bincount(group_of[group_of >= 0], minlength=n_groups)
+        else:  # a node on several groups (cells touching at a node)
+            node_group = np.unique(face_group * self.n_points + bfn.ravel()) // self.n_points
+            nodes_per = np.bincount(node_group, minlength=n_groups)
         euler = nodes_per + faces_per - edges_per
         # enclosed signed volume: positive for an outer surface, negative around a void
         centre = self.points.mean(axis=0)
