@@ -615,7 +615,7 @@ class UnstructuredVolume:
     def _build_edge_table(self):
         off, nc = self._incidence()
         ne = self.local_edges.shape[0]
-        if self.n_cells * ne >= 1 << 32 or self.n_points >= 1 << 31:  # pragma: no cover - packed keys overflow
+        if self.n_cells >= 1 << 28 or self.n_points >= 1 << 31:  # pragma: no cover - packed keys overflow
             edges = _k.gather_local(self.cells, self.local_edges)
             _k.sort_rows(edges)
             ids, first = _k.match_rows(edges, self.n_points)
