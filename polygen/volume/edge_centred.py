@@ -1012,11 +1012,13 @@ def _seeds_beside_table(vol, field, seeds, params, order, kw):
 
     The builder needs only the volume's edge table (built through the
     node -> cells lists), the seed source (volume thinning) the face
-    neighbours, cell components, boundary groups, extrema and then a
-    serial FIFO: so the node -> cells lists and face neighbours are built
-    first (parallel kernels, every core), then the edge table and the
-    records in a second thread while the thinning runs in this one (on 2M
-    the two sides take about the same CPU time, 0.95 s each under load).
+    neighbours, the extrema and then a serial FIFO (the cell components,
+    boundary groups and boundary check run in a helper thread beside the
+    FIFO, :func:`polygen.volume.thinning.thin_volume`): so the node -> cells
+    lists and face neighbours are built first (parallel kernels, every
+    core), then the edge table and the records in a second thread while the
+    thinning runs in this one (on 2M the two sides take about the same CPU
+    time).
     Each table is built once and read-only afterwards; the results are
     those of building one after the other.
     """
