@@ -450,10 +450,14 @@ def _edge_table_aside(vol):
     return thread
 
 
-def _beside_fifo(vol, out):
-    """Into ``out``: the cell components, the boundary groups, then the boundary defects and their
-    seconds (or the exception). On a large volume a second thread runs this while the FIFO runs."""
+def _beside_fifo(vol, out, faces_ready=None):
+    """Into ``out``: the boundary faces' nodes (then ``faces_ready`` is set), the cell components, the
+    boundary groups, then the boundary defects and their seconds (or the exception). On a large volume
+    a second thread runs this while this one finds the extrema and runs the FIFO."""
     try:
+        vol.boundary_face_nodes
+        if faces_ready is not None:
+            faces_ready.set()
         vol.cell_components
         vol.boundary_groups
         vol.group_is_void
@@ -462,6 +466,9 @@ def _beside_fifo(vol, out):
         out["t_check"] = time.perf_counter() - t1
     except BaseException as exc:  # re-raised in the thinning thread
         out["error"] = exc
+    finally:
+        if faces_ready is not None:
+            faces_ready.set()
 
 
 def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
@@ -477,9 +484,9 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
     # _k.resolve_labels). The same skeleton, the same removals in the same order as one run.
     side = {}
     helper = None
-    bfn = vol.boundary_face_nodes  # read by both threads: built once, first
+    faces_ready = threading.Event()  # the helper has built the boundary faces (10M: 0.13 s) meanwhile
     if vol.n_cells >= _ASIDE_MIN_CELLS and (os.cpu_count() or 1) >= 2 and parallel_kernels_may_overlap():
-        helper = threading.Thread(target=_beside_fifo, args=(vol, side), daemon=True,
+        helper = threading.Thread(target=_beside_fifo, args=(vol, side, faces_ready), daemon=True,
                                   name="polygen-thinning-beside")
         helper.start()
     try:
@@ -518,6 +525,11 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
     t_wait = 0.0
     deferred = helper is not None
     if deferred:  # the FIFO with placeholder groups while the helper numbers them
+        faces_ready.wait()
+        if "error" in side:
+            helper.join()
+            raise side["error"]
+        bfn = vol.boundary_face_nodes  # built by the helper (read once it is there)
         nb_node[bfn.ravel()] = 1
         src = np.empty(vol.n_points, np.int32)
         labelled = np.empty(vol.n_points, np.int32)
@@ -536,6 +548,7 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
             deferred = False
         else:
             nb_node[:] = 0
+    bfn = vol.boundary_face_nodes
     groups = vol.boundary_groups
     is_void_g = vol.group_is_void
     nb_node[bfn.ravel()] = np.repeat(groups, bfn.shape[1])
