@@ -376,3 +376,15 @@ def test_field_overflow_check_uses_the_largest_coordinate():
     with pytest.raises(VolumeError, match="overflows float64 in the crossing points"):
         vol.add_field("f", np.array([0.0, 1e10, 2.0, 3.0]))  # 2 * 1e10 * 1e300 overflows
     vol.add_field("g", np.array([0.0, 1e-300, 0.0, 0.0]))  # 2 * 1e-300 * 1e300 is finite
+
+
+@pytest.mark.parametrize("tetra", [False, True])
+def test_group_node_counts_with_a_node_on_two_groups(tetra):
+    """Each group's Euler number counts its distinct nodes: a node shared by two groups (two cubes
+    touching at a corner: two outer surfaces through one node) is counted in both, as np.unique of the
+    (group, node) pairs counts it (the fallback of the node -> group array of ``_groups``)."""
+    mask = np.zeros((2, 2, 2), bool)
+    mask[0, 0, 0] = mask[1, 1, 1] = True
+    vol = voxel_volume(mask, tetra=tetra)
+    assert vol.n_boundary_groups == 2
+    assert np.all(vol.group_euler == 2)  # two spheres, 8 nodes each (the shared corner in both)

@@ -183,23 +183,35 @@ def _removable(c, cells, face_nb, fmask, cls, nb_node, stats, fa):
 
 
 @njit
-def _remove(c, cells, face_nb, cls, nb_node, queue, head, tail, order, n_removed):
-    """Class C0 for ``c``; neighbours move one class down and into that class's FIFO (7.5.1)."""
+def _remove(c, cells, face_nb, cls, nb_node, queue, head, tail, order, n_removed, src, labelled, st):
+    """Class C0 for ``c``; neighbours move one class down and into that class's FIFO (7.5.1).
+
+    With ``src`` of length N (labels deferred, :func:`thin_resume`), each node that comes onto the
+    boundary also records the node whose group it took (``src``) and is appended to ``labelled``
+    (``st[ST_N_LABELLED]`` of them so far).
+    """
     nf = face_nb.shape[1]
     cls[c] = 0
     if order.shape[0] > 0:
         order[n_removed] = c
     # Def. 7.8: nodes of c with n_B = 0 come onto the boundary; they take the group of c's other nodes
     lab = 0
+    from_node = -1
     for i in range(cells.shape[1]):
         v = nb_node[cells[c, i]]
         if v != 0:
             lab = v
+            from_node = cells[c, i]
             break
     if lab != 0:
         for i in range(cells.shape[1]):
-            if nb_node[cells[c, i]] == 0:
-                nb_node[cells[c, i]] = lab
+            x = cells[c, i]
+            if nb_node[x] == 0:
+                nb_node[x] = lab
+                if src.shape[0] > 0:
+                    src[x] = from_node
+                    labelled[st[ST_N_LABELLED]] = x
+                    st[ST_N_LABELLED] += 1
     implicit = 0
     for f in range(nf):
         n = face_nb[c, f]
@@ -308,6 +320,29 @@ def _find_prick(cells, face_nb, local_faces, cls, nb_node, root, is_void, g, pic
     return 0
 
 
+#: slots of the state array of :func:`thin_resume`
+ST_N_REMOVED = 0
+ST_N_PRICKS = 1
+ST_N_DEC = 2
+ST_N_LABELLED = 3
+N_STATE = 4
+
+
+@njit
+def fifo_init(cls, nf):
+    """The FIFOs of 7.5.1 filled from the initial classes: ``(queue (F, M) int32, head (F,), tail (F,))``."""
+    m = cls.shape[0]
+    queue = np.empty((nf, m), np.int32)  # one FIFO per class 1 .. F-1 (row 0 unused)
+    head = np.zeros(nf, np.int64)
+    tail = np.zeros(nf, np.int64)
+    for c in range(m):
+        q = cls[c]
+        if 0 < q < nf:  # touches the boundary and has a neighbour
+            queue[q, tail[q]] = c
+            tail[q] += 1
+    return queue, head, tail
+
+
 @njit
 def thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, prick, order, prick_log, stats, decisions):
     """Volume thinning (Fig. 7.5) in place on ``cls`` (classes) and ``nb_node`` (n_B).
@@ -332,22 +367,34 @@ def thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, prick,
     n_pricks : int
     n_decisions : int
     """
-    m = cells.shape[0]
+    queue, head, tail = fifo_init(cls, face_nb.shape[1])
+    st = np.zeros(N_STATE, np.int64)
+    none = np.empty(0, np.int32)
+    thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, prick, order, prick_log, stats,
+                decisions, queue, head, tail, np.zeros(is_void.shape[0], np.bool_), st, none, none)
+    return st[ST_N_REMOVED], st[ST_N_PRICKS], st[ST_N_DEC]
+
+
+@njit
+def thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, prick, order, prick_log, stats,
+                decisions, queue, head, tail, tried, st, src, labelled):
+    """:func:`thin` from a saved state: the FIFOs (:func:`fifo_init`), ``tried`` (G+1,) bool (voids
+    pricked or tried), ``st`` (N_STATE,) int64 (removals, pricks, decisions, deferred labels so far).
+
+    Labels may be deferred: the removal tests (7.5.2) ask only whether a node's ``n_B`` is 0, and the
+    removal copies a group number from node to node; only pricking (7.5.3) reads the numbers. So with
+    ``src`` (N,) int32 and ``labelled`` (N,) int32 (else empty) and ``prick=False``, ``nb_node`` may
+    hold any non-zero placeholder on the boundary nodes: each node that comes onto the boundary
+    records where its number came from (:func:`resolve_labels` puts in the real numbers afterwards),
+    and the run stops when every FIFO is empty, before any pricking. A second call with the real
+    numbers and ``prick`` resumes: the same removals, in the same order, as one call.
+    """
     nf = face_nb.shape[1]
-    queue = np.empty((nf, m), np.int32)  # one FIFO per class 1 .. F-1 (row 0 unused)
-    head = np.zeros(nf, np.int64)
-    tail = np.zeros(nf, np.int64)
-    for c in range(m):
-        q = cls[c]
-        if 0 < q < nf:  # touches the boundary and has a neighbour
-            queue[q, tail[q]] = c
-            tail[q] += 1
-    n_removed = 0
-    n_pricks = 0
-    tried = np.zeros(is_void.shape[0], np.bool_)
+    n_removed = st[ST_N_REMOVED]
+    n_pricks = st[ST_N_PRICKS]
+    n_dec = st[ST_N_DEC]
     picked = np.empty(3, np.int64)
     fa = np.empty(6, np.int64)
-    n_dec = 0
     while True:
         q = 1
         c = -1
@@ -373,7 +420,8 @@ def thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, prick,
                 n_dec += 1
             if ok:
                 stats[ST_REMOVED + q] += 1
-                stats[ST_IMPLICIT] += _remove(c, cells, face_nb, cls, nb_node, queue, head, tail, order, n_removed)
+                stats[ST_IMPLICIT] += _remove(c, cells, face_nb, cls, nb_node, queue, head, tail, order, n_removed,
+                                              src, labelled, st)
                 n_removed += 1
             continue
         if not prick:
@@ -403,12 +451,24 @@ def thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, prick,
         prick_log[n_pricks, 2] = k
         n_pricks += 1
         for j in range(k):
-            stats[ST_IMPLICIT] += _remove(picked[j], cells, face_nb, cls, nb_node, queue, head, tail, order, n_removed)
+            stats[ST_IMPLICIT] += _remove(picked[j], cells, face_nb, cls, nb_node, queue, head, tail, order,
+                                          n_removed, src, labelled, st)
             n_removed += 1
         root[g] = out_lab
         stats[ST_PRICKS] += 1
         stats[ST_PRICK_CELLS] += k
-    return n_removed, n_pricks, n_dec
+    st[ST_N_REMOVED] = n_removed
+    st[ST_N_PRICKS] = n_pricks
+    st[ST_N_DEC] = n_dec
+
+
+@njit
+def resolve_labels(nb_node, src, labelled, n_labelled):
+    """The deferred group numbers of :func:`thin_resume`: each node labelled there takes the number
+    of the node it recorded, in the order they were labelled (that node has its number by then)."""
+    for i in range(n_labelled):
+        x = labelled[i]
+        nb_node[x] = nb_node[src[x]]
 
 
 @njit

@@ -167,7 +167,7 @@ _EMPTY_I32 = np.empty(0, np.int32)
 
 def _aligned_records(m, width):
     """(m, width) int32 records starting on a 64-byte boundary (a tetrahedron's record is one cache line)."""
-    raw = np.empty(m * width + 16, np.int32)
+    raw = _jit.empty(m * width + 16, np.int32)  # numba's allocator: no huge-page advice (see polygen._jit.empty)
     start = (-(raw.ctypes.data // 4)) % 16
     return raw[start:start + m * width].reshape(m, width)
 
@@ -1059,11 +1059,13 @@ def _seeds_beside_table(vol, field, seeds, params, order, kw):
 
     The builder needs only the volume's edge table (built through the
     node -> cells lists), the seed source (volume thinning) the face
-    neighbours, cell components, boundary groups, extrema and then a
-    serial FIFO: so the node -> cells lists and face neighbours are built
-    first (parallel kernels, every core), then the edge table and the
-    records in a second thread while the thinning runs in this one (on 2M
-    the two sides take about the same CPU time, 0.95 s each under load).
+    neighbours, the extrema and then a serial FIFO (the cell components,
+    boundary groups and boundary check run in a helper thread beside the
+    FIFO, :func:`polygen.volume.thinning.thin_volume`): so the node -> cells
+    lists and face neighbours are built first (parallel kernels, every
+    core), then the edge table and the records in a second thread while the
+    thinning runs in this one (on 2M the two sides take about the same CPU
+    time).
     Each table is built once and read-only afterwards; the results are
     those of building one after the other.
     """

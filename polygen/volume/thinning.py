@@ -272,9 +272,11 @@ class Skeleton:
         Voids whose layer no cell configuration could open (their layer stays).
     record : ThinningRecord or None
     stats : dict
-        ``T_topology`` (face neighbours and boundary groups, when not cached),
+        ``T_topology`` (face neighbours, components and boundary groups when not cached and not
+        built beside the FIFO),
         ``T_check`` (:func:`boundary_defects`), ``nonmanifold_edges``, ``nonmanifold_nodes``,
-        ``T_pe`` (extrema and marks), ``T_thin`` (classes, n_B, removal),
+        ``T_pe`` (extrema and marks), ``T_thin`` (classes, n_B, removal), ``T_wait`` (on a large
+        volume, the FIFO's wait for the boundary groups numbered beside it),
         ``T_register`` (value classes), ``T_total`` (all but topology), ``extrema``,
         ``skeleton_cells`` (N_e2 of Table 7.1), ``C1`` .. ``C6`` (Table 7.2),
         ``processed``/``removed`` per class, ``walks``, ``pricks``, ``prick_cells``.
@@ -362,18 +364,30 @@ def cell_subset_volume(vol, cells):
                               validate=False)
 
 
+def _extremum_cells(vol, ext):
+    """One cell per extremum (Def. 7.9): the first cell around each extremum's node, ascending."""
+    off, nc = vol.node_cells
+    return np.unique(np.asarray(nc)[np.asarray(off)[ext.nodes]]).astype(np.int64)
+
+
+def _parts_without_mark(vol, marked):
+    """(P,) int64: the first cell of each face-connected part of ``vol`` with no cell in ``marked``."""
+    labels, n = vol.cell_components
+    if n <= 1:
+        return np.zeros(0, np.int64)
+    has = np.zeros(n, bool)
+    has[labels[marked]] = True
+    if has.all():
+        return np.zeros(0, np.int64)
+    _, first = np.unique(labels, return_index=True)
+    return first[~has].astype(np.int64)
+
+
 def _marked_cells(vol, ext):
     """One cell per extremum (Def. 7.9), plus one for each face-connected part with none."""
-    off, nc = vol.node_cells
-    marked = np.asarray(nc)[np.asarray(off)[ext.nodes]]
-    labels, n = vol.cell_components
-    if n > 1:
-        has = np.zeros(n, bool)
-        has[labels[marked]] = True
-        if not has.all():
-            _, first = np.unique(labels, return_index=True)
-            marked = np.concatenate([marked, first[~has]])
-    return np.unique(marked).astype(np.int64)
+    marked = _extremum_cells(vol, ext)
+    extra = _parts_without_mark(vol, marked)
+    return np.unique(np.concatenate([marked, extra])) if extra.size else marked
 
 
 def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=None):
@@ -436,43 +450,110 @@ def _edge_table_aside(vol):
     return thread
 
 
-def _extrema_and_defects(vol, s, out):
-    """Into ``out``: the extrema and their seconds, then the boundary defects and theirs (or the exception)."""
+def _beside_fifo(vol, out, faces_ready=None):
+    """Into ``out``: the boundary faces' nodes (then ``faces_ready`` is set), the cell components, the
+    boundary groups, then the boundary defects and their seconds (or the exception). On a large volume
+    a second thread runs this while this one finds the extrema and runs the FIFO."""
     try:
-        t0 = time.perf_counter()
-        out["ext"] = find_extrema(vol, s)
+        vol.boundary_face_nodes
+        if faces_ready is not None:
+            faces_ready.set()
+        vol.cell_components
+        vol.boundary_groups
+        vol.group_is_void
         t1 = time.perf_counter()
         out["defects"] = boundary_defects(vol)
-        out["t_pe"], out["t_check"] = t1 - t0, time.perf_counter() - t1
+        out["t_check"] = time.perf_counter() - t1
     except BaseException as exc:  # re-raised in the thinning thread
         out["error"] = exc
+    finally:
+        if faces_ready is not None:
+            faces_ready.set()
 
 
 def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
     """:func:`thin_volume` once the node -> cells lists and the face neighbours are there."""
-    # the extrema and the boundary check read neither the components nor the boundary groups: on a large
-    # volume they run in a second thread meanwhile (2M: ~0.17 s of one core taken off the serial path that
-    # ends in the FIFO; the same results)
+    # The FIFO of 7.5.2 needs the marks (Def. 7.9) and, for its removal tests, only whether a node is on
+    # the boundary (n_B != 0), not its group. So on a large volume a second thread labels the cell
+    # components, numbers the boundary groups and checks the boundary while this one finds the extrema
+    # and runs the FIFO: with the extremum cells as the marks (a face-connected part with no extremum,
+    # which needs a mark of its own, is found once the components are there, and the thinning is then
+    # run again from the start with every mark: rare, parts must touch at a node) and a placeholder group
+    # on the boundary nodes, each node that comes onto the boundary recording where its group comes from;
+    # the groups, which only pricking (7.5.3) reads, are put in once the FIFO is empty (_k.thin_resume,
+    # _k.resolve_labels). The same skeleton, the same removals in the same order as one run.
     side = {}
     helper = None
+    faces_ready = threading.Event()  # the helper has built the boundary faces (10M: 0.13 s) meanwhile
     if vol.n_cells >= _ASIDE_MIN_CELLS and (os.cpu_count() or 1) >= 2 and parallel_kernels_may_overlap():
-        vol.boundary_face_nodes  # read by both threads: built once, first
-        helper = threading.Thread(target=_extrema_and_defects, args=(vol, s, side), daemon=True,
-                                  name="polygen-thinning-extrema")
+        helper = threading.Thread(target=_beside_fifo, args=(vol, side, faces_ready), daemon=True,
+                                  name="polygen-thinning-beside")
         helper.start()
     try:
-        vol.cell_components
-        groups = vol.boundary_groups
-        bfn = vol.boundary_face_nodes
-        is_void_g = vol.group_is_void
-    finally:
+        tp = time.perf_counter()
+        ext = find_extrema(vol, s)
+        t_pe = time.perf_counter() - tp
+    except BaseException:
         if helper is not None:
             helper.join()
-    t_topology = time.perf_counter() - t0
+        raise
     if helper is None:
-        _extrema_and_defects(vol, s, side)
-    if "error" in side:
-        raise side["error"]
+        _beside_fifo(vol, side)
+        if "error" in side:
+            raise side["error"]
+    t_topology = time.perf_counter() - t0 - t_pe
+
+    t0 = time.perf_counter()
+    marked = _extremum_cells(vol, ext) if helper is not None else _marked_cells(vol, ext)
+    t1 = time.perf_counter()
+
+    # 7.5.1: classes (Def. 7.6) and node boundary-group numbers (Def. 7.8)
+    m = cells.shape[0]
+    local_faces = np.ascontiguousarray(vol.local_faces, np.int64)
+    fmask = _k.face_masks(local_faces, cells.shape[1])
+    none = np.empty(0, np.int32)
+
+    def start(marked):
+        cls = np.empty(m, np.int8)
+        _k.initial_classes(face_nb, marked, cls)
+        # every FIFO entry is taken once: the initial ones and up to F per removal
+        return (cls, np.zeros(vol.n_points, np.int64), np.empty(m if record else 0, np.int64),
+                np.zeros(_k.N_STATS, np.int64), np.empty((m * (fmask.shape[0] + 1) if record else 0, 4), np.int64),
+                _k.fifo_init(cls, fmask.shape[0]), np.zeros(_k.N_STATE, np.int64))
+
+    cls, nb_node, order, counters, decisions, (queue, head, tail), st = start(marked)
+    t_wait = 0.0
+    deferred = helper is not None
+    if deferred:  # the FIFO with placeholder groups while the helper numbers them
+        faces_ready.wait()
+        if "error" in side:
+            helper.join()
+            raise side["error"]
+        bfn = vol.boundary_face_nodes  # built by the helper (read once it is there)
+        nb_node[bfn.ravel()] = 1
+        src = np.empty(vol.n_points, np.int32)
+        labelled = np.empty(vol.n_points, np.int32)
+        _k.thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, np.zeros(1, np.int64),
+                       np.zeros(1, np.bool_), False, order, np.zeros((1, 3), np.int64), counters, decisions,
+                       queue, head, tail, np.zeros(1, np.bool_), st, src, labelled)
+        tw = time.perf_counter()
+        helper.join()
+        t_wait = time.perf_counter() - tw
+        if "error" in side:
+            raise side["error"]
+        extra = _parts_without_mark(vol, marked)
+        if extra.size:  # a part with no extremum: its mark was missing, thin again from the start
+            marked = np.unique(np.concatenate([marked, extra]))
+            cls, nb_node, order, counters, decisions, (queue, head, tail), st = start(marked)
+            deferred = False
+        else:
+            nb_node[:] = 0
+    bfn = vol.boundary_face_nodes
+    groups = vol.boundary_groups
+    is_void_g = vol.group_is_void
+    nb_node[bfn.ravel()] = np.repeat(groups, bfn.shape[1])
+    if deferred:
+        _k.resolve_labels(nb_node, src, labelled, st[_k.ST_N_LABELLED])
     bad_edges, bad_nodes = side["defects"]
     t_check = side["t_check"]
     if bad_edges.size or bad_nodes.size:
@@ -481,31 +562,16 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
             "nodes where cells touch without a shared face, e.g. nodes "
             f"{(bad_nodes if bad_nodes.size else bad_edges.ravel())[:5].tolist()}): Thms 7.4-7.6 do not apply "
             "and the skeleton may miss parts of isosurfaces", ThinningWarning, stacklevel=3)
-
-    t0 = time.perf_counter()
-    ext = side["ext"]
-    marked = _marked_cells(vol, ext)
-    t1 = time.perf_counter()
-
-    # 7.5.1: classes (Def. 7.6) and node boundary-group numbers (Def. 7.8)
-    m = cells.shape[0]
-    cls = np.empty(m, np.int8)
-    _k.initial_classes(face_nb, marked, cls)
-    nb_node = np.zeros(vol.n_points, np.int64)
-    nb_node[bfn.ravel()] = np.repeat(groups, bfn.shape[1])
     n_groups = is_void_g.shape[0]
     root = np.arange(n_groups + 1, dtype=np.int64)
     is_void = np.zeros(n_groups + 1, np.bool_)
     is_void[1:] = is_void_g
-    local_faces = np.ascontiguousarray(vol.local_faces, np.int64)
-    fmask = _k.face_masks(local_faces, cells.shape[1])
-    order = np.empty(m if record else 0, np.int64)
     prick_log = np.zeros((n_groups + 1, 3), np.int64)
-    counters = np.zeros(_k.N_STATS, np.int64)
-    # every FIFO entry is taken once: the initial ones and up to F per removal
-    decisions = np.empty((m * (fmask.shape[0] + 1) if record else 0, 4), np.int64)
-    n_removed, n_pricks, n_dec = _k.thin(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void,
-                                         bool(prick_voids), order, prick_log, counters, decisions)
+    _k.thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, bool(prick_voids), order,
+                   prick_log, counters, decisions, queue, head, tail, np.zeros(n_groups + 1, np.bool_), st,
+                   none, none)
+    n_removed, n_pricks, n_dec = st[_k.ST_N_REMOVED], st[_k.ST_N_PRICKS], st[_k.ST_N_DEC]
+    del queue
     t2 = time.perf_counter()
 
     # 7.5.4: the skeleton and its value classes
@@ -527,10 +593,11 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
         "T_check": t_check,
         "nonmanifold_edges": int(bad_edges.shape[0]),
         "nonmanifold_nodes": int(bad_nodes.size),
-        "T_pe": side["t_pe"] + t1 - t0,  # the extrema's own seconds (in the helper thread or here), marks
-        "T_thin": t2 - t1,
+        "T_pe": t_pe + t1 - t0,  # the extrema and the marks
+        "T_thin": t2 - t1 - t_wait,  # classes, n_B, removal (not the wait for the groups, T_wait)
+        "T_wait": t_wait,
         "T_register": t3 - t2,
-        "T_total": side["t_pe"] + t3 - t0,
+        "T_total": t_pe + t3 - t0,
         "extrema": ext.n,
         "marked": int(marked.shape[0]),
         "skeleton_cells": int(skel.shape[0]),
