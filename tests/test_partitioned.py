@@ -541,7 +541,7 @@ def _left_blocks(prepared):
 def test_dask_shared_memory_equals_tcp_and_local(client, data3):
     """Rows written by the workers into shared memory, or pieces over TCP, in chunks of values: the local
     stitch's arrays bit for bit, and no shared-memory block name left behind."""
-    from polygen.volume.distributed import _chunked
+    from polygen.volume.distributed import _direct_chunks
 
     values = list(isovalues(data3.scalars(), 9)) + [data3.scalars().max() + 1.0]  # the last: an empty surface
     pvol = PartitionedVolume.split(data3, 3)
@@ -554,7 +554,7 @@ def test_dask_shared_memory_equals_tcp_and_local(client, data3):
         got[transport, chunk] = on_dask.extract_many(values)
         assert on_dask.bytes_last > 0
         if transport == "shared-memory":  # one block per chunk
-            assert len(on_dask.blocks_last) == len(_chunked(values, chunk))
+            assert len(on_dask.blocks_last) == len(_direct_chunks(values, chunk))
             assert _left_blocks(on_dask) == []
     for j, v in enumerate(values):
         here = local.extract(v)
@@ -583,6 +583,34 @@ def test_dask_surfaces_outlive_their_blocks(client, data3):
         _same_arrays(here, b, counters=False)
         np.testing.assert_array_equal(here.triangles, c.triangles)
         np.testing.assert_array_equal(here.vertices, c.vertices)
+
+
+def test_dask_blocks_written_again_once_their_surfaces_are_gone(client, data3):
+    """A block is written again by a later query only when no surface views it any more: kept surfaces stay
+    intact (new blocks made), dropped ones give their blocks to the next query (none made), the same arrays."""
+    import gc
+
+    values = list(isovalues(data3.scalars(), 8))
+    pvol = PartitionedVolume.split(data3, 2)
+    on_dask = dask_prepare(pvol, client=client, stitch_on="client")
+    first = on_dask.extract_many(values)
+    n_blocks = len(on_dask.blocks_last)
+    assert on_dask.blocks_made_last == n_blocks > 1
+    kept = on_dask.extract_many(values)  # the first surfaces are alive: their blocks are not free
+    assert on_dask.blocks_made_last == n_blocks
+    keys = [s.vertex_keys.copy() for s in first]
+    del first
+    gc.collect()
+    again = on_dask.extract_many(values)
+    assert on_dask.blocks_made_last == 0 and len(on_dask.blocks_last) == n_blocks
+    assert _left_blocks(on_dask) == []
+    local = pvol.prepare()
+    for v, k, a, b in zip(values, keys, kept, again):
+        here = local.extract(v)
+        np.testing.assert_array_equal(here.vertex_keys, k)
+        _same_arrays(here, a, counters=False)
+        _same_arrays(here, b, counters=False)
+    on_dask.close()
 
 
 def test_direct_stitch_equals_piece_stitch(data3):

@@ -15,13 +15,15 @@ cell ids) and stitches them in one of two places (``stitch_on``):
   per thousand); the client lays out the stitched surfaces
   (:func:`~polygen.volume.partitioned.rows_layout`: only seam vertices are
   matched, every other row is an offset) in one POSIX **shared-memory**
-  block per chunk, made for it; then every partition writes its rows of
-  every stitched array (global keys, positions, normals of its own
-  vertices, triangles renumbered, global cell ids) straight into that
-  block, and the client makes the seam vertices' normals. The surfaces'
-  arrays are views on the block (it lives while they do): nothing is
-  copied after the workers wrote it. The workers run up to ``AHEAD`` chunks
-  ahead of the client's layout. Over TCP instead (a worker elsewhere, or
+  block per chunk; then every partition writes its rows of every stitched
+  array (global keys, positions, normals of its own vertices, triangles
+  renumbered, global cell ids) straight into that block, and the client
+  makes the seam vertices' normals. The surfaces' arrays are views on the
+  block: nothing is copied after the workers wrote it. A block whose
+  surfaces are all gone is written again by a later chunk (both sides keep
+  it mapped: its pages are not faulted in and zeroed again, as ``malloc``
+  reuses a single volume's freed surfaces). The workers run up to
+  ``AHEAD`` chunks ahead of the client's layout. Over TCP instead (a worker elsewhere, or
   no shared memory here), every partition's pieces travel in Dask's
   messages and are merged here (:func:`~polygen.volume.partitioned.stitch`).
 * **on the workers**: one small task per partition and chunk of values,
@@ -70,6 +72,10 @@ RETRIES = 1
 #: chunks a query's values are cut into when the client stitches (``DaskPartitionedMethod.chunk_values``
 #: unset): the client stitches one chunk while the workers extract the next
 CHUNKS = 5
+#: chunks a query's values are cut into when the workers write the stitched arrays (shared memory): the client's
+#: share is small, so no chunk needs to be short; each chunk costs two calls per partition (Dask's messages:
+#: ~1.5 ms of a worker's CPU each, measured on 2M)
+DIRECT_CHUNKS = 4
 #: chunks whose extraction is asked for before the client lays out the first of them (through shared memory):
 #: a worker extracts the next chunk while the client lays out and finishes the one before
 AHEAD = 2
@@ -206,9 +212,10 @@ class DaskPartitionedMethod:
         memory when every worker runs on this machine (and it works here),
         else as pieces in Dask's messages, merged here.
     chunk_values : int or None
-        Values per chunk when the client stitches (default: the query's
-        values in ``CHUNKS`` chunks, the last cut in halves down to one
-        value): the workers extract a chunk while the client lays out and
+        Values per chunk when the client stitches (default: through shared
+        memory, the query's values in ``DIRECT_CHUNKS`` chunks; over TCP, in
+        ``CHUNKS`` chunks, the last cut in halves down to one value): the
+        workers extract a chunk while the client lays out (or stitches) and
         finishes the one before.
     phases_last : dict
         Client stitch only: ``wait_s`` (waiting for the workers) and
@@ -220,9 +227,12 @@ class DaskPartitionedMethod:
         ``chunk``, ``partition`` and the client's ``sent``, ``waited`` and
         ``gathered``.
     blocks_last : list of str
-        The shared-memory block names the last query made (one per chunk;
-        all unlinked when it returns or raises: the surfaces' arrays keep
-        their block mapped).
+        The shared-memory blocks the last query wrote (one per chunk; every
+        name unlinked once both sides mapped it, or when the query raises:
+        the surfaces' arrays keep their block mapped).
+    blocks_made_last : int
+        How many of them were made for it (the others were written again:
+        their former surfaces were gone).
 
     Notes
     -----
@@ -249,7 +259,13 @@ class DaskPartitionedMethod:
         self.wait_last = 0.0
         self.phases_last = {}
         self.blocks_last = []
+        self.blocks_made_last = 0
         self.chunk_values = None
+        # shared-memory blocks, kept mapped here and on the workers: name -> [mapping, size, free]; a block is
+        # free once no surface views it (a finalizer on its root array puts its name in _freed)
+        self._blocks = {}
+        self._freed = []
+        self._forget = []  # blocks given up here, to be unmapped by the workers at their next write
         t0 = time.perf_counter()
         workers = self._workers()
         self._futures = [None] * len(self.pieces)
@@ -397,10 +413,11 @@ class DaskPartitionedMethod:
         partition answers its calls in order, so it extracts the next chunk
         while the client lays out and finishes.
         """
-        chunks = _chunked(values, self.chunk_values)
+        chunks = _direct_chunks(values, self.chunk_values)
         nc = len(chunks)
         uid = uuid.uuid4().hex[:16]
-        finds, writes, held, names = [None] * nc, [None] * nc, [None] * nc, []
+        finds, writes, held, names = [None] * nc, [None] * nc, [None] * nc, []  # names: blocks made here
+        used, block_of = set(), [None] * nc
         sent = {}
         phases = self.phases_last = {"wait_s": 0.0, "stitch_s": 0.0, "calls": []}
         made = [0]
@@ -434,14 +451,17 @@ class DaskPartitionedMethod:
             for lay in layouts:
                 offsets.append(size)
                 size += rows_arrays(lay, normals, empty=False)[1]
-            name = f"polygen-{uid}-{c}"
-            names.append(name)
+            name, block, fresh = self._take_block(max(size, 64), f"polygen-{uid}-{c}")
+            used.add(name)
+            block_of[c] = name
+            if fresh:
+                names.append(name)
             self.blocks_last.append(name)
-            block = _new_block(name, max(size, 64))
             made[0] += size + sum(f["seam"].nbytes + f["seam_keys"].nbytes for per in found for f in per)
+            forget, self._forget = self._forget, []
             send(c, writes, lambda i, a: a.write_shared(
                 (uid, c), name, [{"n_vertices": lay["n_vertices"], "n_triangles": lay["n_triangles"], "offset": o,
-                                  "plan": lay["plans"][i]} for lay, o in zip(layouts, offsets)], normals))
+                                  "plan": lay["plans"][i]} for lay, o in zip(layouts, offsets)], normals, forget))
             dt, dc = time.perf_counter() - t1, time.thread_time() - c1
             held[c] = (found, layouts, offsets, block, dt / len(chunks[c]), dc / len(chunks[c]))
             phases["stitch_s"] += dt
@@ -450,7 +470,7 @@ class DaskPartitionedMethod:
             answers, t1, c1 = gather(c, writes)
             found, layouts, offsets, block, dt, dc = held[c]
             held[c] = None
-            _unlink_quietly(names[c])  # every partition wrote: the block lives while its surfaces do
+            _unlink_quietly(block_of[c])  # every side mapped it: the name can go (made here or not)
             out = []
             for j, v in enumerate(chunks[c]):
                 arrays, _ = rows_arrays(layouts[j], normals, buf=block, offset=offsets[j])
@@ -460,6 +480,7 @@ class DaskPartitionedMethod:
             phases["stitch_s"] += time.perf_counter() - t1
             return out
 
+        ok = False
         try:
             for c in range(min(AHEAD, nc)):
                 find(c)
@@ -472,10 +493,51 @@ class DaskPartitionedMethod:
                     surfaces += finish_chunk(c - 1)
             if nc:
                 surfaces += finish_chunk(nc - 1)
+            ok = True
+            self.blocks_made_last = len(names)
             return surfaces, 0, made[0]
         finally:
             held = None
-            self._sweep([row for row in finds + writes if row is not None], [names])
+            if ok:  # free blocks this query did not need go (the next ones are sized alike)
+                self._drop_blocks(lambda n, b: b[2] and n not in used)
+            else:  # the workers may have lost their mappings: every block goes
+                self._drop_blocks(lambda n, b: True)
+                self._sweep([row for row in finds + writes if row is not None], [names])
+
+    def _take_block(self, size, name):
+        """A block of at least ``size`` bytes whose surfaces are gone (the smallest), or a new one named
+        ``name``: ``(name, root, fresh)``, ``root`` a uint8 array on the whole block whose surfaces view it."""
+        import weakref
+
+        while self._freed:
+            b = self._blocks.get(self._freed.pop())
+            if b is not None:
+                b[2] = True
+        free = [(b[1], n) for n, b in self._blocks.items() if b[2] and b[1] >= size]
+        if free:
+            name = min(free)[1]
+            b = self._blocks[name]
+            fresh = False
+        else:
+            size += size // 8  # room for a chunk a little larger next time
+            size = -(-size // 65536) * 65536
+            b = self._blocks[name] = [_new_block(name, size), size, False]
+            fresh = True
+        b[2] = False
+        root = np.frombuffer(b[0], np.uint8)
+        weakref.finalize(root, self._freed.append, name).atexit = False
+        return name, root, fresh
+
+    def _drop_blocks(self, which):
+        """Unmap here the blocks ``which(name, entry)`` picks (those still viewed by surfaces stay mapped through
+        them), and have the workers unmap them at their next write."""
+        for name, b in list(self._blocks.items()):
+            if which(name, b):
+                del self._blocks[name]
+                self._forget.append(name)
+                if b[2]:
+                    with contextlib.suppress(BufferError):
+                        b[0].close()
 
     def _sweep(self, calls, names):
         """After a query: every call answered or failed, then every block name made unlinked (a query that
@@ -547,7 +609,9 @@ class DaskPartitionedMethod:
         return self.extract_many([value], normals=normals)[0]
 
     def close(self):
-        """Release the actors (the partitions on the workers)."""
+        """Release the actors (the partitions on the workers, and their mappings of the blocks)."""
+        self._drop_blocks(lambda n, b: True)
+        self._forget = []
         for f in self._futures:
             if f is not None:
                 f.release()
@@ -571,15 +635,19 @@ class SharedMemoryPartition(PreparedPartition):
     ``benchmarks/results/partitioned_overhead.md``).
 
     Ownership: the client makes and names a block (one per chunk), each
-    worker maps it for its write and unmaps it, and the client unlinks the
-    name once every partition wrote (or, a query that failed, once its calls
-    have all answered or failed); the memory goes when the client's last
-    surface of the chunk does.
+    worker maps it at its first write and keeps it mapped, and the client
+    unlinks the name once every partition wrote (or, a query that failed,
+    once its calls have all answered or failed). Once the surfaces of a
+    block are gone the client may hand it to a later chunk (written again
+    in place); when it gives a block up, the workers unmap it at their next
+    write (or when the partition goes), and the memory goes with the last
+    mapping.
     """
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self._pending = {}  # (query, chunk) -> the surfaces found, waiting for their write
+        self._maps = {}  # block name -> its mapping here, kept until the client gives the block up
 
     def find_shared(self, values, normals, tag):
         """Extract ``values`` and keep the surfaces under ``tag``; answer counts, seam vertices and counters."""
@@ -590,35 +658,40 @@ class SharedMemoryPartition(PreparedPartition):
             isos, found = [], []
             for v in values:
                 iso, counters = self.surface(v)
-                seam, seam_keys = self.seam_of(iso)
-                isos.append(iso)
-                found.append(counters | {"n": iso.vertices.shape[0], "m": iso.triangles.shape[0], "seam": seam,
-                                         "seam_keys": seam_keys})
+                marks = self.marks(iso)
+                isos.append((iso, marks))
+                found.append(counters | {"n": iso.vertices.shape[0], "m": iso.triangles.shape[0],
+                                         "seam": marks["seam"], "seam_keys": marks["seam_keys"]})
             self._pending[tag] = isos
         c1 = time.thread_time()
         return {"found": found, "timing": {"kind": "find", "start": t0, "end": time.perf_counter(),
                                            "cpu_s": c1 - c0, "surface_cpu_s": c1 - c0, "piece_cpu_s": 0.0}}
 
-    def write_shared(self, tag, name, layouts, normals):
+    def write_shared(self, tag, name, layouts, normals, forget=()):
         """Write this partition's rows of the surfaces kept under ``tag`` into the shared-memory block ``name``.
 
         ``layouts``: per value, ``n_vertices``, ``n_triangles`` (the stitched
         surface's), ``offset`` (its arrays' first byte in the block) and this
         partition's ``plan`` (:func:`~polygen.volume.partitioned.rows_layout`).
+        The block stays mapped here for its next chunk; ``forget``: blocks
+        the client gave up, unmapped first.
         """
         t0, c0 = time.perf_counter(), time.thread_time()
         with self._lock:
+            for old in forget:
+                block = self._maps.pop(old, None)
+                if block is not None:
+                    with contextlib.suppress(BufferError):
+                        block.close()
             isos = self._pending.pop(tag)
-            block = _open_block(name)
-            try:
-                written = []
-                for iso, lay in zip(isos, layouts):
-                    out, _ = rows_arrays(lay, normals, buf=block, offset=lay["offset"])
-                    written.append(self.write_rows(iso, normals, lay["plan"], out))
-                    out = None
-            finally:
-                with contextlib.suppress(BufferError):  # a view held by a traceback: unmapped when freed
-                    block.close()
+            block = self._maps.get(name)
+            if block is None:
+                block = self._maps[name] = _open_block(name)
+            written = []
+            for (iso, marks), lay in zip(isos, layouts):
+                out, _ = rows_arrays(lay, normals, buf=block, offset=lay["offset"])
+                written.append(self.write_rows(iso, normals, lay["plan"], out, marks))
+                out = None
         c1 = time.thread_time()
         return {"written": written, "timing": {"kind": "write", "start": t0, "end": time.perf_counter(),
                                                "cpu_s": c1 - c0, "surface_cpu_s": 0.0, "piece_cpu_s": c1 - c0}}
@@ -665,6 +738,11 @@ def _chunked(values, size=None):
             last = last[h:]
         chunks += tail
     return chunks
+
+
+def _direct_chunks(values, size=None):
+    """``values`` in chunks of ``size``, by default ``DIRECT_CHUNKS`` chunks of equal size (the last smaller)."""
+    return _chunked(values, size or max(1, -(-len(values) // DIRECT_CHUNKS)))
 
 
 def _unlink_quietly(name):

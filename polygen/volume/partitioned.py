@@ -371,13 +371,24 @@ class PreparedPartition:
         triangle counts, to lay out the stitched surface
         (:func:`seam_plan`) before any partition writes its rows.
         """
-        n = iso.vertices.shape[0]
-        at, keys = np.empty(n, np.int64), np.empty(n, np.int64)
-        ns = _seam_keys(np.ascontiguousarray(iso.vertex_keys, np.int64), self.vol.edges, self.global_ids,
-                        self._shared_node, self.n_ids, at, keys)
-        return at[:ns].copy(), keys[:ns].copy()
+        m = self.marks(iso)
+        return m["seam"], m["seam_keys"]
 
-    def write_rows(self, iso, normals, plan, out):
+    def marks(self, iso):
+        """:meth:`seam_of` and, kept here for :meth:`write_rows`, every vertex's global key and seam mark.
+
+        Returns a dict: ``seam``, ``seam_keys`` (what the client needs),
+        ``keys`` (n,) int64 and ``is_seam`` (n,) bool (one pass over the
+        vertices and the edges they lie on, not one per phase).
+        """
+        n = iso.vertices.shape[0]
+        keys, is_seam, at = np.empty(n, np.int64), np.empty(n, np.bool_), np.empty(n, np.int64)
+        ns = _global_keys(np.ascontiguousarray(iso.vertex_keys, np.int64), self.vol.edges, self.global_ids,
+                          self._shared_node, self.n_ids, keys, is_seam, at)
+        at = at[:ns].copy()
+        return {"seam": at, "seam_keys": keys[at], "keys": keys, "is_seam": is_seam}
+
+    def write_rows(self, iso, normals, plan, out, marks=None):
         """Write this partition's rows of a stitched surface into ``out`` (the whole surface's arrays).
 
         ``plan``: ``row0`` (this partition's first vertex row), ``gone``
@@ -390,6 +401,8 @@ class PreparedPartition:
         keys, the normals of this side (final but at seam vertices), the
         triangles renumbered, the global cell ids.
 
+        ``marks``: :meth:`marks` of ``iso`` (made here when not given).
+
         Returns ``seam_tris`` (local triangle indices touching a seam vertex,
         int64), ``fallback`` and ``flat`` as :meth:`_piece` makes them, and
         ``piece_s``.
@@ -400,10 +413,9 @@ class PreparedPartition:
         gone = np.asarray(plan["gone"], np.int64)
         targets = np.asarray(plan["targets"], np.int64)
         newidx = np.empty(n if gone.size else 0, np.int64)
-        seam = np.empty(n, np.bool_)
-        _write_vertices(np.ascontiguousarray(iso.vertex_keys, np.int64), self.vol.edges, self.global_ids,
-                        self._shared_node, self.n_ids, iso.vertices, gone, targets, row0, out["keys"],
-                        out["vertices"], newidx, seam)
+        marks = self.marks(iso) if marks is None else marks
+        seam = marks["is_seam"]
+        _write_vertices(marks["keys"], iso.vertices, gone, targets, row0, out["keys"], out["vertices"], newidx)
         if normals is not None:
             # nothing dropped: the normals summed straight into the surface's rows; else here, then the kept rows
             nrm = out["normals"][row0:row0 + n] if not gone.size else np.empty((n, 3))
@@ -449,48 +461,21 @@ def _global_keys(keys, edges, gids, shared, n_ids, out, seam, seam_at):
 
 
 @njit
-def _seam_keys(keys, edges, gids, shared, n_ids, seam_at, seam_keys):
-    """The seam vertices of a piece (both edge nodes on another partition too): their indices, ascending, and
-    global keys (as :func:`_global_keys`); their count returned."""
-    ne = edges.shape[0]
-    ns = 0
-    for v in range(keys.shape[0]):
-        k = keys[v]
-        if k < ne:
-            a, b = edges[k, 0], edges[k, 1]
-        else:
-            a = b = k - ne
-        if shared[a] and shared[b]:
-            seam_at[ns] = v
-            seam_keys[ns] = gids[a] * n_ids + gids[b]
-            ns += 1
-    return ns
-
-
-@njit
-def _write_vertices(keys, edges, gids, shared, n_ids, verts, gone, targets, row0, out_keys, out_verts, newidx,
-                    seam):
-    """A piece's kept vertices written from row ``row0`` on (global keys, positions), every vertex marked
-    seam or not; with ``gone`` (ascending local indices dropped, ``targets`` their rows elsewhere) each
-    vertex's row in ``newidx``. Returns the next free row."""
-    ne = edges.shape[0]
+def _write_vertices(keys, verts, gone, targets, row0, out_keys, out_verts, newidx):
+    """A piece's kept vertices written from row ``row0`` on (global keys, positions); with ``gone``
+    (ascending local indices dropped, ``targets`` their rows elsewhere) each vertex's row in ``newidx``.
+    Returns the next free row."""
     ng = gone.shape[0]
     g = 0
     r = row0
     for v in range(keys.shape[0]):
-        k = keys[v]
-        if k < ne:
-            a, b = edges[k, 0], edges[k, 1]
-        else:
-            a = b = k - ne
-        seam[v] = shared[a] and shared[b]
         if g < ng and gone[g] == v:
             newidx[v] = targets[g]
             g += 1
             continue
         if ng > 0:
             newidx[v] = r
-        out_keys[r] = gids[a] * n_ids + gids[b]
+        out_keys[r] = keys[v]
         for d in range(3):
             out_verts[r, d] = verts[v, d]
         r += 1
@@ -1018,14 +1003,15 @@ def direct_stitch(value, partitions, *, n_ids, normals="mean"):
     found, isos = [], []
     for p in partitions:
         iso, counters = p.surface(value)
-        seam, seam_keys = p.seam_of(iso)
-        found.append(counters | {"n": iso.vertices.shape[0], "m": iso.triangles.shape[0], "seam": seam,
-                                 "seam_keys": seam_keys})
-        isos.append(iso)
+        marks = p.marks(iso)
+        found.append(counters | {"n": iso.vertices.shape[0], "m": iso.triangles.shape[0], "seam": marks["seam"],
+                                 "seam_keys": marks["seam_keys"]})
+        isos.append((iso, marks))
     t0, c0 = time.perf_counter(), time.thread_time()
     layout = rows_layout(found)
     out, _ = rows_arrays(layout, normals)
-    written = [p.write_rows(iso, normals, plan, out) for p, iso, plan in zip(partitions, isos, layout["plans"])]
+    written = [p.write_rows(iso, normals, plan, out, marks)
+               for p, (iso, marks), plan in zip(partitions, isos, layout["plans"])]
     return finish_rows(value, out, layout, found, written, n_ids=n_ids, normals=normals, t0=t0, c0=c0)
 
 
