@@ -613,6 +613,17 @@ def test_dask_blocks_written_again_once_their_surfaces_are_gone(client, data3):
     on_dask.close()
 
 
+def test_local_client_workers_keep_freed_memory(client):
+    """local_client starts its workers with glibc told to keep freed memory (no fresh pages for every query's
+    arrays): the settings are in their environment from the start, where glibc reads them."""
+    from polygen.volume.distributed import WORKER_MALLOC
+
+    seen = client.run(lambda: {k: os.environ.get(k) for k in WORKER_MALLOC})
+    assert len(seen) == 2
+    for env in seen.values():
+        assert env == {k: str(v) for k, v in WORKER_MALLOC.items()}
+
+
 def test_direct_stitch_equals_piece_stitch(data3):
     """Each partition writing its rows in place (the local path and the client's on shared memory) gives the
     arrays of the pieces' merge bit for bit, with and without normals; seams, flat fans and empty surfaces met."""
