@@ -11,10 +11,12 @@ construction from the thinning skeleton) on every partition; twenty values
 * **k partitions**: splitting here, preparation on the workers (wall clock,
   and each partition's own time), the twenty values by one
   ``extract_many`` call in each of two modes -- **stitched on the client**
-  (``stitch_on="client"``, what ``"auto"`` picks on one machine: one actor
-  call per partition and chunk of four values, all sent at once, the pieces
-  through shared memory, the client stitching a chunk while the workers
-  extract the next) and **on the workers** (a task per partition and chunk
+  (``stitch_on="client"``, what ``"auto"`` picks on one machine: per chunk
+  of five values, each partition extracts and reports its counts and seam
+  vertices, the client lays out the stitched surfaces in a shared-memory
+  block, each partition writes its rows of the stitched arrays into it, the
+  client makes the seam normals -- the workers a chunk or two ahead) and
+  **on the workers** (a task per partition and chunk
   of values, the pieces merged pairwise on the workers up the tree of
   Morton neighbours, the stitched surfaces to the client) -- with the bytes
   that came to the client and moved between workers, the work per
