@@ -15,7 +15,7 @@ construction from the thinning skeleton) on every partition; twenty values
   of five values, each partition extracts and reports its counts and seam
   vertices, the client lays out the stitched surfaces in a shared-memory
   block, each partition writes its rows of the stitched arrays into it, the
-  client makes the seam normals -- the workers a chunk or two ahead) and
+  client makes the seam normals; the 20 values in one chunk) and
   **on the workers** (a task per partition and chunk
   of values, the pieces merged pairwise on the workers up the tree of
   Morton neighbours, the stitched surfaces to the client) -- with the bytes
@@ -194,8 +194,8 @@ def _write(name, vol, rows):
              "wall clock of preparing every partition on the workers (pieces sent from here) and checking the seams; "
              "query_s = one extract_many of the 20 values, best of 2, interleaved with the single volume's (whose query_s "
              "is its best over the whole run; each sweep's surfaces are let go before the next, as the single "
-             "volume's are): stitched on the client = through shared memory (every worker on this machine), 4 chunks "
-             "of 5 values, two actor calls per partition and chunk -- find (extract, report counts and seam "
+             "volume's are): stitched on the client = through shared memory (every worker on this machine), the 20 "
+             "values in one chunk (DIRECT_CHUNK_VALUES), two actor calls per partition and chunk -- find (extract, report counts and seam "
              "vertices) and write (the partition's rows straight into the stitched arrays, a block per chunk that "
              "the client laid out, written again by a later sweep once its surfaces are gone) -- the workers up to "
              "2 chunks ahead of the client's layout; the client makes the seam normals only; blocks_made: blocks "

@@ -593,6 +593,7 @@ def test_dask_blocks_written_again_once_their_surfaces_are_gone(client, data3):
     values = list(isovalues(data3.scalars(), 8))
     pvol = PartitionedVolume.split(data3, 2)
     on_dask = dask_prepare(pvol, client=client, stitch_on="client")
+    on_dask.chunk_values = 3  # 3 chunks, 3 blocks
     first = on_dask.extract_many(values)
     n_blocks = len(on_dask.blocks_last)
     assert on_dask.blocks_made_last == n_blocks > 1

@@ -72,10 +72,11 @@ RETRIES = 1
 #: chunks a query's values are cut into when the client stitches (``DaskPartitionedMethod.chunk_values``
 #: unset): the client stitches one chunk while the workers extract the next
 CHUNKS = 5
-#: chunks a query's values are cut into when the workers write the stitched arrays (shared memory): the client's
-#: share is small, so no chunk needs to be short; each chunk costs two calls per partition (Dask's messages:
-#: ~1.5 ms of a worker's CPU each, measured on 2M)
-DIRECT_CHUNKS = 4
+#: values per chunk when the workers write the stitched arrays (shared memory): the client's share is small, so
+#: no chunk needs to be short, and each chunk costs two calls per partition (Dask's messages). 2M, 20 values, all
+#: processes' CPU against the single volume's (load ~3.3): 4 chunks 1.63-1.73x, 2 chunks 1.56-1.57x, 1 chunk
+#: 1.47-1.48x. Longer sweeps go in chunks of this many (a worker holds up to ``AHEAD`` chunks' surfaces)
+DIRECT_CHUNK_VALUES = 20
 #: chunks whose extraction is asked for before the client lays out the first of them (through shared memory):
 #: a worker extracts the next chunk while the client lays out and finishes the one before
 AHEAD = 2
@@ -222,7 +223,7 @@ class DaskPartitionedMethod:
         else as pieces in Dask's messages, merged here.
     chunk_values : int or None
         Values per chunk when the client stitches (default: through shared
-        memory, the query's values in ``DIRECT_CHUNKS`` chunks; over TCP, in
+        memory, at most ``DIRECT_CHUNK_VALUES``; over TCP, the values in
         ``CHUNKS`` chunks, the last cut in halves down to one value): the
         workers extract a chunk while the client lays out (or stitches) and
         finishes the one before.
@@ -750,8 +751,10 @@ def _chunked(values, size=None):
 
 
 def _direct_chunks(values, size=None):
-    """``values`` in chunks of ``size``, by default ``DIRECT_CHUNKS`` chunks of equal size (the last smaller)."""
-    return _chunked(values, size or max(1, -(-len(values) // DIRECT_CHUNKS)))
+    """``values`` in chunks of ``size`` (default ``DIRECT_CHUNK_VALUES``), of equal size but the last."""
+    size = size or DIRECT_CHUNK_VALUES
+    n = max(1, -(-len(values) // size))  # as few chunks as that size allows, as even as can be
+    return _chunked(values, max(1, -(-len(values) // n)))
 
 
 def _unlink_quietly(name):
