@@ -11,10 +11,12 @@ construction from the thinning skeleton) on every partition; twenty values
 * **k partitions**: splitting here, preparation on the workers (wall clock,
   and each partition's own time), the twenty values by one
   ``extract_many`` call in each of two modes -- **stitched on the client**
-  (``stitch_on="client"``, what ``"auto"`` picks on one machine: one actor
-  call per partition and chunk of four values, all sent at once, the pieces
-  through shared memory, the client stitching a chunk while the workers
-  extract the next) and **on the workers** (a task per partition and chunk
+  (``stitch_on="client"``, what ``"auto"`` picks on one machine: per chunk
+  of five values, each partition extracts and reports its counts and seam
+  vertices, the client lays out the stitched surfaces in a shared-memory
+  block, each partition writes its rows of the stitched arrays into it, the
+  client makes the seam normals; the 20 values in one chunk) and
+  **on the workers** (a task per partition and chunk
   of values, the pieces merged pairwise on the workers up the tree of
   Morton neighbours, the stitched surfaces to the client) -- with the bytes
   that came to the client and moved between workers, the work per
@@ -99,8 +101,12 @@ def main(name="2M", parts=None, modes=None, splits="cells"):
                     prepared.stitch_on = mode
                     load = os.getloadavg()[0]
                     t, out, cpu, wcpu = _cpu_timed(lambda: prepared.extract_many(values), client)
+                    # only what the rows need: the surfaces go, as the single volume's do between its sweeps (their
+                    # memory is then reused: malloc's there, the shared-memory blocks here)
+                    out = [_light(s) for s in out]
                     if t < best[mode][0]:
                         best[mode] = (t, out, dict(wait=prepared.wait_last, client=prepared.bytes_last,
+                                                   blocks_made=getattr(prepared, "blocks_made_last", 0),
                                                    workers=prepared.bytes_workers_last, pieces=prepared.bytes_pieces_last,
                                                    phases=dict(getattr(prepared, "phases_last", {})), load=load, cpu=cpu, wcpu=wcpu))
             for mode in modes:
@@ -127,6 +133,7 @@ def main(name="2M", parts=None, modes=None, splits="cells"):
                        "client_wait_s": phases.get("wait_s", float("nan")),
                        "client_stitch_s": phases.get("stitch_s", float("nan")), "load": got["load"],
                        "cpu_client_s": got["cpu"], "cpu_workers_s": "/".join(f"{c:.3f}" for c in got["wcpu"]),
+                       "cpu_all_s": got["cpu"] + sum(got["wcpu"]), "blocks_made": got["blocks_made"],
                        "stitch_s": sum(s.stitch_s for s in surfaces),
                        "stitch_cpu_s": sum(s.stitch_cpu_s for s in surfaces),
                        "seam_vertices": sum(s.seam_vertices for s in surfaces),
@@ -135,9 +142,10 @@ def main(name="2M", parts=None, modes=None, splits="cells"):
                        "same_as_single": ok}
                 rows.append(row)
             rows[0]["query_s"] = many
-            rows[0]["cpu_client_s"] = many_cpu
+            rows[0]["cpu_client_s"] = rows[0]["cpu_all_s"] = many_cpu
             for row in rows:
                 row["vs_single"] = row["query_s"] / many
+                row["cpu_vs_single"] = row["cpu_all_s"] / many_cpu
             for row in rows[-len(modes):]:
                 print({k: (round(v, 4) if isinstance(v, float) else v) for k, v in row.items()})
             prepared.close()
@@ -145,6 +153,14 @@ def main(name="2M", parts=None, modes=None, splits="cells"):
         client.close()
         client.cluster.close()
     _write(name, vol, rows)
+
+
+def _light(s):
+    """What the rows read of a stitched surface (the surface itself is let go)."""
+    from types import SimpleNamespace
+
+    return SimpleNamespace(**{f: getattr(s, f) for f in ("n_triangles", "n_vertices", "partitions", "cells_intersected",
+                                                          "stitch_s", "stitch_cpu_s", "seam_vertices")})
 
 
 def _cpu_timed(fn, client=None):
@@ -167,7 +183,7 @@ def _timed(fn):
 
 def _write(name, vol, rows):
     cols = ["run", "prepare_s", "prepare_part_max_s", "query_s", "vs_single", "load", "cpu_client_s",
-            "cpu_workers_s", "work_part_max_s",
+            "cpu_workers_s", "cpu_all_s", "cpu_vs_single", "blocks_made", "work_part_max_s",
             "piece_part_max_s", "client_wait_s", "client_stitch_s", "stitch_s", "stitch_cpu_s", "bytes_per_query",
             "bytes_per_triangle", "bytes_workers_per_query", "bytes_pieces_per_query", "seam_vertices", "seam_seeds",
             "triangles", "same_as_single"]
@@ -177,10 +193,13 @@ def _write(name, vol, rows):
              f"k partitions: LocalCluster(n_workers={WORKERS}, threads_per_worker=1, processes=True); prepare_s = "
              "wall clock of preparing every partition on the workers (pieces sent from here) and checking the seams; "
              "query_s = one extract_many of the 20 values, best of 2, interleaved with the single volume's (whose query_s "
-             "is its best over the whole run): stitched on the client = one actor call per partition and chunk of "
-             "values (4, 4, 4, 4, 2, 1, 1), up to 3 chunks ahead of the client's stitch, the pieces written by the "
-             "workers straight into shared-memory blocks kept from query to query (every worker on this machine), "
-             "stitched here chunk by chunk while the workers extract the next (seam-only merge); span-weighted: "
+             "is its best over the whole run; each sweep's surfaces are let go before the next, as the single "
+             "volume's are): stitched on the client = through shared memory (every worker on this machine), the 20 "
+             "values in one chunk (DIRECT_CHUNK_VALUES), two actor calls per partition and chunk -- find (extract, report counts and seam "
+             "vertices) and write (the partition's rows straight into the stitched arrays, a block per chunk that "
+             "the client laid out, written again by a later sweep once its surfaces are gone) -- the workers up to "
+             "2 chunks ahead of the client's layout; the client makes the seam normals only; blocks_made: blocks "
+             "made by that sweep (0: all written again); span-weighted: "
              "Morton ranges cut at equal total cell field range (span_weights: a sweep's expected crossings) instead "
              "of equal cell counts; on the workers = a task per "
              "partition and chunk of values, the pieces merged pairwise on the workers, the seam normals at the root, "
@@ -188,14 +207,17 @@ def _write(name, vol, rows):
              "load: the 1-minute load average when the query started (this machine has 2 cores and is shared); "
              "cpu_client_s: CPU seconds of this process during the query (all its threads: the stitch, Dask's client "
              "and -- a LocalCluster -- its scheduler; single volume: the 2 numba threads of extract_many); "
-             "cpu_workers_s: CPU seconds of each worker process (extraction, pieces, Dask)",
+             "cpu_workers_s: CPU seconds of each worker process (extraction, pieces, Dask); cpu_all_s: the sum (the "
+             "single volume: its process's); cpu_vs_single: cpu_all_s over the single volume's",
              "work_part_max_s: the busiest partition's t1 + t2 + t3 over the 20 values (wall clock on its worker); "
-             "piece_part_max_s: its piece making (global keys, seam marks, normals of its own vertices); "
-             "client_wait_s / client_stitch_s: the client's wait for pieces / its mapping and stitching (client stitch "
+             "piece_part_max_s: its piece making (stitched on the client: writing its rows -- global keys, positions, "
+             "normals of its own vertices, triangles, cell ids); "
+             "client_wait_s / client_stitch_s: the client's wait for the workers / its layout and finish (client stitch "
              "only); stitch_s / stitch_cpu_s: the merges and seam normals over the 20 values (wall clock / CPU time "
              "of their threads)",
-             "bytes_per_query: what came to the client per value -- stitched on the client: the pieces (global vertex "
-             "keys, positions, normals, seam vertex and triangle indices, triangles and global cell ids as int32); on "
+             "bytes_per_query: what came to the client per value -- stitched on the client: the stitched arrays "
+             "written by the workers into shared memory (keys, positions, normals, triangles and cell ids as int64) and "
+             "the seam vertices' indices and keys (over TCP: the pieces, triangles and cell ids as int32); on "
              "the workers: the stitched surface (positions, normals, triangles and global cell ids as int32, global "
              "vertex keys); bytes_workers_per_query: pieces moved between workers per value (merge inputs made on the "
              "other worker)",

@@ -8,11 +8,11 @@ which say what a stage costs whatever the load:
 * **local stages** (one thread, no Dask): the single volume value after
   value (mean normals, and without normals to see what the normals cost);
   per partition, what its worker does -- the method (no normals), the seam
-  seeds, the piece (global keys, seam marks, triangles as int32, the normals
-  of its own vertices, global cell ids) written into a shared-memory block;
-  and what the client does -- mapping the blocks, the merge (seam vertices
-  matched, every array copied into the final ones) and ``finish`` (seam
-  normals, the surface);
+  seeds and seam vertices (``find``), then its rows of the stitched arrays
+  (global keys, positions, the normals of its own vertices, triangles
+  renumbered, global cell ids) written into the shared-memory block of the
+  value (``write``); and what the client does -- the layout (seam vertices
+  matched, the block made) and ``finish`` (seam normals, the surface);
 * **on Dask** (``LocalCluster`` of 2 workers, stitched on the client, best
   of 3 sweeps): every call's start and end on its worker and the client's
   phases on one clock (``time.perf_counter`` is the machine's monotonic
@@ -51,56 +51,60 @@ def _cpu(fn):
 
 
 def local_stages(vol, field, values, k=2):
-    """CPU seconds of each stage over the sweep, one thread, no Dask."""
+    """CPU seconds of each stage over the sweep, one thread, no Dask (every surface kept, as a sweep keeps them)."""
     from polygen.volume import methods
-    from polygen.volume.distributed import SharedMemoryPartition
-    from polygen.volume.partitioned import PartitionedVolume, check_partitions, finish, merge
+    from polygen.volume.distributed import SharedMemoryPartition, _new_block, _unlink_quietly
+    from polygen.volume.partitioned import PartitionedVolume, check_partitions, finish_rows, rows_arrays, rows_layout
 
     m = methods.get(methods.DEFAULT)(vol, field=field)
     m.extract(values[0])
     single, ref = _cpu(lambda: [m.extract(v) for v in values])
+    ref_n = [(r.n_triangles, r.n_vertices) for r in ref]
+    ref = None
     single_nonorm, _ = _cpu(lambda: [m.extract(v, normals=None) for v in values])
+    _ = None
     pvol = PartitionedVolume.split(vol, k)
     parts = [SharedMemoryPartition(p, i, field, None, {}) for i, p in enumerate(pvol.pieces)]
     offsets, n_ids, shared = check_partitions([p.info for p in parts])
     for p, o in zip(parts, offsets):
         p.set_layout(o, n_ids, shared)
-
-    class Calls:  # the client's side of extract_many_shared, without Dask
-        _maps = {}
-        from polygen.volume.distributed import DaskPartitionedMethod
-        _mapped = DaskPartitionedMethod._mapped
-
-    client = Calls()
-    # two passes, one block per value (a slot each): the first makes the blocks (as a prepared partition's
-    # first query does), the second is timed
+    # the client's side of DaskPartitionedMethod._run_direct, one value a chunk, without Dask: two passes, the
+    # second timed; a block per value, made by the first pass and written again by the second (as a sweep's
+    # blocks are once the surfaces of the sweep before are gone)
+    blocks = {}
     for j, v in [(j, v) for _ in range(2) for j, v in enumerate(values)]:
         if j == 0:
-            st = {s: np.zeros(k) for s in ("surface", "piece")}
-            cl = dict.fromkeys(("map", "merge", "finish"), 0.0)
-            tris = fresh = 0
-        answers = []
-        for i, p in enumerate(parts):
-            held = client._maps.get((i, j))
-            a = p.extract_many_shared([v], "mean", f"polygen-ov-{os.getpid()}-{j}-{i}-{fresh}", j,
-                                      None if held is None else held.name)
-            fresh += a["timing"]["fresh"]
-            st["surface"][i] += a["timing"]["surface_cpu_s"]
-            st["piece"][i] += a["timing"]["piece_cpu_s"]
-            answers.append(a)
-        c, pieces = _cpu(lambda: [client._mapped(i, j, a) for i, a in enumerate(answers)])
-        cl["map"] += c
-        c, merged = _cpu(lambda: merge([per[0] for per in pieces], n_ids=n_ids))
-        cl["merge"] += c
-        pieces = None
-        c, s = _cpu(lambda: finish(v, merged, n_ids=n_ids, normals="mean"))
+            st = {s: np.zeros(k) for s in ("find", "write")}
+            cl = dict.fromkeys(("layout", "finish"), 0.0)
+            kept, tris = [], 0
+        found = [p.find_shared([v], "mean", ("ov", j)) for p in parts]
+        for i, a in enumerate(found):
+            st["find"][i] += a["timing"]["cpu_s"]
+        name = f"polygen-ov-{os.getpid()}-{j}"
+
+        def layout():
+            lay = rows_layout([a["found"][0] for a in found])
+            if j not in blocks:
+                blocks[j] = _new_block(name, max(rows_arrays(lay, "mean", empty=False)[1], 64))
+            return lay, np.frombuffer(blocks[j], np.uint8)
+
+        c, (lay, block) = _cpu(layout)
+        cl["layout"] += c
+        written = [p.write_shared(("ov", j), name, [{"n_vertices": lay["n_vertices"],
+                                                      "n_triangles": lay["n_triangles"], "offset": 0,
+                                                      "plan": lay["plans"][i]}], "mean") for i, p in enumerate(parts)]
+        for i, a in enumerate(written):
+            st["write"][i] += a["timing"]["cpu_s"]
+        _unlink_quietly(name)
+        c, s = _cpu(lambda: finish_rows(v, rows_arrays(lay, "mean", buf=block)[0], lay, [a["found"][0] for a in found],
+                                        [a["written"][0] for a in written], n_ids=n_ids, normals="mean"))
         cl["finish"] += c
-        assert s.n_triangles == ref[j].n_triangles and s.n_vertices == ref[j].n_vertices
+        assert (s.n_triangles, s.n_vertices) == ref_n[j]
         tris += s.n_triangles
-        merged = s = None
-    for shm in client._maps.values():
-        shm.close()
-    return {"single_s": single, "single_nonormals_s": single_nonorm, "triangles": tris, "fresh_blocks": fresh} \
+        kept.append(s)
+        block = s = None
+    kept = None
+    return {"single_s": single, "single_nonormals_s": single_nonorm, "triangles": tris} \
         | {f"worker_{s}_s": st[s].tolist() for s in st} | {f"client_{s}_s": cl[s] for s in cl}
 
 
@@ -145,7 +149,7 @@ def on_dask(vol, field, values, k=2):
             "start_after_sent_s": [round(c["start"] - max(c["sent"], p["end"] if p else 0), 4)
                                    for p, c in zip([None] + mine[:-1], mine)],
             "gathered_after_end_s": [round(c["gathered"] - max(c["end"], c["waited"]), 4) for c in mine],
-            "fresh_blocks": sum(c["fresh"] for c in mine)}
+            "finds": sum(c["kind"] == "find" for c in mine), "writes": sum(c["kind"] == "write" for c in mine)}
     return out
 
 

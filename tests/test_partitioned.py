@@ -514,11 +514,19 @@ def test_dask_stitch_on_workers_bytes(client, data3):
     assert on_dask.bytes_last == sum(s.vertices.nbytes + s.normals.nbytes + s.triangles.nbytes // 2
                                      + s.vertex_keys.nbytes + s.triangle_cells.nbytes // 2 for s in surfaces)
     assert all(s.triangles.dtype == np.int64 and s.triangle_cells.dtype == np.int64 for s in surfaces)
-    # stitched on the client instead: every piece comes here, the same arrays
-    on_dask.stitch_on = "client"
+    # stitched on the client instead, over TCP: every piece comes here, the same arrays
+    on_dask.stitch_on, on_dask.transport = "client", "tcp"
     for a, b in zip(on_dask.extract_many(values), surfaces):
         _same_arrays(a, b, counters=False)
     assert on_dask.bytes_last == made and on_dask.bytes_workers_last == 0
+    # through shared memory: the stitched arrays (each on a 64-byte line) and the seam vertices' indices and keys
+    on_dask.transport = "shared-memory"
+    for a, b in zip(on_dask.extract_many(values), surfaces):
+        _same_arrays(a, b, counters=False)
+    line = lambda a: -(-a.nbytes // 64) * 64  # noqa: E731
+    seams = sum(sum(x.nbytes for x in p.seam_of(p.surface(v)[0])) for v in values for p in local.partitions)
+    assert on_dask.bytes_last == seams + sum(line(s.vertex_keys) + line(s.vertices) + line(s.normals)
+                                             + line(s.triangles) + line(s.triangle_cells) for s in surfaces)
     on_dask.close()
     with pytest.raises(PartitionError, match="stitch_on"):
         dask_prepare(pvol, client=client, stitch_on="here")
@@ -531,9 +539,11 @@ def _left_blocks(prepared):
 
 
 def test_dask_shared_memory_equals_tcp_and_local(client, data3):
-    """Pieces through shared memory (workers on this machine) or TCP, in chunks of values: the local stitch's
-    arrays bit for bit, and no shared-memory block left behind."""
-    values = list(isovalues(data3.scalars(), 9))
+    """Rows written by the workers into shared memory, or pieces over TCP, in chunks of values: the local
+    stitch's arrays bit for bit, and no shared-memory block name left behind."""
+    from polygen.volume.distributed import _direct_chunks
+
+    values = list(isovalues(data3.scalars(), 9)) + [data3.scalars().max() + 1.0]  # the last: an empty surface
     pvol = PartitionedVolume.split(data3, 3)
     local = pvol.prepare()
     on_dask = dask_prepare(pvol, client=client, stitch_on="client")
@@ -543,8 +553,8 @@ def test_dask_shared_memory_equals_tcp_and_local(client, data3):
         on_dask.transport, on_dask.chunk_values = transport, chunk
         got[transport, chunk] = on_dask.extract_many(values)
         assert on_dask.bytes_last > 0
-        if transport == "shared-memory":
-            assert chunk is None or len(on_dask.blocks_last) == 3 * -(-len(values) // chunk)
+        if transport == "shared-memory":  # one block per chunk
+            assert len(on_dask.blocks_last) == len(_direct_chunks(values, chunk))
             assert _left_blocks(on_dask) == []
     for j, v in enumerate(values):
         here = local.extract(v)
@@ -553,29 +563,95 @@ def test_dask_shared_memory_equals_tcp_and_local(client, data3):
     on_dask.close()
 
 
-def test_dask_shared_memory_blocks_kept_between_queries(client, data3):
-    """The blocks are made by the first query and reused by the next (no block made, the same arrays), grown
-    when a chunk needs more; close() lets the client's mappings go; no block name is left."""
-    from polygen.volume.distributed import SLOTS
+def test_dask_surfaces_outlive_their_blocks(client, data3):
+    """The surfaces' arrays are views on their chunk's block: written by the workers, unlinked by name at once,
+    they stay intact (and writeable) through later queries and after close(); a surface without normals too."""
+    values = list(isovalues(data3.scalars(), 8))
+    pvol = PartitionedVolume.split(data3, 2)
+    on_dask = dask_prepare(pvol, client=client, stitch_on="client")
+    first = on_dask.extract_many(values)
+    assert _left_blocks(on_dask) == [] and all(s.vertices.flags.writeable for s in first)
+    bare = on_dask.extract_many(values, normals=None)
+    assert all(s.normals is None for s in bare)
+    on_dask.chunk_values = 3
+    again = on_dask.extract_many(values[::-1])[::-1]
+    on_dask.close()
+    local = pvol.prepare()
+    for v, a, b, c in zip(values, first, again, bare):
+        here = local.extract(v)
+        _same_arrays(here, a, counters=False)
+        _same_arrays(here, b, counters=False)
+        np.testing.assert_array_equal(here.triangles, c.triangles)
+        np.testing.assert_array_equal(here.vertices, c.vertices)
+
+
+def test_dask_blocks_written_again_once_their_surfaces_are_gone(client, data3):
+    """A block is written again by a later query only when no surface views it any more: kept surfaces stay
+    intact (new blocks made), dropped ones give their blocks to the next query (none made), the same arrays."""
+    import gc
 
     values = list(isovalues(data3.scalars(), 8))
-    on_dask = dask_prepare(PartitionedVolume.split(data3, 2), client=client, stitch_on="client")
+    pvol = PartitionedVolume.split(data3, 2)
+    on_dask = dask_prepare(pvol, client=client, stitch_on="client")
+    on_dask.chunk_values = 3  # 3 chunks, 3 blocks
     first = on_dask.extract_many(values)
-    assert len(on_dask._maps) == 2 * SLOTS  # 8 values: chunks 2, 2, 2, 1, 1 over 3 slots
+    n_blocks = len(on_dask.blocks_last)
+    assert on_dask.blocks_made_last == n_blocks > 1
+    kept = on_dask.extract_many(values)  # the first surfaces are alive: their blocks are not free
+    assert on_dask.blocks_made_last == n_blocks
+    keys = [s.vertex_keys.copy() for s in first]
+    del first
+    gc.collect()
     again = on_dask.extract_many(values)
-    calls = on_dask.phases_last["calls"]
-    assert len(calls) == 2 * 5 and not any(c["fresh"] for c in calls)
-    for a, b in zip(first, again):
-        _same_arrays(a, b, counters=False)
+    assert on_dask.blocks_made_last == 0 and len(on_dask.blocks_last) == n_blocks
     assert _left_blocks(on_dask) == []
-    on_dask.chunk_values = 8  # one chunk of every value: more than slot 0's block holds
-    grown = on_dask.extract_many(values)
-    assert [c["fresh"] for c in on_dask.phases_last["calls"]] == [True, True]
-    for a, b in zip(first, grown):
-        _same_arrays(a, b, counters=False)
-    assert _left_blocks(on_dask) == []
+    local = pvol.prepare()
+    for v, k, a, b in zip(values, keys, kept, again):
+        here = local.extract(v)
+        np.testing.assert_array_equal(here.vertex_keys, k)
+        _same_arrays(here, a, counters=False)
+        _same_arrays(here, b, counters=False)
     on_dask.close()
-    assert on_dask._maps == {}
+
+
+def test_local_client_workers_keep_freed_memory(client):
+    """local_client starts its workers with glibc told to keep freed memory (no fresh pages for every query's
+    arrays): the settings are in their environment from the start, where glibc reads them."""
+    from polygen.volume.distributed import WORKER_MALLOC
+
+    seen = client.run(lambda: {k: os.environ.get(k) for k in WORKER_MALLOC})
+    assert len(seen) == 2
+    for env in seen.values():
+        assert env == {k: str(v) for k, v in WORKER_MALLOC.items()}
+
+
+def test_direct_stitch_equals_piece_stitch(data3):
+    """Each partition writing its rows in place (the local path and the client's on shared memory) gives the
+    arrays of the pieces' merge bit for bit, with and without normals; seams, flat fans and empty surfaces met."""
+    from polygen.volume.partitioned import direct_stitch
+
+    s = data3.scalars()
+    values = list(isovalues(s, 12)) + [np.nextafter(s.min(), np.inf), np.nextafter(np.sort(s)[len(s) // 3], np.inf),
+                                       s.max() + 1.0]
+    for k in (2, 5):
+        prepared = PartitionedVolume.split(data3, k).prepare()
+        seam = flat = 0
+        for v in values:
+            for normals in ("mean", None):
+                pieces = [p.extract(v, normals) for p in prepared.partitions]
+                want = stitch(v, pieces, n_ids=prepared.n_ids, normals=normals)
+                got = direct_stitch(v, prepared.partitions, n_ids=prepared.n_ids, normals=normals)
+                for f in ("vertex_keys", "vertices", "triangles", "triangle_cells", "normals"):
+                    a, b = getattr(want, f), getattr(got, f)
+                    assert (a is None) == (b is None), f
+                    if a is not None:
+                        assert a.dtype == b.dtype, f
+                        np.testing.assert_array_equal(a, b, err_msg=f)
+                assert got.seam_vertices == want.seam_vertices
+                assert [p["n_triangles"] for p in got.partitions] == [p["n_triangles"] for p in want.partitions]
+                seam += got.seam_vertices
+                flat += sum(p["flat"] for p in pieces)
+        assert seam > 0 and flat > 0
 
 
 def test_chunks_of_a_query():

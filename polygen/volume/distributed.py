@@ -9,18 +9,23 @@ keys, positions, normals of its own vertices, seam marks, triangles, global
 cell ids) and stitches them in one of two places (``stitch_on``):
 
 * **on the client** (the default when every worker runs on the client's
-  machine): the values are cut into chunks and every chunk's actor calls
-  are sent at once; each partition answers them in order, and the client
-  stitches chunk ``c`` (the seam-only merge) while the workers extract
-  chunk ``c + 1``. The pieces travel through POSIX **shared memory**: each
-  partition keeps a few blocks (one per slot, ``SLOTS``; made once, grown
-  when a chunk needs more) and writes its pieces straight into one while it
-  makes them; the client maps each block once (unlinking its name at once),
-  stitches from it (the stitch copies what it keeps) and sends the call
-  that reuses a slot only once that slot's chunk is stitched. The last
-  chunk is cut down to one value (its stitch is not hidden behind the
-  workers'). Over TCP instead when a worker is elsewhere or shared memory
-  is missing.
+  machine): the values are cut into chunks, and each chunk is stitched in
+  two phases. First every partition extracts the chunk's surfaces and
+  reports their vertex and triangle counts and their seam vertices (a few
+  per thousand); the client lays out the stitched surfaces
+  (:func:`~polygen.volume.partitioned.rows_layout`: only seam vertices are
+  matched, every other row is an offset) in one POSIX **shared-memory**
+  block per chunk; then every partition writes its rows of every stitched
+  array (global keys, positions, normals of its own vertices, triangles
+  renumbered, global cell ids) straight into that block, and the client
+  makes the seam vertices' normals. The surfaces' arrays are views on the
+  block: nothing is copied after the workers wrote it. A block whose
+  surfaces are all gone is written again by a later chunk (both sides keep
+  it mapped: its pages are not faulted in and zeroed again, as ``malloc``
+  reuses a single volume's freed surfaces). The workers run up to
+  ``AHEAD`` chunks ahead of the client's layout. Over TCP instead (a worker elsewhere, or
+  no shared memory here), every partition's pieces travel in Dask's
+  messages and are merged here (:func:`~polygen.volume.partitioned.stitch`).
 * **on the workers**: one small task per partition and chunk of values,
   which asks the partition's actor on its own worker for its pieces; the
   pieces are merged pairwise up a tree of neighbouring partitions
@@ -37,8 +42,8 @@ calls to its actors fail; the partitions it held are prepared again on the
 workers that remain and the query is asked again, once. If that fails too,
 or no worker remains, :class:`~polygen.volume.partitioned.PartitionError`
 says which partition was lost: a query never returns part of a surface.
-Shared-memory blocks made by a failed query and never mapped are unlinked
-by the client, by name, once all its calls have answered or failed.
+Shared-memory blocks of a failed query are unlinked by the client, by
+name, once all its calls have answered or failed.
 
 Dask is optional (``pip install polygen[distributed]``); this module imports
 it when it is used, with a clear message when it is missing.
@@ -49,13 +54,15 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import itertools
+import mmap
+import os
 import time
 import uuid
 
 import numpy as np
 
 from polygen.volume.partitioned import (PartitionError, PreparedPartition, _check_normals, check_partitions,
-                                        finish, merge, reduce_tree, stitch)
+                                        finish, finish_rows, merge, reduce_tree, rows_arrays, rows_layout, stitch)
 from polygen.volume.surface import check_value
 
 __all__ = ["DaskPartitionedMethod", "prepare", "local_client", "require_distributed"]
@@ -65,9 +72,16 @@ RETRIES = 1
 #: chunks a query's values are cut into when the client stitches (``DaskPartitionedMethod.chunk_values``
 #: unset): the client stitches one chunk while the workers extract the next
 CHUNKS = 5
-#: shared-memory blocks per partition (kept between queries): the workers extract up to this many chunks
-#: ahead of the client's stitch
-SLOTS = 3
+#: values per chunk when the workers write the stitched arrays (shared memory): the client's share is small, so
+#: no chunk needs to be short, and each chunk costs two calls per partition (Dask's messages). 2M, 20 values, all
+#: processes' CPU against the single volume's (load ~3.3): 4 chunks 1.63-1.73x, 2 chunks 1.56-1.57x, 1 chunk
+#: 1.47-1.48x. Longer sweeps go in chunks of this many (a worker holds up to ``AHEAD`` chunks' surfaces)
+DIRECT_CHUNK_VALUES = 20
+#: chunks whose extraction is asked for before the client lays out the first of them (through shared memory):
+#: a worker extracts the next chunk while the client lays out and finishes the one before
+AHEAD = 2
+#: glibc's settings for the worker processes of :func:`local_client` (set before they start: see there)
+WORKER_MALLOC = {"MALLOC_MMAP_THRESHOLD_": 32 << 20, "MALLOC_TRIM_THRESHOLD_": 1 << 30}
 #: how long a query that failed waits for its other calls before unlinking their shared-memory blocks
 SWEEP_TIMEOUT_S = 60
 
@@ -113,9 +127,16 @@ def local_client(n_workers=2, *, threads_per_worker=1, processes=True, scheduler
     # Quieter book-keeping: the statistical profiler off, the event-loop tick and system monitor slower -- on
     # a 2-core machine they cost CPU the queries need (measured idle: the client process with the scheduler
     # 0.038 -> 0.018 s of CPU per second, each worker 0.028 -> 0.009)
+    # glibc in the worker processes: Dask starts them with MALLOC_TRIM_THRESHOLD_=65536 (freed memory goes back to
+    # the kernel at once), and a surface's arrays of a few MB then come from fresh pages at every query, faulted
+    # in and zeroed again (10M in 2 partitions: ~118,000 page faults per 20-value sweep, the method's outputs). A
+    # fixed mmap threshold of 32 MiB (glibc's largest dynamic one) and a trim threshold of 1 GiB keep them for
+    # the next query: ~0 faults, the workers' CPU per sweep 1.70-1.85 -> 1.51-1.61 s (measured at load 3-3.8)
+    environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}) or {}) | WORKER_MALLOC
     with dask.config.set({"distributed.scheduler.work-stealing": False, "distributed.worker.profile.enabled": False,
                           "distributed.admin.tick.interval": "200ms",
-                          "distributed.admin.system-monitor.interval": "1s"}):
+                          "distributed.admin.system-monitor.interval": "1s",
+                          "distributed.nanny.pre-spawn-environ": environ}):
         cluster = distributed.LocalCluster(n_workers=int(n_workers), threads_per_worker=int(threads_per_worker),
                                            processes=processes, dashboard_address=":0", **kwargs)
     return distributed.Client(cluster)
@@ -196,25 +217,32 @@ class DaskPartitionedMethod:
     wait_last : float
         Seconds the last query waited for its surfaces (calls, work, merges, transfer).
     transport : {"shared-memory", "tcp"}
-        How pieces stitched on the client travel: through POSIX shared
+        How a stitch on the client gets the partitions' rows: written by the
+        workers straight into the stitched surfaces' arrays in POSIX shared
         memory when every worker runs on this machine (and it works here),
-        else in Dask's messages.
+        else as pieces in Dask's messages, merged here.
     chunk_values : int or None
-        Values per actor call when the client stitches (default: the
-        query's values in ``CHUNKS`` chunks, the last cut in halves down to
-        one value): the client stitches a chunk while the workers extract
-        the next.
+        Values per chunk when the client stitches (default: through shared
+        memory, at most ``DIRECT_CHUNK_VALUES``; over TCP, the values in
+        ``CHUNKS`` chunks, the last cut in halves down to one value): the
+        workers extract a chunk while the client lays out (or stitches) and
+        finishes the one before.
     phases_last : dict
-        Client stitch only: ``wait_s`` (waiting for pieces) and
-        ``stitch_s`` (mapping them, stitching) of the last query; through
+        Client stitch only: ``wait_s`` (waiting for the workers) and
+        ``stitch_s`` (laying out, finishing) of the last query; through
         shared memory also ``calls``, each call's ``timing`` from its worker
-        (``start``, ``end`` on ``time.perf_counter``'s clock -- the machine's
-        monotonic clock on Linux --, ``cpu_s``, ``surface_cpu_s``,
-        ``piece_cpu_s``, ``fresh``: a block made for it) with its ``chunk``,
-        ``partition`` and the client's ``sent``, ``waited`` and ``gathered``.
+        (``kind`` ``"find"`` or ``"write"``, ``start``, ``end`` on
+        ``time.perf_counter``'s clock -- the machine's monotonic clock on
+        Linux --, ``cpu_s``, ``surface_cpu_s``, ``piece_cpu_s``) with its
+        ``chunk``, ``partition`` and the client's ``sent``, ``waited`` and
+        ``gathered``.
     blocks_last : list of str
-        The shared-memory block names the last query handed out (all
-        unlinked when it returns or raises).
+        The shared-memory blocks the last query wrote (one per chunk; every
+        name unlinked once both sides mapped it, or when the query raises:
+        the surfaces' arrays keep their block mapped).
+    blocks_made_last : int
+        How many of them were made for it (the others were written again:
+        their former surfaces were gone).
 
     Notes
     -----
@@ -241,8 +269,13 @@ class DaskPartitionedMethod:
         self.wait_last = 0.0
         self.phases_last = {}
         self.blocks_last = []
+        self.blocks_made_last = 0
         self.chunk_values = None
-        self._maps = {}  # (partition, slot) -> the SharedMemory block mapped here
+        # shared-memory blocks, kept mapped here and on the workers: name -> [mapping, size, free]; a block is
+        # free once no surface views it (a finalizer on its root array puts its name in _freed)
+        self._blocks = {}
+        self._freed = []
+        self._forget = []  # blocks given up here, to be unmapped by the workers at their next write
         t0 = time.perf_counter()
         workers = self._workers()
         self._futures = [None] * len(self.pieces)
@@ -348,87 +381,177 @@ class DaskPartitionedMethod:
         return leaves, roots
 
     def _run_on_client(self, values, normals):
-        """All pieces sent here and stitched here, chunk after chunk of values.
-
-        Through shared memory, each partition writes chunk ``c`` into its
-        block of slot ``c % SLOTS`` (kept from query to query, mapped here
-        once); the call of chunk ``c + SLOTS`` is sent once chunk ``c`` is
-        stitched (its slot free again), so the workers extract ahead of the
-        client by up to ``SLOTS`` chunks. Over TCP every chunk's calls are
-        sent at once. Each partition answers its calls in order, and the
-        client stitches chunk ``c`` while the workers extract the next.
-        """
+        """All pieces sent here and stitched here, chunk after chunk of values (over TCP; see :meth:`_run_direct`
+        for shared memory). Every chunk's calls are sent at once; each partition answers them in order, and the
+        client stitches chunk ``c`` while the workers extract the next."""
+        if self.transport == "shared-memory":
+            return self._run_direct(values, normals)
         chunks = _chunked(values, self.chunk_values)
-        shared = self.transport == "shared-memory"
-        uid = uuid.uuid4().hex[:16]
-        names = [[f"polygen-{uid}-{c}-{i}" for i in range(len(self.actors))] for c in range(len(chunks))]
-        calls = [None] * len(chunks)
-        sent = [0.0] * len(chunks)
-
-        def send(c):
-            calls[c] = row = []  # the calls sent so far, for the clean-up if one cannot be sent
+        calls = []
+        for c in range(len(chunks)):
+            row = []
             for i, a in enumerate(self.actors):
                 try:
-                    if shared:
-                        held = self._maps.get((i, c % SLOTS))
-                        self.blocks_last.append(names[c][i])
-                        row.append(a.extract_many_shared(chunks[c], normals, names[c][i], c % SLOTS,
-                                                         None if held is None else held.name))
-                    else:
-                        row.append(a.extract_many(chunks[c], normals))
+                    row.append(a.extract_many(chunks[c], normals))
                 except Exception as e:  # noqa: BLE001  dask: "Worker holding Actor was lost"
                     raise _Lost(i, e) from e
-            sent[c] = time.perf_counter()
+            calls.append(row)
+        surfaces, made = [], 0
+        self.phases_last = {"wait_s": 0.0, "stitch_s": 0.0}
+        for c, chunk in enumerate(chunks):
+            t0 = time.perf_counter()
+            pieces = self._gather(calls[c], what="query")
+            t1 = time.perf_counter()
+            made += sum(_nbytes(p) for per in pieces for p in per)
+            surfaces += [stitch(v, [per[j] for per in pieces], n_ids=self.n_ids, normals=normals)
+                         for j, v in enumerate(chunk)]
+            self.phases_last["wait_s"] += t1 - t0
+            self.phases_last["stitch_s"] += time.perf_counter() - t1
+        return surfaces, 0, made
 
+    def _run_direct(self, values, normals):
+        """The stitch on the client through shared memory, chunk after chunk, in two phases per chunk.
+
+        ``find``: every partition extracts the chunk's surfaces and keeps
+        them, answering their counts and seam vertices; the client lays out
+        the stitched surfaces (:func:`~polygen.volume.partitioned.rows_layout`)
+        in a block made for the chunk; ``write``: every partition writes its
+        rows into the block; the client finishes the surfaces (seam normals)
+        on views of the block. The finds of ``AHEAD`` chunks are asked for
+        first, then each layout sends the chunk's writes and the find of the
+        chunk ``AHEAD`` further, and the chunk before is finished: each
+        partition answers its calls in order, so it extracts the next chunk
+        while the client lays out and finishes.
+        """
+        chunks = _direct_chunks(values, self.chunk_values)
+        nc = len(chunks)
+        uid = uuid.uuid4().hex[:16]
+        finds, writes, held, names = [None] * nc, [None] * nc, [None] * nc, []  # names: blocks made here
+        used, block_of = set(), [None] * nc
+        sent = {}
+        phases = self.phases_last = {"wait_s": 0.0, "stitch_s": 0.0, "calls": []}
+        made = [0]
+
+        def send(c, rows, ask):
+            rows[c] = row = []  # the calls sent so far, for the clean-up if one cannot be sent
+            for i, a in enumerate(self.actors):
+                try:
+                    row.append(ask(i, a))
+                except Exception as e:  # noqa: BLE001  dask: "Worker holding Actor was lost"
+                    raise _Lost(i, e) from e
+            sent[rows is finds, c] = time.perf_counter()
+
+        def find(c):
+            send(c, finds, lambda i, a: a.find_shared(chunks[c], normals, (uid, c)))
+
+        def gather(c, rows):
+            t0 = time.perf_counter()
+            answers = self._gather(rows[c], what="query")
+            t1 = time.perf_counter()
+            phases["wait_s"] += t1 - t0
+            phases["calls"] += [a["timing"] | {"chunk": c, "partition": i, "sent": sent[rows is finds, c],
+                                               "waited": t0, "gathered": t1} for i, a in enumerate(answers)]
+            return answers, t1, time.thread_time()
+
+        def lay_out(c):
+            answers, t1, c1 = gather(c, finds)
+            found = [[a["found"][j] for a in answers] for j in range(len(chunks[c]))]  # per value, per partition
+            layouts = [rows_layout(f) for f in found]
+            offsets, size = [], 0
+            for lay in layouts:
+                offsets.append(size)
+                size += rows_arrays(lay, normals, empty=False)[1]
+            name, block, fresh = self._take_block(max(size, 64), f"polygen-{uid}-{c}")
+            used.add(name)
+            block_of[c] = name
+            if fresh:
+                names.append(name)
+            self.blocks_last.append(name)
+            made[0] += size + sum(f["seam"].nbytes + f["seam_keys"].nbytes for per in found for f in per)
+            forget, self._forget = self._forget, []
+            send(c, writes, lambda i, a: a.write_shared(
+                (uid, c), name, [{"n_vertices": lay["n_vertices"], "n_triangles": lay["n_triangles"], "offset": o,
+                                  "plan": lay["plans"][i]} for lay, o in zip(layouts, offsets)], normals, forget))
+            dt, dc = time.perf_counter() - t1, time.thread_time() - c1
+            held[c] = (found, layouts, offsets, block, dt / len(chunks[c]), dc / len(chunks[c]))
+            phases["stitch_s"] += dt
+
+        def finish_chunk(c):
+            answers, t1, c1 = gather(c, writes)
+            found, layouts, offsets, block, dt, dc = held[c]
+            held[c] = None
+            _unlink_quietly(block_of[c])  # every side mapped it: the name can go (made here or not)
+            out = []
+            for j, v in enumerate(chunks[c]):
+                arrays, _ = rows_arrays(layouts[j], normals, buf=block, offset=offsets[j])
+                t0, c0 = time.perf_counter(), time.thread_time()
+                out.append(finish_rows(v, arrays, layouts[j], found[j], [a["written"][j] for a in answers],
+                                       n_ids=self.n_ids, normals=normals, t0=t0 - dt, c0=c0 - dc))
+            phases["stitch_s"] += time.perf_counter() - t1
+            return out
+
+        ok = False
         try:
-            for c in range(min(SLOTS, len(chunks)) if shared else len(chunks)):
-                send(c)
-            surfaces, made = [], 0
-            self.phases_last = {"wait_s": 0.0, "stitch_s": 0.0, "calls": []}
-            for c, chunk in enumerate(chunks):
-                t0 = time.perf_counter()
-                answers = self._gather(calls[c], what="query")
-                t1 = time.perf_counter()
-                if shared:
-                    pieces = [self._mapped(i, c % SLOTS, answer) for i, answer in enumerate(answers)]
-                    made += sum(a["nbytes"] for a in answers)
-                    self.phases_last["calls"] += [a["timing"] | {"chunk": c, "partition": i, "sent": sent[c],
-                                                                 "waited": t0, "gathered": t1}
-                                                  for i, a in enumerate(answers)]
-                else:
-                    pieces = answers
-                    made += sum(_nbytes(p) for per in pieces for p in per)
-                # the stitch copies what it keeps (merge makes new arrays): no view on a block outlives it
-                surfaces += [stitch(v, [per[j] for per in pieces], n_ids=self.n_ids, normals=normals)
-                             for j, v in enumerate(chunk)]
-                pieces = answers = None
-                if shared and c + SLOTS < len(chunks):
-                    send(c + SLOTS)
-                self.phases_last["wait_s"] += t1 - t0
-                self.phases_last["stitch_s"] += time.perf_counter() - t1
-            return surfaces, 0, made
+            for c in range(min(AHEAD, nc)):
+                find(c)
+            surfaces = []
+            for c in range(nc):
+                lay_out(c)
+                if c + AHEAD < nc:
+                    find(c + AHEAD)
+                if c:
+                    surfaces += finish_chunk(c - 1)
+            if nc:
+                surfaces += finish_chunk(nc - 1)
+            ok = True
+            self.blocks_made_last = len(names)
+            return surfaces, 0, made[0]
         finally:
-            if shared:
-                self._sweep([row for row in calls if row is not None], names)
+            held = None
+            if ok:  # free blocks this query did not need go (the next ones are sized alike)
+                self._drop_blocks(lambda n, b: b[2] and n not in used)
+            else:  # the workers may have lost their mappings: every block goes
+                self._drop_blocks(lambda n, b: True)
+                self._sweep([row for row in finds + writes if row is not None], [names])
 
-    def _mapped(self, i, slot, answer):
-        """Partition ``i``'s pieces in its block of ``slot``: views on the block, mapped here once (a block
-        named for the first time is mapped, its name unlinked at once, and the slot's former block closed)."""
-        from multiprocessing import shared_memory
+    def _take_block(self, size, name):
+        """A block of at least ``size`` bytes whose surfaces are gone (the smallest), or a new one named
+        ``name``: ``(name, root, fresh)``, ``root`` a uint8 array on the whole block whose surfaces view it."""
+        import weakref
 
-        held = self._maps.get((i, slot))
-        if held is None or held.name != answer["name"]:
-            shm = shared_memory.SharedMemory(name=answer["name"])
-            shm.unlink()  # the name goes; the block lives while this mapping and the worker's do
-            if held is not None:
-                with contextlib.suppress(BufferError):  # a view held by a traceback: closed when freed
-                    held.close()
-            self._maps[i, slot] = held = shm
-        return _views(held.buf, answer["pieces"])
+        while self._freed:
+            b = self._blocks.get(self._freed.pop())
+            if b is not None:
+                b[2] = True
+        free = [(b[1], n) for n, b in self._blocks.items() if b[2] and b[1] >= size]
+        if free:
+            name = min(free)[1]
+            b = self._blocks[name]
+            fresh = False
+        else:
+            size += size // 8  # room for a chunk a little larger next time
+            size = -(-size // 65536) * 65536
+            b = self._blocks[name] = [_new_block(name, size), size, False]
+            fresh = True
+        b[2] = False
+        root = np.frombuffer(b[0], np.uint8)
+        weakref.finalize(root, self._freed.append, name).atexit = False
+        return name, root, fresh
+
+    def _drop_blocks(self, which):
+        """Unmap here the blocks ``which(name, entry)`` picks (those still viewed by surfaces stay mapped through
+        them), and have the workers unmap them at their next write."""
+        for name, b in list(self._blocks.items()):
+            if which(name, b):
+                del self._blocks[name]
+                self._forget.append(name)
+                if b[2]:
+                    with contextlib.suppress(BufferError):
+                        b[0].close()
 
     def _sweep(self, calls, names):
-        """After a query: every call answered or failed, then every block name handed out unlinked (a query
-        that failed midway leaves blocks that no one else would unlink)."""
+        """After a query: every call answered or failed, then every block name made unlinked (a query that
+        failed midway leaves blocks that no one else would unlink)."""
         for row in calls:
             for call in row:
                 with contextlib.suppress(Exception):  # a lost worker's call: its error is the query's already
@@ -496,11 +619,9 @@ class DaskPartitionedMethod:
         return self.extract_many([value], normals=normals)[0]
 
     def close(self):
-        """Release the actors (the partitions on the workers) and the shared-memory blocks mapped here."""
-        for shm in self._maps.values():
-            with contextlib.suppress(BufferError):
-                shm.close()
-        self._maps = {}
+        """Release the actors (the partitions on the workers, and their mappings of the blocks)."""
+        self._drop_blocks(lambda n, b: True)
+        self._forget = []
         for f in self._futures:
             if f is not None:
                 f.release()
@@ -509,126 +630,107 @@ class DaskPartitionedMethod:
 
 
 class SharedMemoryPartition(PreparedPartition):
-    """A partition on a worker of this machine: its pieces can travel through shared memory.
+    """A partition on a worker of this machine: it writes its rows of the stitched surfaces into shared memory.
 
-    :meth:`extract_many_shared` writes the pieces' arrays straight into a
-    POSIX shared-memory block (one per slot, kept from query to query and
-    grown when a chunk needs more) and returns only where each array lies;
-    the client maps each block once and stitches from it. A block made
-    anew each call cost its pages twice (zeroed on the worker's first touch,
-    faulted in on the client's) and a copy of every piece: measured on 2M in
-    two partitions, 0.046 s of the workers' CPU per 20 values, a quarter of
-    their extraction (``benchmarks/results/partitioned_overhead.md``).
+    Two calls per chunk of values (:meth:`DaskPartitionedMethod._run_direct`):
+    :meth:`find_shared` extracts the surfaces, keeps them and answers their
+    counts and seam vertices; :meth:`write_shared` writes this partition's
+    rows of every stitched array into the block the client made for the
+    chunk, at the rows the client laid out, and forgets the surfaces. The
+    stitched arrays are written once, by the workers, into memory the
+    client's surfaces keep: pieces copied into blocks and merged by the
+    client into fresh arrays cost the client a copy and the first touch of
+    every output page (10M, 20 values: 0.43 s of its stitch, against the
+    single volume's ~1.5 s of CPU for the whole sweep;
+    ``benchmarks/results/partitioned_overhead.md``).
 
-    Ownership: a block is named by the client (a fresh name per call, used
-    only when a block is made); the worker takes it off its own resource
-    tracker once made, and the client unlinks the name as soon as it maps
-    it -- or, a block it never mapped (a query that failed), once the
-    query's calls have all answered or failed. The memory goes when the last
-    mapping closes (the worker's actor released, the client's ``close``).
-    The client says which block it holds for the slot (``mapped``): any
-    other means a new block, so the two sides never disagree on one.
+    Ownership: the client makes and names a block (one per chunk), each
+    worker maps it at its first write and keeps it mapped, and the client
+    unlinks the name once every partition wrote (or, a query that failed,
+    once its calls have all answered or failed). Once the surfaces of a
+    block are gone the client may hand it to a later chunk (written again
+    in place); when it gives a block up, the workers unmap it at their next
+    write (or when the partition goes), and the memory goes with the last
+    mapping.
     """
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
-        self._blocks = {}  # slot -> its SharedMemory block
+        self._pending = {}  # (query, chunk) -> the surfaces found, waiting for their write
+        self._maps = {}  # block name -> its mapping here, kept until the client gives the block up
 
-    def extract_many_shared(self, values, normals, name, slot=0, mapped=None):
-        from multiprocessing import resource_tracker, shared_memory
-
+    def find_shared(self, values, normals, tag):
+        """Extract ``values`` and keep the surfaces under ``tag``; answer counts, seam vertices and counters."""
         t0, c0 = time.perf_counter(), time.thread_time()
         with self._lock:
-            found = [self.surface(v) for v in values]
-            c1 = time.thread_time()
-            # the fallback rows (seam vertices touching only zero-area triangles) are copied in after
-            need = sum(self.piece_bytes_bound(iso, normals) + 32 * iso.vertices.shape[0] + 128 for iso, _ in found)
-            blocks = self._blocks
-            shm = blocks.get(slot)
-            fresh = shm is None or shm.name != mapped or shm.size < need
-            if fresh:
-                if shm is not None:
+            for old in [t for t in self._pending if t[0] != tag[0]]:  # a query that failed before its writes
+                del self._pending[old]
+            isos, found = [], []
+            for v in values:
+                iso, counters = self.surface(v)
+                marks = self.marks(iso)
+                isos.append((iso, marks))
+                found.append(counters | {"n": iso.vertices.shape[0], "m": iso.triangles.shape[0],
+                                         "seam": marks["seam"], "seam_keys": marks["seam_keys"]})
+            self._pending[tag] = isos
+        c1 = time.thread_time()
+        return {"found": found, "timing": {"kind": "find", "start": t0, "end": time.perf_counter(),
+                                           "cpu_s": c1 - c0, "surface_cpu_s": c1 - c0, "piece_cpu_s": 0.0}}
+
+    def write_shared(self, tag, name, layouts, normals, forget=()):
+        """Write this partition's rows of the surfaces kept under ``tag`` into the shared-memory block ``name``.
+
+        ``layouts``: per value, ``n_vertices``, ``n_triangles`` (the stitched
+        surface's), ``offset`` (its arrays' first byte in the block) and this
+        partition's ``plan`` (:func:`~polygen.volume.partitioned.rows_layout`).
+        The block stays mapped here for its next chunk; ``forget``: blocks
+        the client gave up, unmapped first.
+        """
+        t0, c0 = time.perf_counter(), time.thread_time()
+        with self._lock:
+            for old in forget:
+                block = self._maps.pop(old, None)
+                if block is not None:
                     with contextlib.suppress(BufferError):
-                        shm.close()
-                # room to grow: a sweep's chunks differ in size (untouched pages cost nothing)
-                shm = shared_memory.SharedMemory(name=name, create=True, size=need + need // 4 + 4096)
-                resource_tracker.unregister(shm._name, "shared_memory")  # the client unlinks it
-                blocks[slot] = shm
-            arena = _Arena(shm.buf)
-            pieces = [self._piece(iso, normals, arena.empty) | counters for iso, counters in found]
-            specs = [arena.spec(p) for p in pieces]
-            nbytes = arena.nbytes
-            pieces = arena = None
-        c2 = time.thread_time()
-        return {"name": shm.name, "nbytes": nbytes, "block_bytes": shm.size, "pieces": specs,
-                "timing": {"start": t0, "end": time.perf_counter(), "cpu_s": c2 - c0, "surface_cpu_s": c1 - c0,
-                           "piece_cpu_s": c2 - c1, "fresh": fresh}}
+                        block.close()
+            isos = self._pending.pop(tag)
+            block = self._maps.get(name)
+            if block is None:
+                block = self._maps[name] = _open_block(name)
+            written = []
+            for (iso, marks), lay in zip(isos, layouts):
+                out, _ = rows_arrays(lay, normals, buf=block, offset=lay["offset"])
+                written.append(self.write_rows(iso, normals, lay["plan"], out, marks))
+                out = None
+        c1 = time.thread_time()
+        return {"written": written, "timing": {"kind": "write", "start": t0, "end": time.perf_counter(),
+                                               "cpu_s": c1 - c0, "surface_cpu_s": 0.0, "piece_cpu_s": c1 - c0}}
 
 
-class _Arena:
-    """Arrays laid one after another in a shared-memory block (each on a 64-byte line)."""
+def _new_block(name, size):
+    """A new POSIX shared-memory block ``name`` of ``size`` bytes, mapped here (pages untouched)."""
+    import _posixshmem
 
-    def __init__(self, buf):
-        self.buf = buf
-        self.base = np.frombuffer(buf, np.uint8).ctypes.data
-        self.cap = len(buf)
-        self.size = 0
-        self.nbytes = 0
-
-    def empty(self, shape, dtype):
-        dtype = np.dtype(dtype)
-        shape = (shape,) if np.isscalar(shape) else tuple(shape)
-        nb = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
-        off = self.size
-        if off + nb > self.cap:
-            raise PartitionError(f"a piece outgrew its shared-memory block ({off + nb} > {self.cap} bytes)")
-        self.size += -(-nb // 64) * 64
-        return np.ndarray(shape, dtype, buffer=self.buf, offset=off)
-
-    def _where(self, a):
-        """(offset, dtype, shape) of ``a`` in the block, copied in if it lies elsewhere (offset -1: empty)."""
-        if a.size == 0:
-            return -1, a.dtype.str, a.shape
-        off = a.ctypes.data - self.base
-        if not (a.flags.c_contiguous and 0 <= off and off + a.nbytes <= self.cap):
-            b = self.empty(a.shape, a.dtype)
-            b[...] = a
-            off = b.ctypes.data - self.base
-        self.nbytes += a.nbytes
-        return off, a.dtype.str, a.shape
-
-    def spec(self, piece):
-        out = {}
-        for k, v in piece.items():
-            if isinstance(v, np.ndarray):
-                out[k] = ("shm",) + self._where(v)
-            elif k == "fallback" and v is not None:
-                out[k] = ("shm-pair",) + tuple(self._where(a) for a in v)
-            else:
-                out[k] = v
-        return out
+    fd = _posixshmem.shm_open("/" + name, os.O_CREAT | os.O_EXCL | os.O_RDWR, 0o600)
+    try:
+        os.ftruncate(fd, size)
+        return mmap.mmap(fd, size)
+    finally:
+        os.close(fd)
 
 
-def _views(buf, specs):
-    """The pieces :meth:`SharedMemoryPartition.extract_many_shared` wrote: views on the mapped block."""
-    pieces = []
-    for spec in specs:
-        piece = {}
-        for k, v in spec.items():
-            if isinstance(v, tuple) and v and v[0] == "shm":
-                piece[k] = _view(buf, *v[1:])
-            elif isinstance(v, tuple) and v and v[0] == "shm-pair":
-                piece[k] = tuple(_view(buf, *w) for w in v[1:])
-            else:
-                piece[k] = v
-        pieces.append(piece)
-    return pieces
+def _open_block(name):
+    """The shared-memory block ``name``, mapped here."""
+    import _posixshmem
 
-
-def _view(buf, off, dtype, shape):
-    if off < 0:  # an empty array
-        return np.zeros(shape, np.dtype(dtype))
-    return np.ndarray(shape, np.dtype(dtype), buffer=buf, offset=off)
+    try:
+        fd = _posixshmem.shm_open("/" + name, os.O_RDWR, 0o600)
+    except FileNotFoundError as e:
+        raise PartitionError(f"shared-memory block {name!r} is gone (its query was given up)") from e
+    try:
+        return mmap.mmap(fd, os.fstat(fd).st_size)
+    finally:
+        os.close(fd)
 
 
 def _chunked(values, size=None):
@@ -646,6 +748,13 @@ def _chunked(values, size=None):
             last = last[h:]
         chunks += tail
     return chunks
+
+
+def _direct_chunks(values, size=None):
+    """``values`` in chunks of ``size`` (default ``DIRECT_CHUNK_VALUES``), of equal size but the last."""
+    size = size or DIRECT_CHUNK_VALUES
+    n = max(1, -(-len(values) // size))  # as few chunks as that size allows, as even as can be
+    return _chunked(values, max(1, -(-len(values) // n)))
 
 
 def _unlink_quietly(name):

@@ -80,7 +80,8 @@ from polygen.volume.thinning import ThinningWarning
 from polygen.volume.surface import IsoSurface, IsoSurfaceError, check_normals, check_value
 
 __all__ = ["PartitionedVolume", "PartitionedMethod", "PartitionError", "StitchedIsoSurface", "GLOBAL_IDS",
-           "stitch", "tree_stitch", "merge", "finish", "reduce_tree", "scale_model", "span_weights"]
+           "stitch", "tree_stitch", "merge", "finish", "reduce_tree", "scale_model", "span_weights", "seam_plan",
+           "drop_face_twins", "rows_layout", "rows_arrays", "finish_rows", "direct_stitch"]
 
 #: the point array that numbers the nodes globally (as ParaView's D3 filter and VTK's redistribution name it)
 GLOBAL_IDS = "GlobalNodeId"
@@ -284,15 +285,6 @@ class PreparedPartition:
                      "cells_intersected": iso.cells_intersected, "vertex_lookups": iso.vertex_lookups,
                      "t1": iso.t1 + t_seam, "t2": iso.t2, "t3": iso.t3, "method": iso.method}
 
-    def piece_bytes_bound(self, iso, normals):
-        """An upper bound on the bytes :meth:`_piece` allocates with ``empty`` for ``iso`` (each array rounded
-        up to 64 bytes)."""
-        n, m = iso.vertices.shape[0], iso.triangles.shape[0]
-        ti = 4 if n < 2**31 else 8
-        ci = 4 if self._cells32 else 8
-        nb = [8 * n, 24 * n, 8 * n, 3 * ti * m, 8 * m, ci * m] + ([24 * n] if normals is not None else [])
-        return sum(-(-b // 64) * 64 for b in nb)
-
     def _piece(self, iso, normals, empty=np.empty):
         """The arrays of a piece (see :func:`merge`): global keys, seam marks, this side's normals.
 
@@ -334,7 +326,7 @@ class PreparedPartition:
         if normals is not None:
             fallback = (np.zeros(0, np.int64), np.zeros((0, 3)))
             if n_flat:
-                fallback = self._fallback(iso, gkeys, seam, nrm, flat)
+                fallback = self._fallback(iso, seam, nrm, flat)
         return {"keys": gkeys, "vertices": verts, "normals": nrm if normals is not None else None,
                 "seam": seam_at[:n_seam], "triangles": tri, "seam_tris": seam_tris[:n_seam_tris],
                 "triangle_cells": gcells, "fallback": fallback, "flat": int(flat.sum()),
@@ -345,7 +337,7 @@ class PreparedPartition:
         with self._lock:
             return [self.extract(v, normals) for v in values]
 
-    def _fallback(self, iso, gkeys, seam, nrm, flat):
+    def _fallback(self, iso, seam, nrm, flat):
         """The normals of vertices on an edge that touch a zero-area triangle here and got none.
 
         Such a vertex can get a zero mean normal (all its triangles of zero
@@ -366,7 +358,85 @@ class PreparedPartition:
         mine = lone[~on_seam]
         zero = ~(np.abs(nrm[mine]).sum(axis=1) > 0.0)
         nrm[mine[zero]] = d[~on_seam][zero]
-        return gkeys[lone[on_seam]], d[on_seam]
+        es = e[on_seam]  # edge vertices: their global key a * n_ids + b (a < b: nodes numbered by global id)
+        return self.global_ids[es[:, 0]] * self.n_ids + self.global_ids[es[:, 1]], d[on_seam]
+
+    # ---- the two-phase query of a client on this machine (polygen.volume.distributed): the seam first, then
+    # this partition's rows written straight into the stitched surface's arrays
+
+    def seam_of(self, iso):
+        """``(seam, seam_keys)``: the indices (ascending, int64) and global keys of ``iso``'s seam vertices.
+
+        What the client needs from every partition, with the vertex and
+        triangle counts, to lay out the stitched surface
+        (:func:`seam_plan`) before any partition writes its rows.
+        """
+        m = self.marks(iso)
+        return m["seam"], m["seam_keys"]
+
+    def marks(self, iso):
+        """:meth:`seam_of` and, kept here for :meth:`write_rows`, every vertex's global key and seam mark.
+
+        Returns a dict: ``seam``, ``seam_keys`` (what the client needs),
+        ``keys`` (n,) int64 and ``is_seam`` (n,) bool (one pass over the
+        vertices and the edges they lie on, not one per phase).
+        """
+        n = iso.vertices.shape[0]
+        keys, is_seam, at = np.empty(n, np.int64), np.empty(n, np.bool_), np.empty(n, np.int64)
+        ns = _global_keys(np.ascontiguousarray(iso.vertex_keys, np.int64), self.vol.edges, self.global_ids,
+                          self._shared_node, self.n_ids, keys, is_seam, at)
+        at = at[:ns].copy()
+        return {"seam": at, "seam_keys": keys[at], "keys": keys, "is_seam": is_seam}
+
+    def write_rows(self, iso, normals, plan, out, marks=None):
+        """Write this partition's rows of a stitched surface into ``out`` (the whole surface's arrays).
+
+        ``plan``: ``row0`` (this partition's first vertex row), ``gone``
+        (ascending local indices of its seam vertices an earlier partition
+        keeps) and ``targets`` (their rows there), ``tri0`` (its first
+        triangle row), as :func:`seam_plan` lays them out. ``out``:
+        ``keys`` (V,) int64, ``vertices`` (V, 3), ``normals`` (V, 3) or None,
+        ``triangles`` (T, 3) int64, ``triangle_cells`` (T,) int64. The rows
+        are :func:`merge`'s, bit for bit: the kept vertices with their global
+        keys, the normals of this side (final but at seam vertices), the
+        triangles renumbered, the global cell ids.
+
+        ``marks``: :meth:`marks` of ``iso`` (made here when not given).
+
+        Returns ``seam_tris`` (local triangle indices touching a seam vertex,
+        int64), ``fallback`` and ``flat`` as :meth:`_piece` makes them, and
+        ``piece_s``.
+        """
+        t0 = time.perf_counter()
+        n, m = iso.vertices.shape[0], iso.triangles.shape[0]
+        row0, tri0 = int(plan["row0"]), int(plan["tri0"])
+        gone = np.asarray(plan["gone"], np.int64)
+        targets = np.asarray(plan["targets"], np.int64)
+        newidx = np.empty(n if gone.size else 0, np.int64)
+        marks = self.marks(iso) if marks is None else marks
+        seam = marks["is_seam"]
+        _write_vertices(marks["keys"], iso.vertices, gone, targets, row0, out["keys"], out["vertices"], newidx)
+        if normals is not None:
+            # nothing dropped: the normals summed straight into the surface's rows; else here, then the kept rows
+            nrm = out["normals"][row0:row0 + n] if not gone.size else np.empty((n, 3))
+        else:
+            nrm = np.empty((0, 3))
+        flat = np.zeros(n if normals is not None else 0, np.bool_)
+        seam_tris = np.empty(m, np.int64)
+        n_seam_tris, n_flat = _write_triangles(
+            iso.vertices, np.ascontiguousarray(iso.triangles, np.int64), seam, newidx, row0, out["triangles"], tri0,
+            seam_tris, nrm, flat, np.ascontiguousarray(iso.triangle_cells, np.int64),
+            np.zeros(0, np.int64) if self.cell_ids is None else self.cell_ids, self.cell_offset,
+            out["triangle_cells"])
+        fallback = None
+        if normals is not None:
+            fallback = (np.zeros(0, np.int64), np.zeros((0, 3)))
+            if n_flat:
+                fallback = self._fallback(iso, seam, nrm, flat)
+            if gone.size:
+                _kept_rows(nrm, gone, out["normals"], row0)
+        return {"seam_tris": seam_tris[:n_seam_tris].copy(), "fallback": fallback, "flat": int(flat.sum()),
+                "piece_s": time.perf_counter() - t0}
 
 
 @njit
@@ -388,6 +458,95 @@ def _global_keys(keys, edges, gids, shared, n_ids, out, seam, seam_at):
             seam_at[ns] = v
             ns += 1
     return ns
+
+
+@njit
+def _write_vertices(keys, verts, gone, targets, row0, out_keys, out_verts, newidx):
+    """A piece's kept vertices written from row ``row0`` on (global keys, positions); with ``gone``
+    (ascending local indices dropped, ``targets`` their rows elsewhere) each vertex's row in ``newidx``.
+    Returns the next free row."""
+    ng = gone.shape[0]
+    g = 0
+    r = row0
+    for v in range(keys.shape[0]):
+        if g < ng and gone[g] == v:
+            newidx[v] = targets[g]
+            g += 1
+            continue
+        if ng > 0:
+            newidx[v] = r
+        out_keys[r] = keys[v]
+        for d in range(3):
+            out_verts[r, d] = verts[v, d]
+        r += 1
+    return r
+
+
+@njit
+def _write_triangles(vertices, triangles, seam, newidx, row0, out_tri, tri0, seam_tris, nrm, flat, cells, cell_ids,
+                     offset, out_cells):
+    """:func:`_piece_triangles` writing the stitched surface's rows: the triangles renumbered (``newidx[v]``,
+    or ``row0 + v`` when it is empty) from row ``tri0`` on, their global cell ids (as :func:`_global_cells`),
+    the triangles touching a seam vertex, and, when ``nrm`` has rows, this side's mean normals (the same
+    arithmetic, bit for bit) and ``flat``. Returns ``(seam triangles, flat triangles)``."""
+    do_normals = nrm.shape[0] > 0
+    mapped = newidx.shape[0] > 0
+    by_ids = cell_ids.shape[0] > 0
+    if do_normals:
+        nrm[:] = 0.0
+    ns = 0
+    n_flat = 0
+    for t in range(triangles.shape[0]):
+        i0 = triangles[t, 0]
+        i1 = triangles[t, 1]
+        i2 = triangles[t, 2]
+        if mapped:
+            out_tri[tri0 + t, 0] = newidx[i0]
+            out_tri[tri0 + t, 1] = newidx[i1]
+            out_tri[tri0 + t, 2] = newidx[i2]
+        else:
+            out_tri[tri0 + t, 0] = row0 + i0
+            out_tri[tri0 + t, 1] = row0 + i1
+            out_tri[tri0 + t, 2] = row0 + i2
+        out_cells[tri0 + t] = cell_ids[cells[t]] if by_ids else cells[t] + offset
+        if seam[i0] or seam[i1] or seam[i2]:
+            seam_tris[ns] = t
+            ns += 1
+        if do_normals:
+            ux = vertices[i1, 0] - vertices[i0, 0]
+            uy = vertices[i1, 1] - vertices[i0, 1]
+            uz = vertices[i1, 2] - vertices[i0, 2]
+            wx = vertices[i2, 0] - vertices[i0, 0]
+            wy = vertices[i2, 1] - vertices[i0, 1]
+            wz = vertices[i2, 2] - vertices[i0, 2]
+            nx = uy * wz - uz * wy
+            ny = uz * wx - ux * wz
+            nz = ux * wy - uy * wx
+            for i in (i0, i1, i2):
+                nrm[i, 0] += nx
+                nrm[i, 1] += ny
+                nrm[i, 2] += nz
+            if nx == 0.0 and ny == 0.0 and nz == 0.0:
+                flat[i0] = flat[i1] = flat[i2] = True
+                n_flat += 1
+    if do_normals:
+        _m._normalize(nrm)
+    return ns, n_flat
+
+
+@njit
+def _kept_rows(nrm, gone, out, row0):
+    """The rows of ``nrm`` but ``gone`` (ascending) into ``out`` from row ``row0`` on."""
+    ng = gone.shape[0]
+    g = 0
+    r = row0
+    for v in range(nrm.shape[0]):
+        if g < ng and gone[g] == v:
+            g += 1
+            continue
+        for d in range(3):
+            out[r, d] = nrm[v, d]
+        r += 1
 
 
 @njit
@@ -628,33 +787,19 @@ def merge(pieces, *, n_ids):
                 "seam": np.zeros(0, np.int64), "triangles": np.zeros((0, 3), np.int64),
                 "seam_tris": np.zeros(0, np.int64), "triangle_cells": np.zeros(0, np.int64), "fallback": None,
                 "parts": [], "seam_vertices": 0, "merge_s": 0.0, "merge_cpu_s": 0.0, "method": ""}
-    k = len(pieces)
     sizes = [p["keys"].shape[0] for p in pieces]
-    # the seam vertices of all pieces by key; the first copy (in piece order) is kept
-    skeys = np.concatenate([p["keys"][p["seam"]] for p in pieces])
-    sowner = np.repeat(np.arange(k), [p["seam"].shape[0] for p in pieces])
-    sidx = np.concatenate([p["seam"] for p in pieces]).astype(np.int64, copy=False)
-    uniq, first, inv = np.unique(skeys, return_index=True, return_inverse=True)
-    inv = inv.ravel()
-    dup = np.ones(skeys.shape[0], bool)
-    dup[first] = False
-    first_new = np.empty(uniq.shape[0], np.int64)  # each seam key's index in the merged piece
-    maps, keeps, base = [], [], 0
-    for i, p in enumerate(pieces):
-        here = sowner == i
-        gone = sidx[here & dup]
-        kept_here = here & ~dup
+    plans, first_new, base, n_dup = seam_plan(sizes, [p["seam"] for p in pieces],
+                                              [p["keys"][p["seam"]] for p in pieces])
+    maps, keeps = [], []
+    for n, plan in zip(sizes, plans):
+        gone = plan["gone"]
         if gone.size:
-            keep = np.ones(sizes[i], bool)
+            keep = np.ones(n, bool)
             keep[gone] = False
-            new = base + np.cumsum(keep) - 1
-            new[gone] = first_new[inv[here & dup]]  # kept by an earlier piece
-            first_new[inv[kept_here]] = new[sidx[kept_here]]
-            base += sizes[i] - gone.size
-        else:  # nothing dropped: vertex v goes to row base + v (no map made)
+            new = plan["row0"] + np.cumsum(keep) - 1
+            new[gone] = plan["targets"]  # kept by an earlier piece
+        else:  # nothing dropped: vertex v goes to row row0 + v (no map made)
             keep = new = None
-            first_new[inv[kept_here]] = base + sidx[kept_here]
-            base += sizes[i]
         maps.append(new)
         keeps.append(keep)
 
@@ -677,7 +822,69 @@ def merge(pieces, *, n_ids):
                             tri, tcell, row0, int(t0_))
     seam_tris = np.concatenate([p["seam_tris"] + o for p, o in zip(pieces, tri_off[:-1])]).astype(np.int64, copy=False)
     seam = np.sort(first_new)
-    # the shared-face-at-C triangles: all three vertices on nodes (seam vertices), made by a cell on each side
+    tri, tcell, seam_tris = drop_face_twins(keys, tri, tcell, seam_tris, n_ids)
+    fb = [p["fallback"] for p in pieces if p.get("fallback") is not None]
+    fallback = (np.concatenate([f[0] for f in fb]), np.concatenate([f[1] for f in fb]).reshape(-1, 3)) if fb else None
+    return {"keys": keys, "vertices": verts, "normals": nrm, "seam": seam, "triangles": tri, "seam_tris": seam_tris,
+            "triangle_cells": tcell, "fallback": fallback, "parts": [c for p in pieces for c in _parts(p)],
+            "seam_vertices": sum(p.get("seam_vertices", 0) for p in pieces) + n_dup,
+            "merge_s": sum(p.get("merge_s", 0.0) for p in pieces) + time.perf_counter() - t0,
+            "merge_cpu_s": sum(p.get("merge_cpu_s", 0.0) for p in pieces) + time.thread_time() - c0,
+            "method": pieces[0]["method"]}
+
+
+def seam_plan(sizes, seams, seam_keys):
+    """Where each piece's vertices go in the merged piece: :func:`merge`'s layout from the seam vertices only.
+
+    Parameters
+    ----------
+    sizes : list of int
+        Each piece's vertex count, in piece order.
+    seams : list of (s_i,) int64
+        Each piece's seam vertex indices, ascending.
+    seam_keys : list of (s_i,) int64
+        Their global keys.
+
+    Returns
+    -------
+    plans : list of dict
+        Per piece: ``row0`` (its first row), ``gone`` (ascending indices of
+        its seam vertices an earlier piece made too: dropped) and
+        ``targets`` (their rows, the earlier piece's copy).
+    first_new : (u,) int64
+        The row of each distinct seam key (its first copy, in piece order).
+    n_vertices : int
+        Rows of the merged piece.
+    n_dropped : int
+        Seam vertices dropped.
+    """
+    k = len(sizes)
+    skeys = np.concatenate([np.asarray(s, np.int64) for s in seam_keys]) if k else np.zeros(0, np.int64)
+    sowner = np.repeat(np.arange(k), [len(s) for s in seams])
+    sidx = np.concatenate([np.asarray(s, np.int64) for s in seams]) if k else np.zeros(0, np.int64)
+    uniq, first, inv = np.unique(skeys, return_index=True, return_inverse=True)
+    inv = inv.ravel()
+    dup = np.ones(skeys.shape[0], bool)
+    dup[first] = False
+    first_new = np.empty(uniq.shape[0], np.int64)
+    plans, base = [], 0
+    for i in range(k):
+        here = sowner == i
+        gone = sidx[here & dup]
+        kept_here = here & ~dup
+        targets = first_new[inv[here & dup]]  # an earlier piece's rows: set already
+        kept = sidx[kept_here]
+        # a kept vertex v goes to row base + v less the dropped ones before it
+        first_new[inv[kept_here]] = base + kept - (np.searchsorted(gone, kept) if gone.size else 0)
+        plans.append({"row0": base, "gone": gone, "targets": targets})
+        base += int(sizes[i]) - gone.size
+    return plans, first_new, base, int(dup.sum())
+
+
+def drop_face_twins(keys, tri, tcell, seam_tris, n_ids):
+    """A triangle lying in a shared face at ``C`` (three node vertices: seam vertices) made by a cell on each
+    side, kept once, from the lower global cell id: ``(tri, tcell, seam_tris)``, new arrays only when one
+    goes."""
     if n_ids and seam_tris.size > 1:
         sk = keys[tri[seam_tris]]
         cand = seam_tris[np.all((sk // n_ids) == (sk % n_ids), axis=1)]
@@ -691,14 +898,121 @@ def merge(pieces, *, n_ids):
                 new_t = np.cumsum(keep_t) - 1
                 seam_tris = new_t[seam_tris[keep_t[seam_tris]]]
                 tri, tcell = tri[keep_t], tcell[keep_t]
-    fb = [p["fallback"] for p in pieces if p.get("fallback") is not None]
+    return tri, tcell, seam_tris
+
+
+def rows_layout(found):
+    """The stitched surface's layout from each partition's counts and seam (the first phase of a direct stitch).
+
+    A **direct stitch** writes every partition's rows straight into the
+    stitched surface's arrays (:meth:`PreparedPartition.write_rows`), with
+    the rows :func:`merge` gives, so nothing is copied after: first each
+    partition reports its vertex and triangle counts and its seam vertices
+    (:meth:`PreparedPartition.seam_of`), then this lays out the rows, then
+    each partition writes its own, then :func:`finish_rows` makes the seam
+    normals and the surface.
+
+    Parameters
+    ----------
+    found : list of dict
+        Per partition, in order: ``n`` (vertices), ``m`` (triangles),
+        ``seam`` and ``seam_keys`` (:meth:`PreparedPartition.seam_of`).
+
+    Returns
+    -------
+    dict
+        ``plans`` (per partition: ``row0``, ``gone``, ``targets``, ``tri0``),
+        ``first_new`` (the seam vertices' rows), ``n_vertices``,
+        ``n_triangles``, ``n_dropped``.
+    """
+    plans, first_new, nv, n_dup = seam_plan([f["n"] for f in found], [f["seam"] for f in found],
+                                            [f["seam_keys"] for f in found])
+    tri0 = np.cumsum([0] + [int(f["m"]) for f in found])
+    for plan, t in zip(plans, tri0[:-1]):
+        plan["tri0"] = int(t)
+    return {"plans": plans, "first_new": first_new, "n_vertices": int(nv), "n_triangles": int(tri0[-1]),
+            "n_dropped": n_dup}
+
+
+#: the arrays of a stitched surface a direct stitch writes: (name, columns, dtype)
+ROW_ARRAYS = (("keys", 0, np.int64), ("vertices", 3, np.float64), ("normals", 3, np.float64),
+              ("triangles", 3, np.int64), ("triangle_cells", 0, np.int64))
+
+
+def rows_arrays(layout, normals, empty=None, buf=None, offset=0):
+    """The (uninitialised) arrays of a stitched surface laid out by :func:`rows_layout`, and the bytes they take.
+
+    From ``empty(shape, dtype)`` (default :func:`polygen._jit.empty`), or,
+    with ``buf``, views on the buffer from byte ``offset`` on, each array on
+    a 64-byte line (``buf=None`` and ``empty=False``: only the bytes).
+    ``normals`` is None for a surface without normals.
+    """
+    out, at = {}, offset
+    for name, cols, dtype in ROW_ARRAYS:
+        if name == "normals" and normals is None:
+            out[name] = None
+            continue
+        rows = layout["n_triangles"] if name in ("triangles", "triangle_cells") else layout["n_vertices"]
+        shape = (rows, cols) if cols else (rows,)
+        nbytes = rows * max(cols, 1) * np.dtype(dtype).itemsize
+        if buf is not None:
+            out[name] = np.ndarray(shape, dtype, buffer=buf, offset=at)
+        elif empty is not False:
+            out[name] = (empty or _jit.empty)(shape, dtype)
+        at += -(-nbytes // 64) * 64
+    return out, at - offset
+
+
+def finish_rows(value, out, layout, found, written, *, n_ids, normals="mean", t0=None, c0=None):
+    """The :class:`StitchedIsoSurface` of a direct stitch once every partition wrote its rows into ``out``.
+
+    ``found``: the partitions' first-phase answers (``n``, ``m``, ``seam``,
+    ``seam_keys`` and their counters); ``written``: their
+    :meth:`PreparedPartition.write_rows` answers. The arrays are ``out``'s
+    own (a triangle in a shared face at ``C`` made twice is dropped by
+    copying, as :func:`merge` does). ``t0``, ``c0``: when the stitch began
+    (``time.perf_counter``, ``time.thread_time``; default now).
+    """
+    t0 = time.perf_counter() if t0 is None else t0
+    c0 = time.thread_time() if c0 is None else c0
+    keys, tri, tcell = out["keys"], out["triangles"], out["triangle_cells"]
+    seam_tris = np.concatenate([np.zeros(0, np.int64)] + [np.asarray(w["seam_tris"], np.int64) + p["tri0"]
+                                                          for w, p in zip(written, layout["plans"])])
+    tri, tcell, seam_tris = drop_face_twins(keys, tri, tcell, seam_tris, n_ids)
+    fb = [w["fallback"] for w in written if w.get("fallback") is not None]
     fallback = (np.concatenate([f[0] for f in fb]), np.concatenate([f[1] for f in fb]).reshape(-1, 3)) if fb else None
-    return {"keys": keys, "vertices": verts, "normals": nrm, "seam": seam, "triangles": tri, "seam_tris": seam_tris,
-            "triangle_cells": tcell, "fallback": fallback, "parts": [c for p in pieces for c in _parts(p)],
-            "seam_vertices": sum(p.get("seam_vertices", 0) for p in pieces) + int(dup.sum()),
-            "merge_s": sum(p.get("merge_s", 0.0) for p in pieces) + time.perf_counter() - t0,
-            "merge_cpu_s": sum(p.get("merge_cpu_s", 0.0) for p in pieces) + time.thread_time() - c0,
-            "method": pieces[0]["method"]}
+    parts = [{k: f[k] for k in _COUNTERS if k != "piece_s"} | {"piece_s": w["piece_s"], "n_triangles": int(f["m"]),
+                                                              "n_vertices": int(f["n"])}
+             for f, w in zip(found, written)]
+    piece = {"keys": keys, "vertices": out["vertices"], "normals": out["normals"],
+             "seam": np.sort(layout["first_new"]), "triangles": tri, "seam_tris": seam_tris, "triangle_cells": tcell,
+             "fallback": fallback, "parts": parts, "seam_vertices": layout["n_dropped"],
+             "merge_s": time.perf_counter() - t0, "merge_cpu_s": time.thread_time() - c0,
+             "method": found[0]["method"] if found else ""}
+    return finish(value, piece, n_ids=n_ids, normals=normals)
+
+
+def direct_stitch(value, partitions, *, n_ids, normals="mean"):
+    """One surface from prepared partitions (here, one after another), each writing its rows in place.
+
+    The same arrays as :func:`stitch` of their pieces (:meth:`PreparedPartition.extract`),
+    without the pieces: what :class:`PartitionedMethod` does, and what a
+    client on the workers' machine does through shared memory
+    (:mod:`polygen.volume.distributed`).
+    """
+    found, isos = [], []
+    for p in partitions:
+        iso, counters = p.surface(value)
+        marks = p.marks(iso)
+        found.append(counters | {"n": iso.vertices.shape[0], "m": iso.triangles.shape[0], "seam": marks["seam"],
+                                 "seam_keys": marks["seam_keys"]})
+        isos.append((iso, marks))
+    t0, c0 = time.perf_counter(), time.thread_time()
+    layout = rows_layout(found)
+    out, _ = rows_arrays(layout, normals)
+    written = [p.write_rows(iso, normals, plan, out, marks)
+               for p, (iso, marks), plan in zip(partitions, isos, layout["plans"])]
+    return finish_rows(value, out, layout, found, written, n_ids=n_ids, normals=normals, t0=t0, c0=c0)
 
 
 def reduce_tree(items, combine):
@@ -1021,8 +1335,8 @@ class PartitionedMethod:
         """The stitched surface ``S = value`` (a :class:`StitchedIsoSurface`)."""
         value = check_value(value)
         _check_normals(normals)
-        return stitch(value, [p.extract(value, normals) for p in self.partitions], n_ids=self.n_ids,
-                      normals=normals)
+        # each partition writes its rows straight into the stitched arrays: stitch()'s arrays without the pieces
+        return direct_stitch(value, self.partitions, n_ids=self.n_ids, normals=normals)
 
     def extract_many(self, values, *, normals="mean"):
         return [self.extract(v, normals=normals) for v in values]
