@@ -625,6 +625,40 @@ def test_local_client_workers_keep_freed_memory(client):
         assert env == {k: str(v) for k, v in WORKER_MALLOC.items()}
 
 
+def test_workers_run_numba_on_their_own_threads_and_leave_this_process_alone(client):
+    """Calls on a worker (tasks, actor methods) run numba's parallel regions on the worker's Dask threads (one
+    each here), set per call -- not through NUMBA_NUM_THREADS, which numba re-reads at every compilation: in
+    the workers' environment (``env=``) it made the first kernel compiled there fail on a fresh install when
+    the user's script imports polygen at its top (the spawned workers import that module again; seen with
+    no numba cache, not reproduced here), and set before the spawn the nanny leaves it in this process."""
+    import numba
+
+    from polygen.volume.distributed import _as_dask_threads
+
+    assert "NUMBA_NUM_THREADS" not in os.environ
+    nthreads = client.run(lambda dask_worker: dask_worker.state.nthreads)
+    counts = client.gather([client.submit(_as_dask_threads(numba.get_num_threads), pure=False, workers=[w])
+                            for w in nthreads])
+    assert counts == [nthreads[w] for w in nthreads] == [1, 1]
+    assert _as_dask_threads(numba.get_num_threads)() == numba.get_num_threads()  # outside a worker: unchanged
+    # a kernel compiled on a worker for the first time (nothing cached: numba re-reads its environment)
+    assert client.gather([client.submit(_as_dask_threads(_fresh_parallel_kernel), pure=False, workers=[w])
+                          for w in nthreads]) == [45.0, 45.0]
+
+
+def _fresh_parallel_kernel():
+    import numba
+
+    @numba.njit(parallel=True)
+    def total(n):
+        s = 0.0
+        for i in numba.prange(n):
+            s += i
+        return s
+
+    return total(10)
+
+
 def test_direct_stitch_equals_piece_stitch(data3):
     """Each partition writing its rows in place (the local path and the client's on shared memory) gives the
     arrays of the pieces' merge bit for bit, with and without normals; seams, flat fans and empty surfaces met."""

@@ -53,6 +53,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import itertools
 import mmap
 import os
@@ -115,11 +116,13 @@ def local_client(n_workers=2, *, threads_per_worker=1, processes=True, scheduler
     distributed = require_distributed()
     if scheduler is not None:
         return distributed.Client(scheduler)
-    kwargs = {}
-    if processes:
-        # one numba thread per Dask thread: the workers share the machine's cores (two workers of two
-        # numba threads each on two cores took 2x the work per partition, measured on 2M)
-        kwargs["env"] = {"NUMBA_NUM_THREADS": str(int(threads_per_worker))}
+    # one numba thread per Dask thread (two workers of two numba threads each on two cores took 2x the
+    # work per partition, measured on 2M): set by the workers' own calls (:func:`_as_dask_threads`), not
+    # through NUMBA_NUM_THREADS. numba re-reads that variable at every compilation and refuses a value
+    # other than the one its threads were launched with: given to the workers with ``env=`` it made the
+    # first kernel compiled in a worker fail (a fresh install: nothing cached), and given before the
+    # spawn it stays in this process's environment (the nanny sets it here) and breaks this process's
+    # next compilation instead
     import dask
 
     # no work stealing: a query's tasks are placed beside the partitions and pieces they read (stolen, they
@@ -138,7 +141,7 @@ def local_client(n_workers=2, *, threads_per_worker=1, processes=True, scheduler
                           "distributed.admin.system-monitor.interval": "1s",
                           "distributed.nanny.pre-spawn-environ": environ}):
         cluster = distributed.LocalCluster(n_workers=int(n_workers), threads_per_worker=int(threads_per_worker),
-                                           processes=processes, dashboard_address=":0", **kwargs)
+                                           processes=processes, dashboard_address=":0")
     return distributed.Client(cluster)
 
 
@@ -629,6 +632,32 @@ class DaskPartitionedMethod:
         self.actors = [None] * len(self.pieces)
 
 
+
+def _as_dask_threads(fn):
+    """Run ``fn`` (a call on a worker) with numba's parallel regions limited to the worker's thread count.
+
+    ``numba.set_num_threads`` holds for the calling thread, so every entry
+    point that runs on a worker (tasks, actor methods) sets it; outside a
+    Dask worker it does nothing.
+    """
+
+    @functools.wraps(fn)
+    def call(*args, **kwargs):
+        try:
+            from distributed import get_worker
+
+            n = get_worker().state.nthreads
+        except (ImportError, ValueError, AttributeError):
+            n = None
+        if n is not None:
+            import numba
+
+            numba.set_num_threads(max(1, min(int(n), numba.config.NUMBA_NUM_THREADS)))
+        return fn(*args, **kwargs)
+
+    return call
+
+
 class SharedMemoryPartition(PreparedPartition):
     """A partition on a worker of this machine: it writes its rows of the stitched surfaces into shared memory.
 
@@ -654,11 +683,21 @@ class SharedMemoryPartition(PreparedPartition):
     mapping.
     """
 
+    @_as_dask_threads
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self._pending = {}  # (query, chunk) -> the surfaces found, waiting for their write
         self._maps = {}  # block name -> its mapping here, kept until the client gives the block up
 
+    @_as_dask_threads
+    def set_layout(self, *args, **kwargs):
+        return super().set_layout(*args, **kwargs)
+
+    @_as_dask_threads
+    def extract_many(self, *args, **kwargs):
+        return super().extract_many(*args, **kwargs)
+
+    @_as_dask_threads
     def find_shared(self, values, normals, tag):
         """Extract ``values`` and keep the surfaces under ``tag``; answer counts, seam vertices and counters."""
         t0, c0 = time.perf_counter(), time.thread_time()
@@ -677,6 +716,7 @@ class SharedMemoryPartition(PreparedPartition):
         return {"found": found, "timing": {"kind": "find", "start": t0, "end": time.perf_counter(),
                                            "cpu_s": c1 - c0, "surface_cpu_s": c1 - c0, "piece_cpu_s": 0.0}}
 
+    @_as_dask_threads
     def write_shared(self, tag, name, layouts, normals, forget=()):
         """Write this partition's rows of the surfaces kept under ``tag`` into the shared-memory block ``name``.
 
@@ -795,6 +835,7 @@ def _here():
     return get_worker().address
 
 
+@_as_dask_threads
 def _leaf(actor, key, values, normals):
     """On a worker: the partition's pieces of ``values``.
 
@@ -825,6 +866,7 @@ def _moved_in(*nodes):
                      for n in nodes)
 
 
+@_as_dask_threads
 def _merge(n_ids, left, right):
     """On a worker: two neighbouring nodes of the tree merged, value by value."""
     here, moved = _moved_in(left, right)
@@ -840,6 +882,7 @@ def _narrow(piece):
     return piece
 
 
+@_as_dask_threads
 def _finish(values, n_ids, normals, root):
     """On a worker: the root's pieces made surfaces (normals on the whole surface).
 
