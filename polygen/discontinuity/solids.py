@@ -45,8 +45,8 @@ from __future__ import annotations
 import numpy as np
 
 from polygen.discontinuity import _geometry as geo
-from polygen.discontinuity.shadow import (Polyhedron, ShadowError, ShadowPolyhedra, _empty_pair,
-                                          _light_arrays)
+from polygen.discontinuity._polyhedra import (Polyhedron, ShadowError, ShadowPolyhedra, _empty_pair,
+                                              _light_arrays)
 
 __all__ = ["convex_solids", "check_solid", "solid_shadow_polyhedron", "clip_solid"]
 
