@@ -659,6 +659,19 @@ def _fresh_parallel_kernel():
     return total(10)
 
 
+def test_a_cluster_without_workers_is_a_clear_error(data3, monkeypatch):
+    """Preparing on a cluster that lists no worker waits a little for one (the client's list lags a new
+    cluster), then names the problem."""
+    distributed = pytest.importorskip("distributed")
+    from polygen.volume import distributed as pd
+
+    monkeypatch.setattr(pd, "WORKERS_TIMEOUT_S", 0.5)
+    with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as cluster, \
+            distributed.Client(cluster) as c:
+        with pytest.raises(PartitionError, match="no workers"):
+            pd.prepare(PartitionedVolume.split(data3, 2), client=c)
+
+
 def test_direct_stitch_equals_piece_stitch(data3):
     """Each partition writing its rows in place (the local path and the client's on shared memory) gives the
     arrays of the pieces' merge bit for bit, with and without normals; seams, flat fans and empty surfaces met."""

@@ -83,6 +83,8 @@ DIRECT_CHUNK_VALUES = 20
 AHEAD = 2
 #: glibc's settings for the worker processes of :func:`local_client` (set before they start: see there)
 WORKER_MALLOC = {"MALLOC_MMAP_THRESHOLD_": 32 << 20, "MALLOC_TRIM_THRESHOLD_": 1 << 30}
+#: how long a new query waits for a cluster with no worker listed to list one
+WORKERS_TIMEOUT_S = 10
 #: how long a query that failed waits for its other calls before unlinking their shared-memory blocks
 SWEEP_TIMEOUT_S = 60
 
@@ -303,10 +305,20 @@ class DaskPartitionedMethod:
 
     # ------------------------------------------------------------ workers
     def _workers(self):
-        workers = sorted(self.client.scheduler_info(n_workers=-1)["workers"]) if _takes_n_workers(self.client) \
-            else sorted(self.client.scheduler_info()["workers"])
+        def listed():
+            info = (self.client.scheduler_info(n_workers=-1) if _takes_n_workers(self.client)
+                    else self.client.scheduler_info())
+            return sorted(info["workers"])
+
+        workers = listed()
         if not workers:
-            raise PartitionError("the Dask cluster has no workers")
+            # the client's copy of the scheduler's identity is refreshed every few seconds: just after a new
+            # cluster started it can list none (seen once on a new LocalCluster); ask the scheduler itself
+            with contextlib.suppress(Exception):
+                self.client.wait_for_workers(1, timeout=WORKERS_TIMEOUT_S)
+            workers = listed()
+        if not workers:
+            raise PartitionError(f"the Dask cluster has no workers (waited {WORKERS_TIMEOUT_S} s for one)")
         return workers
 
     def _start(self, i, worker):
