@@ -395,8 +395,9 @@ if len(rows_b) >= 2:
 # surface travels to the client. Here data 3 in four partitions on a `LocalCluster` of two
 # worker processes, twenty values, against the single volume, stitched on the workers as a
 # cluster would (`stitch_on="workers"`; by default, `"auto"`, a cluster whose workers all
-# run on the client's machine stitches on the client instead, the pieces coming through
-# shared memory chunk by chunk: on two cores that is faster than the tree,
+# run on the client's machine stitches on the client instead: the workers report their counts and
+# seam vertices, the client lays the stitched arrays out in one shared-memory block, and each
+# worker writes its own rows of them there — on two cores that is faster than the tree,
 # `benchmarks/results/partitioned.md`).
 
 # %%
