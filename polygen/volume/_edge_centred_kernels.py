@@ -1518,15 +1518,7 @@ def mean_normals_parallel(vertices, triangles, out, extra):
             i0 = triangles[t, 0]
             i1 = triangles[t, 1]
             i2 = triangles[t, 2]
-            ux = vertices[i1, 0] - vertices[i0, 0]
-            uy = vertices[i1, 1] - vertices[i0, 1]
-            uz = vertices[i1, 2] - vertices[i0, 2]
-            wx = vertices[i2, 0] - vertices[i0, 0]
-            wy = vertices[i2, 1] - vertices[i0, 1]
-            wz = vertices[i2, 2] - vertices[i0, 2]
-            nx = uy * wz - uz * wy
-            ny = uz * wx - ux * wz
-            nz = ux * wy - uy * wx
+            nx, ny, nz = _m.triangle_normal(vertices, i0, i1, i2)
             for i in (i0, i1, i2):
                 acc[i, 0] += nx
                 acc[i, 1] += ny

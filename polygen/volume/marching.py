@@ -594,6 +594,19 @@ def _vertex_positions(keys, edges, points, s, value, out):
                 out[v, d] = ((value - c1) * points[b, d] - (value - c2) * points[a, d]) / (c2 - c1)
 
 
+@njit(inline="always")
+def triangle_normal(vertices, i0, i1, i2):
+    """``(nx, ny, nz)``: (v1 - v0) x (v2 - v0) of the triangle ``i0, i1, i2`` of ``vertices (V, 3)``,
+    twice its area along its normal; the one expression every normal sum here is made of (bit for bit)."""
+    ux = vertices[i1, 0] - vertices[i0, 0]
+    uy = vertices[i1, 1] - vertices[i0, 1]
+    uz = vertices[i1, 2] - vertices[i0, 2]
+    wx = vertices[i2, 0] - vertices[i0, 0]
+    wy = vertices[i2, 1] - vertices[i0, 1]
+    wz = vertices[i2, 2] - vertices[i0, 2]
+    return uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx
+
+
 @njit
 def _mean_normals(vertices, triangles, out):
     """Vertex normals = mean of the adjacent triangle normals (thesis 5.3.1), area-weighted.
@@ -607,15 +620,7 @@ def _mean_normals(vertices, triangles, out):
         i0 = triangles[t, 0]
         i1 = triangles[t, 1]
         i2 = triangles[t, 2]
-        ux = vertices[i1, 0] - vertices[i0, 0]
-        uy = vertices[i1, 1] - vertices[i0, 1]
-        uz = vertices[i1, 2] - vertices[i0, 2]
-        wx = vertices[i2, 0] - vertices[i0, 0]
-        wy = vertices[i2, 1] - vertices[i0, 1]
-        wz = vertices[i2, 2] - vertices[i0, 2]
-        nx = uy * wz - uz * wy
-        ny = uz * wx - ux * wz
-        nz = ux * wy - uy * wx
+        nx, ny, nz = triangle_normal(vertices, i0, i1, i2)
         for i in (i0, i1, i2):
             out[i, 0] += nx
             out[i, 1] += ny

@@ -513,15 +513,7 @@ def _write_triangles(vertices, triangles, seam, newidx, row0, out_tri, tri0, sea
             seam_tris[ns] = t
             ns += 1
         if do_normals:
-            ux = vertices[i1, 0] - vertices[i0, 0]
-            uy = vertices[i1, 1] - vertices[i0, 1]
-            uz = vertices[i1, 2] - vertices[i0, 2]
-            wx = vertices[i2, 0] - vertices[i0, 0]
-            wy = vertices[i2, 1] - vertices[i0, 1]
-            wz = vertices[i2, 2] - vertices[i0, 2]
-            nx = uy * wz - uz * wy
-            ny = uz * wx - ux * wz
-            nz = ux * wy - uy * wx
+            nx, ny, nz = _m.triangle_normal(vertices, i0, i1, i2)
             for i in (i0, i1, i2):
                 nrm[i, 0] += nx
                 nrm[i, 1] += ny
@@ -583,15 +575,7 @@ def _piece_triangles(vertices, triangles, seam, tri_out, seam_tris, nrm, flat):
             seam_tris[ns] = t
             ns += 1
         if do_normals:
-            ux = vertices[i1, 0] - vertices[i0, 0]
-            uy = vertices[i1, 1] - vertices[i0, 1]
-            uz = vertices[i1, 2] - vertices[i0, 2]
-            wx = vertices[i2, 0] - vertices[i0, 0]
-            wy = vertices[i2, 1] - vertices[i0, 1]
-            wz = vertices[i2, 2] - vertices[i0, 2]
-            nx = uy * wz - uz * wy
-            ny = uz * wx - ux * wz
-            nz = ux * wy - uy * wx
+            nx, ny, nz = _m.triangle_normal(vertices, i0, i1, i2)
             for i in (i0, i1, i2):
                 nrm[i, 0] += nx
                 nrm[i, 1] += ny
@@ -643,15 +627,7 @@ def _seam_normals(vertices, triangles, seam_tris, seam, is_seam, nrm):
         i0 = triangles[t, 0]
         i1 = triangles[t, 1]
         i2 = triangles[t, 2]
-        ux = vertices[i1, 0] - vertices[i0, 0]
-        uy = vertices[i1, 1] - vertices[i0, 1]
-        uz = vertices[i1, 2] - vertices[i0, 2]
-        wx = vertices[i2, 0] - vertices[i0, 0]
-        wy = vertices[i2, 1] - vertices[i0, 1]
-        wz = vertices[i2, 2] - vertices[i0, 2]
-        nx = uy * wz - uz * wy
-        ny = uz * wx - ux * wz
-        nz = ux * wy - uy * wx
+        nx, ny, nz = _m.triangle_normal(vertices, i0, i1, i2)
         for i in (i0, i1, i2):
             if is_seam[i]:
                 nrm[i, 0] += nx
