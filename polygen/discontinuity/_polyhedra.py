@@ -122,3 +122,19 @@ def _empty_pair(kind, S, O, cap):
     e = Polyhedron(np.zeros((0, 4)), (), np.zeros((0, 3)), np.zeros((0, 2), np.int64),
                    np.zeros(0, bool), np.asarray(cap, dtype=np.float64))
     return ShadowPolyhedra(e, e, kind, S, O)
+
+
+def _cap_and_tol(S, O, bounds, tol):
+    """``(bounds, size, atol)`` of a light's points ``S`` and an occluder's ``O`` (both (k, 3)): the capping
+    box (2, 3) (default: 10 sizes around both), their size (the largest side of their box) and the
+    absolute tolerance (``tol`` times the larger of that and the box's largest side)."""
+    pts = np.vstack([S, O])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    size = float(np.max(hi - lo)) or 1.0
+    if bounds is None:
+        c = 0.5 * (lo + hi)
+        bounds = np.stack([c - 10.0 * size, c + 10.0 * size])
+    bounds = np.asarray(bounds, dtype=np.float64)
+    if bounds.shape != (2, 3) or np.any(bounds[1] <= bounds[0]):
+        raise ShadowError(f"bounds: expected (2, 3) min/max corners, got {bounds.tolist()}")
+    return bounds, size, tol * max(size, float(np.max(bounds[1] - bounds[0])))

@@ -21,8 +21,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from polygen.discontinuity import _geometry as geo
-from polygen.discontinuity._polyhedra import (Polyhedron, ShadowError, ShadowPolyhedra, _empty_pair,
-                                              _light_arrays)
+from polygen.discontinuity._polyhedra import (Polyhedron, ShadowError, ShadowPolyhedra, _cap_and_tol,
+                                              _empty_pair, _light_arrays)
 from polygen.radiosity.scene import PointLight, Polygon
 
 __all__ = [
@@ -229,16 +229,7 @@ def shadow_polyhedron(light, occluder, *, bounds=None, tol=1e-9):
     """
     kind, S, dvec, lname = _light_arrays(light)
     O, oname = _occluder_array(occluder)
-    pts = np.vstack([S, O])
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    size = float(np.max(hi - lo)) or 1.0
-    if bounds is None:
-        c = 0.5 * (lo + hi)
-        bounds = np.stack([c - 10.0 * size, c + 10.0 * size])
-    bounds = np.asarray(bounds, dtype=np.float64)
-    if bounds.shape != (2, 3) or np.any(bounds[1] <= bounds[0]):
-        raise ShadowError(f"bounds: expected (2, 3) min/max corners, got {bounds.tolist()}")
-    atol = tol * max(size, float(np.max(bounds[1] - bounds[0])))
+    bounds, size, atol = _cap_and_tol(S, O, bounds, tol)
     n_o = geo.unit(_newell(O))
     d_o = float(n_o @ O.mean(axis=0))
     if kind == "parallel":

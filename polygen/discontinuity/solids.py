@@ -45,8 +45,8 @@ from __future__ import annotations
 import numpy as np
 
 from polygen.discontinuity import _geometry as geo
-from polygen.discontinuity._polyhedra import (Polyhedron, ShadowError, ShadowPolyhedra, _empty_pair,
-                                              _light_arrays)
+from polygen.discontinuity._polyhedra import (Polyhedron, ShadowError, ShadowPolyhedra, _cap_and_tol,
+                                              _empty_pair, _light_arrays)
 
 __all__ = ["convex_solids", "check_solid", "solid_shadow_polyhedron", "clip_solid"]
 
@@ -381,16 +381,7 @@ def solid_shadow_polyhedron(light, solid, *, bounds=None, tol=1e-9):
         V = np.vstack([p.vertices for p in solid])
     else:
         V = np.asarray(solid, dtype=np.float64).reshape(-1, 3)
-    pts = np.vstack([S, V])
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    size = float(np.max(hi - lo)) or 1.0
-    if bounds is None:
-        cc = 0.5 * (lo + hi)
-        bounds = np.stack([cc - 10.0 * size, cc + 10.0 * size])
-    bounds = np.asarray(bounds, dtype=np.float64)
-    if bounds.shape != (2, 3) or np.any(bounds[1] <= bounds[0]):
-        raise ShadowError(f"bounds: expected (2, 3) min/max corners, got {bounds.tolist()}")
-    atol = tol * max(size, float(np.max(bounds[1] - bounds[0])))
+    bounds, size, atol = _cap_and_tol(S, V, bounds, tol)
     if len(V) < 4 or np.linalg.svd(V - V.mean(axis=0), compute_uv=False)[2] <= atol:
         raise ShadowError("solid: its vertices are flat (no volume); a flat occluder is a polygon")
     F, E, W = _hull(V, atol)
