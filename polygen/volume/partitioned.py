@@ -482,27 +482,6 @@ def _write_vertices(keys, verts, gone, targets, row0, out_keys, out_verts, newid
     return r
 
 
-
-@njit(inline="always")
-def _seam_and_normal(t, i0, i1, i2, vertices, seam, seam_tris, ns, do_normals, nrm, flat):
-    """Triangle ``t`` (``i0, i1, i2``): listed in ``seam_tris[ns]`` when it has a seam vertex, and, with
-    ``do_normals``, its normal added to its vertices' sums in ``nrm`` (the arithmetic of
-    :func:`polygen.volume.marching._mean_normals`), its vertices marked in ``flat`` when it has no area.
-    Returns ``(ns, 1 if flat else 0)``."""
-    if seam[i0] or seam[i1] or seam[i2]:
-        seam_tris[ns] = t
-        ns += 1
-    if do_normals:
-        nx, ny, nz = _m.triangle_normal(vertices, i0, i1, i2)
-        for i in (i0, i1, i2):
-            nrm[i, 0] += nx
-            nrm[i, 1] += ny
-            nrm[i, 2] += nz
-        if nx == 0.0 and ny == 0.0 and nz == 0.0:
-            flat[i0] = flat[i1] = flat[i2] = True
-            return ns, 1
-    return ns, 0
-
 @njit
 def _write_triangles(vertices, triangles, seam, newidx, row0, out_tri, tri0, seam_tris, nrm, flat, cells, cell_ids,
                      offset, out_cells):
@@ -530,8 +509,20 @@ def _write_triangles(vertices, triangles, seam, newidx, row0, out_tri, tri0, sea
             out_tri[tri0 + t, 1] = row0 + i1
             out_tri[tri0 + t, 2] = row0 + i2
         out_cells[tri0 + t] = cell_ids[cells[t]] if by_ids else cells[t] + offset
-        ns, f = _seam_and_normal(t, i0, i1, i2, vertices, seam, seam_tris, ns, do_normals, nrm, flat)
-        n_flat += f
+        # written out in each kernel: through a helper (numba inline='always', or a plain call) this loop took 4x
+        # as long (58 against 15 ns per triangle without normals, 68 against 21 with, 2M-sized)
+        if seam[i0] or seam[i1] or seam[i2]:
+            seam_tris[ns] = t
+            ns += 1
+        if do_normals:
+            nx, ny, nz = _m.triangle_normal(vertices, i0, i1, i2)
+            for i in (i0, i1, i2):
+                nrm[i, 0] += nx
+                nrm[i, 1] += ny
+                nrm[i, 2] += nz
+            if nx == 0.0 and ny == 0.0 and nz == 0.0:
+                flat[i0] = flat[i1] = flat[i2] = True
+                n_flat += 1
     if do_normals:
         _m._normalize(nrm)
     return ns, n_flat
@@ -582,8 +573,19 @@ def _piece_triangles(vertices, triangles, seam, tri_out, seam_tris, nrm, flat):
         tri_out[t, 0] = i0
         tri_out[t, 1] = i1
         tri_out[t, 2] = i2
-        ns, f = _seam_and_normal(t, i0, i1, i2, vertices, seam, seam_tris, ns, do_normals, nrm, flat)
-        n_flat += f
+        # written out here too (see _write_triangles: a helper made the loop 4x slower)
+        if seam[i0] or seam[i1] or seam[i2]:
+            seam_tris[ns] = t
+            ns += 1
+        if do_normals:
+            nx, ny, nz = _m.triangle_normal(vertices, i0, i1, i2)
+            for i in (i0, i1, i2):
+                nrm[i, 0] += nx
+                nrm[i, 1] += ny
+                nrm[i, 2] += nz
+            if nx == 0.0 and ny == 0.0 and nz == 0.0:
+                flat[i0] = flat[i1] = flat[i2] = True
+                n_flat += 1
     if do_normals:
         _m._normalize(nrm)
     return ns, n_flat
