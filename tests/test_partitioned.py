@@ -129,6 +129,53 @@ def test_each_partition_is_its_full_scan(data3):
             assert np.unique(piece["keys"]).size == scan.n_vertices
 
 
+def _concat_unique_reference(a, b, keep):
+    """The obvious way (the seam pieces' merge before _with_missed): ``a`` and ``b``'s triangles ``keep``
+    concatenated, then one vertex per key (the first) by ``np.unique``, the triangles renumbered."""
+    keys = np.concatenate([a.vertex_keys, b.vertex_keys])
+    verts = np.concatenate([a.vertices, b.vertices])
+    tri = np.concatenate([a.triangles, b.triangles[keep] + a.vertices.shape[0]])
+    _, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+    firsts = np.sort(first)
+    new = np.searchsorted(firsts, first[inv.ravel()])
+    return verts[firsts], keys[firsts], new[tri], np.concatenate([a.triangle_cells, b.triangle_cells[keep]])
+
+
+@pytest.mark.parametrize("every", [2, 3, 5])
+def test_seam_piece_merged_as_by_unique(data3, every):
+    """_with_missed (marks and a binary search, no sort of the surface) against concatenation + np.unique:
+    a surface missing the triangles of some cells, and a propagation from them that finds those and others."""
+    import dataclasses
+
+    from polygen.volume.partitioned import _with_missed
+    from polygen.volume.propagate import Propagator
+
+    p = PartitionedVolume.split(data3, 2).prepare().partitions[1]
+    prop = Propagator(p.vol, p.field)
+    made = np.zeros(p.vol.n_cells, bool)
+    grew = shared = 0
+    for v in isovalues(data3.scalars(), 7):
+        iso = p.method.extract(v, normals=None)
+        cells = np.unique(iso.triangle_cells)
+        gone = cells[::every]
+        hole = np.isin(iso.triangle_cells, gone)
+        used, tri = np.unique(iso.triangles[~hole], return_inverse=True)  # the hole's own vertices go too
+        part = dataclasses.replace(iso, vertices=iso.vertices[used], vertex_keys=iso.vertex_keys[used],
+                                   triangles=tri.reshape(-1, 3), triangle_cells=iso.triangle_cells[~hole])
+        extra = prop.extract(v, cells[:: max(1, cells.size // 5)], normals=None)
+        keep = np.isin(extra.triangle_cells, part.triangle_cells, invert=True)
+        assert keep.any() and not keep.all()  # the case at hand: some triangles new, some made already
+        got = _with_missed(part, extra, made)
+        ref = _concat_unique_reference(part, extra, keep)
+        for a, b in zip((got.vertices, got.vertex_keys, got.triangles, got.triangle_cells), ref):
+            np.testing.assert_array_equal(a, b)
+        assert not made.any()
+        assert got.normals is None and got.n_triangles == part.n_triangles + keep.sum()
+        grew += got.n_vertices > part.n_vertices
+        shared += got.n_vertices < part.n_vertices + extra.n_vertices
+    assert grew and shared  # new vertices and vertices already there, both exercised
+
+
 def test_vertices_bitwise_equal_single_and_normals_close(data3):
     prepared = PartitionedVolume.split(data3, 6).prepare()
     for v in isovalues(data3.scalars(), 10):

@@ -230,6 +230,12 @@ class PreparedPartition:
         vol = self.vol
         # a node on another partition too: a vertex on an edge between two such nodes may be made there too
         self._shared_node = np.isin(self.global_ids, shared_ids)
+        # every vertex key's global key, negative (-1 - key) for a seam vertex: made once here, so that a query
+        # reads one int64 per vertex instead of its edge's two nodes, their global ids and seam marks (2M, one
+        # partition, 20 values: 4.6-7.2 -> 1.6 ms)
+        self._key_map = np.empty(vol.edges.shape[0] + vol.n_points, np.int64)
+        _key_map(np.ascontiguousarray(vol.edges, np.int64), self.global_ids, self._shared_node, self.n_ids,
+                 self._key_map)
         on_seam = np.all(self._shared_node[vol.boundary_face_nodes], axis=1)
         self.seam_cells = np.unique(vol.boundary_faces[on_seam, 0])
         self._made = np.zeros(vol.n_cells, bool)
@@ -242,16 +248,14 @@ class PreparedPartition:
 
     def _seam_seeds(self, value, iso):
         """Seam cells the surface crosses (a node below ``C``, one above) that ``iso`` has no triangle in."""
-        cand = self.seam_cells[(self._seam_min < value) & (value < self._seam_max)]
-        if not cand.size:
-            return cand
-        # a mark per cell, set and cleared around the look-up: O(triangles), where np.isin sorts them
-        # (measured on 2M in two partitions: isin took as long as the extraction itself)
-        made = self._made
-        made[iso.triangle_cells] = True
-        missed = cand[~made[cand]]
-        made[iso.triangle_cells] = False
-        return missed
+        # one pass: a mark per cell set and cleared around the look-up, O(triangles + seam cells), where np.isin
+        # sorts them (measured on 2M in two partitions: isin took as long as the extraction itself)
+        if not self.seam_cells.size:
+            return self.seam_cells
+        out = np.empty(self.seam_cells.shape[0], np.int64)
+        n = _missed_seam_cells(self.seam_cells, self._seam_min, self._seam_max, value,
+                               np.ascontiguousarray(iso.triangle_cells, np.int64), self._made, out)
+        return out[:n]
 
     def extract(self, value, normals="mean"):
         """This partition's part of the surface ``S = value``, vertices keyed by global id pairs (a dict)."""
@@ -278,8 +282,7 @@ class PreparedPartition:
             # a construction may leave out part of a piece it found (measured: the edge-centred one on a
             # partition whose boundary is not a manifold); a cell's triangles are made together, so the
             # cells it made are kept and the propagation fills in the rest
-            iso = _one_vertex_per_key(_concat(iso, extra, np.isin(extra.triangle_cells, iso.triangle_cells,
-                                                                  invert=True)))
+            iso = _with_missed(iso, extra, self._made)
         t_seam = time.perf_counter() - t0
         return iso, {"cells_tested": iso.cells_tested + tested, "seam_seeds": seam_seeds,
                      "cells_intersected": iso.cells_intersected, "vertex_lookups": iso.vertex_lookups,
@@ -310,8 +313,7 @@ class PreparedPartition:
         verts[...] = iso.vertices
         seam = np.empty(n, np.bool_)
         seam_at = empty(n, np.int64)
-        n_seam = _global_keys(np.ascontiguousarray(iso.vertex_keys, np.int64), vol.edges, self.global_ids,
-                              self._shared_node, self.n_ids, gkeys, seam, seam_at)
+        n_seam = _global_keys(np.ascontiguousarray(iso.vertex_keys, np.int64), self._key_map, gkeys, seam, seam_at)
         tri_in = np.ascontiguousarray(iso.triangles, np.int64)
         m = tri_in.shape[0]
         tri = empty((m, 3), np.int32 if n < 2**31 else np.int64)
@@ -383,8 +385,7 @@ class PreparedPartition:
         """
         n = iso.vertices.shape[0]
         keys, is_seam, at = np.empty(n, np.int64), np.empty(n, np.bool_), np.empty(n, np.int64)
-        ns = _global_keys(np.ascontiguousarray(iso.vertex_keys, np.int64), self.vol.edges, self.global_ids,
-                          self._shared_node, self.n_ids, keys, is_seam, at)
+        ns = _global_keys(np.ascontiguousarray(iso.vertex_keys, np.int64), self._key_map, keys, is_seam, at)
         at = at[:ns].copy()
         return {"seam": at, "seam_keys": keys[at], "keys": keys, "is_seam": is_seam}
 
@@ -440,23 +441,53 @@ class PreparedPartition:
 
 
 @njit
-def _global_keys(keys, edges, gids, shared, n_ids, out, seam, seam_at):
-    """Global pair keys of a piece's vertices (``a * n_ids + b`` over the edge's global ids ``a < b``,
-    ``a * n_ids + a`` on node ``a``), whether both nodes lie on another partition too (a seam vertex), and
-    the seam vertices' indices in ascending order (``seam_at``; their count returned)."""
+def _missed_seam_cells(seam_cells, seam_min, seam_max, value, tri_cells, made, out):
+    """The seam cells the surface ``value`` crosses (a node below, one above) that no triangle lies in, into
+    ``out`` in ``seam_cells``' order (their count returned); ``made`` (a mark per cell, all False) is left so."""
+    for t in range(tri_cells.shape[0]):
+        made[tri_cells[t]] = True
+    n = 0
+    for j in range(seam_cells.shape[0]):
+        if seam_min[j] < value and value < seam_max[j] and not made[seam_cells[j]]:
+            out[n] = seam_cells[j]
+            n += 1
+    for t in range(tri_cells.shape[0]):
+        made[tri_cells[t]] = False
+    return n
+
+
+@njit
+def _key_map(edges, gids, shared, n_ids, out):
+    """The global key of every vertex key of a partition (edge ``e``: ``a * n_ids + b`` over its nodes' global
+    ids ``a < b``; node ``a`` at ``len(edges) + a``: ``a * n_ids + a``), stored as ``-1 - key`` where both
+    nodes lie on another partition too (a seam vertex)."""
     ne = edges.shape[0]
+    for e in range(ne):
+        a = edges[e, 0]
+        b = edges[e, 1]
+        k = gids[a] * n_ids + gids[b]
+        out[e] = -1 - k if shared[a] and shared[b] else k
+    for a in range(gids.shape[0]):
+        k = gids[a] * n_ids + gids[a]
+        out[ne + a] = -1 - k if shared[a] else k
+
+
+@njit
+def _global_keys(keys, key_map, out, seam, seam_at):
+    """Global pair keys of a piece's vertices (from :func:`_key_map`), whether both nodes of each lie on
+    another partition too (a seam vertex), and the seam vertices' indices in ascending order (``seam_at``;
+    their count returned)."""
     ns = 0
     for v in range(keys.shape[0]):
-        k = keys[v]
-        if k < ne:
-            a, b = edges[k, 0], edges[k, 1]
-        else:
-            a = b = k - ne
-        out[v] = gids[a] * n_ids + gids[b]
-        seam[v] = shared[a] and shared[b]
-        if seam[v]:
+        k = key_map[keys[v]]
+        if k < 0:
+            out[v] = -1 - k
+            seam[v] = True
             seam_at[ns] = v
             ns += 1
+        else:
+            out[v] = k
+            seam[v] = False
     return ns
 
 
@@ -481,27 +512,6 @@ def _write_vertices(keys, verts, gone, targets, row0, out_keys, out_verts, newid
         r += 1
     return r
 
-
-
-@njit(inline="always")
-def _seam_and_normal(t, i0, i1, i2, vertices, seam, seam_tris, ns, do_normals, nrm, flat):
-    """Triangle ``t`` (``i0, i1, i2``): listed in ``seam_tris[ns]`` when it has a seam vertex, and, with
-    ``do_normals``, its normal added to its vertices' sums in ``nrm`` (the arithmetic of
-    :func:`polygen.volume.marching._mean_normals`), its vertices marked in ``flat`` when it has no area.
-    Returns ``(ns, 1 if flat else 0)``."""
-    if seam[i0] or seam[i1] or seam[i2]:
-        seam_tris[ns] = t
-        ns += 1
-    if do_normals:
-        nx, ny, nz = _m.triangle_normal(vertices, i0, i1, i2)
-        for i in (i0, i1, i2):
-            nrm[i, 0] += nx
-            nrm[i, 1] += ny
-            nrm[i, 2] += nz
-        if nx == 0.0 and ny == 0.0 and nz == 0.0:
-            flat[i0] = flat[i1] = flat[i2] = True
-            return ns, 1
-    return ns, 0
 
 @njit
 def _write_triangles(vertices, triangles, seam, newidx, row0, out_tri, tri0, seam_tris, nrm, flat, cells, cell_ids,
@@ -530,8 +540,20 @@ def _write_triangles(vertices, triangles, seam, newidx, row0, out_tri, tri0, sea
             out_tri[tri0 + t, 1] = row0 + i1
             out_tri[tri0 + t, 2] = row0 + i2
         out_cells[tri0 + t] = cell_ids[cells[t]] if by_ids else cells[t] + offset
-        ns, f = _seam_and_normal(t, i0, i1, i2, vertices, seam, seam_tris, ns, do_normals, nrm, flat)
-        n_flat += f
+        # written out in each kernel: through a helper (numba inline='always', or a plain call) this loop took 4x
+        # as long (58 against 15 ns per triangle without normals, 68 against 21 with, 2M-sized)
+        if seam[i0] or seam[i1] or seam[i2]:
+            seam_tris[ns] = t
+            ns += 1
+        if do_normals:
+            nx, ny, nz = _m.triangle_normal(vertices, i0, i1, i2)
+            for i in (i0, i1, i2):
+                nrm[i, 0] += nx
+                nrm[i, 1] += ny
+                nrm[i, 2] += nz
+            if nx == 0.0 and ny == 0.0 and nz == 0.0:
+                flat[i0] = flat[i1] = flat[i2] = True
+                n_flat += 1
     if do_normals:
         _m._normalize(nrm)
     return ns, n_flat
@@ -582,8 +604,19 @@ def _piece_triangles(vertices, triangles, seam, tri_out, seam_tris, nrm, flat):
         tri_out[t, 0] = i0
         tri_out[t, 1] = i1
         tri_out[t, 2] = i2
-        ns, f = _seam_and_normal(t, i0, i1, i2, vertices, seam, seam_tris, ns, do_normals, nrm, flat)
-        n_flat += f
+        # written out here too (see _write_triangles: a helper made the loop 4x slower)
+        if seam[i0] or seam[i1] or seam[i2]:
+            seam_tris[ns] = t
+            ns += 1
+        if do_normals:
+            nx, ny, nz = _m.triangle_normal(vertices, i0, i1, i2)
+            for i in (i0, i1, i2):
+                nrm[i, 0] += nx
+                nrm[i, 1] += ny
+                nrm[i, 2] += nz
+            if nx == 0.0 and ny == 0.0 and nz == 0.0:
+                flat[i0] = flat[i1] = flat[i2] = True
+                n_flat += 1
     if do_normals:
         _m._normalize(nrm)
     return ns, n_flat
@@ -642,34 +675,63 @@ def _seam_normals(vertices, triangles, seam_tris, seam, is_seam, nrm):
                 nrm[v, d] /= ln
 
 
-def _one_vertex_per_key(iso):
-    """``iso`` with a vertex made twice (same key: the method's and the propagation's copy) kept once, the first.
+def _with_missed(iso, extra, made):
+    """Surface ``iso`` and the triangles of ``extra`` (same partition and value) in cells ``iso`` has none in,
+    as one surface whose vertex keys are unique: ``extra``'s vertices already in ``iso`` are ``iso``'s.
 
-    The merge matches seam vertices only; a piece's other vertices must be unique.
+    ``iso`` first, then ``extra``'s new vertices in their order (every one: a vertex of a triangle dropped
+    stays), its kept triangles renumbered. ``made``: a mark per cell, all False (left so). O(size of both),
+    no sort of ``iso``'s arrays (10M, a seam piece of one triangle beside a surface of 1M: 45-75 ms with
+    ``np.isin`` and ``np.unique``); each surface's own keys must be unique (a method's and a propagation's
+    are).
     """
-    keys = iso.vertex_keys
-    _, first, inv = np.unique(keys, return_index=True, return_inverse=True)
-    if first.size == keys.size:
-        return iso
-    firsts = np.sort(first)
-    new = np.searchsorted(firsts, first[inv.ravel()])
-    return dataclasses.replace(iso, vertices=iso.vertices[firsts], vertex_keys=keys[firsts],
-                               normals=None if iso.normals is None else iso.normals[firsts],
-                               triangles=new[iso.triangles])
-
-
-def _concat(a, b, keep):
-    """Surface ``a`` and the triangles ``keep`` of ``b`` (same partition and value) as one surface;
-    vertex keys may repeat (the stitch merges them)."""
-    b = dataclasses.replace(b, triangles=b.triangles[keep], triangle_cells=b.triangle_cells[keep])
-    nrm = None if a.normals is None else np.concatenate([a.normals, b.normals])
+    keep = np.empty(extra.triangle_cells.shape[0], np.bool_)
+    _cells_not_made(np.ascontiguousarray(iso.triangle_cells, np.int64),
+                    np.ascontiguousarray(extra.triangle_cells, np.int64), made, keep)
+    ek = np.ascontiguousarray(extra.vertex_keys, np.int64)
+    order = np.argsort(ek, kind="stable")
+    at = np.full(ek.shape[0], -1, np.int64)
+    _find_keys(np.ascontiguousarray(iso.vertex_keys, np.int64), ek[order], order, at)
+    new = at < 0
+    n = iso.vertices.shape[0]
+    at[new] = n + np.arange(int(new.sum()), dtype=np.int64)
     return dataclasses.replace(
-        a, vertices=np.concatenate([a.vertices, b.vertices]), normals=nrm,
-        triangles=np.concatenate([a.triangles, b.triangles + a.vertices.shape[0]]),
-        vertex_keys=np.concatenate([a.vertex_keys, b.vertex_keys]),
-        triangle_cells=np.concatenate([a.triangle_cells, b.triangle_cells]),
-        cells_tested=a.cells_tested + b.cells_tested, cells_intersected=a.cells_intersected + b.cells_intersected,
-        vertex_lookups=a.vertex_lookups + b.vertex_lookups, t2=a.t2 + b.t2, t3=a.t3 + b.t3)
+        iso, vertices=np.concatenate([iso.vertices, extra.vertices[new]]), normals=None,
+        triangles=np.concatenate([iso.triangles, at[extra.triangles[keep]]]),
+        vertex_keys=np.concatenate([iso.vertex_keys, ek[new]]),
+        triangle_cells=np.concatenate([iso.triangle_cells, extra.triangle_cells[keep]]),
+        cells_tested=iso.cells_tested + extra.cells_tested,
+        cells_intersected=iso.cells_intersected + extra.cells_intersected,
+        vertex_lookups=iso.vertex_lookups + extra.vertex_lookups, t2=iso.t2 + extra.t2, t3=iso.t3 + extra.t3)
+
+
+@njit
+def _cells_not_made(cells, other, made, keep):
+    """``keep[t]``: no entry of ``cells`` is ``other[t]`` (``made``: a mark per cell, all False, left so)."""
+    for t in range(cells.shape[0]):
+        made[cells[t]] = True
+    for t in range(other.shape[0]):
+        keep[t] = not made[other[t]]
+    for t in range(cells.shape[0]):
+        made[cells[t]] = False
+
+
+@njit
+def _find_keys(keys, sorted_keys, order, at):
+    """``at[order[j]] = v`` for each ``keys[v]`` equal to ``sorted_keys[j]`` (binary search per key)."""
+    m = sorted_keys.shape[0]
+    for v in range(keys.shape[0]):
+        k = keys[v]
+        lo = 0
+        hi = m
+        while lo < hi:
+            mid = (lo + hi) >> 1
+            if sorted_keys[mid] < k:
+                lo = mid + 1
+            else:
+                hi = mid
+        if lo < m and sorted_keys[lo] == k:
+            at[order[lo]] = v
 
 
 # ----------------------------------------------------------------- result
