@@ -390,7 +390,7 @@ def _marked_cells(vol, ext):
     return np.unique(np.concatenate([marked, extra])) if extra.size else marked
 
 
-def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=None):
+def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=None, parallel=None):
     """Thin ``vol`` to a skeleton joining its extrema that keeps its genus (thesis 7.4-7.5).
 
     Parameters
@@ -406,6 +406,14 @@ def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=No
     n_buckets : int, keyword-only, optional
         Value classes of the skeleton (7.5.4); by default about one per
         eight skeleton cells, at most 1024.
+    parallel : bool or None, keyword-only
+        Run the FIFO of 7.5.2 first in the two halves of the cells at once (two threads), each over
+        the cells interior to it, then serially over the cells left (:func:`_fifo_halves`). Every
+        removal passes the same tests of 7.5.2, so Thms 7.4-7.6 hold, but the removal order, and so
+        the skeleton, differ from the serial FIFO's. ``None`` (default): from
+        ``PARALLEL_MIN_CELLS`` cells on a machine of two or more cores whose numba threading layer
+        lets parallel kernels overlap; ``False``: the serial FIFO (the thesis's order, e.g. for
+        :class:`ThinningRecord` figures); ``True``: always.
 
     Returns
     -------
@@ -415,13 +423,18 @@ def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=No
     if n_buckets is not None and (isinstance(n_buckets, bool) or not isinstance(n_buckets, (int, np.integer))
                                   or n_buckets < 1):
         raise ThinningError(f"n_buckets must be a positive integer; got {n_buckets!r}")
+    if parallel is not None and not isinstance(parallel, (bool, np.bool_)):
+        raise ThinningError(f"parallel must be True, False or None; got {parallel!r}")
+    if parallel is None:
+        parallel = (vol.n_cells >= PARALLEL_MIN_CELLS and (os.cpu_count() or 1) >= 2
+                    and parallel_kernels_may_overlap())
     cells = np.ascontiguousarray(cells, np.int64)
     t0 = time.perf_counter()
     vol.node_cells  # first: face neighbours and edges are matched through it
     face_nb = vol.face_neighbors  # int32 while the cell ids fit; the kernels read it as it is
     aside = _edge_table_aside(vol)
     try:
-        return _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets)
+        return _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets, bool(parallel))
     finally:
         if aside is not None:
             aside.join()
@@ -429,6 +442,52 @@ def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=No
 
 #: volumes from this many cells build their edge table in a second thread while they are thinned
 _ASIDE_MIN_CELLS = 200_000
+#: volumes from this many cells run the FIFO in two halves at once by default (``thin_volume(parallel=None)``)
+PARALLEL_MIN_CELLS = 200_000
+
+
+def _fifo_halves(vol, cells, face_nb, fmask, cls, nb_node, order, decisions, counters, src):
+    """The FIFO of 7.5.2 in the two halves of the cells at once (:func:`_k.thin_halves`).
+
+    The cells are split at the median index (the cached volumes are Morton ordered, so each half is
+    a compact region and the band between them, the cells with a node touched by both halves, is
+    thin). Each half runs the FIFO, lowest class first, over its interior cells only: such a cell's
+    tests read only its face neighbours, the cells around its own edges and its own nodes, and its
+    removal writes only its neighbours' classes and its nodes' ``n_B`` -- all in its half, never read
+    or written by the other. Whatever is left (the band and the cells the halves could not remove
+    beside it) is queued afresh for the serial FIFO (:func:`_k.fifo_init`).
+
+    The removals equal those of a serial FIFO that ran half 0's, then half 1's: ``order`` and
+    ``decisions`` (when recorded) are written that way, and the split depends only on the cells, so
+    the result is the same run after run and for any number of numba threads.
+
+    Returns
+    -------
+    (n_removed, n_decisions, labelled) : the removals and recorded decisions so far; ``labelled`` the
+    deferred-label lists ``[(nodes, n), (nodes, n)]`` of the halves, in order (empty without ``src``).
+    """
+    m = cells.shape[0]
+    split = m // 2
+    off, nc = vol.node_cells
+    half = _k.cell_halves(cells, off, nc, split)
+    nf = fmask.shape[0]
+    dec_split = split * (nf + 1) if decisions.shape[0] else 0
+    stats2 = np.zeros((2, _k.N_STATS), np.int64)
+    st2 = np.zeros((2, _k.N_STATE), np.int64)
+    labelled2 = np.empty((2, vol.n_points if src.shape[0] else 0), np.int32)
+    _k.thin_halves(cells, face_nb, fmask, cls, nb_node, half, split, stats2, order, decisions, dec_split, st2, src,
+                   labelled2)
+    counters += stats2.sum(axis=0)
+    n0, n1 = int(st2[0, _k.ST_N_REMOVED]), int(st2[1, _k.ST_N_REMOVED])
+    d0, d1 = int(st2[0, _k.ST_N_DEC]), int(st2[1, _k.ST_N_DEC])
+    if order.shape[0]:  # half 1's removals after half 0's
+        order[n0:n0 + n1] = order[split:split + n1].copy()
+    if decisions.shape[0]:
+        d = decisions[dec_split:dec_split + d1].copy()
+        d[:, 3] += n0
+        decisions[d0:d0 + d1] = d
+    labelled = [(labelled2[t], int(st2[t, _k.ST_N_LABELLED])) for t in range(2)] if src.shape[0] else []
+    return n0 + n1, d0 + d1, labelled
 
 
 def _edge_table_aside(vol):
@@ -471,7 +530,7 @@ def _beside_fifo(vol, out, faces_ready=None):
             faces_ready.set()
 
 
-def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
+def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets, parallel):
     """:func:`thin_volume` once the node -> cells lists and the face neighbours are there."""
     # The FIFO of 7.5.2 needs the marks (Def. 7.9) and, for its removal tests, only whether a node is on
     # the boundary (n_B != 0), not its group. So on a large volume a second thread labels the cell
@@ -516,12 +575,25 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
     def start(marked):
         cls = np.empty(m, np.int8)
         _k.initial_classes(face_nb, marked, cls)
-        # every FIFO entry is taken once: the initial ones and up to F per removal
+        # every FIFO entry is taken once: the initial ones and up to F per removal (with the halves first,
+        # the serial run's initial ones again)
+        n_dec = m * (fmask.shape[0] + 1) + (m * fmask.shape[0] if parallel else 0)
         return (cls, np.zeros(vol.n_points, np.int64), np.empty(m if record else 0, np.int64),
-                np.zeros(_k.N_STATS, np.int64), np.empty((m * (fmask.shape[0] + 1) if record else 0, 4), np.int64),
-                _k.fifo_init(cls, fmask.shape[0]), np.zeros(_k.N_STATE, np.int64))
+                np.zeros(_k.N_STATS, np.int64), np.empty((n_dec if record else 0, 4), np.int64),
+                np.zeros(_k.N_STATE, np.int64))
 
-    cls, nb_node, order, counters, decisions, (queue, head, tail), st = start(marked)
+    def first_pass(src):
+        """The halves at once (``parallel``), then the FIFOs of the serial run: ``((queue, head, tail),
+        the halves' deferred-label lists)``."""
+        lists = []
+        if parallel:
+            st[_k.ST_N_REMOVED], st[_k.ST_N_DEC], lists = _fifo_halves(vol, cells, face_nb, fmask, cls, nb_node,
+                                                                         order, decisions, counters, src)
+        return _k.fifo_init(cls, fmask.shape[0]), lists
+
+    cls, nb_node, order, counters, decisions, st = start(marked)
+    fifo = None
+    lists = []
     t_wait = 0.0
     deferred = helper is not None
     if deferred:  # the FIFO with placeholder groups while the helper numbers them
@@ -533,6 +605,8 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
         nb_node[bfn.ravel()] = 1
         src = np.empty(vol.n_points, np.int32)
         labelled = np.empty(vol.n_points, np.int32)
+        fifo, lists = first_pass(src)
+        queue, head, tail = fifo
         _k.thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, np.zeros(1, np.int64),
                        np.zeros(1, np.bool_), False, order, np.zeros((1, 3), np.int64), counters, decisions,
                        queue, head, tail, np.zeros(1, np.bool_), st, src, labelled)
@@ -544,7 +618,8 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
         extra = _parts_without_mark(vol, marked)
         if extra.size:  # a part with no extremum: its mark was missing, thin again from the start
             marked = np.unique(np.concatenate([marked, extra]))
-            cls, nb_node, order, counters, decisions, (queue, head, tail), st = start(marked)
+            cls, nb_node, order, counters, decisions, st = start(marked)
+            fifo = None
             deferred = False
         else:
             nb_node[:] = 0
@@ -553,7 +628,12 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
     is_void_g = vol.group_is_void
     nb_node[bfn.ravel()] = np.repeat(groups, bfn.shape[1])
     if deferred:
+        for nodes, n in lists:  # the halves' first: the serial run's labels may come from theirs
+            _k.resolve_labels(nb_node, src, nodes, n)
         _k.resolve_labels(nb_node, src, labelled, st[_k.ST_N_LABELLED])
+    if fifo is None:
+        fifo, _ = first_pass(none)
+        queue, head, tail = fifo
     bad_edges, bad_nodes = side["defects"]
     t_check = side["t_check"]
     if bad_edges.size or bad_nodes.size:
