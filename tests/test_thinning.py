@@ -517,6 +517,9 @@ def test_subset_volume_and_bad_input():
         thin_volume(vol, np.zeros(3))
     with pytest.raises(ThinningError, match="n_buckets"):
         thin_volume(vol, n_buckets=0)
+    with pytest.raises(ThinningError, match="parallel"):
+        thin_volume(vol, parallel="yes")
+    assert not thin_volume(vol).stats["parallel"]  # small: the serial FIFO by default
     with pytest.raises(ValueError, match="value"):
         thin_volume(vol).seeds(np.nan)
     with pytest.raises(ThinningError, match="mask"):

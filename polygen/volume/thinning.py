@@ -428,8 +428,10 @@ def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=No
         removal passes the same tests of 7.5.2, so Thms 7.4-7.6 hold, but the removal order, and so
         the skeleton, differ from the serial FIFO's. ``None`` (default): from
         ``PARALLEL_MIN_CELLS`` cells on a machine of two or more cores whose numba threading layer
-        lets parallel kernels overlap; ``False``: the serial FIFO (the thesis's order, e.g. for
-        :class:`ThinningRecord` figures); ``True``: always.
+        lets parallel kernels overlap, unless ``record`` (a record then shows the thesis's order, one
+        layer after another, for Figs 7.18-7.21); ``False``: the serial FIFO; ``True``: always (a
+        record then lists half 0's removals, then half 1's, then the serial FIFO's: a valid serial
+        order, every test replayable on the state it names).
 
     Returns
     -------
@@ -442,7 +444,7 @@ def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=No
     if parallel is not None and not isinstance(parallel, (bool, np.bool_)):
         raise ThinningError(f"parallel must be True, False or None; got {parallel!r}")
     if parallel is None:
-        parallel = (vol.n_cells >= PARALLEL_MIN_CELLS and (os.cpu_count() or 1) >= 2
+        parallel = (not record and vol.n_cells >= PARALLEL_MIN_CELLS and (os.cpu_count() or 1) >= 2
                     and parallel_kernels_may_overlap())
     cells = np.ascontiguousarray(cells, np.int64)
     t0 = time.perf_counter()
