@@ -276,7 +276,7 @@ class Skeleton:
         built beside the FIFO),
         ``T_check`` (:func:`boundary_defects`), ``nonmanifold_edges``, ``nonmanifold_nodes``,
         ``T_pe`` (extrema and marks), ``T_thin`` (classes, n_B, removal; of which ``T_halves`` the two
-        halves at once, when ``parallel``), ``T_wait`` (on a large
+        halves at once, when ``parallel``; ``T_resume`` the FIFO's last run, with the pricking), ``T_wait`` (on a large
         volume, the FIFO's wait for the boundary groups numbered beside it),
         ``T_register`` (value classes), ``T_total`` (all but topology), ``extrema``,
         ``skeleton_cells`` (N_e2 of Table 7.1), ``C1`` .. ``C6`` (Table 7.2),
@@ -672,9 +672,11 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets, parallel):
     is_void = np.zeros(n_groups + 1, np.bool_)
     is_void[1:] = is_void_g
     prick_log = np.zeros((n_groups + 1, 3), np.int64)
+    tr = time.perf_counter()
     _k.thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, bool(prick_voids), order,
                    prick_log, counters, decisions, queue, head, tail, np.zeros(n_groups + 1, np.bool_), st,
                    none, none)
+    t_resume = time.perf_counter() - tr
     n_removed, n_pricks, n_dec = st[_k.ST_N_REMOVED], st[_k.ST_N_PRICKS], st[_k.ST_N_DEC]
     del queue
     t2 = time.perf_counter()
@@ -702,6 +704,7 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets, parallel):
         "T_thin": t2 - t1 - t_wait,  # classes, n_B, removal (not the wait for the groups, T_wait)
         "T_wait": t_wait,
         "T_halves": halves["t"],
+        "T_resume": t_resume,
         "T_register": t3 - t2,
         "T_total": t_pe + t3 - t0,
         "extrema": ext.n,
