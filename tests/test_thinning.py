@@ -872,3 +872,18 @@ def test_one_part_known_from_the_boundary():
         said += one
         several += n_parts > 1
     assert said > 0 and several > 0
+
+
+def test_halves_on_unordered_cells():
+    # cells in random order: most cells touch both halves (a thick band), the serial FIFO does most of the work,
+    # and the guarantees are the same
+    vol = datasets.load("data1")
+    rng = np.random.default_rng(2)
+    mixed = type(vol)(vol.points, vol.cells[rng.permutation(vol.n_cells)], dict(vol.fields), validate=False)
+    sk = thin_volume(mixed, parallel=True)
+    assert sk.stats["band_cells"] > mixed.n_cells // 2
+    final_skeleton_checks(mixed, sk)
+    s = mixed.scalars()
+    for v in iso_values(s, 40, seed=3):
+        hit, lab = intersected_components(mixed, s, v)
+        assert set(lab[sk.seeds(v).cells].tolist()) == set(np.unique(lab[hit]).tolist()), v

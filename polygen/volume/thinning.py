@@ -33,7 +33,14 @@ Preprocessing (once per volume and field, Fig. 7.5, :func:`thin_volume`):
    quadruple-shared nodes (with opposite open faces it stays); C_5 four.
    A removed cell's inner nodes come onto the boundary and take the group
    of its other nodes; its neighbours move one class down, into that
-   class's FIFO.
+   class's FIFO. On a large volume (``thin_volume(parallel=None)``) the
+   FIFO runs first in the two halves of the cells at once, each over the
+   cells whose nodes only its own cells touch, then serially over the rest
+   (:func:`_fifo_halves`): Thms 7.4-7.6 are proven one removal at a time,
+   from E, its neighbours, the cells around its edges and its nodes' n_B
+   (the thesis's proofs, appendix of chapter 7), so they hold in any order
+   of removals that pass the tests; the lowest-class-first rule of 7.5.2
+   shapes the skeleton (how thin it is), not its guarantees.
 4. **Voids** (7.5.3, Fig. 7.7). When every FIFO is empty, each void is
    still wrapped in a layer of cells. One layer is pricked open: the
    thesis's three cells -- E with nodes on the outer side and on the void,
