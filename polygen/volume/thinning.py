@@ -388,7 +388,7 @@ def _one_part(vol, defects):
     so one of them is no void. One outer group then means one part (2M: saves the labelling, 0.09 s).
     """
     bad_edges, bad_nodes = defects
-    return bad_edges.size == 0 and bad_nodes.size == 0 and int(np.count_nonzero(~vol.group_is_void)) <= 1
+    return bad_edges.size == 0 and bad_nodes.size == 0 and int(np.count_nonzero(~vol.group_is_void)) == 1
 
 
 def _parts_without_mark(vol, marked, defects=None):
