@@ -21,7 +21,10 @@ size -- and on the FEM data sets. ``T_total`` is thinning's
 preprocessing (extrema and marks, classes and n_B, removal, value
 classes); the volume's topology tables (face neighbours, boundary groups,
 node cells), built once per volume by :class:`UnstructuredVolume`, are
-timed apart (``T_topology``). Best of five runs (three above 3M cells).
+timed apart (``T_topology``). Best of five runs (three above 3M cells). Both parts time the
+thesis's serial FIFO (``thin_volume(parallel=False)``); from 200,000 cells Part 2 also times the
+two halves at once (the default there, :func:`polygen.volume.thinning.thin_volume`), in the JSON
+(``*_halves``) and the printed lines.
 
 Topology tables and numba compilation are excluded from every timing
 unless named. Wall-clock seconds on a shared 2-core machine.
@@ -39,7 +42,7 @@ import numpy as np
 
 from _common import RESULTS, machine, fmt, thesis_table
 from polygen.volume import UnstructuredVolume, datasets, isovalues, methods
-from polygen.volume.thinning import thin_volume
+from polygen.volume.thinning import PARALLEL_MIN_CELLS, thin_volume
 
 METHODS = ["scan", "sorted-lists", "span-filter", "extrema-graph", "thinning"]
 SHORT = {"scan": "all", "sorted-lists": "sort", "span-filter": "filt", "extrema-graph": "egra", "thinning": "thin"}
@@ -106,7 +109,8 @@ def run_data(name):
     values = isovalues(s, 20)
     ref = {}
     for mname in METHODS:
-        m = methods.get(mname)(vol)
+        # the thesis's thinning: one FIFO, lowest class first (not the two halves at once of large volumes)
+        m = methods.get(mname)(vol, **({"parallel": False} if mname == "thinning" else {}))
         short = SHORT[mname]
         row[f"T_{short}"] = m.preprocess_s
         q = t1 = 0.0
@@ -187,18 +191,35 @@ def block_with_holes(s):
 
 
 def time_thinning(vol, repeat):
+    """Best of ``repeat`` runs of the thesis's serial FIFO; from ``PARALLEL_MIN_CELLS`` cells also of the
+    two halves at once (``thin_volume(parallel=True)``: ``*_halves``, with the CPU seconds of the process)."""
     t_top = topology(vol)
-    best = None
-    for _ in range(repeat):
-        sk = thin_volume(vol)
-        if best is None or sk.stats["T_total"] < best.stats["T_total"]:
-            best = sk
+
+    def best_of(parallel):
+        best = None
+        for _ in range(repeat):
+            c0 = time.process_time()
+            sk = thin_volume(vol, parallel=parallel)
+            cpu = time.process_time() - c0
+            if best is None or sk.stats["T_total"] < best[0].stats["T_total"]:
+                best = sk, cpu
+        return best
+
+    best, cpu = best_of(False)
     st = best.stats
     n = vol.n_cells
-    return {"cells": n, "T_topology": t_top, "T_total": st["T_total"], "T_pe": st["T_pe"], "T_thin": st["T_thin"],
-            "T_register": st["T_register"], "ns_per_cell": 1e9 * st["T_total"] / n,
-            "ns_per_cell_with_topology": 1e9 * (st["T_total"] + t_top) / n, "skeleton_cells": st["skeleton_cells"],
-            "extrema": st["extrema"], "pricks": st["pricks"], "genus": vol.n_through_holes, "voids": vol.n_voids}
+    row = {"cells": n, "T_topology": t_top, "T_total": st["T_total"], "T_pe": st["T_pe"], "T_thin": st["T_thin"],
+           "T_register": st["T_register"], "ns_per_cell": 1e9 * st["T_total"] / n,
+           "ns_per_cell_with_topology": 1e9 * (st["T_total"] + t_top) / n, "skeleton_cells": st["skeleton_cells"],
+           "extrema": st["extrema"], "pricks": st["pricks"], "genus": vol.n_through_holes, "voids": vol.n_voids,
+           "cpu_total": cpu}
+    if n >= PARALLEL_MIN_CELLS:
+        halves, cpu = best_of(True)
+        hs = halves.stats
+        row.update({"T_total_halves": hs["T_total"], "T_thin_halves": hs["T_thin"], "T_halves": hs["T_halves"],
+                    "cpu_total_halves": cpu, "skeleton_cells_halves": hs["skeleton_cells"],
+                    "band_cells": hs["band_cells"], "removed_in_halves": hs["removed_in_halves"]})
+    return row
 
 
 def scaling(sizes, data_names):
@@ -216,7 +237,10 @@ def scaling(sizes, data_names):
         r = time_thinning(vol, 3 if vol.n_cells > 3_000_000 else 5)
         r.update(volume=name, family="FEM data")
         rows.append(r)
-        print(f"{name}: {r['cells']} cells, {r['T_total']:.3f} s, {r['ns_per_cell']:.0f} ns/cell", flush=True)
+        print(f"{name}: {r['cells']} cells, {r['T_total']:.3f} s, {r['ns_per_cell']:.0f} ns/cell"
+              + (f"; two halves at once {r['T_total_halves']:.3f} s (T_thin {r['T_thin']:.3f} -> "
+                 f"{r['T_thin_halves']:.3f}), skeleton {r['skeleton_cells']} -> {r['skeleton_cells_halves']}"
+                 if "T_total_halves" in r else ""), flush=True)
         del vol
     return rows
 

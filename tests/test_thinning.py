@@ -22,6 +22,7 @@ from polygen.volume import datasets, methods
 from polygen.volume.extrema_graph import build_extrema_graph
 from polygen.volume.isosurface import extract
 from polygen.volume.propagate import Propagator
+from polygen.volume import _thinning_kernels as _k
 from polygen.volume.thinning import (
     ThinningError,
     ThinningWarning,
@@ -36,7 +37,7 @@ from polygen.volume.thinning import (
 
 from _surfaces import assert_complete as _assert_complete  # noqa: E402
 from _surfaces import block_volume as grid_volume  # noqa: E402
-from _surfaces import TINY_VOLUMES, iso_values  # noqa: E402
+from _surfaces import TINY_VOLUMES, iso_values, sorted_triangles  # noqa: E402
 from naive import cell_graph_components, intersected_components  # noqa: E402
 
 
@@ -45,6 +46,12 @@ def assert_complete(vol, field, values, **params):
     return _assert_complete("thinning", vol, field, values, **params)
 
 TINY = TINY_VOLUMES
+
+
+@pytest.fixture(params=[False, True], ids=["serial", "halves"])
+def parallel(request):
+    """``thin_volume(parallel=...)``: the serial FIFO, or the two halves at once first (then the serial FIFO)."""
+    return request.param
 
 # ------------------------------------------------------------------ helpers
 def nested_voids(cell_type):
@@ -233,10 +240,10 @@ def check_theorems(vol, sk, every=1):
 
 # ------------------------------------------------------------------ the rules and the theorems
 @pytest.mark.parametrize("name", TINY)
-def test_theorems_on_tiny_volumes(name):
+def test_theorems_on_tiny_volumes(name, parallel):
     vol = datasets.load(name)
     for field in vol.fields:
-        sk = thin_volume(vol, field, record=True)
+        sk = thin_volume(vol, field, record=True, parallel=parallel)
         check_rules(vol, sk)
         check_theorems(vol, sk)
         assert sk.unpricked_voids.size == 0
@@ -244,28 +251,28 @@ def test_theorems_on_tiny_volumes(name):
 
 @pytest.mark.parametrize("cell_type", ["tetra", "hexa"])
 @pytest.mark.parametrize("name", list(ADVERSARIAL))
-def test_theorems_on_adversarial_volumes(name, cell_type):
+def test_theorems_on_adversarial_volumes(name, cell_type, parallel):
     vol = ADVERSARIAL[name](cell_type)
     assert vol.n_voids >= 2
-    sk = thin_volume(vol, "bumps", record=True)
+    sk = thin_volume(vol, "bumps", record=True, parallel=parallel)
     check_rules(vol, sk)
     check_theorems(vol, sk, every=1 if cell_type == "hexa" else 7)
     assert sk.stats["pricks"] == vol.n_voids and sk.unpricked_voids.size == 0
     # without pricking the layers stay and the voids are still there
-    sk2 = thin_volume(vol, "bumps", prick_voids=False)
+    sk2 = thin_volume(vol, "bumps", prick_voids=False, parallel=parallel)
     assert topology(vol, sk2.mask())[:2] == (vol.n_through_holes, vol.n_voids)
     assert sk2.n_cells > sk.n_cells
 
 
 @pytest.mark.parametrize("cell_type", ["tetra", "hexa"])
-def test_theorems_on_random_shapes(cell_type):
+def test_theorems_on_random_shapes(cell_type, parallel):
     rng = np.random.default_rng(11 if cell_type == "tetra" else 12)
     n_voids = n_holes = 0
     for _ in range(8):
         vol = random_shape(rng, cell_type)
         assert boundary_is_manifold(vol)
         s = rng.integers(0, 4, vol.n_points).astype(float)  # ties: flat extrema
-        sk = thin_volume(vol, s, record=True)
+        sk = thin_volume(vol, s, record=True, parallel=parallel)
         check_rules(vol, sk)
         check_theorems(vol, sk, every=1 if cell_type == "hexa" else 9)
         n_voids += vol.n_voids
@@ -286,20 +293,21 @@ def final_skeleton_checks(vol, sk):
     assert sk.stats["C1"] == ends.size <= sk.stats["marked"]
     assert sum(sk.stats[f"C{q}"] for q in range(7)) == sk.n_cells
     assert sk.stats["implicit_removals"] == 0
-    # O(n): each cell is taken from each class's FIFO at most once
-    assert all(n <= vol.n_cells for n in sk.stats["processed"].values())
+    # O(n): each cell is taken from each class's FIFO at most once (once in its half and once by the
+    # serial FIFO after the halves)
+    assert all(n <= vol.n_cells * (2 if sk.stats["parallel"] else 1) for n in sk.stats["processed"].values())
 
 
 @pytest.mark.parametrize("name", ["data1", "data2", "hexa1"])
-def test_skeleton_of_data(name):
+def test_skeleton_of_data(name, parallel):
     vol = datasets.load(name)
     for field in vol.fields:
-        final_skeleton_checks(vol, thin_volume(vol, field))
+        final_skeleton_checks(vol, thin_volume(vol, field, parallel=parallel))
 
 
-def test_rules_replayed_on_data1():
+def test_rules_replayed_on_data1(parallel):
     vol = datasets.load("data1")
-    sk = thin_volume(vol, record=True)
+    sk = thin_volume(vol, record=True, parallel=parallel)
     # the full replay costs a boundary computation per removal: check the start, the pricks and the end
     rec = sk.record
     marked = np.zeros(vol.n_cells, bool)
@@ -314,43 +322,43 @@ def test_rules_replayed_on_data1():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["data3", "data4", "data5", "hexa2", "hexa3"])
-def test_skeleton_of_large_data(name):
+def test_skeleton_of_large_data(name, parallel):
     vol = datasets.load(name)
     for field in vol.fields:
-        final_skeleton_checks(vol, thin_volume(vol, field))
+        final_skeleton_checks(vol, thin_volume(vol, field, parallel=parallel))
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["data2", "hexa1"])
-def test_rules_replayed_on_data(name):
+def test_rules_replayed_on_data(name, parallel):
     vol = datasets.load(name)
-    sk = thin_volume(vol, record=True)
+    sk = thin_volume(vol, record=True, parallel=parallel)
     check_theorems(vol, sk, every=max(1, sk.record.n_removed // 40))
 
 
 # ------------------------------------------------------------------ completeness without boundary lists
-def test_tiny_volumes_complete(tiny_volume):
+def test_tiny_volumes_complete(tiny_volume, parallel):
     for field in tiny_volume.fields:
-        assert_complete(tiny_volume, field, iso_values(tiny_volume.scalars(field), 200))
+        assert_complete(tiny_volume, field, iso_values(tiny_volume.scalars(field), 200), parallel=parallel)
 
 
 @pytest.mark.parametrize("cell_type", ["tetra", "hexa"])
-def test_adversarial_volumes_complete(cell_type):
+def test_adversarial_volumes_complete(cell_type, parallel):
     for build in ADVERSARIAL.values():
         vol = build(cell_type)
         for field in vol.fields:
-            assert_complete(vol, field, iso_values(vol.scalars(field), 200))
+            assert_complete(vol, field, iso_values(vol.scalars(field), 200), parallel=parallel)
 
 
 @pytest.mark.parametrize("cell_type", ["tetra", "hexa"])
-def test_random_volumes_with_ties_complete(cell_type):
+def test_random_volumes_with_ties_complete(cell_type, parallel):
     # random holes and voids, quantised random fields: many ties and flat extrema
     rng = np.random.default_rng(7 if cell_type == "tetra" else 8)
     for _ in range(8):
         vol = random_shape(rng, cell_type)
         s = rng.integers(0, int(rng.integers(2, 6)), vol.n_points).astype(float)
         u = np.unique(s)
-        assert_complete(vol, s, np.concatenate([u, (u[:-1] + u[1:]) / 2]))
+        assert_complete(vol, s, np.concatenate([u, (u[:-1] + u[1:]) / 2]), parallel=parallel)
 
 
 @pytest.mark.parametrize("cell_type", ["tetra", "hexa"])
@@ -400,27 +408,35 @@ def test_manifold_check_on_data():
 
 
 @pytest.mark.parametrize("name", ["data1", "hexa1"])
-def test_complete_on_data(name):
+def test_complete_on_data(name, parallel):
     vol = datasets.load(name)
-    assert_complete(vol, None, iso_values(vol.scalars(), 200))
+    assert_complete(vol, None, iso_values(vol.scalars(), 200), parallel=parallel)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["data1", "data2", "data3", "data4", "data5", "hexa1", "hexa2", "hexa3"])
 def test_complete_on_all_data_and_fields(name):
+    # both FIFOs (serial, halves first) against one full scan per value
     vol = datasets.load(name)
     for field in vol.fields:
-        assert_complete(vol, field, iso_values(vol.scalars(field), 200))
+        both = [methods.get("thinning")(vol, field, parallel=p) for p in (False, True)]
+        for v in iso_values(vol.scalars(field), 200):
+            ref = extract(vol, v, field=field)
+            want = sorted_triangles(ref)
+            for m in both:
+                got = sorted_triangles(m.extract(v))
+                assert got.shape == want.shape and np.array_equal(got, want), (field, v, m.skeleton.stats["parallel"])
+                assert m.stats["N_ci"] == ref.cells_intersected
 
 
 @pytest.mark.parametrize("name", ["torus", "genus3_hex"])
-def test_fig_7_1_skeleton_finds_what_the_graph_misses(name):
+def test_fig_7_1_skeleton_finds_what_the_graph_misses(name, parallel):
     # Fig. 7.1: a through-hole cuts an isosurface in parts; the extrema graph's arcs cross only some of
     # them (its boundary lists find the rest); the skeleton's cells alone cross every part
     vol = datasets.load(name)
     s = vol.scalars()
     g = build_extrema_graph(vol, s)
-    sk = thin_volume(vol, s)
+    sk = thin_volume(vol, s, parallel=parallel)
     missed_by_arcs = 0
     for v in iso_values(s, 60, seed=4):
         hit, lab = intersected_components(vol, s, v)
@@ -501,6 +517,9 @@ def test_subset_volume_and_bad_input():
         thin_volume(vol, np.zeros(3))
     with pytest.raises(ThinningError, match="n_buckets"):
         thin_volume(vol, n_buckets=0)
+    with pytest.raises(ThinningError, match="parallel"):
+        thin_volume(vol, parallel="yes")
+    assert not thin_volume(vol).stats["parallel"]  # small: the serial FIFO by default
     with pytest.raises(ValueError, match="value"):
         thin_volume(vol).seeds(np.nan)
     with pytest.raises(ThinningError, match="mask"):
@@ -744,3 +763,127 @@ def test_part_without_extremum_beside_the_fifo(monkeypatch):
     assert len(starts) == 2  # thinned again with the missing mark
     _same_skeleton(beside, alone)
     assert (beside.classes[labels == 1] != 0).any()
+
+
+# ------------------------------------------------------------------ the FIFO in two halves at once
+def brute_halves(vol, split):
+    """Per cell: 0/1 when every cell touching one of its nodes is in its half ``[0, split)``/``[split, M)``,
+    else -1 (brute force over the node -> cells incidence)."""
+    halves_at = [set() for _ in range(vol.n_points)]
+    for c, nodes in enumerate(vol.cells.tolist()):
+        for x in nodes:
+            halves_at[x].add(int(c >= split))
+    out = np.empty(vol.n_cells, np.int8)
+    for c, nodes in enumerate(vol.cells.tolist()):
+        h = int(c >= split)
+        out[c] = h if all(halves_at[x] == {h} for x in nodes) else -1
+    return out
+
+
+def test_cell_halves_by_brute_force():
+    rng = np.random.default_rng(5)
+    for vol in (datasets.load("hollow_cube"), random_shape(rng, "tetra"), random_shape(rng, "hexa")):
+        shuffled = vol.cells[rng.permutation(vol.n_cells)]  # cell order unrelated to space: a thick band
+        for cells in (vol.cells, shuffled):
+            v = type(vol)(vol.points, cells, validate=False)
+            off, nc = v.node_cells
+            for split in (0, 1, v.n_cells // 3, v.n_cells // 2, v.n_cells - 1, v.n_cells):
+                got = _k.cell_halves(np.ascontiguousarray(v.cells, np.int64), off, nc, split)
+                assert np.array_equal(got, brute_halves(v, split)), split
+    # spatially ordered cells: both halves have interior cells and the band is a minority
+    vol = grid_volume(np.ones((10, 4, 4), bool), "tetra")
+    h = brute_halves(vol, vol.n_cells // 2)
+    assert (h == 0).any() and (h == 1).any() and (h < 0).sum() < vol.n_cells // 4
+
+
+@pytest.mark.parametrize("name", ["data1", "data2", pytest.param("data3", marks=pytest.mark.slow),
+                                  pytest.param("data4", marks=pytest.mark.slow)])
+def test_halves_skeleton_seeds_every_surface_part(name):
+    # the skeleton of the two-halves FIFO crosses every face-connected part of every isosurface (against the
+    # full scan's intersected cells), and the halves did the bulk of the removals (the test is not the serial one)
+    vol = datasets.load(name)
+    n_values = 100 if vol.n_cells < 100_000 else 30
+    for field in vol.fields:
+        s = vol.scalars(field)
+        sk = thin_volume(vol, field, parallel=True)
+        assert sk.stats["parallel"] and sk.stats["removed_in_halves"] > sk.stats["removed"] // 2
+        assert 0 < sk.stats["band_cells"] < vol.n_cells // 4
+        for v in iso_values(s, n_values, seed=9):
+            hit, lab = intersected_components(vol, s, v)
+            found = sk.seeds(v).cells
+            assert hit[found].all()
+            assert set(lab[found].tolist()) == set(np.unique(lab[hit]).tolist()), (field, v)
+
+
+def test_halves_deterministic():
+    # the split depends only on the cells: the same removals run after run and for one or two numba threads
+    numba = pytest.importorskip("numba")
+    vol = datasets.load("data2")
+    runs = [thin_volume(vol, record=True, parallel=True) for _ in range(2)]
+    n = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        runs.append(thin_volume(vol, record=True, parallel=True))
+    finally:
+        numba.set_num_threads(n)
+    for sk in runs[1:]:
+        assert np.array_equal(sk.cells, runs[0].cells)
+        assert np.array_equal(sk.record.removal_order, runs[0].record.removal_order)
+        assert np.array_equal(sk.record.decided_cell, runs[0].record.decided_cell)
+    # and it differs from the serial FIFO's order (the halves ran first), with the same guarantees
+    serial = thin_volume(vol, record=True, parallel=False)
+    assert not np.array_equal(serial.record.removal_order, runs[0].record.removal_order)
+
+
+@pytest.mark.parametrize("cell_type", ["tetra", "hexa"])
+def test_halves_voids_inside_a_half_are_pricked(cell_type):
+    # one void deep in each half: its layer is thinned by that half's thread, then pricked by the serial FIFO
+    keep = np.ones((14, 6, 6), bool)
+    keep[2:4, 2:4, 2:4] = False
+    keep[10:12, 2:4, 2:4] = False
+    vol = grid_volume(keep, cell_type)
+    assert vol.n_voids == 2 and vol.n_through_holes == 0
+    off, nc = vol.node_cells
+    half = _k.cell_halves(np.ascontiguousarray(vol.cells, np.int64), off, nc, vol.n_cells // 2)
+    void_nodes = vol.boundary_face_nodes[vol.boundary_groups >= 2].ravel()
+    around = np.unique(np.concatenate([nc[off[x]:off[x + 1]] for x in void_nodes]))
+    assert (half[around] >= 0).all() and set(half[around].tolist()) == {0, 1}
+    sk = thin_volume(vol, "bumps", record=True, parallel=True)
+    check_rules(vol, sk)
+    final_skeleton_checks(vol, sk)
+    assert sk.stats["pricks"] == 2 and sk.stats["removed_in_halves"] > 0
+
+
+def test_one_part_known_from_the_boundary():
+    # _one_part (no labelling of the cells) never says "one part" of a volume of several; on the manifold
+    # volumes of one part with no void-holding parts it says so
+    from polygen.volume.thinning import _one_part
+
+    rng = np.random.default_rng(3)
+    vols = [datasets.load(n) for n in TINY] + [b(t) for b in ADVERSARIAL.values() for t in ("tetra", "hexa")]
+    vols += [random_shape(rng, t) for t in ("tetra", "hexa") for _ in range(4)]
+    vols += [grid_volume(rng.random(tuple(rng.integers(2, 5, 3))) < 0.6, t)
+             for t in ("tetra", "hexa") for _ in range(8)]
+    said = several = 0
+    for vol in vols:
+        n_parts = vol.cell_components[1]
+        one = _one_part(vol, boundary_defects(vol))
+        assert not (one and n_parts > 1)
+        said += one
+        several += n_parts > 1
+    assert said > 0 and several > 0
+
+
+def test_halves_on_unordered_cells():
+    # cells in random order: most cells touch both halves (a thick band), the serial FIFO does most of the work,
+    # and the guarantees are the same
+    vol = datasets.load("data1")
+    rng = np.random.default_rng(2)
+    mixed = type(vol)(vol.points, vol.cells[rng.permutation(vol.n_cells)], dict(vol.fields), validate=False)
+    sk = thin_volume(mixed, parallel=True)
+    assert sk.stats["band_cells"] > mixed.n_cells // 2
+    final_skeleton_checks(mixed, sk)
+    s = mixed.scalars()
+    for v in iso_values(s, 40, seed=3):
+        hit, lab = intersected_components(mixed, s, v)
+        assert set(lab[sk.seeds(v).cells].tolist()) == set(np.unique(lab[hit]).tolist()), v

@@ -11,7 +11,7 @@ tetrahedra (4 faces of 3 nodes) and hexahedra (6 faces of 4 nodes).
 
 import numpy as np
 
-from polygen._jit import njit
+from polygen._jit import njit, prange
 
 # slots of the ``stats`` array the thinning kernel fills
 ST_PROCESSED = 0  # 8 slots: cells taken from the FIFO of class q (index q)
@@ -183,12 +183,13 @@ def _removable(c, cells, face_nb, fmask, cls, nb_node, stats, fa):
 
 
 @njit
-def _remove(c, cells, face_nb, cls, nb_node, queue, head, tail, order, n_removed, src, labelled, st):
+def _remove(c, cells, face_nb, cls, nb_node, queue, head, tail, order, n_removed, src, labelled, st, half, t):
     """Class C0 for ``c``; neighbours move one class down and into that class's FIFO (7.5.1).
 
     With ``src`` of length N (labels deferred, :func:`thin_resume`), each node that comes onto the
     boundary also records the node whose group it took (``src``) and is appended to ``labelled``
-    (``st[ST_N_LABELLED]`` of them so far).
+    (``st[ST_N_LABELLED]`` of them so far). With ``half`` of length M (:func:`thin_halves`), only the
+    neighbours with ``half == t`` (cells interior to this thread's half) go into the FIFO.
     """
     nf = face_nb.shape[1]
     cls[c] = 0
@@ -219,8 +220,9 @@ def _remove(c, cells, face_nb, cls, nb_node, queue, head, tail, order, n_removed
             cls[n] -= 1
             q = cls[n]
             if q > 0:
-                queue[q, tail[q]] = n
-                tail[q] += 1
+                if half.shape[0] == 0 or half[n] == t:
+                    queue[q, tail[q]] = n
+                    tail[q] += 1
             else:
                 implicit += 1
     return implicit
@@ -319,6 +321,8 @@ def _find_prick(cells, face_nb, local_faces, cls, nb_node, root, is_void, g, pic
             return 3
     return 0
 
+
+_NO_HALF = np.empty(0, np.int8)  # _remove's filter off: every neighbour of class >= 1 is queued
 
 #: slots of the state array of :func:`thin_resume`
 ST_N_REMOVED = 0
@@ -421,7 +425,7 @@ def thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void,
             if ok:
                 stats[ST_REMOVED + q] += 1
                 stats[ST_IMPLICIT] += _remove(c, cells, face_nb, cls, nb_node, queue, head, tail, order, n_removed,
-                                              src, labelled, st)
+                                              src, labelled, st, _NO_HALF, 0)
                 n_removed += 1
             continue
         if not prick:
@@ -452,7 +456,7 @@ def thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void,
         n_pricks += 1
         for j in range(k):
             stats[ST_IMPLICIT] += _remove(picked[j], cells, face_nb, cls, nb_node, queue, head, tail, order,
-                                          n_removed, src, labelled, st)
+                                          n_removed, src, labelled, st, _NO_HALF, 0)
             n_removed += 1
         root[g] = out_lab
         stats[ST_PRICKS] += 1
@@ -460,6 +464,113 @@ def thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void,
     st[ST_N_REMOVED] = n_removed
     st[ST_N_PRICKS] = n_pricks
     st[ST_N_DEC] = n_dec
+
+
+@njit(parallel=True)
+def cell_halves(cells, nc_off, nc, split):
+    """(M,) int8: 0 for a cell interior to the half ``[0, split)`` of the cells, 1 to ``[split, M)``, -1
+    for a band cell (one of its nodes is touched by cells of both halves).
+
+    ``nc_off``, ``nc``: the node -> cells lists, ascending (a node is in both halves when its first
+    cell is below ``split`` and its last is not). A cell interior to a half shares its faces, edges and
+    nodes only with cells of that half (every cell touching one of its nodes is in the half), so its
+    removal tests (7.5.2) read and its removal writes only that half's cells and nodes.
+    """
+    m, k = cells.shape
+    out = np.empty(m, np.int8)
+    for c in prange(m):
+        h = 0 if c < split else 1
+        for i in range(k):
+            x = cells[c, i]
+            if nc[nc_off[x]] < split <= nc[nc_off[x + 1] - 1]:
+                h = -1
+                break
+        out[c] = h
+    return out
+
+
+@njit
+def _thin_half(t, lo, hi, cells, face_nb, fmask, cls, nb_node, half, stats, order, decisions, st, src,
+               labelled):
+    """The FIFO of 7.5.2 (lowest class first, no pricking) over the cells ``half == t`` of ``[lo, hi)``."""
+    nf = face_nb.shape[1]
+    queue = np.empty((nf, hi - lo), np.int32)  # a cell enters each class's FIFO at most once
+    head = np.zeros(nf, np.int64)
+    tail = np.zeros(nf, np.int64)
+    for c in range(lo, hi):
+        q = cls[c]
+        if half[c] == t and 0 < q < nf:
+            queue[q, tail[q]] = c
+            tail[q] += 1
+    n_removed = 0
+    n_dec = 0
+    fa = np.empty(6, np.int64)
+    while True:
+        q = 1
+        c = -1
+        while q < nf:
+            while head[q] < tail[q]:
+                x = queue[q, head[q]]
+                head[q] += 1
+                if cls[x] == q:
+                    c = x
+                    break
+                stats[ST_STALE] += 1
+            if c >= 0:
+                break
+            q += 1
+        if c < 0:
+            break
+        stats[ST_PROCESSED + q] += 1
+        ok = _removable(c, cells, face_nb, fmask, cls, nb_node, stats, fa)
+        if n_dec < decisions.shape[0]:
+            decisions[n_dec, 0] = c
+            decisions[n_dec, 1] = q
+            decisions[n_dec, 2] = ok
+            decisions[n_dec, 3] = n_removed
+            n_dec += 1
+        if ok:
+            stats[ST_REMOVED + q] += 1
+            stats[ST_IMPLICIT] += _remove(c, cells, face_nb, cls, nb_node, queue, head, tail, order, n_removed,
+                                          src, labelled, st, half, t)
+            n_removed += 1
+    st[ST_N_REMOVED] = n_removed
+    st[ST_N_DEC] = n_dec
+
+
+@njit(parallel=True)
+def thin_halves(cells, face_nb, fmask, cls, nb_node, half, split, stats2, order, decisions, dec_split, st2, src,
+                labelled2):
+    """The FIFO of 7.5.2 in the two halves of the cells at once, each over its interior cells only.
+
+    Parameters
+    ----------
+    half : (M,) int8, from :func:`cell_halves` at ``split``
+    stats2 : (2, N_STATS) int64, each half's counters
+    order : (M,) int64 or (0,); half 0 writes its removals from 0, half 1 from ``split``
+    decisions : (D, 4) int64 or (0, 4); half 0 from row 0, half 1 from row ``dec_split`` (``decided_after``
+        counts the half's own removals)
+    st2 : (2, N_STATE) int64, each half's removals, decisions and deferred labels
+    src : (N,) int32 or (0,); with ``labelled2`` (2, N) int32: deferred labels as in :func:`thin_resume`,
+        each half appending to its row
+
+    A cell interior to a half reads and writes only cells and nodes of that half (:func:`cell_halves`),
+    so the halves share nothing and run in either order or at once with the same result; the removals
+    are those of a serial FIFO that ran half 0's, then half 1's. The cells left (the band and whatever
+    the halves could not remove next to it) are for :func:`fifo_init` and :func:`thin_resume`.
+    """
+    m = cells.shape[0]
+    rec = order.shape[0] > 0
+    for t in prange(2):
+        lo = 0 if t == 0 else split
+        hi = split if t == 0 else m
+        o = order[lo:hi] if rec else order
+        if decisions.shape[0] > 0:
+            d = decisions[:dec_split] if t == 0 else decisions[dec_split:]
+        else:
+            d = decisions
+        lab = labelled2[t] if src.shape[0] > 0 else labelled2[0, :0]
+        _thin_half(t, lo, hi, cells, face_nb, fmask, cls, nb_node, half, stats2[t], o, d, st2[t], src, lab)
 
 
 @njit

@@ -33,7 +33,14 @@ Preprocessing (once per volume and field, Fig. 7.5, :func:`thin_volume`):
    quadruple-shared nodes (with opposite open faces it stays); C_5 four.
    A removed cell's inner nodes come onto the boundary and take the group
    of its other nodes; its neighbours move one class down, into that
-   class's FIFO.
+   class's FIFO. On a large volume (``thin_volume(parallel=None)``) the
+   FIFO runs first in the two halves of the cells at once, each over the
+   cells whose nodes only its own cells touch, then serially over the rest
+   (:func:`_fifo_halves`): Thms 7.4-7.6 are proven one removal at a time,
+   from E, its neighbours, the cells around its edges and its nodes' n_B
+   (the thesis's proofs, appendix of chapter 7), so they hold in any order
+   of removals that pass the tests; the lowest-class-first rule of 7.5.2
+   shapes the skeleton (how thin it is), not its guarantees.
 4. **Voids** (7.5.3, Fig. 7.7). When every FIFO is empty, each void is
    still wrapped in a layer of cells. One layer is pricked open: the
    thesis's three cells -- E with nodes on the outer side and on the void,
@@ -275,11 +282,14 @@ class Skeleton:
         ``T_topology`` (face neighbours, components and boundary groups when not cached and not
         built beside the FIFO),
         ``T_check`` (:func:`boundary_defects`), ``nonmanifold_edges``, ``nonmanifold_nodes``,
-        ``T_pe`` (extrema and marks), ``T_thin`` (classes, n_B, removal), ``T_wait`` (on a large
+        ``T_pe`` (extrema and marks), ``T_thin`` (classes, n_B, removal; of which ``T_halves`` the two
+        halves at once, when ``parallel``; ``T_resume`` the FIFO's last run, with the pricking), ``T_wait`` (on a large
         volume, the FIFO's wait for the boundary groups numbered beside it),
         ``T_register`` (value classes), ``T_total`` (all but topology), ``extrema``,
         ``skeleton_cells`` (N_e2 of Table 7.1), ``C1`` .. ``C6`` (Table 7.2),
-        ``processed``/``removed`` per class, ``walks``, ``pricks``, ``prick_cells``.
+        ``processed``/``removed`` per class, ``walks``, ``pricks``, ``prick_cells``; ``parallel`` (the
+        FIFO ran in two halves first), ``band_cells`` (cells left to the serial FIFO from the start
+        then), ``removed_in_halves``.
     """
 
     vol: object
@@ -370,8 +380,21 @@ def _extremum_cells(vol, ext):
     return np.unique(np.asarray(nc)[np.asarray(off)[ext.nodes]]).astype(np.int64)
 
 
-def _parts_without_mark(vol, marked):
+def _one_part(vol, defects):
+    """Whether ``vol`` is known to be one face-connected part without labelling its cells.
+
+    With a 2-manifold boundary (no ``defects``: :func:`boundary_defects`) two parts share no boundary
+    node, so every boundary group belongs to one part; a part's groups enclose its (positive) volume,
+    so one of them is no void. One outer group then means one part (2M: saves the labelling, 0.09 s).
+    """
+    bad_edges, bad_nodes = defects
+    return bad_edges.size == 0 and bad_nodes.size == 0 and int(np.count_nonzero(~vol.group_is_void)) == 1
+
+
+def _parts_without_mark(vol, marked, defects=None):
     """(P,) int64: the first cell of each face-connected part of ``vol`` with no cell in ``marked``."""
+    if defects is not None and _one_part(vol, defects):
+        return np.zeros(0, np.int64)
     labels, n = vol.cell_components
     if n <= 1:
         return np.zeros(0, np.int64)
@@ -383,14 +406,14 @@ def _parts_without_mark(vol, marked):
     return first[~has].astype(np.int64)
 
 
-def _marked_cells(vol, ext):
+def _marked_cells(vol, ext, defects=None):
     """One cell per extremum (Def. 7.9), plus one for each face-connected part with none."""
     marked = _extremum_cells(vol, ext)
-    extra = _parts_without_mark(vol, marked)
+    extra = _parts_without_mark(vol, marked, defects)
     return np.unique(np.concatenate([marked, extra])) if extra.size else marked
 
 
-def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=None):
+def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=None, parallel=None):
     """Thin ``vol`` to a skeleton joining its extrema that keeps its genus (thesis 7.4-7.5).
 
     Parameters
@@ -406,6 +429,16 @@ def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=No
     n_buckets : int, keyword-only, optional
         Value classes of the skeleton (7.5.4); by default about one per
         eight skeleton cells, at most 1024.
+    parallel : bool or None, keyword-only
+        Run the FIFO of 7.5.2 first in the two halves of the cells at once (two threads), each over
+        the cells interior to it, then serially over the cells left (:func:`_fifo_halves`). Every
+        removal passes the same tests of 7.5.2, so Thms 7.4-7.6 hold, but the removal order, and so
+        the skeleton, differ from the serial FIFO's. ``None`` (default): from
+        ``PARALLEL_MIN_CELLS`` cells on a machine of two or more cores whose numba threading layer
+        lets parallel kernels overlap, unless ``record`` (a record then shows the thesis's order, one
+        layer after another, for Figs 7.18-7.21); ``False``: the serial FIFO; ``True``: always (a
+        record then lists half 0's removals, then half 1's, then the serial FIFO's: a valid serial
+        order, every test replayable on the state it names).
 
     Returns
     -------
@@ -415,13 +448,18 @@ def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=No
     if n_buckets is not None and (isinstance(n_buckets, bool) or not isinstance(n_buckets, (int, np.integer))
                                   or n_buckets < 1):
         raise ThinningError(f"n_buckets must be a positive integer; got {n_buckets!r}")
+    if parallel is not None and not isinstance(parallel, (bool, np.bool_)):
+        raise ThinningError(f"parallel must be True, False or None; got {parallel!r}")
+    if parallel is None:
+        parallel = (not record and vol.n_cells >= PARALLEL_MIN_CELLS and (os.cpu_count() or 1) >= 2
+                    and parallel_kernels_may_overlap())
     cells = np.ascontiguousarray(cells, np.int64)
     t0 = time.perf_counter()
     vol.node_cells  # first: face neighbours and edges are matched through it
     face_nb = vol.face_neighbors  # int32 while the cell ids fit; the kernels read it as it is
     aside = _edge_table_aside(vol)
     try:
-        return _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets)
+        return _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets, bool(parallel))
     finally:
         if aside is not None:
             aside.join()
@@ -429,6 +467,53 @@ def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=No
 
 #: volumes from this many cells build their edge table in a second thread while they are thinned
 _ASIDE_MIN_CELLS = 200_000
+#: volumes from this many cells run the FIFO in two halves at once by default (``thin_volume(parallel=None)``)
+PARALLEL_MIN_CELLS = 200_000
+
+
+def _fifo_halves(vol, cells, face_nb, fmask, cls, nb_node, order, decisions, counters, src):
+    """The FIFO of 7.5.2 in the two halves of the cells at once (:func:`_k.thin_halves`).
+
+    The cells are split at the median index (the cached volumes are Morton ordered, so each half is
+    a compact region and the band between them, the cells with a node touched by both halves, is
+    thin). Each half runs the FIFO, lowest class first, over its interior cells only: such a cell's
+    tests read only its face neighbours, the cells around its own edges and its own nodes, and its
+    removal writes only its neighbours' classes and its nodes' ``n_B`` -- all in its half, never read
+    or written by the other. Whatever is left (the band and the cells the halves could not remove
+    beside it) is queued afresh for the serial FIFO (:func:`_k.fifo_init`).
+
+    The removals equal those of a serial FIFO that ran half 0's, then half 1's: ``order`` and
+    ``decisions`` (when recorded) are written that way, and the split depends only on the cells, so
+    the result is the same run after run and for any number of numba threads.
+
+    Returns
+    -------
+    (n_band, n_removed, n_decisions, labelled) : the band's cells, the removals and recorded decisions
+    so far; ``labelled`` the
+    deferred-label lists ``[(nodes, n), (nodes, n)]`` of the halves, in order (empty without ``src``).
+    """
+    m = cells.shape[0]
+    split = m // 2
+    off, nc = vol.node_cells
+    half = _k.cell_halves(cells, off, nc, split)
+    nf = fmask.shape[0]
+    dec_split = split * (nf + 1) if decisions.shape[0] else 0
+    stats2 = np.zeros((2, _k.N_STATS), np.int64)
+    st2 = np.zeros((2, _k.N_STATE), np.int64)
+    labelled2 = np.empty((2, vol.n_points if src.shape[0] else 0), np.int32)
+    _k.thin_halves(cells, face_nb, fmask, cls, nb_node, half, split, stats2, order, decisions, dec_split, st2, src,
+                   labelled2)
+    counters += stats2.sum(axis=0)
+    n0, n1 = int(st2[0, _k.ST_N_REMOVED]), int(st2[1, _k.ST_N_REMOVED])
+    d0, d1 = int(st2[0, _k.ST_N_DEC]), int(st2[1, _k.ST_N_DEC])
+    if order.shape[0]:  # half 1's removals after half 0's
+        order[n0:n0 + n1] = order[split:split + n1].copy()
+    if decisions.shape[0]:
+        d = decisions[dec_split:dec_split + d1].copy()
+        d[:, 3] += n0
+        decisions[d0:d0 + d1] = d
+    labelled = [(labelled2[t], int(st2[t, _k.ST_N_LABELLED])) for t in range(2)] if src.shape[0] else []
+    return int(np.count_nonzero(half < 0)), n0 + n1, d0 + d1, labelled
 
 
 def _edge_table_aside(vol):
@@ -451,19 +536,21 @@ def _edge_table_aside(vol):
 
 
 def _beside_fifo(vol, out, faces_ready=None):
-    """Into ``out``: the boundary faces' nodes (then ``faces_ready`` is set), the cell components, the
-    boundary groups, then the boundary defects and their seconds (or the exception). On a large volume
-    a second thread runs this while this one finds the extrema and runs the FIFO."""
+    """Into ``out``: the boundary faces' nodes (then ``faces_ready`` is set), the boundary groups, then
+    the boundary defects and their seconds (or the exception); the cell components only where the
+    groups do not tell that the volume is one part (:func:`_one_part`). On a large volume a second
+    thread runs this while this one finds the extrema and runs the FIFO."""
     try:
         vol.boundary_face_nodes
         if faces_ready is not None:
             faces_ready.set()
-        vol.cell_components
         vol.boundary_groups
         vol.group_is_void
         t1 = time.perf_counter()
         out["defects"] = boundary_defects(vol)
         out["t_check"] = time.perf_counter() - t1
+        if not _one_part(vol, out["defects"]):
+            vol.cell_components
     except BaseException as exc:  # re-raised in the thinning thread
         out["error"] = exc
     finally:
@@ -471,7 +558,7 @@ def _beside_fifo(vol, out, faces_ready=None):
             faces_ready.set()
 
 
-def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
+def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets, parallel):
     """:func:`thin_volume` once the node -> cells lists and the face neighbours are there."""
     # The FIFO of 7.5.2 needs the marks (Def. 7.9) and, for its removal tests, only whether a node is on
     # the boundary (n_B != 0), not its group. So on a large volume a second thread labels the cell
@@ -504,7 +591,7 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
     t_topology = time.perf_counter() - t0 - t_pe
 
     t0 = time.perf_counter()
-    marked = _extremum_cells(vol, ext) if helper is not None else _marked_cells(vol, ext)
+    marked = _extremum_cells(vol, ext) if helper is not None else _marked_cells(vol, ext, side["defects"])
     t1 = time.perf_counter()
 
     # 7.5.1: classes (Def. 7.6) and node boundary-group numbers (Def. 7.8)
@@ -516,12 +603,29 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
     def start(marked):
         cls = np.empty(m, np.int8)
         _k.initial_classes(face_nb, marked, cls)
-        # every FIFO entry is taken once: the initial ones and up to F per removal
+        # every FIFO entry is taken once: the initial ones and up to F per removal (with the halves first,
+        # the serial run's initial ones again)
+        n_dec = m * (fmask.shape[0] + 1) + (m * fmask.shape[0] if parallel else 0)
         return (cls, np.zeros(vol.n_points, np.int64), np.empty(m if record else 0, np.int64),
-                np.zeros(_k.N_STATS, np.int64), np.empty((m * (fmask.shape[0] + 1) if record else 0, 4), np.int64),
-                _k.fifo_init(cls, fmask.shape[0]), np.zeros(_k.N_STATE, np.int64))
+                np.zeros(_k.N_STATS, np.int64), np.empty((n_dec if record else 0, 4), np.int64),
+                np.zeros(_k.N_STATE, np.int64))
 
-    cls, nb_node, order, counters, decisions, (queue, head, tail), st = start(marked)
+    def first_pass(src):
+        """The halves at once (``parallel``), then the FIFOs of the serial run: ``((queue, head, tail),
+        the halves' deferred-label lists)``."""
+        lists = []
+        if parallel:
+            th = time.perf_counter()
+            halves["band"], n, st[_k.ST_N_DEC], lists = _fifo_halves(vol, cells, face_nb, fmask, cls, nb_node,
+                                                                       order, decisions, counters, src)
+            st[_k.ST_N_REMOVED] = halves["removed"] = n
+            halves["t"] = time.perf_counter() - th
+        return _k.fifo_init(cls, fmask.shape[0]), lists
+
+    cls, nb_node, order, counters, decisions, st = start(marked)
+    fifo = None
+    lists = []
+    halves = {"band": 0, "removed": 0, "t": 0.0}
     t_wait = 0.0
     deferred = helper is not None
     if deferred:  # the FIFO with placeholder groups while the helper numbers them
@@ -533,6 +637,8 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
         nb_node[bfn.ravel()] = 1
         src = np.empty(vol.n_points, np.int32)
         labelled = np.empty(vol.n_points, np.int32)
+        fifo, lists = first_pass(src)
+        queue, head, tail = fifo
         _k.thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, np.zeros(1, np.int64),
                        np.zeros(1, np.bool_), False, order, np.zeros((1, 3), np.int64), counters, decisions,
                        queue, head, tail, np.zeros(1, np.bool_), st, src, labelled)
@@ -541,10 +647,11 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
         t_wait = time.perf_counter() - tw
         if "error" in side:
             raise side["error"]
-        extra = _parts_without_mark(vol, marked)
+        extra = _parts_without_mark(vol, marked, side["defects"])
         if extra.size:  # a part with no extremum: its mark was missing, thin again from the start
             marked = np.unique(np.concatenate([marked, extra]))
-            cls, nb_node, order, counters, decisions, (queue, head, tail), st = start(marked)
+            cls, nb_node, order, counters, decisions, st = start(marked)
+            fifo = None
             deferred = False
         else:
             nb_node[:] = 0
@@ -553,7 +660,12 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
     is_void_g = vol.group_is_void
     nb_node[bfn.ravel()] = np.repeat(groups, bfn.shape[1])
     if deferred:
+        for nodes, n in lists:  # the halves' first: the serial run's labels may come from theirs
+            _k.resolve_labels(nb_node, src, nodes, n)
         _k.resolve_labels(nb_node, src, labelled, st[_k.ST_N_LABELLED])
+    if fifo is None:
+        fifo, _ = first_pass(none)
+        queue, head, tail = fifo
     bad_edges, bad_nodes = side["defects"]
     t_check = side["t_check"]
     if bad_edges.size or bad_nodes.size:
@@ -567,9 +679,11 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
     is_void = np.zeros(n_groups + 1, np.bool_)
     is_void[1:] = is_void_g
     prick_log = np.zeros((n_groups + 1, 3), np.int64)
+    tr = time.perf_counter()
     _k.thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void, bool(prick_voids), order,
                    prick_log, counters, decisions, queue, head, tail, np.zeros(n_groups + 1, np.bool_), st,
                    none, none)
+    t_resume = time.perf_counter() - tr
     n_removed, n_pricks, n_dec = st[_k.ST_N_REMOVED], st[_k.ST_N_PRICKS], st[_k.ST_N_DEC]
     del queue
     t2 = time.perf_counter()
@@ -596,6 +710,8 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
         "T_pe": t_pe + t1 - t0,  # the extrema and the marks
         "T_thin": t2 - t1 - t_wait,  # classes, n_B, removal (not the wait for the groups, T_wait)
         "T_wait": t_wait,
+        "T_halves": halves["t"],
+        "T_resume": t_resume,
         "T_register": t3 - t2,
         "T_total": t_pe + t3 - t0,
         "extrema": ext.n,
@@ -612,6 +728,9 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets):
         "implicit_removals": int(counters[_k.ST_IMPLICIT]),
         "stale_fifo_entries": int(counters[_k.ST_STALE]),
         "n_buckets": nb_,
+        "parallel": bool(parallel),
+        "band_cells": int(halves["band"]),
+        "removed_in_halves": halves["removed"],
     }
     for q in range(0, 7):
         stats[f"C{q}"] = int(np.sum(counts == q))
@@ -693,8 +812,8 @@ class ThinningMethod(SeedsThenPropagate):
     description = "Itoh's volume thinning: a genus-keeping skeleton of cells, no boundary lists (chapter 7)"
     seeds = "thinning"
 
-    def _prepare(self, prick_voids=True, record=False, n_buckets=None):
-        super()._prepare(prick_voids=prick_voids, record=record, n_buckets=n_buckets)
+    def _prepare(self, prick_voids=True, record=False, n_buckets=None, parallel=None):
+        super()._prepare(prick_voids=prick_voids, record=record, n_buckets=n_buckets, parallel=parallel)
 
     @property
     def skeleton(self):
