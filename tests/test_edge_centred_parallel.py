@@ -56,13 +56,17 @@ def one_seed_per_component(iso):
 
 
 def assert_same_as_serial(serial, par):
-    """``par`` is ``serial``: the same surface, and equal arrays once both are in the canonical order."""
+    """``par`` is ``serial``: the same surface, and equal arrays once both are in the canonical order (the
+    positions bit for bit; the mean normals to 1e-12: the threads sum each vertex's terms in another order)."""
     assert_same_surface(serial, par)
     a, b = canonical_order(serial), canonical_order(par)
     np.testing.assert_array_equal(a.triangles, b.triangles)
     np.testing.assert_array_equal(a.triangle_cells, b.triangle_cells)
     np.testing.assert_array_equal(a.vertex_keys, b.vertex_keys)
     np.testing.assert_array_equal(a.vertices, b.vertices)
+    assert (a.normals is None) == (b.normals is None)
+    if a.normals is not None:
+        np.testing.assert_allclose(a.normals, b.normals, atol=1e-12, rtol=0)
 
 
 def both(vol, s, value, seeds, threads=2, **kw):
@@ -260,11 +264,16 @@ def test_stage3_by_the_threads(tets, monkeypatch):
         assert np.allclose(np.linalg.norm(b.normals, axis=1), 1.0)
 
 
-@pytest.mark.parametrize("tets", [True, False])
-def test_two_threads_interleaved_cell_by_cell(tets):
+@pytest.mark.parametrize("kernel", ["tetrahedra", "tetrahedra, generic", "hexahedra"])
+def test_two_threads_interleaved_cell_by_cell(kernel, monkeypatch):
     """A deterministic race: the two threads' shares take turns of one cell each (on one OS thread), so that
     they claim cells next to each other's all the time and decide many vertices by compare-and-swap, winning
-    and losing; from tiny buffers (restarts) and seeds everywhere. The serial surface each time."""
+    and losing; from tiny buffers (restarts) and seeds everywhere. The serial surface each time (normals to
+    1e-12). Tetrahedra run the specialised kernel (``_flood_tet``: positions and normal sums by the thread
+    that creates a vertex, normal terms for another thread's vertex listed and added afterwards; its list
+    made too small too) and, ``SPECIALISED_KERNEL = False``, the generic one."""
+    tets = kernel != "hexahedra"
+    monkeypatch.setattr(EdgeCentredTable, "SPECIALISED_KERNEL", kernel == "tetrahedra")
     vol = grid_volume((9, 8, 7), spacing=(0.1, 0.1, 0.1), tets=tets, seed=4)
     x = vol.points
     s = np.sin(11 * x[:, 0]) * np.cos(9 * x[:, 1]) + np.sin(8 * x[:, 2])
@@ -272,22 +281,31 @@ def test_two_threads_interleaved_cell_by_cell(tets):
     ser = EdgeCentredTable(vol, s)
     par = EdgeCentredTable(vol, s, threads=2)
     rng = np.random.default_rng(2)
-    contested = restarts = 0
+    contested = restarts = foreign = 0
+    causes = set()
     for rep, value in enumerate([0.25, *rng.uniform(np.quantile(s, 0.2), np.quantile(s, 0.8), 7)]):
         seeds = rng.permutation(vol.n_cells)[:rng.integers(2, 300)]
         if rep % 3 == 0:
             par._queue, par._tris, par._tri_cell, par._vkey, par._vend = (
                 np.empty(2, np.int32), np.empty((2, 3), np.int32), np.empty(2, np.int32), np.empty(2, np.int32),
                 np.empty((2, 2), np.int32))
+            par._fcode, par._fval = np.empty(2, np.int32), np.empty((2, 3))
         for turn in (1, 3):
             iso = par._extract_parallel(float(value), par._check_seeds(seeds), "mean", None, 2, interleave=turn)
             assert_same_as_serial(ser.extract(value, seeds), iso)
             assert (par._ev == -1).all()
             assert par.stats["per_thread"][0] > 0 and par.stats["per_thread"][1] > 0
+            assert par.stats["kernel"] == ("tetrahedra" if kernel == "tetrahedra" else "generic")
             contested += par.stats["contested"]
             restarts += par.stats["restarts"]
+            causes.update(par.stats["restart_causes"])
+            foreign += par.stats["foreign_terms"]
     assert contested > 100 and restarts > 0
     assert par.stats["node_vertices"] >= 0
+    if kernel == "tetrahedra":  # normal terms passed between the threads, and their list overflowed once at least
+        assert foreign > 100 and _k.FULL_FOREIGN in causes
+    else:
+        assert foreign == 0
 
 
 def test_lists_grow_and_queries_repeat():

@@ -558,7 +558,7 @@ class EdgeCentredTable:
         kernel's ``(status, n_polygons, n_triangles, n_vertices,
         any_node_vertex)`` and whether those two were written.
         """
-        if self.nn == 4 and self.rec is not None and lifo and self.SPECIALISED_KERNEL:
+        if lifo and self._specialised():
             cap = self._vkey.shape[0]
             if getattr(self, "_pos", None) is None or self._pos.shape[0] < cap:
                 self._pos = np.empty((cap, 3))
@@ -567,13 +567,7 @@ class EdgeCentredTable:
             if not all(a.flags.c_contiguous for a in bufs):  # flat views, written through (never a copy)
                 raise AssertionError("a query buffer is not contiguous")  # never: they are all made whole
             flat = [a.reshape(-1) for a in bufs]
-            tet = self.__dict__.get("_tet")
-            if tet is None or tet[0] is not self.dyn:  # flat views of the records and of this builder's state
-                rec1, dyn1 = self.rec.view(), self.dyn.view()
-                rec1.shape = dyn1.shape = (-1,)  # views (an assignment to shape never copies)
-                tet = self._tet = (self.dyn, rec1, dyn1, self.dyn.shape[1],
-                                   _k.tet_triangle_slots(self.table, self.count, self.case_mask))
-            _, rec1, dyn1, dw, slots = tet
+            rec1, dyn1, dw, slots = self._tet_views()
             return (*_k.construct_tet(rec1, dyn1, dw, self.ds, self.nodes, self.dyn, self.s, value, self.faces,
                                       self.table, self.count, self.case_mask, slots, self.local_edges, self.n_edges,
                                       self.ec, *self._nc(), gen, self._queue, n_queued, flat[0], self._tri_cell,
@@ -585,7 +579,23 @@ class EdgeCentredTable:
             self.case_mask, self.local_edges, self.n_edges, self.ec_off, self.ec, *self._nc(), gen,
             self._queue, n_queued, lifo, self._tris, self._tri_cell, self._vkey, self._vend, counters), False
 
-    def _parallel_buffers(self, threads):
+    def _tet_views(self):
+        """``(rec, dyn, dw, tri_slots)``: flat views of the records and of this builder's state, its row width,
+        and :func:`_edge_centred_kernels.tet_triangle_slots` (made once per state array), for the tetrahedron
+        kernels."""
+        tet = self.__dict__.get("_tet")
+        if tet is None or tet[0] is not self.dyn:
+            rec1, dyn1 = self.rec.view(), self.dyn.view()
+            rec1.shape = dyn1.shape = (-1,)  # views (an assignment to shape never copies)
+            tet = self._tet = (self.dyn, rec1, dyn1, self.dyn.shape[1],
+                               _k.tet_triangle_slots(self.table, self.count, self.case_mask))
+        return tet[1:]
+
+    def _specialised(self):
+        """Whether queries run the tetrahedron kernels (tetrahedra with records; :attr:`SPECIALISED_KERNEL`)."""
+        return self.nn == 4 and self.rec is not None and self.SPECIALISED_KERNEL
+
+    def _parallel_buffers(self, threads, tet=False):
         """The serial buffers seen as ``threads`` per-thread parts, and the vertex-id array ``ev`` (made once).
 
         The parallel construction runs in the serial one's query buffers (a
@@ -594,7 +604,11 @@ class EdgeCentredTable:
         list and the vertex lists; an overflow doubles the whole buffer, as
         in the serial path. ``ev`` (n_edges + n_nodes,) int32, -1 between
         queries: the vertex id of a contested edge or node, decided by
-        compare-and-swap.
+        compare-and-swap. With ``tet`` (the tetrahedron kernel) also the
+        parts of the positions and normal sums (``_pos``, ``_acc``, as many
+        rows as the vertex lists) and of the normal terms for other threads'
+        vertices (``_fcode``, ``_fval``); returns ``(stack, tris, tri_cell,
+        vkey, vend)`` and, with ``tet``, ``(pos, acc, fcode, fval)`` after them.
         """
         if getattr(self, "_ev", None) is None:
             self._ev = np.full(self.n_edges + self.vol.n_points, -1, np.int32)
@@ -609,9 +623,25 @@ class EdgeCentredTable:
             self._vkey = np.empty(2 * max(16 * threads, self._vkey.shape[0]), np.int32)
             self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
             q, tc, vc = self._queue.shape[0] // threads, self._tris.shape[0] // threads, self._vkey.shape[0] // threads
-        return (self._queue[:q * threads].reshape(threads, q), self._tris[:tc * threads].reshape(threads, tc, 3),
-                self._tri_cell[:tc * threads].reshape(threads, tc), self._vkey[:vc * threads].reshape(threads, vc),
-                self._vend[:vc * threads].reshape(threads, vc, 2))
+        out = (self._queue[:q * threads].reshape(threads, q), self._tris[:tc * threads].reshape(threads, tc, 3),
+               self._tri_cell[:tc * threads].reshape(threads, tc), self._vkey[:vc * threads].reshape(threads, vc),
+               self._vend[:vc * threads].reshape(threads, vc, 2))
+        if not tet:
+            return out
+        cap = self._vkey.shape[0]
+        if getattr(self, "_pos", None) is None or self._pos.shape[0] < cap:
+            self._pos = np.empty((cap, 3))
+            self._acc = np.empty((cap, 3))
+        if getattr(self, "_fcode", None) is None:  # contested vertices are a few per cent: an eighth of the triangles
+            self._fcode = np.empty(max(64 * threads, self._tris.shape[0] // 8), np.int32)
+            self._fval = np.empty((self._fcode.shape[0], 3))
+        fc = self._fcode.shape[0] // threads
+        while fc < 3 * mt:
+            self._fcode = np.empty(2 * max(3 * mt * threads, self._fcode.shape[0]), np.int32)
+            self._fval = np.empty((self._fcode.shape[0], 3))
+            fc = self._fcode.shape[0] // threads
+        return out + (self._pos[:vc * threads].reshape(threads, vc, 3), self._acc[:vc * threads].reshape(threads, vc, 3),
+                      self._fcode[:fc * threads].reshape(threads, fc), self._fval[:fc * threads].reshape(threads, fc, 3))
 
     def _fit_parts(self, threads, counters):
         """Grow the buffers (for the next query) until each thread's part could hold all of this surface.
@@ -620,6 +650,9 @@ class EdgeCentredTable:
         a surface that fitted may not fit a part the next time unless every
         part holds it whole: without this, a repeated query could restart.
         The buffers then hold ``threads`` times the largest surface so far.
+        The lists of normal terms for other threads' vertices (tetrahedron
+        kernel) grow to twice this query's total per part (their length
+        depends on the split too; an overflow only restarts the query).
         """
         pops, n_t, n_v = int(counters[:, 4].sum()), int(counters[:, 0].sum()), int(counters[:, 1].sum())
         if self._queue.shape[0] // threads < pops:
@@ -630,38 +663,58 @@ class EdgeCentredTable:
         if self._vkey.shape[0] // threads < n_v:
             self._vkey = np.empty(threads * n_v, np.int32)
             self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
+        n_f = 2 * int(counters[:, _k.N_PAR_COUNTERS - 1].sum()) + 3 * _m.MAX_TRIANGLES
+        if getattr(self, "_fcode", None) is not None and self._fcode.shape[0] // threads < n_f:
+            self._fcode = np.empty(threads * n_f, np.int32)
+            self._fval = np.empty((self._fcode.shape[0], 3))
 
     def _extract_parallel(self, value, seeds, normals, node_grad, threads, interleave=0):
-        """:meth:`extract` by ``threads`` threads (``_edge_centred_kernels.construct_parallel``).
+        """:meth:`extract` by ``threads`` threads (``_edge_centred_kernels.construct_parallel``, or
+        ``construct_tet_parallel`` for tetrahedra with records).
 
         ``interleave > 0`` (tests): the threads' shares run on this thread
         instead, taking turns of ``interleave`` cells each -- a deterministic
         race between them, whatever the machine's scheduler does.
         """
         nn, s = self.nn, self.s
+        tet = self._specialised()
+        mean = normals == "mean"
         restarts = 0
+        causes = []
         while True:
-            stack, tris, tri_cell, vkey, vend = self._parallel_buffers(threads)
+            parts = self._parallel_buffers(threads, tet)
+            stack, tris, tri_cell, vkey, vend = parts[:5]
             gen = self._next_generation(threads)  # thread t claims with gen + t
-            counters = np.zeros((threads, 8), np.int64)
+            counters = np.zeros((threads, _k.N_PAR_COUNTERS), np.int64)
             status = np.zeros(threads, np.int64)
             next_seed = np.zeros(1, np.int64)
             t0 = time.perf_counter()
-            args = (self.nodes, self.ids, self.starts, self.dyn, self.ds, nn, s, value, self.faces, self.table,
-                    self.count, self.case_mask, self.local_edges, self.n_edges, self.ec_off, self.ec, *self._nc(), gen,
-                    seeds, next_seed, self._ev, stack, tris, tri_cell, vkey, vend, counters)
+            if tet:
+                rec1, dyn1, dw, slots = self._tet_views()
+                nc_off, nc = self._nc()
+                args = (rec1, dyn1, dw, self.ds, self.nodes, self.dyn, s, value, self.faces, self.table, self.count,
+                        self.case_mask, slots, self.local_edges, self.n_edges, self.ec, nc_off, nc, gen, seeds,
+                        next_seed, self._ev, stack, tris, tri_cell, vkey, vend, self.points, *parts[5:], mean,
+                        counters)
+                flood, kernel = _k._flood_tet, _k.construct_tet_parallel
+            else:
+                args = (self.nodes, self.ids, self.starts, self.dyn, self.ds, nn, s, value, self.faces, self.table,
+                        self.count, self.case_mask, self.local_edges, self.n_edges, self.ec_off, self.ec, *self._nc(),
+                        gen, seeds, next_seed, self._ev, stack, tris, tri_cell, vkey, vend, counters)
+                flood, kernel = _k._flood, _k.construct_parallel
             if interleave:
                 status[:] = _k.PAUSED
                 while (status == _k.PAUSED).any():
                     for t in np.flatnonzero(status == _k.PAUSED):
-                        status[t] = _k._flood(t, *args, interleave)
+                        status[t] = flood(t, *args, interleave)
             else:
-                _k.construct_parallel(*args, status)
+                kernel(*args, status)
             _k.release_contested(vkey, counters, self._ev)  # ev back to -1 where a thread won a vertex
             if not status.any():
                 break
             restarts += 1  # a buffer was too small (or a table missing): grow (build) it and do the query again
             worst = int(status[status != _k.OK][0])
+            causes.append(worst)
             if worst == _k.FULL_QUEUE:
                 self._queue = np.empty(2 * self._queue.shape[0], np.int32)
             elif worst == _k.FULL_TRIANGLES:
@@ -669,6 +722,9 @@ class EdgeCentredTable:
                 self._tri_cell = np.empty(self._tris.shape[0], np.int32)
             elif worst == _k.NEED_NODE_CELLS:
                 self._build_node_cells()
+            elif worst == _k.FULL_FOREIGN:
+                self._fcode = np.empty(2 * self._fcode.shape[0], np.int32)
+                self._fval = np.empty((self._fcode.shape[0], 3))
             else:
                 self._vkey = np.empty(2 * self._vkey.shape[0], np.int32)
                 self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
@@ -678,30 +734,44 @@ class EdgeCentredTable:
         v_base = np.zeros(threads + 1, np.int64)
         v_base[1:] = np.cumsum(counters[:, 1])
         n_t, n_v = int(t_base[-1]), int(v_base[-1])
+        n_node_v = int(counters[:, 7].sum())
         tri = _jit.empty((n_t, 3), np.int64)
         tri_cell_out = _jit.empty(n_t, np.int64)
         keys = _jit.empty(n_v, np.int64)
         ends = np.empty((n_v, 2), np.int32)
-        _k.gather_parallel(tris, tri_cell, vkey, vend, counters, t_base, v_base, tri, tri_cell_out, keys, ends)
-        n_node_v = int(counters[:, 7].sum())
+        # the tetrahedron kernel's positions and mean normals, unless vertices on nodes are dropped below
+        fused = tet and n_node_v == 0
+        if tet:
+            vertices = _jit.empty((n_v, 3))
+            unit = _jit.empty((n_v, 3)) if mean else vertices[:0]
+            n_zero = np.zeros(threads, np.int64)
+            _k.gather_tet_parallel(tris, tri_cell, vkey, vend, *parts[5:9], counters, t_base, v_base, mean and fused,
+                                   tri, tri_cell_out, keys, ends, vertices, unit, n_zero)
+        else:
+            _k.gather_parallel(tris, tri_cell, vkey, vend, counters, t_base, v_base, tri, tri_cell_out, keys, ends)
         tri, tri_cell_out, keys, ends, collapsed = _drop_at_nodes(n_node_v > 0, tri, tri_cell_out, keys, ends,
                                                                   self.n_edges)
         n_v = keys.shape[0]
         t2 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
-        vertices = _jit.empty((n_v, 3))
-        mean_kernel = None
-        if n_t >= self.STAGE3_PARALLEL_TRIANGLES:  # positions and mean normals by the threads too
-            if n_v:
-                _k.positions_parallel(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
+        mean_kernel = mean_done = None
+        if fused:
+            if mean:
+                mean_done = (unit, int(n_zero.sum()))
+        else:
+            vertices = _jit.empty((n_v, 3))
+            if n_t >= self.STAGE3_PARALLEL_TRIANGLES:  # positions and mean normals by the threads too
+                if n_v:
+                    _k.positions_parallel(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
 
-            def mean_kernel(v, t, out):
-                _k.mean_normals_parallel(v, t, out, np.empty((threads - 1, v.shape[0], 3)))
-        elif n_v:
-            _k.positions(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
+                def mean_kernel(v, t, out):
+                    _k.mean_normals_parallel(v, t, out, np.empty((threads - 1, v.shape[0], 3)))
+            elif n_v:
+                _k.positions(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
         nrm = vertex_normals(normals, vertices, tri, keys, edges=np.ascontiguousarray(self.vol.edges), s=s,
-                             value=value, node_grad=node_grad, points=self.points, mean_kernel=mean_kernel)
+                             value=value, node_grad=node_grad, points=self.points, mean_kernel=mean_kernel,
+                             mean_done=mean_done)
         t3 = time.perf_counter() - t0
         n_p = int(counters[:, 3].sum())
         tested = int(counters[:, 5].sum())
@@ -714,8 +784,11 @@ class EdgeCentredTable:
             "lookups": 0,
             "restarts": restarts,
             "collapsed": tuple(map(tuple, collapsed.tolist())),
+            "restart_causes": tuple(causes),
             "threads": threads,
             "per_thread": tuple(int(x) for x in counters[:, 4]),
+            "kernel": "tetrahedra" if tet else "generic",
+            "foreign_terms": int(counters[:, _k.N_PAR_COUNTERS - 1].sum()),
         }
         return IsoSurface(
             value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell_out,
