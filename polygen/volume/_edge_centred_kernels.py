@@ -1484,6 +1484,16 @@ FULL_FOREIGN = 6
 N_PAR_COUNTERS = 9
 
 
+@njit(inline="always")
+def _thread_bits(n_thr):
+    """The bits of a thread number in a vertex code of the tetrahedron kernels: thread ``t``'s ``k``-th vertex
+    is ``k << b | t`` (a shift and a mask, where ``k * T + t`` needs a division to take apart)."""
+    b = 0
+    while (1 << b) < n_thr:
+        b += 1
+    return b
+
+
 @njit(error_model="numpy")
 def _corner_position(rec, rb, w, local_edges, s, value, points):
     """The position of vertex code ``w`` of the tetrahedron whose record starts at ``rec[rb]``, by
@@ -1534,9 +1544,13 @@ def _flood_tet(t, rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
     and ``fval`` (T, cap_f, 3) float64; ``counters[t]`` the
     ``N_PAR_COUNTERS`` columns (column 8: the terms in ``fcode[t]``).
     ``budget``: as in :func:`_flood`. Returns the thread's status
-    (``FULL_FOREIGN``: ``fcode`` is too small).
+    (``FULL_FOREIGN``: ``fcode`` is too small). Vertex codes are ``k << b |
+    t`` (thread ``t``'s ``k``-th vertex, ``b`` = :func:`_thread_bits`),
+    not :func:`_flood`'s ``k * T + t``.
     """
     n_thr = stack.shape[0]
+    tb = _thread_bits(n_thr)
+    tm = (1 << tb) - 1
     me = gen + t
     top = gen + n_thr
     cap_t = tris.shape[1] - _m.MAX_TRIANGLES
@@ -1649,7 +1663,7 @@ def _flood_tet(t, rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
                 break
             other = False
             node = -1
-            v = n_v * n_thr + t  # this thread's next vertex, unless another thread made it first
+            v = (n_v << tb) | t  # this thread's next vertex, unless another thread made it first
             if w < 6:
                 lo = _u(rec[rb + 10 + w])
                 key = ec[lo - 1]
@@ -1738,7 +1752,7 @@ def _flood_tet(t, rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
                 o = _cas(ev, key, -1, v)
                 if o != -1:
                     v = o
-            if v == n_v * n_thr + t:  # created here: key, edge ends, position (and a zero normal sum)
+            if v == (n_v << tb) | t:  # created here: key, edge ends, position (and a zero normal sum)
                 vkey[t, n_v] = ~key if other else key  # ~key: ev[key] holds this id, to be put back
                 if w < 6:
                     x = rec[rb + R_NODES + local_edges[w, 0]]
@@ -1762,7 +1776,7 @@ def _flood_tet(t, rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
                     for d in range(3):
                         acc[t, n_v, d] = 0.0
                 n_v += 1
-            if w < 6 and v % n_thr == t:
+            if w < 6 and v & tm == t:
                 continue  # pass 1 registered it: this thread made it
             # pass 2: (again) the vertex's id into this thread's cells around N, or around E after a lost CAS
             for q in range(lo, end):
@@ -1810,12 +1824,12 @@ def _flood_tet(t, rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
             tri_cell[t, n_t] = c
             n_t += 1
             if mean:  # the triangle's normal (marching.triangle_normal), into the sums of its corners
-                k0 = i0 // n_thr
-                k1 = i1 // n_thr
-                k2 = i2 // n_thr
-                own0 = i0 - k0 * n_thr == t
-                own1 = i1 - k1 * n_thr == t
-                own2 = i2 - k2 * n_thr == t
+                k0 = _u(i0 >> tb)
+                k1 = _u(i1 >> tb)
+                k2 = _u(i2 >> tb)
+                own0 = i0 & tm == t
+                own1 = i1 & tm == t
+                own2 = i2 & tm == t
                 if own0:
                     p0x, p0y, p0z = pos[t, k0, 0], pos[t, k0, 1], pos[t, k0, 2]
                 else:
@@ -1901,7 +1915,8 @@ def construct_tet_parallel(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_
 @njit(parallel=True, cache=_KCACHE)
 def gather_tet_parallel(tris, tri_cell, vkey, vend, pos, acc, fcode, fval, counters, t_base, v_base, mean, out_tri,
                         out_cell, out_key, out_end, out_pos, out_nrm, n_zero):
-    """:func:`gather_parallel` plus the positions and, with ``mean``, the unit mean normals.
+    """:func:`gather_parallel` (vertex codes ``k << b | u``, :func:`_thread_bits`) plus the positions and, with
+    ``mean``, the unit mean normals.
 
     Thread ``u`` copies its part (positions into ``out_pos``, normal sums
     into ``out_nrm``), then adds to the sums of its vertices the terms the
@@ -1913,12 +1928,14 @@ def gather_tet_parallel(tris, tri_cell, vkey, vend, pos, acc, fcode, fval, count
     to rounding.
     """
     n_thr = tris.shape[0]
+    tb = _thread_bits(n_thr)
+    tm = (1 << tb) - 1
     for t in prange(n_thr):
         b = t_base[t]
         for i in range(counters[t, 0]):
             for jj in range(3):
                 code = tris[t, i, jj]
-                out_tri[b + i, jj] = v_base[code % n_thr] + code // n_thr
+                out_tri[b + i, jj] = v_base[code & tm] + (code >> tb)
             out_cell[b + i] = tri_cell[t, i]
         b = v_base[t]
         for i in range(counters[t, 1]):
@@ -1938,8 +1955,8 @@ def gather_tet_parallel(tris, tri_cell, vkey, vend, pos, acc, fcode, fval, count
                     continue
                 for i in range(counters[t, 8]):
                     code = fcode[t, i]
-                    if code % n_thr == u:
-                        r = v_base[u] + code // n_thr
+                    if code & tm == u:
+                        r = v_base[u] + (code >> tb)
                         for d in range(3):
                             out_nrm[r, d] += fval[t, i, d]
             nz = 0
