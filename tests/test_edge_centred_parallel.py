@@ -428,3 +428,61 @@ def test_twenty_values_on_large_data_same_as_serial(name):
     for v in np.linspace(s.min(), s.max(), 22)[1:-1]:
         seeds = m.source.query(v).cells
         assert_same_as_serial(m.builder.extract(v, seeds), m.builder.extract(v, seeds, threads=2))
+
+
+# ------------------------------------------------------------------ threads="auto": the default
+def test_crossed_estimate_counts_the_crossed_cells():
+    """Every cell sampled (fewer cells than SPAN_SAMPLE): the estimate is the exact count of crossed cells (the
+    full scan's); a sample of 4096 cells on a larger grid: within five standard errors of it."""
+    vol = grid_volume((12, 11, 10), spacing=(0.1, 0.1, 0.1), jitter=0.2, seed=6)
+    s = np.sin(7 * vol.points[:, 0]) + np.cos(5 * vol.points[:, 1]) * vol.points[:, 2]
+    ec = EdgeCentredTable(vol, s)
+    assert vol.n_cells <= ec.SPAN_SAMPLE
+    for value in np.quantile(s, [0.02, 0.3, 0.5, 0.9]):
+        assert ec.crossed_estimate(value) == extract(vol, value, field=s).cells_intersected
+    assert ec.crossed_estimate(s.min() - 1) == 0 and ec.crossed_estimate(s.max() + 1) == 0
+    big = grid_volume((24, 22, 20), spacing=(0.05, 0.05, 0.05), jitter=0.2, seed=7)
+    s = np.sin(7 * big.points[:, 0]) + np.cos(5 * big.points[:, 1]) * big.points[:, 2]
+    ec = EdgeCentredTable(big, s)
+    ec.SPAN_SAMPLE = 4096
+    for value in np.quantile(s, [0.3, 0.5, 0.7]):
+        true = extract(big, value, field=s).cells_intersected
+        est = ec.crossed_estimate(value)
+        k = true * 4096 / big.n_cells  # expected sampled cells crossed
+        assert abs(est - true) <= 5 * np.sqrt(k) * big.n_cells / 4096, (value, est, true)
+
+
+def test_auto_threads_policy(monkeypatch):
+    """``threads="auto"`` (the default): several threads only for a surface estimated to cross at least
+    PARALLEL_MIN_CELLS cells and while no other program's task is runnable; the serial surface either way;
+    ``threads=`` at the query or the builder forces a count."""
+    import numba
+
+    from polygen.volume import edge_centred as ec_mod
+
+    vol = grid_volume((12, 11, 10), spacing=(0.1, 0.1, 0.1), jitter=0.2, seed=6)
+    s = np.random.default_rng(8).random(vol.n_points)
+    assert EdgeCentredTable(vol, s).threads == "auto"
+    assert methods.get("edge-centred-table")(vol, field=s).builder.threads == "auto"
+    ser = EdgeCentredTable(vol, s, threads=1)
+    auto = EdgeCentredTable(vol, s)
+    seeds = np.arange(vol.n_cells)
+    n = min(numba.get_num_threads(), __import__("os").cpu_count())
+    many = n if n >= 2 and _k.ATOMICS else 1
+    idle = {"busy": 0}
+    monkeypatch.setattr(ec_mod, "_runnable_elsewhere", lambda: idle["busy"])
+    value = 0.5
+    est = auto.crossed_estimate(value)
+    assert est > 100
+    for min_cells, busy, expected in ((est + 1, 0, 1), (est, 0, many), (est, n - 1, 1), (est, 10, 1)):
+        monkeypatch.setattr(EdgeCentredTable, "PARALLEL_MIN_CELLS", min_cells)
+        idle["busy"] = busy
+        assert_same_as_serial(ser.extract(value, seeds), auto.extract(value, seeds))
+        assert auto.stats["threads"] == expected, (min_cells, busy)
+    idle["busy"] = 10  # forced counts whatever the machine says
+    auto.extract(value, seeds, threads=2)
+    assert auto.stats["threads"] == (2 if _k.ATOMICS else 1)
+    ser.extract(value, seeds)
+    assert ser.stats["threads"] == 1
+    with pytest.raises(IsoSurfaceError, match="threads must be a whole number >= 1, 'auto'"):
+        EdgeCentredTable(vol, s, threads="all")

@@ -107,15 +107,68 @@ __all__ = ["EdgeCentredWalk", "EdgeCentredTable", "canonical_order", "EdgeCentre
 _INT32_MAX = np.iinfo(np.int32).max
 
 
-def _check_threads(threads):
-    """``threads`` as an int >= 1 (``None``: numba's thread count), else :class:`IsoSurfaceError`."""
+def _check_threads(threads, auto=False):
+    """``threads`` as an int >= 1 (``None``: numba's thread count; with ``auto``, ``"auto"`` as it is), else
+    :class:`IsoSurfaceError`."""
     if threads is None:
         import numba
 
         return numba.get_num_threads()
+    if auto and isinstance(threads, str) and threads == "auto":
+        return "auto"
     if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        raise IsoSurfaceError(f"threads must be a whole number >= 1 (or None: numba's thread count); got {threads!r}")
+        also = ", 'auto'" if auto else ""
+        raise IsoSurfaceError(f"threads must be a whole number >= 1{also} (or None: numba's thread count); "
+                              f"got {threads!r}")
     return int(threads)
+
+
+_OVERLAP_SAFE = []
+
+
+def _overlap_safe():
+    """:func:`polygen._jit.parallel_kernels_may_overlap`, asked once (it launches a parallel region: on a busy
+    machine a wait for the other cores)."""
+    if not _OVERLAP_SAFE:
+        _OVERLAP_SAFE.append(parallel_kernels_may_overlap())
+    return _OVERLAP_SAFE[0]
+
+
+def _own_runnable():
+    """Threads of this process running or runnable now besides the calling one (Linux ``/proc/self/task``)."""
+    n = 0
+    for tid in os.listdir("/proc/self/task"):
+        try:
+            with open(f"/proc/self/task/{tid}/stat", "rb") as f:
+                st = f.read()
+        except OSError:  # the thread ended meanwhile
+            continue
+        i = st.rindex(b")")
+        n += st[i + 2:i + 3] == b"R"
+    return max(0, n - 1)
+
+
+def _runnable_elsewhere():
+    """Tasks of other processes runnable on the machine now (Linux: ``/proc/loadavg``), else the 1-minute load
+    average; None where neither is known.
+
+    This process's own threads are not counted: numba's OpenMP workers
+    spin for 3-10 ms after each parallel region (measured here), so right
+    after a parallel query they would look like another program's work.
+    (The thread list is read only when the machine-wide count says busy.)
+    """
+    try:
+        with open("/proc/loadavg", "rb") as f:
+            running = int(f.read().split()[3].split(b"/")[0]) - 1  # less the calling thread
+        if running == 0:
+            return 0
+        return max(0, running - _own_runnable())
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.getloadavg()[0]
+    except (AttributeError, OSError):
+        return None
 
 
 def canonical_order(iso):
@@ -234,8 +287,9 @@ class EdgeCentredTable:
         third cache line when a cell is first reached and when it is taken
         from the queue. Default :attr:`DEFAULT_LAYOUT`, chosen by
         measurement (see the notes in ``benchmarks/results/interactive.md``).
-    threads : int or None, keyword-only
-        Threads for one query (default 1; ``None``: numba's thread count).
+    threads : int, "auto" or None, keyword-only
+        Threads for one query: a number (``None``: numba's thread count), or
+        ``"auto"`` (the default, below).
         With more than one, every thread runs this construction's own loop
         on its own stack, taking the next unclaimed seed from a shared
         counter whenever its stack runs dry; a thread claims a cell by
@@ -243,33 +297,56 @@ class EdgeCentredTable:
         per thread), and a vertex on an edge (node) whose cells belong to
         two threads gets its id by compare-and-swap on a per-edge array (see
         ``_edge_centred_kernels._flood``): each cell is constructed once,
-        the work is the serial construction's plus one CAS per cell (the
-        total work run on one core, construction and stage 3, in CPU time of
-        the thread: 1.12-1.14 times the serial's on 2M, 1.15-1.17 on data 4, 20
-        values), and the
-        triangles and vertices, gathered from per-thread parts of the
+        and the triangles and vertices, gathered from per-thread parts of the
         buffers by prefix sums, are the serial ones in another order
         (``canonical=True``, or :func:`canonical_order`, gives one order for
-        both). From :attr:`STAGE3_PARALLEL_TRIANGLES` triangles up the
-        positions and mean normals are computed by the threads too. Costs
+        both; the order changes from run to run, as the threads' shares do).
+        Tetrahedra with records run the parallel flood specialised as the
+        serial ``construct_tet`` is (``_edge_centred_kernels._flood_tet``):
+        the thread that creates a vertex writes its position (the serial
+        bits) and zeroes its normal sum, each thread adds its triangles'
+        normals into the sums of the vertices it created and lists the
+        terms for another thread's vertices (contested ones), which are
+        added after the parallel region: race-free, the mean normals equal
+        to the serial ones to rounding (1e-12; the terms are summed in
+        another order). Its total work (two threads' shares run on one core,
+        2M, 20 values, ``benchmarks/parallel_construction.py``) is about 1.2
+        times the serial's in CPU time (one compare-and-swap per cell, the
+        gather); the generic kernel (hexahedra, ``layout="volume"``)
+        computes positions and mean normals in separate passes, by the
+        threads from :attr:`STAGE3_PARALLEL_TRIANGLES` triangles up. Costs
         ``4 (n_edges + n_nodes)`` bytes more (the contested-vertex ids), and
         the query buffers grow to hold ``threads`` times the largest surface
         (each thread's part must hold a whole surface: how the work splits
         depends on the scheduler).
         ``stats`` then has ``pops`` (= ``constructed``: no cell is taken
         twice), ``contested`` (vertices decided by CAS), ``per_thread``
-        (cells each thread took). Without working atomics (``_edge_centred_kernels.ATOMICS``)
-        a query runs on one thread. The default stays 1. On a quiet 2-core
-        machine two threads pay (2M, 20 values, ``benchmarks/parallel_construction.py``:
-        median 1.89 -> 1.66 ms, the largest surface 41.2 -> 25.1 ms, the sum
-        208 -> 133 ms), but on a busy one a parallel region waits tens of
-        milliseconds for the second core to be scheduled (at load 6.6-11:
-        median 31-35 ms with two threads against 3.8-5.5 ms with one), and
-        the vertex order then changes from run to run; so more threads are
-        asked for (``threads=2``), not assumed. Two builders running such queries at once from two
-        Python threads need a thread-safe numba threading layer (``omp`` or
-        ``tbb``, not ``workqueue``); :meth:`EdgeCentredMethod.extract_many`
-        runs its values one thread each.
+        (cells each thread took), ``kernel`` and ``foreign_terms`` (normal
+        terms passed between the threads); every query's ``stats["threads"]``
+        says how many ran it. Without working atomics
+        (``_edge_centred_kernels.ATOMICS``) a query runs on one thread.
+
+        ``"auto"``: a query runs on ``min(numba threads, cores)`` threads
+        when (a) the surface is estimated to cross at least
+        :attr:`PARALLEL_MIN_CELLS` cells (:meth:`crossed_estimate`, a few
+        microseconds), (b) numba's threading layer lets two Python threads
+        launch parallel regions at once (``omp``, ``tbb``; not
+        ``workqueue``), and (c) no other program's task is runnable now
+        (``/proc/loadavg``, less this process's own threads; elsewhere the
+        1-minute load average) -- else, and for every smaller surface, on
+        one. Why (c): a parallel region ends when its last thread does, and
+        on a busy machine the second thread waits for a scheduler slice
+        (measured here at load 3-4: an empty parallel region 7.5 ms;
+        20 values on 2M with ``threads=2`` median 22.7 ms against 1.6 with
+        one); the check keeps the serial times there (at load 3.1-3.4,
+        12 of 100 queries ran on two threads, sum 170 ms against 146). On a
+        free second core two threads pay on large surfaces (2M before the
+        specialised flood, quiet: the largest 32.8 -> 22.1 ms, the sum
+        160 -> 114 ms). Two builders running parallel queries at once from
+        two Python threads need a thread-safe numba threading layer (``omp``
+        or ``tbb``, not ``workqueue``, where ``"auto"`` stays on one thread);
+        :meth:`EdgeCentredMethod.extract_many` runs its values one thread
+        each.
 
     Attributes
     ----------
@@ -307,8 +384,16 @@ class EdgeCentredTable:
     #: a serial query on tetrahedra with records in LIFO order runs the kernel specialised for it
     #: (``_edge_centred_kernels.construct_tet``); False: the generic one (tests and benchmarks compare them)
     SPECIALISED_KERNEL = True
+    #: ``threads="auto"``: a query runs on several threads only when the surface is estimated to cross at least
+    #: this many cells (:meth:`crossed_estimate`). Not a measured crossover (on a quiet machine two threads
+    #: already pay at a few thousand cells): 10 000 crossed cells is about 13 000 triangles, ~2 ms of serial work
+    #: on 2M, so that a parallel query whose second core turns out busy (one scheduler slice of waiting, 4-8 ms,
+    #: see the class docstring) is a large surface's query, not a small one's
+    PARALLEL_MIN_CELLS = 10_000
+    #: cells in the fixed random sample whose value ranges :meth:`crossed_estimate` counts
+    SPAN_SAMPLE = 1 << 16
 
-    def __init__(self, vol, field=None, *, order="lifo", threads=1, layout=None):
+    def __init__(self, vol, field=None, *, order="lifo", threads="auto", layout=None):
         t0 = time.perf_counter()
         if order not in ("fifo", "lifo"):
             raise IsoSurfaceError(f"order must be 'fifo' or 'lifo'; got {order!r}")
@@ -317,7 +402,7 @@ class EdgeCentredTable:
             raise IsoSurfaceError(f"layout must be 'records' or 'volume'; got {layout!r}")
         self.order = order
         self.layout = layout
-        self.threads = _check_threads(threads)
+        self.threads = _check_threads(threads, auto=True)
         self.vol = vol
         points, cells, s, cell_type = volume_arrays(vol, field)
         m, nn = cells.shape
@@ -427,6 +512,41 @@ class EdgeCentredTable:
             raise IsoSurfaceError(f"seed cells must be in 0..{m - 1}; got {bad[:5].tolist()}")
         return np.ascontiguousarray(seeds, np.int32)
 
+    def crossed_estimate(self, value):
+        """About how many cells the surface ``S = value`` crosses, in microseconds.
+
+        From a fixed sample of :attr:`SPAN_SAMPLE` cells (seeded, made at the
+        first call: their smallest and largest node values, sorted, 16 bytes
+        per sampled cell; every cell when there are fewer): a cell is crossed
+        when its smallest value is below ``value`` and its largest is not, so
+        the count is ``#(min < value) - #(max < value)``, two binary searches,
+        scaled to all the cells. Its standard error is about
+        ``sqrt(k) * M / SPAN_SAMPLE`` for ``k`` sampled cells crossed.
+        """
+        smp = self.__dict__.get("_span")
+        if smp is None or smp[0] is not self.s:
+            m = self.dyn.shape[0]
+            k = min(m, self.SPAN_SAMPLE)
+            idx = np.arange(m) if k == m else np.random.default_rng(0).integers(0, m, k)
+            x = self.s[self.nodes[idx]]
+            smp = self._span = (self.s, np.sort(x.min(axis=1)), np.sort(x.max(axis=1)), m / max(k, 1))
+        _, lo, hi, scale = smp
+        return float(np.searchsorted(lo, value, "left") - np.searchsorted(hi, value, "left")) * scale
+
+    def _auto_threads(self, value):
+        """The thread count of a ``threads="auto"`` query (see the class docstring)."""
+        import numba
+
+        n = min(numba.get_num_threads(), os.cpu_count() or 1)
+        if n < 2 or not _k.ATOMICS or self.crossed_estimate(value) < self.PARALLEL_MIN_CELLS:
+            return 1
+        if not _overlap_safe():  # workqueue: two Python threads' parallel queries would abort
+            return 1
+        busy = _runnable_elsewhere()
+        if busy is None:
+            return n
+        return max(1, min(n, int((os.cpu_count() or 1) - busy)))
+
     def _next_generation(self, n=1):
         """The first of ``n`` new generations (a parallel query takes one per thread)."""
         if self.generation > _INT32_MAX - n:  # once in 2**31 queries: really clear the stamps
@@ -446,11 +566,12 @@ class EdgeCentredTable:
             Cells to start from; the ones the surface does not cross are skipped.
         normals : {"mean", "gradient", None}, keyword-only
             As in :func:`polygen.volume.isosurface.extract`.
-        threads : int, optional, keyword-only
-            Threads for this query (default: the builder's ``threads``); more
-            than 1 runs the parallel construction (:meth:`_construct_parallel`):
-            the same triangles and vertices, in another order
-            (:func:`canonical_order` gives one order for both).
+        threads : int or "auto", optional, keyword-only
+            Threads for this query (default: the builder's ``threads``,
+            ``"auto"`` unless set; see the class docstring); more than 1 runs
+            the parallel construction (:meth:`_extract_parallel`): the same
+            triangles and vertices, in another order (:func:`canonical_order`
+            gives one order for both).
         canonical : bool, keyword-only
             Return the surface in :func:`canonical_order` (vertices by key,
             triangles by cell): the same arrays whatever the thread count
@@ -474,7 +595,9 @@ class EdgeCentredTable:
         value = check_value(value)
         check_normals(normals)
         seeds = self._check_seeds(seeds)
-        threads = self.threads if threads is None else _check_threads(threads)
+        threads = self.threads if threads is None else _check_threads(threads, auto=True)
+        if threads == "auto":
+            threads = self._auto_threads(value)
         node_grad = self.node_gradients if normals == "gradient" else None
         if threads > 1 and _k.ATOMICS:  # without compare-and-swap, one thread
             return self._extract_parallel(value, seeds, normals, node_grad, threads)
@@ -539,6 +662,7 @@ class EdgeCentredTable:
             "lookups": int(counters[_k.C_LOOKUPS]),
             "restarts": restarts,
             "collapsed": tuple(map(tuple, collapsed.tolist())),
+            "threads": 1,
         }
         return IsoSurface(
             value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell,
@@ -1177,10 +1301,12 @@ class _EdgeCentredMethods(IsosurfaceMethod):
         ``"extrema-graph"``, ``"span-filter"``, ...
     order : {"fifo", "lifo"}
         Queue discipline of the builder.
-    threads : int or None
-        Threads for one surface (``edge-centred-table`` only; default 1, see
-        :class:`EdgeCentredTable`). :meth:`extract_many` runs its values one
-        thread each whatever this is.
+    threads : int, "auto" or None
+        Threads for one surface (``edge-centred-table`` only; default
+        ``"auto"``: several for a large surface while no other program
+        competes for the cores, see :class:`EdgeCentredTable`; the other
+        method runs one). :meth:`extract_many` runs its values one thread
+        each whatever this is.
     **params
         Passed to the seed source.
 
@@ -1200,13 +1326,13 @@ class _EdgeCentredMethods(IsosurfaceMethod):
     construction = "edge-centred"
     builder_class = None
 
-    def _prepare(self, seeds="auto", order="lifo", threads=1, layout=None, **params):
+    def _prepare(self, seeds="auto", order="lifo", threads="auto", layout=None, **params):
         kw = {}
         if self.builder_class is EdgeCentredTable:
             kw["threads"] = threads
             if layout is not None:
                 kw["layout"] = layout
-        elif threads != 1 or layout is not None:
+        elif not (isinstance(threads, str) and threads == "auto" or threads == 1) or layout is not None:
             raise IsoSurfaceError(f"threads > 1 (one surface by several threads) and layout are the "
                                   f"edge-centred-table method's; {self.name!r} runs one thread on its records; "
                                   f"got threads={threads!r}, layout={layout!r}")
