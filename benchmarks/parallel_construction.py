@@ -137,9 +137,10 @@ def main(names):
              "construct_tet_parallel (positions and normal sums written by the threads as they go); '2 generic': the "
              "generic parallel kernel with positions and normals in separate parallel passes, the 2-thread path "
              "before; 'auto': the default threads='auto' (2 threads for surfaces estimated at >= PARALLEL_MIN_CELLS "
-             "crossed cells when no other program's task is runnable, else 1); contested: vertices whose id was decided by "
-             "compare-and-swap (edges between the two threads' regions), 2-thread run; largest: cells taken by each "
-             "thread on the largest surface (first repeat)",
+             "crossed cells when no other program's task is runnable, else 1; 'auto: parallel queries' counts the "
+             "2-thread ones); contested: vertices whose id was decided by compare-and-swap (edges between the two "
+             "threads' regions), 2-thread run; largest: cells taken by each thread on the largest surface (first "
+             "repeat)",
              "cpu_sum_ms: CPU time of the calling thread per extract (time.thread_time), median per value, summed: "
              "all the work for 1 thread and for '2 on 1 core' (the parallel algorithm's total work, free of the "
              "machine's load), the main thread's share for 2 threads",

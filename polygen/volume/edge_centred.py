@@ -477,6 +477,7 @@ class EdgeCentredTable:
         new._vkey = np.empty_like(self._vkey)
         new._vend = np.empty_like(self._vend)
         new._pos = new._acc = None  # made at its first query
+        new._fcode = new._fval = None
         new._ev = None
         new.stats = {}
         return new
@@ -764,8 +765,10 @@ class EdgeCentredTable:
             self._fcode = np.empty(2 * max(3 * mt * threads, self._fcode.shape[0]), np.int32)
             self._fval = np.empty((self._fcode.shape[0], 3))
             fc = self._fcode.shape[0] // threads
-        return out + (self._pos[:vc * threads].reshape(threads, vc, 3), self._acc[:vc * threads].reshape(threads, vc, 3),
-                      self._fcode[:fc * threads].reshape(threads, fc), self._fval[:fc * threads].reshape(threads, fc, 3))
+        return out + (self._pos[:vc * threads].reshape(threads, vc, 3),
+                      self._acc[:vc * threads].reshape(threads, vc, 3),
+                      self._fcode[:fc * threads].reshape(threads, fc),
+                      self._fval[:fc * threads].reshape(threads, fc, 3))
 
     def _fit_parts(self, threads, counters):
         """Grow the buffers (for the next query) until each thread's part could hold all of this surface.
@@ -932,7 +935,12 @@ class EdgeCentredTable:
         (the volume's ``edges``, read by stage 3 for gradient normals and
         degenerate ones; its ``cell_edges`` serve the preparation only),
         ``buffers`` (queue, triangles, vertex keys and ends at their
-        current sizes; a parallel query cuts them into one part per thread);
+        current sizes, with the positions and normal sums of the tetrahedron
+        kernels and, after a parallel query on tetrahedra, the lists of
+        normal terms passed between its threads; a parallel query cuts them
+        into one part per thread); after a ``threads="auto"`` query on a
+        volume of more cells than :attr:`SPAN_SAMPLE`, ``span_sample`` (its
+        sorted value ranges, 16 bytes per sampled cell);
         after a query with ``threads > 1`` also ``parallel`` (the id of a
         contested vertex per edge and node, int32, -1 between queries).
         """
@@ -942,8 +950,9 @@ class EdgeCentredTable:
             "edge_cells": int(self.ec.nbytes),
             "edge_list": int(vol.edges.nbytes),
             "buffers": int(self._queue.nbytes + self._tris.nbytes + self._tri_cell.nbytes + self._vkey.nbytes
-                           + self._vend.nbytes + sum(getattr(self, a, None).nbytes for a in ("_pos", "_acc")
-                                                     if getattr(self, a, None) is not None)),
+                           + self._vend.nbytes
+                           + sum(getattr(self, a).nbytes for a in ("_pos", "_acc", "_fcode", "_fval")
+                                 if getattr(self, a, None) is not None)),
         }
         if self.ec_off.size:
             out["edge_cells_offsets"] = int(self.ec_off.nbytes)
@@ -953,6 +962,8 @@ class EdgeCentredTable:
             out["node_cells"] = int(sum(a.nbytes for a in self._node_cells["nc"]))
         if getattr(self, "_ev", None) is not None:
             out["parallel"] = int(self._ev.nbytes)
+        if self.__dict__.get("_span") is not None:
+            out["span_sample"] = int(self._span[1].nbytes + self._span[2].nbytes)
         return out
 
 
