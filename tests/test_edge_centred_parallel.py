@@ -486,3 +486,24 @@ def test_auto_threads_policy(monkeypatch):
     assert ser.stats["threads"] == 1
     with pytest.raises(IsoSurfaceError, match="threads must be a whole number >= 1, 'auto'"):
         EdgeCentredTable(vol, s, threads="all")
+
+
+@pytest.mark.parametrize("tets", [True, False])
+def test_gradient_and_no_normals_with_two_threads(tets):
+    """``normals="gradient"`` and ``None`` by two threads: the serial positions and gradient normals bit for bit
+    (each vertex's own computation; the tetrahedron flood's positions are the serial kernel's expression), none
+    asked, none given."""
+    vol = grid_volume((10, 9, 8), spacing=(0.1, 0.1, 0.1), tets=tets, jitter=0.2 if tets else 0.0, seed=9)
+    s = np.random.default_rng(10).random(vol.n_points)
+    ser = EdgeCentredTable(vol, s, threads=1)
+    par = EdgeCentredTable(vol, s, threads=2)
+    seeds = np.arange(vol.n_cells)
+    for value in (0.35, 0.6):
+        for normals in ("gradient", None):
+            a = ser.extract(value, seeds, normals=normals, canonical=True)
+            b = par.extract(value, seeds, normals=normals, canonical=True)
+            assert_same_as_serial(a, b)
+            if normals is None:
+                assert b.normals is None
+            else:
+                np.testing.assert_array_equal(a.normals, b.normals)
