@@ -339,10 +339,14 @@ class EdgeCentredTable:
         (measured here at load 3-4: an empty parallel region 7.5 ms;
         20 values on 2M with ``threads=2`` median 22.7 ms against 1.6 with
         one); the check keeps the serial times there (at load 3.1-3.4,
-        12 of 100 queries ran on two threads, sum 170 ms against 146). On a
-        free second core two threads pay on large surfaces (2M before the
-        specialised flood, quiet: the largest 32.8 -> 22.1 ms, the sum
-        160 -> 114 ms). Two builders running parallel queries at once from
+        12 of 100 queries ran on two threads, sum 170 ms against 146; at
+        3.2-3.6, none of 100). On a free second core two threads pay (numba
+        0.68, ``omp`` layer, an empty parallel region 2 us; 2M, 20 values,
+        sweeps timed only while no other program's task was runnable: one
+        thread median 1.41 / largest 26.4 / sum 129 ms, two threads 0.96 /
+        16.1 / 81.3, ``"auto"`` 1.08 / 16.0 / 80.8; the generic parallel
+        kernel 1.03 / 18.2 / 90.4 against 0.95 / 16.6 / 83.0 for this one in
+        the same sweeps). Two builders running parallel queries at once from
         two Python threads need a thread-safe numba threading layer (``omp``
         or ``tbb``, not ``workqueue``, where ``"auto"`` stays on one thread);
         :meth:`EdgeCentredMethod.extract_many` runs its values one thread
@@ -387,8 +391,8 @@ class EdgeCentredTable:
     #: ``threads="auto"``: a query runs on several threads only when the surface is estimated to cross at least
     #: this many cells (:meth:`crossed_estimate`). Not a measured crossover (on a quiet machine two threads
     #: already pay at a few thousand cells): 10 000 crossed cells is about 13 000 triangles, ~2 ms of serial work
-    #: on 2M, so that a parallel query whose second core turns out busy (one scheduler slice of waiting, 4-8 ms,
-    #: see the class docstring) is a large surface's query, not a small one's
+    #: on 2M, so that a parallel query whose second core turns out busy (one scheduler slice of waiting, ~7 ms at
+    #: load 3-4, see the class docstring) is a large surface's query, not a small one's
     PARALLEL_MIN_CELLS = 10_000
     #: cells in the fixed random sample whose value ranges :meth:`crossed_estimate` counts
     SPAN_SAMPLE = 1 << 16
