@@ -7,10 +7,15 @@ prepared once (thinning seeds); each value is extracted by the builder with
 each thread runs the serial construction on its own stack, cells and
 contested vertices claimed by compare-and-swap, see ``EdgeCentredTable``), and
 ``threads=2`` with numba limited to one thread ("2 on 1 core": the parallel
-algorithm's total work, one thread after the other), and ``threads=1`` by the
+algorithm's total work, one thread after the other), ``threads=1`` by the
 generic serial kernel with stage 3 in separate passes ("1 generic": the
 serial path before issue 20's specialised tetrahedron kernel, which builds the
-same arrays), interleaved,
+same arrays), ``threads=2`` by the generic parallel kernel with stage 3 in
+separate parallel passes ("2 generic": the parallel path before the
+specialised parallel flood ``construct_tet_parallel``), and the default
+``threads="auto"`` ("auto": two threads when the surface is estimated to
+cross at least ``PARALLEL_MIN_CELLS`` cells and no other program's task is
+runnable, see ``EdgeCentredTable``), interleaved,
 ``REPEATS`` times, mean normals on, the seed search done beforehand (it is
 the same for both). Per value: the median wall time of ``extract`` (the
 construction ``t2`` and positions/normals ``t3`` included) and of ``t2``
@@ -39,7 +44,8 @@ from polygen.volume.surface import same_surface
 DATA = ["data4", "2M"]
 REPEATS = 5
 COLUMNS = ["data", "cells", "threads", "median_ms", "max_ms", "sum_ms", "t2_median_ms", "t2_max_ms",
-           "cpu_sum_ms", "triangles (sum)", "vertices (sum)", "contested (sum)", "largest: cells per thread",
+           "cpu_sum_ms", "triangles (sum)", "vertices (sum)", "contested (sum)", "auto: parallel queries",
+           "largest: cells per thread",
            "same as serial", "load before", "load after"]
 
 
@@ -53,7 +59,9 @@ def run(name):
     for v, sd in zip(values, seeds):  # compile and warm the caches; check the surfaces
         ref = b.extract(v, sd, threads=1)
         assert same_surface(ref, b.extract(v, sd, threads=2)), (name, v)
+        assert same_surface(ref, b.extract(v, sd, threads="auto")), (name, v)
         EdgeCentredTable.SPECIALISED_KERNEL = False
+        assert same_surface(ref, b.extract(v, sd, threads=2)), (name, v)
         gen = b.extract(v, sd, threads=1)
         EdgeCentredTable.SPECIALISED_KERNEL = True
         for a in ("triangles", "vertices", "normals", "vertex_keys", "triangle_cells"):  # the same arrays
@@ -61,8 +69,9 @@ def run(name):
     load0 = os.getloadavg()[0]
     # "2 on 1 core": the two threads' work run one after the other on one core (numba.set_num_threads(1)):
     # the parallel algorithm's total work, free of waiting for a busy second core
-    kinds = [1, 2, "2 on 1 core", "1 generic"]
+    kinds = [1, 2, "2 on 1 core", "1 generic", "2 generic", "2 generic on 1 core", "auto"]
     balance = []  # the largest surface's cells per thread, threads=2
+    went_parallel = 0  # "auto" queries that ran on more than one thread
     wall = {k: np.zeros((REPEATS, len(values))) for k in kinds}
     t2 = {k: np.zeros((REPEATS, len(values))) for k in kinds}
     cpu = {k: np.zeros((REPEATS, len(values))) for k in kinds}
@@ -73,16 +82,18 @@ def run(name):
     max_tris = max(b.extract(v, sd).n_triangles for v, sd in zip(values, seeds))
     for r in range(REPEATS):
         for i, (v, sd) in enumerate(zip(values, seeds)):
-            for kind in kinds[r % 4:] + kinds[:r % 4]:
-                th = 2 if kind in (2, "2 on 1 core") else 1
-                numba.set_num_threads(1 if kind == "2 on 1 core" else n_thr)
-                EdgeCentredTable.SPECIALISED_KERNEL = kind != "1 generic"
+            for kind in kinds[r % len(kinds):] + kinds[:r % len(kinds)]:
+                th = 2 if str(kind).startswith("2") else "auto" if kind == "auto" else 1
+                numba.set_num_threads(1 if str(kind).endswith("on 1 core") else n_thr)
+                EdgeCentredTable.SPECIALISED_KERNEL = "generic" not in str(kind)
                 c0 = time.thread_time()
                 t0 = time.perf_counter()
                 iso = b.extract(v, sd, threads=th)
                 wall[kind][r, i] = time.perf_counter() - t0
                 cpu[kind][r, i] = time.thread_time() - c0
                 t2[kind][r, i] = iso.t2
+                if kind == "auto":
+                    went_parallel += b.stats["threads"] > 1
                 if r == 0:
                     tris[kind] += iso.n_triangles
                     verts[kind] += iso.n_vertices
@@ -102,7 +113,8 @@ def run(name):
                      "t2_median_ms": float(np.median(per_value_t2)), "t2_max_ms": float(per_value_t2.max()),
                      "cpu_sum_ms": float(np.median(cpu[th], axis=0).sum() * 1e3),
                      "triangles (sum)": tris[th], "vertices (sum)": verts[th],
-                     "contested (sum)": contested if th in (2, "2 on 1 core") else 0,
+                     "contested (sum)": contested if str(th).startswith("2") and "generic" not in str(th) else 0,
+                     "auto: parallel queries": f"{went_parallel}/{REPEATS * len(values)}" if th == "auto" else "",
                      "largest: cells per thread": str(balance[0]) if th == 2 and balance else "",
                      "same as serial": True, "load before": round(load0, 2), "load after": round(load1, 2)})
     return rows
@@ -111,8 +123,9 @@ def run(name):
 def main(names):
     rows = []
     for name in names:
-        rows += run(name)
-        print(*rows[-4:], sep="\n", flush=True)
+        new = run(name)
+        rows += new
+        print(*new, sep="\n", flush=True)
     notes = [f"{REPEATS} interleaved repeats per value; per value the median, then the median / max / sum over "
              "the 20 values; wall = the builder's extract (construction, positions, mean normals) after the seed "
              "search; t2 = the construction alone",
@@ -120,15 +133,23 @@ def main(names):
              "normal sums written as it goes, so its t2 includes them); '1 generic': the generic kernel with "
              "stage 3 in separate passes, "
              "the serial path before (the same arrays, checked)",
-             "threads = 2: EdgeCentredTable(..., threads=2); contested: vertices whose id was decided by "
-             "compare-and-swap (edges between the two threads' regions), 2-thread run; largest: cells taken by each "
-             "thread on the largest surface (first repeat)",
+             "threads = 2: EdgeCentredTable(..., threads=2), on tetrahedra the specialised parallel flood "
+             "construct_tet_parallel (positions and normal sums written by the threads as they go); '2 generic': the "
+             "generic parallel kernel with positions and normals in separate parallel passes, the 2-thread path "
+             "before; 'auto': the default threads='auto' (2 threads for surfaces estimated at >= PARALLEL_MIN_CELLS "
+             "crossed cells when no other program's task is runnable, else 1; 'auto: parallel queries' counts the "
+             "2-thread ones); contested: vertices whose id was decided by compare-and-swap (edges between the two "
+             "threads' regions), 2-thread run; largest: cells taken by each thread on the largest surface (first "
+             "repeat)",
              "cpu_sum_ms: CPU time of the calling thread per extract (time.thread_time), median per value, summed: "
              "all the work for 1 thread and for '2 on 1 core' (the parallel algorithm's total work, free of the "
              "machine's load), the main thread's share for 2 threads",
              "before issue 20's compare-and-swap construction (the three-pass path: propagate with claims, number, "
              "write), 2M on a quiet machine: threads=1 median 1.73 / max 39.8 / sum 191.6 ms, threads=2 2.13 / 46.6 / "
              "221.9, 2 on 1 core 3.00 / 80.3 / 377.5 (twice the serial work)",
+             "before the specialised parallel flood (threads=2 by the generic kernel, positions and normals in "
+             "separate parallel passes), 2M, quiet rerun (load 1.0-1.08): threads=1 median 1.642 / max 32.81 / sum "
+             "160.1 ms, threads=2 1.501 / 22.1 / 113.8, 2 on 1 core 1.934 / 41.26 / 199.8",
              f"load: 1-minute load average of the machine ({os.cpu_count()} cores) before / after the timed loop"]
     return write_results("parallel_construction", rows, COLUMNS,
                          title="One isosurface, one thread or two (edge-centred construction)", notes=notes)

@@ -56,13 +56,17 @@ def one_seed_per_component(iso):
 
 
 def assert_same_as_serial(serial, par):
-    """``par`` is ``serial``: the same surface, and equal arrays once both are in the canonical order."""
+    """``par`` is ``serial``: the same surface, and equal arrays once both are in the canonical order (the
+    positions bit for bit; the mean normals to 1e-12: the threads sum each vertex's terms in another order)."""
     assert_same_surface(serial, par)
     a, b = canonical_order(serial), canonical_order(par)
     np.testing.assert_array_equal(a.triangles, b.triangles)
     np.testing.assert_array_equal(a.triangle_cells, b.triangle_cells)
     np.testing.assert_array_equal(a.vertex_keys, b.vertex_keys)
     np.testing.assert_array_equal(a.vertices, b.vertices)
+    assert (a.normals is None) == (b.normals is None)
+    if a.normals is not None:
+        np.testing.assert_allclose(a.normals, b.normals, atol=1e-12, rtol=0)
 
 
 def both(vol, s, value, seeds, threads=2, **kw):
@@ -260,11 +264,16 @@ def test_stage3_by_the_threads(tets, monkeypatch):
         assert np.allclose(np.linalg.norm(b.normals, axis=1), 1.0)
 
 
-@pytest.mark.parametrize("tets", [True, False])
-def test_two_threads_interleaved_cell_by_cell(tets):
+@pytest.mark.parametrize("kernel", ["tetrahedra", "tetrahedra, generic", "hexahedra"])
+def test_two_threads_interleaved_cell_by_cell(kernel, monkeypatch):
     """A deterministic race: the two threads' shares take turns of one cell each (on one OS thread), so that
     they claim cells next to each other's all the time and decide many vertices by compare-and-swap, winning
-    and losing; from tiny buffers (restarts) and seeds everywhere. The serial surface each time."""
+    and losing; from tiny buffers (restarts) and seeds everywhere. The serial surface each time (normals to
+    1e-12). Tetrahedra run the specialised kernel (``_flood_tet``: positions and normal sums by the thread
+    that creates a vertex, normal terms for another thread's vertex listed and added afterwards; its list
+    made too small too) and, ``SPECIALISED_KERNEL = False``, the generic one."""
+    tets = kernel != "hexahedra"
+    monkeypatch.setattr(EdgeCentredTable, "SPECIALISED_KERNEL", kernel == "tetrahedra")
     vol = grid_volume((9, 8, 7), spacing=(0.1, 0.1, 0.1), tets=tets, seed=4)
     x = vol.points
     s = np.sin(11 * x[:, 0]) * np.cos(9 * x[:, 1]) + np.sin(8 * x[:, 2])
@@ -272,22 +281,31 @@ def test_two_threads_interleaved_cell_by_cell(tets):
     ser = EdgeCentredTable(vol, s)
     par = EdgeCentredTable(vol, s, threads=2)
     rng = np.random.default_rng(2)
-    contested = restarts = 0
+    contested = restarts = foreign = 0
+    causes = set()
     for rep, value in enumerate([0.25, *rng.uniform(np.quantile(s, 0.2), np.quantile(s, 0.8), 7)]):
         seeds = rng.permutation(vol.n_cells)[:rng.integers(2, 300)]
         if rep % 3 == 0:
             par._queue, par._tris, par._tri_cell, par._vkey, par._vend = (
                 np.empty(2, np.int32), np.empty((2, 3), np.int32), np.empty(2, np.int32), np.empty(2, np.int32),
                 np.empty((2, 2), np.int32))
+            par._fcode, par._fval = np.empty(2, np.int32), np.empty((2, 3))
         for turn in (1, 3):
             iso = par._extract_parallel(float(value), par._check_seeds(seeds), "mean", None, 2, interleave=turn)
             assert_same_as_serial(ser.extract(value, seeds), iso)
             assert (par._ev == -1).all()
             assert par.stats["per_thread"][0] > 0 and par.stats["per_thread"][1] > 0
+            assert par.stats["kernel"] == ("tetrahedra" if kernel == "tetrahedra" else "generic")
             contested += par.stats["contested"]
             restarts += par.stats["restarts"]
+            causes.update(par.stats["restart_causes"])
+            foreign += par.stats["foreign_terms"]
     assert contested > 100 and restarts > 0
     assert par.stats["node_vertices"] >= 0
+    if kernel == "tetrahedra":  # normal terms passed between the threads, and their list overflowed once at least
+        assert foreign > 100 and _k.FULL_FOREIGN in causes
+    else:
+        assert foreign == 0
 
 
 def test_lists_grow_and_queries_repeat():
@@ -409,4 +427,83 @@ def test_twenty_values_on_large_data_same_as_serial(name):
     m = methods.get("edge-centred-table")(vol, field="fem")
     for v in np.linspace(s.min(), s.max(), 22)[1:-1]:
         seeds = m.source.query(v).cells
-        assert_same_as_serial(m.builder.extract(v, seeds), m.builder.extract(v, seeds, threads=2))
+        assert_same_as_serial(m.builder.extract(v, seeds, threads=1), m.builder.extract(v, seeds, threads=2))
+
+
+# ------------------------------------------------------------------ threads="auto": the default
+def test_crossed_estimate_counts_the_crossed_cells():
+    """Every cell sampled (fewer cells than SPAN_SAMPLE): the estimate is the exact count of crossed cells (the
+    full scan's); a sample of 4096 cells on a larger grid: within five standard errors of it."""
+    vol = grid_volume((12, 11, 10), spacing=(0.1, 0.1, 0.1), jitter=0.2, seed=6)
+    s = np.sin(7 * vol.points[:, 0]) + np.cos(5 * vol.points[:, 1]) * vol.points[:, 2]
+    ec = EdgeCentredTable(vol, s)
+    assert vol.n_cells <= ec.SPAN_SAMPLE
+    for value in np.quantile(s, [0.02, 0.3, 0.5, 0.9]):
+        assert ec.crossed_estimate(value) == extract(vol, value, field=s).cells_intersected
+    assert ec.crossed_estimate(s.min() - 1) == 0 and ec.crossed_estimate(s.max() + 1) == 0
+    big = grid_volume((24, 22, 20), spacing=(0.05, 0.05, 0.05), jitter=0.2, seed=7)
+    s = np.sin(7 * big.points[:, 0]) + np.cos(5 * big.points[:, 1]) * big.points[:, 2]
+    ec = EdgeCentredTable(big, s)
+    ec.SPAN_SAMPLE = 4096
+    for value in np.quantile(s, [0.3, 0.5, 0.7]):
+        true = extract(big, value, field=s).cells_intersected
+        est = ec.crossed_estimate(value)
+        k = true * 4096 / big.n_cells  # expected sampled cells crossed
+        assert abs(est - true) <= 5 * np.sqrt(k) * big.n_cells / 4096, (value, est, true)
+
+
+def test_auto_threads_policy(monkeypatch):
+    """``threads="auto"`` (the default): several threads only for a surface estimated to cross at least
+    PARALLEL_MIN_CELLS cells and while no other program's task is runnable; the serial surface either way;
+    ``threads=`` at the query or the builder forces a count."""
+    import numba
+
+    from polygen.volume import edge_centred as ec_mod
+
+    vol = grid_volume((12, 11, 10), spacing=(0.1, 0.1, 0.1), jitter=0.2, seed=6)
+    s = np.random.default_rng(8).random(vol.n_points)
+    assert EdgeCentredTable(vol, s).threads == "auto"
+    assert methods.get("edge-centred-table")(vol, field=s).builder.threads == "auto"
+    ser = EdgeCentredTable(vol, s, threads=1)
+    auto = EdgeCentredTable(vol, s)
+    seeds = np.arange(vol.n_cells)
+    n = min(numba.get_num_threads(), __import__("os").cpu_count())
+    many = n if n >= 2 and _k.ATOMICS else 1
+    idle = {"busy": 0}
+    monkeypatch.setattr(ec_mod, "_runnable_elsewhere", lambda: idle["busy"])
+    value = 0.5
+    est = auto.crossed_estimate(value)
+    assert est > 100
+    for min_cells, busy, expected in ((est + 1, 0, 1), (est, 0, many), (est, n - 1, 1), (est, 10, 1)):
+        monkeypatch.setattr(EdgeCentredTable, "PARALLEL_MIN_CELLS", min_cells)
+        idle["busy"] = busy
+        assert_same_as_serial(ser.extract(value, seeds), auto.extract(value, seeds))
+        assert auto.stats["threads"] == expected, (min_cells, busy)
+    idle["busy"] = 10  # forced counts whatever the machine says
+    auto.extract(value, seeds, threads=2)
+    assert auto.stats["threads"] == (2 if _k.ATOMICS else 1)
+    ser.extract(value, seeds)
+    assert ser.stats["threads"] == 1
+    with pytest.raises(IsoSurfaceError, match="threads must be a whole number >= 1, 'auto'"):
+        EdgeCentredTable(vol, s, threads="all")
+
+
+@pytest.mark.parametrize("tets", [True, False])
+def test_gradient_and_no_normals_with_two_threads(tets):
+    """``normals="gradient"`` and ``None`` by two threads: the serial positions and gradient normals bit for bit
+    (each vertex's own computation; the tetrahedron flood's positions are the serial kernel's expression), none
+    asked, none given."""
+    vol = grid_volume((10, 9, 8), spacing=(0.1, 0.1, 0.1), tets=tets, jitter=0.2 if tets else 0.0, seed=9)
+    s = np.random.default_rng(10).random(vol.n_points)
+    ser = EdgeCentredTable(vol, s, threads=1)
+    par = EdgeCentredTable(vol, s, threads=2)
+    seeds = np.arange(vol.n_cells)
+    for value in (0.35, 0.6):
+        for normals in ("gradient", None):
+            a = ser.extract(value, seeds, normals=normals, canonical=True)
+            b = par.extract(value, seeds, normals=normals, canonical=True)
+            assert_same_as_serial(a, b)
+            if normals is None:
+                assert b.normals is None
+            else:
+                np.testing.assert_array_equal(a.normals, b.normals)

@@ -1476,6 +1476,507 @@ def release_contested(vkey, counters, ev):
                 ev[~k] = -1
 
 
+# ------------------------------------------------------------------ the parallel construction, tetrahedra with records
+#: :func:`_flood_tet` status: a thread's list of normal terms for other threads' vertices is full
+FULL_FOREIGN = 6
+#: columns of a parallel query's ``counters`` (T, N_PAR_COUNTERS): triangles, vertices, stack depth, polygons,
+#: pops, cells tested, contested vertices, vertices on nodes, normal terms for other threads' vertices
+N_PAR_COUNTERS = 9
+
+
+@njit(inline="always")
+def _thread_bits(n_thr):
+    """The bits of a thread number in a vertex code of the tetrahedron kernels: thread ``t``'s ``k``-th vertex
+    is ``k << b | t`` (a shift and a mask, where ``k * T + t`` needs a division to take apart)."""
+    b = 0
+    while (1 << b) < n_thr:
+        b += 1
+    return b
+
+
+@njit(error_model="numpy")
+def _corner_position(rec, rb, w, local_edges, s, value, points):
+    """The position of vertex code ``w`` of the tetrahedron whose record starts at ``rec[rb]``, by
+    :func:`construct_tet`'s expression (the same bits as the thread that created the vertex wrote)."""
+    if w < 6:
+        x = rec[rb + R_NODES + local_edges[w, 0]]
+        y = rec[rb + R_NODES + local_edges[w, 1]]
+        na = min(x, y)
+        nb = max(x, y)
+        c1 = s[na]
+        c2 = s[nb]
+        # (5.2) P_c = ((C - C1) P2 - (C - C2) P1) / (C2 - C1)
+        return (((value - c1) * points[nb, 0] - (value - c2) * points[na, 0]) / (c2 - c1),
+                ((value - c1) * points[nb, 1] - (value - c2) * points[na, 1]) / (c2 - c1),
+                ((value - c1) * points[nb, 2] - (value - c2) * points[na, 2]) / (c2 - c1))
+    node = rec[rb + R_NODES + w - 6]
+    return points[node, 0], points[node, 1], points[node, 2]
+
+
+@njit(cache=_KCACHE, error_model="numpy")
+def _flood_tet(t, rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tri_count, case_mask, tri_slots,
+               local_edges, n_edges, ec, nc_off, nc, gen, seeds, next_seed, ev, stack, tris, tri_cell, vkey, vend,
+               points, pos, acc, fcode, fval, mean, counters, budget):
+    """Thread ``t``'s share of :func:`construct_tet_parallel`: :func:`_flood` with :func:`construct_tet`'s work.
+
+    The claims, contested vertices and memory ordering are :func:`_flood`'s
+    (see :func:`construct_parallel`); the work per cell is
+    :func:`construct_tet`'s (flat records, four slots, the slot of a
+    triangle corner from ``tri_slots``, the edge lists and the records of the
+    cells on them fetched early), and stage 3 rides along as there: the
+    thread that creates a vertex writes its position into ``pos[t, k]`` (its
+    ``k``-th vertex) and, with ``mean``, zeroes its normal sum ``acc[t, k]``.
+    When a thread writes a triangle it adds the triangle's normal into
+    ``acc`` at the corners it created; a corner created by another thread
+    (a contested vertex that thread won) is not written (that thread may be
+    adding to it): the term goes into this thread's list ``fcode[t, i]``
+    (the vertex code) / ``fval[t, i]`` (the term), added after the parallel
+    region by :func:`gather_tet_parallel`. The corner positions a triangle
+    needs are read from ``pos[t]`` for this thread's vertices and computed
+    again from the cell's record for another thread's (by the same
+    expression: the same bits; the other thread may not have written its
+    copy yet).
+
+    ``rec`` (M * 16,) and ``dyn`` (M * dw,) are flat as in
+    :func:`construct_tet`, ``nodes2``/``dyn2`` their 2-D views (for a vertex
+    exactly on a node); per-thread buffers (T, cap, ...) as in :func:`_flood`,
+    plus ``pos``, ``acc`` (T, cap_v, 3) float64, ``fcode`` (T, cap_f) int32
+    and ``fval`` (T, cap_f, 3) float64; ``counters[t]`` the
+    ``N_PAR_COUNTERS`` columns (column 8: the terms in ``fcode[t]``).
+    ``budget``: as in :func:`_flood`. Returns the thread's status
+    (``FULL_FOREIGN``: ``fcode`` is too small). Vertex codes are ``k << b |
+    t`` (thread ``t``'s ``k``-th vertex, ``b`` = :func:`_thread_bits`),
+    not :func:`_flood`'s ``k * T + t``.
+    """
+    n_thr = stack.shape[0]
+    tb = _thread_bits(n_thr)
+    tm = (1 << tb) - 1
+    me = gen + t
+    top = gen + n_thr
+    cap_t = tris.shape[1] - _m.MAX_TRIANGLES
+    cap_v = vkey.shape[1]
+    cap_q = stack.shape[1]
+    cap_f = fcode.shape[1]
+    n_seeds = seeds.shape[0]
+    vals = np.empty(8, np.float64)
+    codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+    codes_j = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+    n_t = counters[t, 0]
+    n_v = counters[t, 1]
+    sp = counters[t, 2]
+    n_p = counters[t, 3]
+    pops = counters[t, 4]
+    tested = counters[t, 5]
+    contested = counters[t, 6]
+    node_vertices = counters[t, 7]
+    n_f = counters[t, 8]
+    stop = pops + budget if budget > 0 else -1
+    status = OK
+    while status == OK:
+        if pops == stop:
+            status = PAUSED
+            break
+        if sp == 0:  # flooded: the next seed nobody has claimed
+            i = _fetch_add(next_seed, 0, 1)
+            if i >= n_seeds:
+                break
+            c = _u(seeds[i])
+            db = c * dw
+            o = dyn[db + R_GEN]
+            if o >= gen and o < top:
+                continue
+            if _cas(dyn, db + R_GEN, o, me) != o:
+                continue
+            tested += 1
+            rb = c * 16
+            x0 = s[_u(rec[rb + 2])]
+            x1 = s[_u(rec[rb + 3])]
+            x2 = s[_u(rec[rb + 4])]
+            x3 = s[_u(rec[rb + 5])]
+            case, exact = _tet_bits(x0, x1, x2, x3, value)
+            if case == 0 or case == 15:
+                dyn[db + R_STATE] = NOT_CROSSED
+                continue
+            if exact == 0:
+                mask = case_mask[case]
+            else:
+                vals[0], vals[1], vals[2], vals[3] = x0, x1, x2, x3
+                mask = _exact_mask(case, exact, vals, value, tri_table, tri_count, local_edges, codes_j)
+            dyn[db + R_STATE] = case | (exact << 16) | (mask << MASK_SHIFT)
+            for w2 in range(4):
+                dyn[db + ds + w2] = -1
+            n_p += 1
+            stack[t, 0] = c
+            sp = 1
+        sp -= 1
+        c = _u(stack[t, sp])
+        pops += 1
+        rb = c * 16
+        db = c * dw
+        st = dyn[db + R_STATE]
+        case = st & 0xFFFF
+        exact = (st >> 16) & 15
+        todo = (st >> MASK_SHIFT) & 0x3FF
+        if exact == 0:
+            k = tri_count[case]
+        else:  # a node at the isovalue: node codes, zero-area triangles dropped
+            for i in range(4):
+                vals[i] = s[_u(rec[rb + R_NODES + i])]
+            k, _ = _polygon_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
+        # as construct_tet: the lists of the open edges, then the records of the cells on them, fetched early
+        pre = todo & 63
+        sl = 0
+        while pre:
+            w = _ctz(pre)
+            pre &= pre - 1
+            if dyn[db + ds + sl] < 0:
+                _prefetch_item(ec, _u(rec[rb + 10 + w]))
+            sl += 1
+        pre = todo & 63
+        sl = 0
+        while pre:
+            w = _ctz(pre)
+            pre &= pre - 1
+            if dyn[db + ds + sl] < 0:
+                q = _u(rec[rb + 10 + w])
+                while True:
+                    packed = _u(ec[q])
+                    _prefetch_item(rec, (packed >> CELL_SHIFT) * 16)
+                    if dw != 16:
+                        _prefetch_item(dyn, (packed >> CELL_SHIFT) * dw)
+                    q += 1
+                    if packed & LAST:
+                        break
+            sl += 1
+        sl = -1
+        while todo:  # for-loop (2): the vertices of P_i not registered yet
+            w = _ctz(todo)
+            todo &= todo - 1
+            sl += 1
+            if dyn[db + ds + sl] >= 0:
+                continue
+            if n_v == cap_v:
+                status = FULL_VERTICES
+                break
+            if w >= 6 and nc_off.shape[0] == 0:
+                status = NEED_NODE_CELLS
+                break
+            other = False
+            node = -1
+            v = (n_v << tb) | t  # this thread's next vertex, unless another thread made it first
+            if w < 6:
+                lo = _u(rec[rb + 10 + w])
+                key = ec[lo - 1]
+                q = lo
+                while True:  # pass 1: claim the unclaimed cells around E, register v in mine
+                    packed = _u(ec[q])
+                    q += 1
+                    j = packed >> CELL_SHIFT
+                    jb = j * dw
+                    o = dyn[jb + R_GEN]
+                    if o < gen or o >= top:
+                        o2 = _cas(dyn, jb + R_GEN, o, me)
+                        if o2 == o:
+                            if sp == cap_q:
+                                status = FULL_QUEUE
+                                break
+                            rj = j * 16
+                            x0 = s[_u(rec[rj + 2])]
+                            x1 = s[_u(rec[rj + 3])]
+                            x2 = s[_u(rec[rj + 4])]
+                            x3 = s[_u(rec[rj + 5])]
+                            cj, xj = _tet_bits(x0, x1, x2, x3, value)
+                            if xj == 0:
+                                mj = case_mask[cj]
+                            else:
+                                vals[0], vals[1], vals[2], vals[3] = x0, x1, x2, x3
+                                mj = _exact_mask(cj, xj, vals, value, tri_table, tri_count, local_edges, codes_j)
+                            pm = mj & 63  # its edges' cell lists, long before C_j is taken from the stack
+                            while pm:
+                                w3 = _ctz(pm)
+                                pm &= pm - 1
+                                _prefetch_item(ec, _u(rec[rj + 10 + w3]))
+                            dyn[jb + R_STATE] = cj | (xj << 16) | (mj << MASK_SHIFT)
+                            for w2 in range(4):
+                                dyn[jb + ds + w2] = -1
+                            n_p += 1
+                            stack[t, sp] = j
+                            sp += 1
+                            o = me
+                        else:
+                            o = o2
+                    if o != me:
+                        other = True
+                    else:
+                        lw = packed & LOCAL  # register v (this thread's new vertex, unless a CAS below says not)
+                        stj = dyn[jb + R_STATE]
+                        if (stj >> (MASK_SHIFT + lw)) & 1 == 1:
+                            dyn[jb + ds + _POPCOUNT[(stj >> MASK_SHIFT) & ((1 << lw) - 1)]] = v
+                    if packed & LAST:
+                        break
+                if status != OK:
+                    break
+                end = q
+            else:  # a vertex exactly on a node: the cells around the node, each tested (as _flood)
+                node = rec[rb + R_NODES + w - 6]
+                key = n_edges + node
+                lo = nc_off[node]
+                end = nc_off[node + 1]
+                for q in range(lo, end):
+                    j = nc[q] >> CELL_SHIFT
+                    o = dyn2[j, R_GEN]
+                    if o < gen or o >= top:
+                        o2 = _cas_row(dyn2, j, R_GEN, o, me)
+                        if o2 == o:
+                            tested += 1
+                            cj, xj = _values_of(nodes2, j, 4, s, value, faces, vals)
+                            if cj < 0:
+                                dyn2[j, R_STATE] = NOT_CROSSED
+                                continue
+                            if sp == cap_q:
+                                status = FULL_QUEUE
+                                break
+                            _construct_polygon(dyn2, ds, j, cj, xj, 4, 4, vals, value, tri_table, tri_count,
+                                               case_mask, local_edges, codes_j)
+                            n_p += 1
+                            stack[t, sp] = j
+                            sp += 1
+                            continue
+                        o = o2
+                    if o != me:
+                        other = True
+                if status != OK:
+                    break
+            if other:
+                contested += 1
+                o = _cas(ev, key, -1, v)
+                if o != -1:
+                    v = o
+            if v == (n_v << tb) | t:  # created here: key, edge ends, position (and a zero normal sum)
+                vkey[t, n_v] = ~key if other else key  # ~key: ev[key] holds this id, to be put back
+                if w < 6:
+                    x = rec[rb + R_NODES + local_edges[w, 0]]
+                    y = rec[rb + R_NODES + local_edges[w, 1]]
+                    na = _u(min(x, y))
+                    nb = _u(max(x, y))
+                    vend[t, n_v, 0] = na
+                    vend[t, n_v, 1] = nb
+                    c1 = s[na]
+                    c2 = s[nb]
+                    # (5.2) P_c = ((C - C1) P2 - (C - C2) P1) / (C2 - C1)
+                    for d in range(3):
+                        pos[t, n_v, d] = ((value - c1) * points[nb, d] - (value - c2) * points[na, d]) / (c2 - c1)
+                else:
+                    vend[t, n_v, 0] = node
+                    vend[t, n_v, 1] = node
+                    for d in range(3):
+                        pos[t, n_v, d] = points[node, d]
+                    node_vertices += 1
+                if mean:
+                    for d in range(3):
+                        acc[t, n_v, d] = 0.0
+                n_v += 1
+            if w < 6 and v & tm == t:
+                continue  # pass 1 registered it: this thread made it
+            # pass 2: (again) the vertex's id into this thread's cells around N, or around E after a lost CAS
+            for q in range(lo, end):
+                if w < 6:
+                    packed = ec[q]
+                    lw = packed & LOCAL
+                else:
+                    packed = nc[q]
+                    lw = 6 + (packed & LOCAL)
+                j = packed >> CELL_SHIFT
+                if dyn2[j, R_GEN] != me:
+                    continue
+                stj = dyn2[j, R_STATE]
+                if stj == NOT_CROSSED:
+                    continue
+                if (stj >> (MASK_SHIFT + lw)) & 1 == 1:
+                    dyn2[j, ds + _POPCOUNT[(stj >> MASK_SHIFT) & ((1 << lw) - 1)]] = v
+        if status != OK:
+            break
+        if n_t > cap_t:
+            status = FULL_TRIANGLES
+            break
+        if mean and n_f + 3 * k > cap_f:
+            status = FULL_FOREIGN
+            break
+        m = (st >> MASK_SHIFT) & 0x3FF
+        for tt in range(k):  # every vertex of P_i is registered: its triangles, as vertex ids
+            if exact == 0:
+                e0 = tri_table[case, 3 * tt]
+                e1 = tri_table[case, 3 * tt + 1]
+                e2 = tri_table[case, 3 * tt + 2]
+                i0 = dyn[db + ds + tri_slots[case, 3 * tt]]
+                i1 = dyn[db + ds + tri_slots[case, 3 * tt + 1]]
+                i2 = dyn[db + ds + tri_slots[case, 3 * tt + 2]]
+            else:
+                e0 = codes[tt, 0]
+                e1 = codes[tt, 1]
+                e2 = codes[tt, 2]
+                i0 = dyn[db + ds + _POPCOUNT[m & ((1 << e0) - 1)]]
+                i1 = dyn[db + ds + _POPCOUNT[m & ((1 << e1) - 1)]]
+                i2 = dyn[db + ds + _POPCOUNT[m & ((1 << e2) - 1)]]
+            tris[t, n_t, 0] = i0
+            tris[t, n_t, 1] = i1
+            tris[t, n_t, 2] = i2
+            tri_cell[t, n_t] = c
+            n_t += 1
+            if mean:  # the triangle's normal (marching.triangle_normal), into the sums of its corners
+                k0 = _u(i0 >> tb)
+                k1 = _u(i1 >> tb)
+                k2 = _u(i2 >> tb)
+                own0 = i0 & tm == t
+                own1 = i1 & tm == t
+                own2 = i2 & tm == t
+                if own0:
+                    p0x, p0y, p0z = pos[t, k0, 0], pos[t, k0, 1], pos[t, k0, 2]
+                else:
+                    p0x, p0y, p0z = _corner_position(rec, rb, e0, local_edges, s, value, points)
+                if own1:
+                    p1x, p1y, p1z = pos[t, k1, 0], pos[t, k1, 1], pos[t, k1, 2]
+                else:
+                    p1x, p1y, p1z = _corner_position(rec, rb, e1, local_edges, s, value, points)
+                if own2:
+                    p2x, p2y, p2z = pos[t, k2, 0], pos[t, k2, 1], pos[t, k2, 2]
+                else:
+                    p2x, p2y, p2z = _corner_position(rec, rb, e2, local_edges, s, value, points)
+                ux = p1x - p0x
+                uy = p1y - p0y
+                uz = p1z - p0z
+                wx = p2x - p0x
+                wy = p2y - p0y
+                wz = p2z - p0z
+                nx = uy * wz - uz * wy
+                ny = uz * wx - ux * wz
+                nz = ux * wy - uy * wx
+                if own0:
+                    acc[t, k0, 0] += nx
+                    acc[t, k0, 1] += ny
+                    acc[t, k0, 2] += nz
+                else:
+                    fcode[t, n_f] = i0
+                    fval[t, n_f, 0] = nx
+                    fval[t, n_f, 1] = ny
+                    fval[t, n_f, 2] = nz
+                    n_f += 1
+                if own1:
+                    acc[t, k1, 0] += nx
+                    acc[t, k1, 1] += ny
+                    acc[t, k1, 2] += nz
+                else:
+                    fcode[t, n_f] = i1
+                    fval[t, n_f, 0] = nx
+                    fval[t, n_f, 1] = ny
+                    fval[t, n_f, 2] = nz
+                    n_f += 1
+                if own2:
+                    acc[t, k2, 0] += nx
+                    acc[t, k2, 1] += ny
+                    acc[t, k2, 2] += nz
+                else:
+                    fcode[t, n_f] = i2
+                    fval[t, n_f, 0] = nx
+                    fval[t, n_f, 1] = ny
+                    fval[t, n_f, 2] = nz
+                    n_f += 1
+    counters[t, 0] = n_t
+    counters[t, 1] = n_v
+    counters[t, 2] = sp
+    counters[t, 3] = n_p
+    counters[t, 4] = pops
+    counters[t, 5] = tested
+    counters[t, 6] = contested
+    counters[t, 7] = node_vertices
+    counters[t, 8] = n_f
+    return status
+
+
+@njit(parallel=True, cache=_KCACHE)
+def construct_tet_parallel(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tri_count, case_mask,
+                           tri_slots, local_edges, n_edges, ec, nc_off, nc, gen, seeds, next_seed, ev, stack, tris,
+                           tri_cell, vkey, vend, points, pos, acc, fcode, fval, mean, counters, status):
+    """:func:`construct_parallel` for tetrahedra with records, with :func:`construct_tet`'s work per cell.
+
+    ``T = stack.shape[0]`` threads each run :func:`_flood_tet`; arguments
+    and outputs as there and in :func:`construct_parallel` (``counters``
+    (T, ``N_PAR_COUNTERS``), zeros on entry). The positions and the normal
+    sums are written by the threads as the serial :func:`construct_tet`
+    writes them; :func:`gather_tet_parallel` puts the parts together.
+    """
+    n_thr = stack.shape[0]
+    for t in prange(n_thr):
+        status[t] = _flood_tet(t, rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tri_count, case_mask,
+                               tri_slots, local_edges, n_edges, ec, nc_off, nc, gen, seeds, next_seed, ev, stack,
+                               tris, tri_cell, vkey, vend, points, pos, acc, fcode, fval, mean, counters, 0)
+
+
+@njit(parallel=True, cache=_KCACHE)
+def gather_tet_parallel(tris, tri_cell, vkey, vend, pos, acc, fcode, fval, counters, t_base, v_base, mean, out_tri,
+                        out_cell, out_key, out_end, out_pos, out_nrm, n_zero):
+    """:func:`gather_parallel` (vertex codes ``k << b | u``, :func:`_thread_bits`) plus the positions and, with
+    ``mean``, the unit mean normals.
+
+    Thread ``u`` copies its part (positions into ``out_pos``, normal sums
+    into ``out_nrm``), then adds to the sums of its vertices the terms the
+    other threads listed for them (``fcode``/``fval``, :func:`_flood_tet`)
+    and normalises them in place (as :func:`polygen.volume.marching.normalised`;
+    ``n_zero[u]``: its rows :func:`~polygen.volume.marching.zero_rows` would
+    list). Each vertex's sum is the serial one's terms in another order
+    (this thread's triangles in its order, then the others'): equal to it up
+    to rounding.
+    """
+    n_thr = tris.shape[0]
+    tb = _thread_bits(n_thr)
+    tm = (1 << tb) - 1
+    for t in prange(n_thr):
+        b = t_base[t]
+        for i in range(counters[t, 0]):
+            for jj in range(3):
+                code = tris[t, i, jj]
+                out_tri[b + i, jj] = v_base[code & tm] + (code >> tb)
+            out_cell[b + i] = tri_cell[t, i]
+        b = v_base[t]
+        for i in range(counters[t, 1]):
+            k = vkey[t, i]
+            out_key[b + i] = ~k if k < 0 else k
+            out_end[b + i, 0] = vend[t, i, 0]
+            out_end[b + i, 1] = vend[t, i, 1]
+            for d in range(3):
+                out_pos[b + i, d] = pos[t, i, d]
+            if mean:
+                for d in range(3):
+                    out_nrm[b + i, d] = acc[t, i, d]
+    if mean:
+        for u in prange(n_thr):
+            for t in range(n_thr):
+                if t == u:
+                    continue
+                for i in range(counters[t, 8]):
+                    code = fcode[t, i]
+                    if code & tm == u:
+                        r = v_base[u] + (code >> tb)
+                        for d in range(3):
+                            out_nrm[r, d] += fval[t, i, d]
+            nz = 0
+            for r in range(v_base[u], v_base[u + 1]):
+                x = out_nrm[r, 0]
+                y = out_nrm[r, 1]
+                z = out_nrm[r, 2]
+                ln = np.sqrt(x ** 2 + y ** 2 + z ** 2)
+                if ln > 0.0:
+                    x /= ln
+                    y /= ln
+                    z /= ln
+                out_nrm[r, 0] = x
+                out_nrm[r, 1] = y
+                out_nrm[r, 2] = z
+                if not (abs(x) + abs(y) + abs(z) > 0.0):
+                    nz += 1
+            n_zero[u] = nz
+
+
 # ------------------------------------------------------------------ stage 3 in parallel
 @njit(parallel=True, cache=_KCACHE)
 def positions_parallel(vend, n_v, points, s, value, out):

@@ -107,15 +107,68 @@ __all__ = ["EdgeCentredWalk", "EdgeCentredTable", "canonical_order", "EdgeCentre
 _INT32_MAX = np.iinfo(np.int32).max
 
 
-def _check_threads(threads):
-    """``threads`` as an int >= 1 (``None``: numba's thread count), else :class:`IsoSurfaceError`."""
+def _check_threads(threads, auto=False):
+    """``threads`` as an int >= 1 (``None``: numba's thread count; with ``auto``, ``"auto"`` as it is), else
+    :class:`IsoSurfaceError`."""
     if threads is None:
         import numba
 
         return numba.get_num_threads()
+    if auto and isinstance(threads, str) and threads == "auto":
+        return "auto"
     if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        raise IsoSurfaceError(f"threads must be a whole number >= 1 (or None: numba's thread count); got {threads!r}")
+        also = ", 'auto'" if auto else ""
+        raise IsoSurfaceError(f"threads must be a whole number >= 1{also} (or None: numba's thread count); "
+                              f"got {threads!r}")
     return int(threads)
+
+
+_OVERLAP_SAFE = []
+
+
+def _overlap_safe():
+    """:func:`polygen._jit.parallel_kernels_may_overlap`, asked once (it launches a parallel region: on a busy
+    machine a wait for the other cores)."""
+    if not _OVERLAP_SAFE:
+        _OVERLAP_SAFE.append(parallel_kernels_may_overlap())
+    return _OVERLAP_SAFE[0]
+
+
+def _own_runnable():
+    """Threads of this process running or runnable now besides the calling one (Linux ``/proc/self/task``)."""
+    n = 0
+    for tid in os.listdir("/proc/self/task"):
+        try:
+            with open(f"/proc/self/task/{tid}/stat", "rb") as f:
+                st = f.read()
+        except OSError:  # the thread ended meanwhile
+            continue
+        i = st.rindex(b")")
+        n += st[i + 2:i + 3] == b"R"
+    return max(0, n - 1)
+
+
+def _runnable_elsewhere():
+    """Tasks of other processes runnable on the machine now (Linux: ``/proc/loadavg``), else the 1-minute load
+    average; None where neither is known.
+
+    This process's own threads are not counted: numba's OpenMP workers
+    spin for 3-10 ms after each parallel region (measured here), so right
+    after a parallel query they would look like another program's work.
+    (The thread list is read only when the machine-wide count says busy.)
+    """
+    try:
+        with open("/proc/loadavg", "rb") as f:
+            running = int(f.read().split()[3].split(b"/")[0]) - 1  # less the calling thread
+        if running == 0:
+            return 0
+        return max(0, running - _own_runnable())
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.getloadavg()[0]
+    except (AttributeError, OSError):
+        return None
 
 
 def canonical_order(iso):
@@ -234,8 +287,9 @@ class EdgeCentredTable:
         third cache line when a cell is first reached and when it is taken
         from the queue. Default :attr:`DEFAULT_LAYOUT`, chosen by
         measurement (see the notes in ``benchmarks/results/interactive.md``).
-    threads : int or None, keyword-only
-        Threads for one query (default 1; ``None``: numba's thread count).
+    threads : int, "auto" or None, keyword-only
+        Threads for one query: a number (``None``: numba's thread count), or
+        ``"auto"`` (the default, below).
         With more than one, every thread runs this construction's own loop
         on its own stack, taking the next unclaimed seed from a shared
         counter whenever its stack runs dry; a thread claims a cell by
@@ -243,33 +297,60 @@ class EdgeCentredTable:
         per thread), and a vertex on an edge (node) whose cells belong to
         two threads gets its id by compare-and-swap on a per-edge array (see
         ``_edge_centred_kernels._flood``): each cell is constructed once,
-        the work is the serial construction's plus one CAS per cell (the
-        total work run on one core, construction and stage 3, in CPU time of
-        the thread: 1.12-1.14 times the serial's on 2M, 1.15-1.17 on data 4, 20
-        values), and the
-        triangles and vertices, gathered from per-thread parts of the
+        and the triangles and vertices, gathered from per-thread parts of the
         buffers by prefix sums, are the serial ones in another order
         (``canonical=True``, or :func:`canonical_order`, gives one order for
-        both). From :attr:`STAGE3_PARALLEL_TRIANGLES` triangles up the
-        positions and mean normals are computed by the threads too. Costs
+        both; the order changes from run to run, as the threads' shares do).
+        Tetrahedra with records run the parallel flood specialised as the
+        serial ``construct_tet`` is (``_edge_centred_kernels._flood_tet``):
+        the thread that creates a vertex writes its position (the serial
+        bits) and zeroes its normal sum, each thread adds its triangles'
+        normals into the sums of the vertices it created and lists the
+        terms for another thread's vertices (contested ones), which are
+        added after the parallel region: race-free, the mean normals equal
+        to the serial ones to rounding (1e-12; the terms are summed in
+        another order). Its total work (two threads' shares run on one core,
+        2M, 20 values, ``benchmarks/parallel_construction.py``) is about 1.2
+        times the serial's in CPU time (one compare-and-swap per cell, the
+        gather); the generic kernel (hexahedra, ``layout="volume"``)
+        computes positions and mean normals in separate passes, by the
+        threads from :attr:`STAGE3_PARALLEL_TRIANGLES` triangles up. Costs
         ``4 (n_edges + n_nodes)`` bytes more (the contested-vertex ids), and
         the query buffers grow to hold ``threads`` times the largest surface
         (each thread's part must hold a whole surface: how the work splits
         depends on the scheduler).
         ``stats`` then has ``pops`` (= ``constructed``: no cell is taken
         twice), ``contested`` (vertices decided by CAS), ``per_thread``
-        (cells each thread took). Without working atomics (``_edge_centred_kernels.ATOMICS``)
-        a query runs on one thread. The default stays 1. On a quiet 2-core
-        machine two threads pay (2M, 20 values, ``benchmarks/parallel_construction.py``:
-        median 1.89 -> 1.66 ms, the largest surface 41.2 -> 25.1 ms, the sum
-        208 -> 133 ms), but on a busy one a parallel region waits tens of
-        milliseconds for the second core to be scheduled (at load 6.6-11:
-        median 31-35 ms with two threads against 3.8-5.5 ms with one), and
-        the vertex order then changes from run to run; so more threads are
-        asked for (``threads=2``), not assumed. Two builders running such queries at once from two
-        Python threads need a thread-safe numba threading layer (``omp`` or
-        ``tbb``, not ``workqueue``); :meth:`EdgeCentredMethod.extract_many`
-        runs its values one thread each.
+        (cells each thread took), ``kernel`` and ``foreign_terms`` (normal
+        terms passed between the threads); every query's ``stats["threads"]``
+        says how many ran it. Without working atomics
+        (``_edge_centred_kernels.ATOMICS``) a query runs on one thread.
+
+        ``"auto"``: a query runs on ``min(numba threads, cores)`` threads
+        when (a) the surface is estimated to cross at least
+        :attr:`PARALLEL_MIN_CELLS` cells (:meth:`crossed_estimate`, a few
+        microseconds), (b) numba's threading layer lets two Python threads
+        launch parallel regions at once (``omp``, ``tbb``; not
+        ``workqueue``), and (c) no other program's task is runnable now
+        (``/proc/loadavg``, less this process's own threads; elsewhere the
+        1-minute load average) -- else, and for every smaller surface, on
+        one. Why (c): a parallel region ends when its last thread does, and
+        on a busy machine the second thread waits for a scheduler slice
+        (measured here at load 3-4: an empty parallel region 7.5 ms;
+        20 values on 2M with ``threads=2`` median 22.7 ms against 1.6 with
+        one); the check keeps the serial times there (at load 3.1-3.4,
+        12 of 100 queries ran on two threads, sum 170 ms against 146; at
+        3.2-3.6, none of 100). On a free second core two threads pay (numba
+        0.68, ``omp`` layer, an empty parallel region 2 us; 2M, 20 values,
+        sweeps timed only while no other program's task was runnable: one
+        thread median 1.41 / largest 26.4 / sum 129 ms, two threads 0.96 /
+        16.1 / 81.3, ``"auto"`` 1.08 / 16.0 / 80.8; the generic parallel
+        kernel 1.03 / 18.2 / 90.4 against 0.95 / 16.6 / 83.0 for this one in
+        the same sweeps). Two builders running parallel queries at once from
+        two Python threads need a thread-safe numba threading layer (``omp``
+        or ``tbb``, not ``workqueue``, where ``"auto"`` stays on one thread);
+        :meth:`EdgeCentredMethod.extract_many` runs its values one thread
+        each.
 
     Attributes
     ----------
@@ -307,8 +388,16 @@ class EdgeCentredTable:
     #: a serial query on tetrahedra with records in LIFO order runs the kernel specialised for it
     #: (``_edge_centred_kernels.construct_tet``); False: the generic one (tests and benchmarks compare them)
     SPECIALISED_KERNEL = True
+    #: ``threads="auto"``: a query runs on several threads only when the surface is estimated to cross at least
+    #: this many cells (:meth:`crossed_estimate`). Not a measured crossover (on a quiet machine two threads
+    #: already pay at a few thousand cells): 10 000 crossed cells is about 13 000 triangles, ~2 ms of serial work
+    #: on 2M, so that a parallel query whose second core turns out busy (one scheduler slice of waiting, ~7 ms at
+    #: load 3-4, see the class docstring) is a large surface's query, not a small one's
+    PARALLEL_MIN_CELLS = 10_000
+    #: cells in the fixed random sample whose value ranges :meth:`crossed_estimate` counts
+    SPAN_SAMPLE = 1 << 16
 
-    def __init__(self, vol, field=None, *, order="lifo", threads=1, layout=None):
+    def __init__(self, vol, field=None, *, order="lifo", threads="auto", layout=None):
         t0 = time.perf_counter()
         if order not in ("fifo", "lifo"):
             raise IsoSurfaceError(f"order must be 'fifo' or 'lifo'; got {order!r}")
@@ -317,7 +406,7 @@ class EdgeCentredTable:
             raise IsoSurfaceError(f"layout must be 'records' or 'volume'; got {layout!r}")
         self.order = order
         self.layout = layout
-        self.threads = _check_threads(threads)
+        self.threads = _check_threads(threads, auto=True)
         self.vol = vol
         points, cells, s, cell_type = volume_arrays(vol, field)
         m, nn = cells.shape
@@ -392,6 +481,7 @@ class EdgeCentredTable:
         new._vkey = np.empty_like(self._vkey)
         new._vend = np.empty_like(self._vend)
         new._pos = new._acc = None  # made at its first query
+        new._fcode = new._fval = None
         new._ev = None
         new.stats = {}
         return new
@@ -427,6 +517,41 @@ class EdgeCentredTable:
             raise IsoSurfaceError(f"seed cells must be in 0..{m - 1}; got {bad[:5].tolist()}")
         return np.ascontiguousarray(seeds, np.int32)
 
+    def crossed_estimate(self, value):
+        """About how many cells the surface ``S = value`` crosses, in microseconds.
+
+        From a fixed sample of :attr:`SPAN_SAMPLE` cells (seeded, made at the
+        first call: their smallest and largest node values, sorted, 16 bytes
+        per sampled cell; every cell when there are fewer): a cell is crossed
+        when its smallest value is below ``value`` and its largest is not, so
+        the count is ``#(min < value) - #(max < value)``, two binary searches,
+        scaled to all the cells. Its standard error is about
+        ``sqrt(k) * M / SPAN_SAMPLE`` for ``k`` sampled cells crossed.
+        """
+        smp = self.__dict__.get("_span")
+        if smp is None or smp[0] is not self.s:
+            m = self.dyn.shape[0]
+            k = min(m, self.SPAN_SAMPLE)
+            idx = np.arange(m) if k == m else np.random.default_rng(0).integers(0, m, k)
+            x = self.s[self.nodes[idx]]
+            smp = self._span = (self.s, np.sort(x.min(axis=1)), np.sort(x.max(axis=1)), m / max(k, 1))
+        _, lo, hi, scale = smp
+        return float(np.searchsorted(lo, value, "left") - np.searchsorted(hi, value, "left")) * scale
+
+    def _auto_threads(self, value):
+        """The thread count of a ``threads="auto"`` query (see the class docstring)."""
+        import numba
+
+        n = min(numba.get_num_threads(), os.cpu_count() or 1)
+        if n < 2 or not _k.ATOMICS or self.crossed_estimate(value) < self.PARALLEL_MIN_CELLS:
+            return 1
+        if not _overlap_safe():  # workqueue: two Python threads' parallel queries would abort
+            return 1
+        busy = _runnable_elsewhere()
+        if busy is None:
+            return n
+        return max(1, min(n, int((os.cpu_count() or 1) - busy)))
+
     def _next_generation(self, n=1):
         """The first of ``n`` new generations (a parallel query takes one per thread)."""
         if self.generation > _INT32_MAX - n:  # once in 2**31 queries: really clear the stamps
@@ -446,11 +571,12 @@ class EdgeCentredTable:
             Cells to start from; the ones the surface does not cross are skipped.
         normals : {"mean", "gradient", None}, keyword-only
             As in :func:`polygen.volume.isosurface.extract`.
-        threads : int, optional, keyword-only
-            Threads for this query (default: the builder's ``threads``); more
-            than 1 runs the parallel construction (:meth:`_construct_parallel`):
-            the same triangles and vertices, in another order
-            (:func:`canonical_order` gives one order for both).
+        threads : int or "auto", optional, keyword-only
+            Threads for this query (default: the builder's ``threads``,
+            ``"auto"`` unless set; see the class docstring); more than 1 runs
+            the parallel construction (:meth:`_extract_parallel`): the same
+            triangles and vertices, in another order (:func:`canonical_order`
+            gives one order for both).
         canonical : bool, keyword-only
             Return the surface in :func:`canonical_order` (vertices by key,
             triangles by cell): the same arrays whatever the thread count
@@ -474,7 +600,9 @@ class EdgeCentredTable:
         value = check_value(value)
         check_normals(normals)
         seeds = self._check_seeds(seeds)
-        threads = self.threads if threads is None else _check_threads(threads)
+        threads = self.threads if threads is None else _check_threads(threads, auto=True)
+        if threads == "auto":
+            threads = self._auto_threads(value)
         node_grad = self.node_gradients if normals == "gradient" else None
         if threads > 1 and _k.ATOMICS:  # without compare-and-swap, one thread
             return self._extract_parallel(value, seeds, normals, node_grad, threads)
@@ -539,6 +667,7 @@ class EdgeCentredTable:
             "lookups": int(counters[_k.C_LOOKUPS]),
             "restarts": restarts,
             "collapsed": tuple(map(tuple, collapsed.tolist())),
+            "threads": 1,
         }
         return IsoSurface(
             value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell,
@@ -558,7 +687,7 @@ class EdgeCentredTable:
         kernel's ``(status, n_polygons, n_triangles, n_vertices,
         any_node_vertex)`` and whether those two were written.
         """
-        if self.nn == 4 and self.rec is not None and lifo and self.SPECIALISED_KERNEL:
+        if lifo and self._specialised():
             cap = self._vkey.shape[0]
             if getattr(self, "_pos", None) is None or self._pos.shape[0] < cap:
                 self._pos = np.empty((cap, 3))
@@ -567,13 +696,7 @@ class EdgeCentredTable:
             if not all(a.flags.c_contiguous for a in bufs):  # flat views, written through (never a copy)
                 raise AssertionError("a query buffer is not contiguous")  # never: they are all made whole
             flat = [a.reshape(-1) for a in bufs]
-            tet = self.__dict__.get("_tet")
-            if tet is None or tet[0] is not self.dyn:  # flat views of the records and of this builder's state
-                rec1, dyn1 = self.rec.view(), self.dyn.view()
-                rec1.shape = dyn1.shape = (-1,)  # views (an assignment to shape never copies)
-                tet = self._tet = (self.dyn, rec1, dyn1, self.dyn.shape[1],
-                                   _k.tet_triangle_slots(self.table, self.count, self.case_mask))
-            _, rec1, dyn1, dw, slots = tet
+            rec1, dyn1, dw, slots = self._tet_views()
             return (*_k.construct_tet(rec1, dyn1, dw, self.ds, self.nodes, self.dyn, self.s, value, self.faces,
                                       self.table, self.count, self.case_mask, slots, self.local_edges, self.n_edges,
                                       self.ec, *self._nc(), gen, self._queue, n_queued, flat[0], self._tri_cell,
@@ -585,7 +708,23 @@ class EdgeCentredTable:
             self.case_mask, self.local_edges, self.n_edges, self.ec_off, self.ec, *self._nc(), gen,
             self._queue, n_queued, lifo, self._tris, self._tri_cell, self._vkey, self._vend, counters), False
 
-    def _parallel_buffers(self, threads):
+    def _tet_views(self):
+        """``(rec, dyn, dw, tri_slots)``: flat views of the records and of this builder's state, its row width,
+        and :func:`_edge_centred_kernels.tet_triangle_slots` (made once per state array), for the tetrahedron
+        kernels."""
+        tet = self.__dict__.get("_tet")
+        if tet is None or tet[0] is not self.dyn:
+            rec1, dyn1 = self.rec.view(), self.dyn.view()
+            rec1.shape = dyn1.shape = (-1,)  # views (an assignment to shape never copies)
+            tet = self._tet = (self.dyn, rec1, dyn1, self.dyn.shape[1],
+                               _k.tet_triangle_slots(self.table, self.count, self.case_mask))
+        return tet[1:]
+
+    def _specialised(self):
+        """Whether queries run the tetrahedron kernels (tetrahedra with records; :attr:`SPECIALISED_KERNEL`)."""
+        return self.nn == 4 and self.rec is not None and self.SPECIALISED_KERNEL
+
+    def _parallel_buffers(self, threads, tet=False):
         """The serial buffers seen as ``threads`` per-thread parts, and the vertex-id array ``ev`` (made once).
 
         The parallel construction runs in the serial one's query buffers (a
@@ -594,7 +733,11 @@ class EdgeCentredTable:
         list and the vertex lists; an overflow doubles the whole buffer, as
         in the serial path. ``ev`` (n_edges + n_nodes,) int32, -1 between
         queries: the vertex id of a contested edge or node, decided by
-        compare-and-swap.
+        compare-and-swap. With ``tet`` (the tetrahedron kernel) also the
+        parts of the positions and normal sums (``_pos``, ``_acc``, as many
+        rows as the vertex lists) and of the normal terms for other threads'
+        vertices (``_fcode``, ``_fval``); returns ``(stack, tris, tri_cell,
+        vkey, vend)`` and, with ``tet``, ``(pos, acc, fcode, fval)`` after them.
         """
         if getattr(self, "_ev", None) is None:
             self._ev = np.full(self.n_edges + self.vol.n_points, -1, np.int32)
@@ -609,9 +752,27 @@ class EdgeCentredTable:
             self._vkey = np.empty(2 * max(16 * threads, self._vkey.shape[0]), np.int32)
             self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
             q, tc, vc = self._queue.shape[0] // threads, self._tris.shape[0] // threads, self._vkey.shape[0] // threads
-        return (self._queue[:q * threads].reshape(threads, q), self._tris[:tc * threads].reshape(threads, tc, 3),
-                self._tri_cell[:tc * threads].reshape(threads, tc), self._vkey[:vc * threads].reshape(threads, vc),
-                self._vend[:vc * threads].reshape(threads, vc, 2))
+        out = (self._queue[:q * threads].reshape(threads, q), self._tris[:tc * threads].reshape(threads, tc, 3),
+               self._tri_cell[:tc * threads].reshape(threads, tc), self._vkey[:vc * threads].reshape(threads, vc),
+               self._vend[:vc * threads].reshape(threads, vc, 2))
+        if not tet:
+            return out
+        cap = self._vkey.shape[0]
+        if getattr(self, "_pos", None) is None or self._pos.shape[0] < cap:
+            self._pos = np.empty((cap, 3))
+            self._acc = np.empty((cap, 3))
+        if getattr(self, "_fcode", None) is None:  # contested vertices are a few per cent: an eighth of the triangles
+            self._fcode = np.empty(max(64 * threads, self._tris.shape[0] // 8), np.int32)
+            self._fval = np.empty((self._fcode.shape[0], 3))
+        fc = self._fcode.shape[0] // threads
+        while fc < 3 * mt:
+            self._fcode = np.empty(2 * max(3 * mt * threads, self._fcode.shape[0]), np.int32)
+            self._fval = np.empty((self._fcode.shape[0], 3))
+            fc = self._fcode.shape[0] // threads
+        return out + (self._pos[:vc * threads].reshape(threads, vc, 3),
+                      self._acc[:vc * threads].reshape(threads, vc, 3),
+                      self._fcode[:fc * threads].reshape(threads, fc),
+                      self._fval[:fc * threads].reshape(threads, fc, 3))
 
     def _fit_parts(self, threads, counters):
         """Grow the buffers (for the next query) until each thread's part could hold all of this surface.
@@ -620,6 +781,9 @@ class EdgeCentredTable:
         a surface that fitted may not fit a part the next time unless every
         part holds it whole: without this, a repeated query could restart.
         The buffers then hold ``threads`` times the largest surface so far.
+        The lists of normal terms for other threads' vertices (tetrahedron
+        kernel) grow to twice this query's total per part (their length
+        depends on the split too; an overflow only restarts the query).
         """
         pops, n_t, n_v = int(counters[:, 4].sum()), int(counters[:, 0].sum()), int(counters[:, 1].sum())
         if self._queue.shape[0] // threads < pops:
@@ -630,38 +794,58 @@ class EdgeCentredTable:
         if self._vkey.shape[0] // threads < n_v:
             self._vkey = np.empty(threads * n_v, np.int32)
             self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
+        n_f = 2 * int(counters[:, _k.N_PAR_COUNTERS - 1].sum()) + 3 * _m.MAX_TRIANGLES
+        if getattr(self, "_fcode", None) is not None and self._fcode.shape[0] // threads < n_f:
+            self._fcode = np.empty(threads * n_f, np.int32)
+            self._fval = np.empty((self._fcode.shape[0], 3))
 
     def _extract_parallel(self, value, seeds, normals, node_grad, threads, interleave=0):
-        """:meth:`extract` by ``threads`` threads (``_edge_centred_kernels.construct_parallel``).
+        """:meth:`extract` by ``threads`` threads (``_edge_centred_kernels.construct_parallel``, or
+        ``construct_tet_parallel`` for tetrahedra with records).
 
         ``interleave > 0`` (tests): the threads' shares run on this thread
         instead, taking turns of ``interleave`` cells each -- a deterministic
         race between them, whatever the machine's scheduler does.
         """
         nn, s = self.nn, self.s
+        tet = self._specialised()
+        mean = normals == "mean"
         restarts = 0
+        causes = []
         while True:
-            stack, tris, tri_cell, vkey, vend = self._parallel_buffers(threads)
+            parts = self._parallel_buffers(threads, tet)
+            stack, tris, tri_cell, vkey, vend = parts[:5]
             gen = self._next_generation(threads)  # thread t claims with gen + t
-            counters = np.zeros((threads, 8), np.int64)
+            counters = np.zeros((threads, _k.N_PAR_COUNTERS), np.int64)
             status = np.zeros(threads, np.int64)
             next_seed = np.zeros(1, np.int64)
             t0 = time.perf_counter()
-            args = (self.nodes, self.ids, self.starts, self.dyn, self.ds, nn, s, value, self.faces, self.table,
-                    self.count, self.case_mask, self.local_edges, self.n_edges, self.ec_off, self.ec, *self._nc(), gen,
-                    seeds, next_seed, self._ev, stack, tris, tri_cell, vkey, vend, counters)
+            if tet:
+                rec1, dyn1, dw, slots = self._tet_views()
+                nc_off, nc = self._nc()
+                args = (rec1, dyn1, dw, self.ds, self.nodes, self.dyn, s, value, self.faces, self.table, self.count,
+                        self.case_mask, slots, self.local_edges, self.n_edges, self.ec, nc_off, nc, gen, seeds,
+                        next_seed, self._ev, stack, tris, tri_cell, vkey, vend, self.points, *parts[5:], mean,
+                        counters)
+                flood, kernel = _k._flood_tet, _k.construct_tet_parallel
+            else:
+                args = (self.nodes, self.ids, self.starts, self.dyn, self.ds, nn, s, value, self.faces, self.table,
+                        self.count, self.case_mask, self.local_edges, self.n_edges, self.ec_off, self.ec, *self._nc(),
+                        gen, seeds, next_seed, self._ev, stack, tris, tri_cell, vkey, vend, counters)
+                flood, kernel = _k._flood, _k.construct_parallel
             if interleave:
                 status[:] = _k.PAUSED
                 while (status == _k.PAUSED).any():
                     for t in np.flatnonzero(status == _k.PAUSED):
-                        status[t] = _k._flood(t, *args, interleave)
+                        status[t] = flood(t, *args, interleave)
             else:
-                _k.construct_parallel(*args, status)
+                kernel(*args, status)
             _k.release_contested(vkey, counters, self._ev)  # ev back to -1 where a thread won a vertex
             if not status.any():
                 break
             restarts += 1  # a buffer was too small (or a table missing): grow (build) it and do the query again
             worst = int(status[status != _k.OK][0])
+            causes.append(worst)
             if worst == _k.FULL_QUEUE:
                 self._queue = np.empty(2 * self._queue.shape[0], np.int32)
             elif worst == _k.FULL_TRIANGLES:
@@ -669,6 +853,9 @@ class EdgeCentredTable:
                 self._tri_cell = np.empty(self._tris.shape[0], np.int32)
             elif worst == _k.NEED_NODE_CELLS:
                 self._build_node_cells()
+            elif worst == _k.FULL_FOREIGN:
+                self._fcode = np.empty(2 * self._fcode.shape[0], np.int32)
+                self._fval = np.empty((self._fcode.shape[0], 3))
             else:
                 self._vkey = np.empty(2 * self._vkey.shape[0], np.int32)
                 self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
@@ -678,30 +865,44 @@ class EdgeCentredTable:
         v_base = np.zeros(threads + 1, np.int64)
         v_base[1:] = np.cumsum(counters[:, 1])
         n_t, n_v = int(t_base[-1]), int(v_base[-1])
+        n_node_v = int(counters[:, 7].sum())
         tri = _jit.empty((n_t, 3), np.int64)
         tri_cell_out = _jit.empty(n_t, np.int64)
         keys = _jit.empty(n_v, np.int64)
         ends = np.empty((n_v, 2), np.int32)
-        _k.gather_parallel(tris, tri_cell, vkey, vend, counters, t_base, v_base, tri, tri_cell_out, keys, ends)
-        n_node_v = int(counters[:, 7].sum())
+        # the tetrahedron kernel's positions and mean normals, unless vertices on nodes are dropped below
+        fused = tet and n_node_v == 0
+        if tet:
+            vertices = _jit.empty((n_v, 3))
+            unit = _jit.empty((n_v, 3)) if mean else vertices[:0]
+            n_zero = np.zeros(threads, np.int64)
+            _k.gather_tet_parallel(tris, tri_cell, vkey, vend, *parts[5:9], counters, t_base, v_base, mean and fused,
+                                   tri, tri_cell_out, keys, ends, vertices, unit, n_zero)
+        else:
+            _k.gather_parallel(tris, tri_cell, vkey, vend, counters, t_base, v_base, tri, tri_cell_out, keys, ends)
         tri, tri_cell_out, keys, ends, collapsed = _drop_at_nodes(n_node_v > 0, tri, tri_cell_out, keys, ends,
                                                                   self.n_edges)
         n_v = keys.shape[0]
         t2 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
-        vertices = _jit.empty((n_v, 3))
-        mean_kernel = None
-        if n_t >= self.STAGE3_PARALLEL_TRIANGLES:  # positions and mean normals by the threads too
-            if n_v:
-                _k.positions_parallel(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
+        mean_kernel = mean_done = None
+        if fused:
+            if mean:
+                mean_done = (unit, int(n_zero.sum()))
+        else:
+            vertices = _jit.empty((n_v, 3))
+            if n_t >= self.STAGE3_PARALLEL_TRIANGLES:  # positions and mean normals by the threads too
+                if n_v:
+                    _k.positions_parallel(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
 
-            def mean_kernel(v, t, out):
-                _k.mean_normals_parallel(v, t, out, np.empty((threads - 1, v.shape[0], 3)))
-        elif n_v:
-            _k.positions(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
+                def mean_kernel(v, t, out):
+                    _k.mean_normals_parallel(v, t, out, np.empty((threads - 1, v.shape[0], 3)))
+            elif n_v:
+                _k.positions(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
         nrm = vertex_normals(normals, vertices, tri, keys, edges=np.ascontiguousarray(self.vol.edges), s=s,
-                             value=value, node_grad=node_grad, points=self.points, mean_kernel=mean_kernel)
+                             value=value, node_grad=node_grad, points=self.points, mean_kernel=mean_kernel,
+                             mean_done=mean_done)
         t3 = time.perf_counter() - t0
         n_p = int(counters[:, 3].sum())
         tested = int(counters[:, 5].sum())
@@ -714,8 +915,11 @@ class EdgeCentredTable:
             "lookups": 0,
             "restarts": restarts,
             "collapsed": tuple(map(tuple, collapsed.tolist())),
+            "restart_causes": tuple(causes),
             "threads": threads,
             "per_thread": tuple(int(x) for x in counters[:, 4]),
+            "kernel": "tetrahedra" if tet else "generic",
+            "foreign_terms": int(counters[:, _k.N_PAR_COUNTERS - 1].sum()),
         }
         return IsoSurface(
             value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell_out,
@@ -735,7 +939,12 @@ class EdgeCentredTable:
         (the volume's ``edges``, read by stage 3 for gradient normals and
         degenerate ones; its ``cell_edges`` serve the preparation only),
         ``buffers`` (queue, triangles, vertex keys and ends at their
-        current sizes; a parallel query cuts them into one part per thread);
+        current sizes, with the positions and normal sums of the tetrahedron
+        kernels and, after a parallel query on tetrahedra, the lists of
+        normal terms passed between its threads; a parallel query cuts them
+        into one part per thread); after a ``threads="auto"`` query on a
+        volume of more cells than :attr:`SPAN_SAMPLE`, ``span_sample`` (its
+        sorted value ranges, 16 bytes per sampled cell);
         after a query with ``threads > 1`` also ``parallel`` (the id of a
         contested vertex per edge and node, int32, -1 between queries).
         """
@@ -745,8 +954,9 @@ class EdgeCentredTable:
             "edge_cells": int(self.ec.nbytes),
             "edge_list": int(vol.edges.nbytes),
             "buffers": int(self._queue.nbytes + self._tris.nbytes + self._tri_cell.nbytes + self._vkey.nbytes
-                           + self._vend.nbytes + sum(getattr(self, a, None).nbytes for a in ("_pos", "_acc")
-                                                     if getattr(self, a, None) is not None)),
+                           + self._vend.nbytes
+                           + sum(getattr(self, a).nbytes for a in ("_pos", "_acc", "_fcode", "_fval")
+                                 if getattr(self, a, None) is not None)),
         }
         if self.ec_off.size:
             out["edge_cells_offsets"] = int(self.ec_off.nbytes)
@@ -756,6 +966,8 @@ class EdgeCentredTable:
             out["node_cells"] = int(sum(a.nbytes for a in self._node_cells["nc"]))
         if getattr(self, "_ev", None) is not None:
             out["parallel"] = int(self._ev.nbytes)
+        if self.__dict__.get("_span") is not None:
+            out["span_sample"] = int(self._span[1].nbytes + self._span[2].nbytes)
         return out
 
 
@@ -1104,10 +1316,12 @@ class _EdgeCentredMethods(IsosurfaceMethod):
         ``"extrema-graph"``, ``"span-filter"``, ...
     order : {"fifo", "lifo"}
         Queue discipline of the builder.
-    threads : int or None
-        Threads for one surface (``edge-centred-table`` only; default 1, see
-        :class:`EdgeCentredTable`). :meth:`extract_many` runs its values one
-        thread each whatever this is.
+    threads : int, "auto" or None
+        Threads for one surface (``edge-centred-table`` only; default
+        ``"auto"``: several for a large surface while no other program
+        competes for the cores, see :class:`EdgeCentredTable`; the other
+        method runs one). :meth:`extract_many` runs its values one thread
+        each whatever this is.
     **params
         Passed to the seed source.
 
@@ -1127,13 +1341,13 @@ class _EdgeCentredMethods(IsosurfaceMethod):
     construction = "edge-centred"
     builder_class = None
 
-    def _prepare(self, seeds="auto", order="lifo", threads=1, layout=None, **params):
+    def _prepare(self, seeds="auto", order="lifo", threads="auto", layout=None, **params):
         kw = {}
         if self.builder_class is EdgeCentredTable:
             kw["threads"] = threads
             if layout is not None:
                 kw["layout"] = layout
-        elif threads != 1 or layout is not None:
+        elif not (isinstance(threads, str) and threads == "auto" or threads == 1) or layout is not None:
             raise IsoSurfaceError(f"threads > 1 (one surface by several threads) and layout are the "
                                   f"edge-centred-table method's; {self.name!r} runs one thread on its records; "
                                   f"got threads={threads!r}, layout={layout!r}")

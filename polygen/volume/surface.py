@@ -436,7 +436,7 @@ def finish(value, keys, tri, tri_cell, *, points, edges, s, normals, node_grad, 
 
 
 def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad, points=None, mean_kernel=None,
-                   mean_sums=None):
+                   mean_sums=None, mean_done=None):
     """The normals half of stage 3, shared by every construction.
 
     Parameters
@@ -464,6 +464,11 @@ def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad, 
         that added each triangle's normal as it wrote the triangle, in
         ``marching._mean_normals``'s order): only normalised here, into a new
         array.
+    mean_done : ((V, 3) float64, int), optional
+        The ``"mean"`` normals already summed and normalised (as
+        :func:`polygen.volume.marching.normalised` does: a zero row left
+        zero) and how many rows :func:`polygen.volume.marching.zero_rows`
+        would list: used as they are (only zero rows are fixed, see Notes).
 
     Returns
     -------
@@ -480,10 +485,15 @@ def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad, 
     """
     if normals is None:
         return None
-    nrm = _jit.empty(vertices.shape, vertices.dtype)
-    if vertices.shape[0]:
+    if normals == "mean" and mean_done is not None:
+        nrm, n_zero = mean_done
+    else:
+        nrm = _jit.empty(vertices.shape, vertices.dtype)
         n_zero = -1  # not counted
-        if normals == "mean" and mean_sums is not None:
+    if vertices.shape[0]:
+        if normals == "mean" and mean_done is not None:
+            pass
+        elif normals == "mean" and mean_sums is not None:
             n_zero = _m.normalised(mean_sums, nrm)
         elif normals == "mean":
             (_m._mean_normals if mean_kernel is None else mean_kernel)(vertices, tri, nrm)
