@@ -71,6 +71,9 @@ THESIS = {  # Tables 7.1-7.5, data 1-5 (IBM RS/6000 model 560)
 }
 MNAMES = [("scan", "all"), ("sorted-lists", "sort"), ("span-filter", "filt"), ("extrema-graph", "egra"),
           ("thinning", "thin")]
+# the thesis's serial FIFO (7.5.2) for the tables; by default volumes from 200k cells (data 4, 5)
+# are thinned in two halves at once (`thin_volume(parallel=None)`): a slightly larger skeleton, sooner
+PARAMS = {"thin": {"parallel": False}}
 
 # %% [markdown]
 # ## Fig. 7.1 made real — a through-hole hides part of an isosurface from the extrema graph
@@ -373,7 +376,7 @@ for name in TABLE_DATA:
     row = {"data": name, "N_e": vol.n_cells, "N_n": vol.n_points,
            "N_t": sum(r.triangles.shape[0] for r in ref), "N_v": sum(r.vertices.shape[0] for r in ref)}
     for mname, key in MNAMES:
-        m = methods.get(mname)(vol)
+        m = methods.get(mname)(vol, **PARAMS.get(key, {}))
         sw = methods.sweep(m, values, reference=ref)   # the 20 values, one at a time, summed
         assert sw.same_as_reference, (name, mname)
         n_ci = sw.cells_intersected
