@@ -375,7 +375,7 @@ class UnstructuredVolume:
         **Policy** (``method=None``, the usual call). The default method
         (:data:`~polygen.volume.registry.DEFAULT_METHOD`, the cell-edge-centred
         construction) needs a preparation -- face neighbours, edges,
-        thinning, edge records: about a second per million cells -- that a
+        thinning, edge records: about half a second per million cells on two cores -- that a
         single surface does not repay. So the first surface never waits
         for it:
 
