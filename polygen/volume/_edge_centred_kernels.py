@@ -871,10 +871,10 @@ def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
     much again waiting for memory: the cell lists of the edges (in 4 KiB
     pages: a TLB miss too), the records of the cells first reached and
     their nodes' values, one after the other. So the lists of a cell's
-    crossed edges are fetched as soon as the cell is first reached (they are
-    walked when it is taken from the stack, later), and the records of all
-    the cells around a taken cell's open edges are fetched before the first
-    one is read.
+    crossed edges and its nodes' positions are fetched as soon as the cell is
+    first reached (they are read when it is taken from the stack, later), and
+    the records of all the cells around a taken cell's open edges are fetched
+    before the first one is read.
 
     Why a kernel of its own: :func:`construct` serves tetrahedra and
     hexahedra, records or not, FIFO or LIFO, through runtime arguments, so
@@ -1030,6 +1030,11 @@ def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
                                 w3 = _ctz(pm)
                                 pm &= pm - 1
                                 _prefetch_item(ec, _u(rec[rj + 10 + w3]))
+                            # and its nodes' positions, read when its vertices are created (3-6 % on 2M)
+                            _prefetch_item(points, _u(rec[rj + 2]) * 3)
+                            _prefetch_item(points, _u(rec[rj + 3]) * 3)
+                            _prefetch_item(points, _u(rec[rj + 4]) * 3)
+                            _prefetch_item(points, _u(rec[rj + 5]) * 3)
                         dyn[jb + R_STATE] = stj
                         for w2 in range(4):
                             dyn[jb + ds + w2] = -1
@@ -1548,6 +1553,7 @@ def _flood_tet(t, rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
     t`` (thread ``t``'s ``k``-th vertex, ``b`` = :func:`_thread_bits`),
     not :func:`_flood`'s ``k * T + t``.
     """
+    pts = points.reshape(-1)  # flat, for the prefetch hints (a view)
     n_thr = stack.shape[0]
     tb = _thread_bits(n_thr)
     tm = (1 << tb) - 1
@@ -1691,7 +1697,13 @@ def _flood_tet(t, rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
                             else:
                                 vals[0], vals[1], vals[2], vals[3] = x0, x1, x2, x3
                                 mj = _exact_mask(cj, xj, vals, value, tri_table, tri_count, local_edges, codes_j)
-                            pm = mj & 63  # its edges' cell lists, long before C_j is taken from the stack
+                            # its nodes' positions, read when its vertices are created, and (below) its edges'
+                            # cell lists, long before C_j is taken from the stack
+                            _prefetch_item(pts, _u(rec[rj + 2]) * 3)
+                            _prefetch_item(pts, _u(rec[rj + 3]) * 3)
+                            _prefetch_item(pts, _u(rec[rj + 4]) * 3)
+                            _prefetch_item(pts, _u(rec[rj + 5]) * 3)
+                            pm = mj & 63
                             while pm:
                                 w3 = _ctz(pm)
                                 pm &= pm - 1
