@@ -194,11 +194,17 @@ class PreparedPartition:
         if self.field not in self.vol.fields:
             raise PartitionError(f"piece {self.name!r} has no field {self.field!r}; its fields are {fields}")
         method = _registry.DEFAULT_METHOD if method is None else method
+        params = dict(params or {})
+        if method == "edge-centred-table":
+            # one thread per partition: the partitions are the parallelism, and the stitched arrays come out
+            # in one order whatever the machine's load (threads="auto" may build a surface by two threads,
+            # whose vertex order varies from run to run)
+            params.setdefault("threads", 1)
         with warnings.catch_warnings():
             # a Morton range of cells may touch its neighbour along an edge or a node only; thinning
             # warns that its theorems (7.4-7.6) need a manifold boundary: the seam seeds make up for it
             warnings.simplefilter("ignore", ThinningWarning)
-            self.method = _registry.get_method(method)(self.vol, field=self.field, **(params or {}))
+            self.method = _registry.get_method(method)(self.vol, field=self.field, **params)
         self._propagator = None
         self._lock = threading.Lock()
         self.seam_cells = np.zeros(0, np.int64)
