@@ -7,14 +7,14 @@ process of its own, and the arms are interleaved over ``ROUNDS`` rounds:
 
 - ``prefetch``: the kernels as shipped;
 - ``no prefetch``: ``POLYGEN_PREFETCH=0``;
-- ``prefetch, huge pages``: as shipped, but after the preparation the
-  builder's records and edge lists (the two large arrays the construction
-  reads at random: 173 MB on 2M) are copied into memory from numpy's
-  allocator, which advises transparent huge pages (``madvise``) for blocks of
-  4 MiB or more, so a random record costs no page walk. An experiment: it
-  replaces private attributes of the builder, and the copy's time is
-  reported (the first touch of fresh huge pages may wait for compaction,
-  see ``polygen._jit.HUGE_ADVICE_BYTES``).
+- ``prefetch, huge pages``: as shipped since the records moved to huge pages
+  (``EdgeCentredTable.HUGE_PAGES``): after the preparation a background
+  thread collapses the builder's records and edge lists (the two large
+  arrays the construction reads at random: 172 MB on 2M) into transparent
+  huge pages (``MADV_COLLAPSE``, :func:`polygen._jit.collapse_to_huge_pages`),
+  so a random record costs no page walk; the arm waits for it
+  (``EdgeCentredTable.settle``) before timing and reports the wait. The two
+  other arms set ``HUGE_PAGES = False`` (4 KiB pages, the layout before).
 
 In each process: the 2M volume (field ``fem``), twenty isovalues
 ``linspace(min, max, 22)[1:-1]``, ``edge-centred-table`` prepared once and
@@ -38,20 +38,12 @@ import time
 
 import numpy as np
 
-ARMS = {"prefetch": {}, "no prefetch": {"POLYGEN_PREFETCH": "0"}, "prefetch, huge pages": {"HUGE": "1"}}
+ARMS = {"prefetch": {"HUGE": "0"}, "no prefetch": {"POLYGEN_PREFETCH": "0", "HUGE": "0"},
+        "prefetch, huge pages": {"HUGE": "1"}}
 ROUNDS = 3
 REPEATS = 5
 COLUMNS = ["data", "arm", "1 thread: sum_ms", "1 thread: max_ms", "2 threads: sum_ms", "2 threads: max_ms",
-           "per round (1 thread sum)", "huge-page copy s", "AnonHugePages MB", "same surfaces", "load"]
-
-
-def _huge_copy(a):
-    """``a`` copied into a 64-byte aligned block from numpy's allocator (huge-page advice for >= 4 MiB)."""
-    raw = np.empty(a.size + 64 // a.itemsize, a.dtype)
-    start = (-(raw.ctypes.data // a.itemsize)) % (64 // a.itemsize)
-    out = raw[start:start + a.size].reshape(a.shape)
-    out[...] = a
-    return out
+           "per round (1 thread sum)", "huge-page wait s", "AnonHugePages MB", "same surfaces", "load"]
 
 
 def _anon_huge_mb():
@@ -67,20 +59,15 @@ def child(name):
     from polygen.volume import datasets, isovalues, methods
     from polygen.volume.surface import same_surface
 
+    from polygen.volume.edge_centred import EdgeCentredTable
+
+    EdgeCentredTable.HUGE_PAGES = os.environ.get("HUGE") == "1"
     vol = datasets.load(name)
     m = methods.get("edge-centred-table")(vol, field="fem")
     b = m.builder
-    copy_s = 0.0
-    if os.environ.get("HUGE") == "1":
-        t0 = time.perf_counter()
-        b.rec = _huge_copy(b.rec)
-        b.nodes = b.rec[:, k.R_NODES:k.R_NODES + 4]
-        ost = b.os + b.n_slots
-        b.starts = b.rec[:, ost:ost + 6]
-        b.dyn = b.rec
-        b.ec = _huge_copy(b.ec)
-        b.__dict__.pop("_tet", None)  # the flat views of the records, made again from the new arrays
-        copy_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    b.settle()  # the background collapse to huge pages (HUGE=1), finished before timing
+    copy_s = time.perf_counter() - t0
     values = isovalues(vol.scalars("fem"), 20)
     seeds = [m.source.query(v).cells for v in values]
     digest = hashlib.sha1()
@@ -122,7 +109,7 @@ def run(name):
         rows.append({"data": name, "arm": arm, "1 thread: sum_ms": med["sum1"], "1 thread: max_ms": med["max1"],
                      "2 threads: sum_ms": med["sum2"], "2 threads: max_ms": med["max2"],
                      "per round (1 thread sum)": " / ".join(f"{g['sum1']:.1f}" for g in runs),
-                     "huge-page copy s": " / ".join(f"{g['copy_s']:.3f}" for g in runs) if "huge" in arm else "",
+                     "huge-page wait s": " / ".join(f"{g['copy_s']:.3f}" for g in runs) if "huge" in arm else "",
                      "AnonHugePages MB": max(g["huge_mb"] for g in runs),
                      "same surfaces": len(digests) == 1 and all(g["same"] for g in runs),
                      "load": " / ".join(f"{g['load']:.2f}" for g in runs)})
@@ -140,8 +127,10 @@ def main(names):
              "threads=1 and threads=2 alternately; per value the median wall time of extract, then the sum and max "
              "over the values; the table gives the median over the rounds",
              "no prefetch: POLYGEN_PREFETCH=0 (the plain kernels: no hints, and a loop instead of llvm.cttz)",
-             "prefetch, huge pages: the builder's records and edge lists copied into huge-page-advised memory after "
-             "the preparation (the copy's time per round; AnonHugePages of the process at the end)",
+             "prefetch, huge pages: the builder's records and edge lists collapsed into transparent huge pages by "
+             "the background thread after the preparation (EdgeCentredTable.HUGE_PAGES, the default; the wait for it "
+             "after the method was ready, per round; AnonHugePages of the process at the end); the other arms "
+             "HUGE_PAGES = False",
              "same surfaces: every arm's serial triangles and vertices byte for byte equal (one digest), and every "
              "2-thread surface the serial one",
              f"load: 1-minute load average of the machine ({os.cpu_count()} cores) at the end of each process"]
