@@ -388,3 +388,50 @@ def test_group_node_counts_with_a_node_on_two_groups(tetra):
     vol = voxel_volume(mask, tetra=tetra)
     assert vol.n_boundary_groups == 2
     assert np.all(vol.group_euler == 2)  # two spheres, 8 nodes each (the shared corner in both)
+
+
+@pytest.mark.parametrize("validate", [True, False])
+@pytest.mark.parametrize("tetra", [True, False])
+def test_one_pass_id_check_agrees_with_the_exact_checks(tetra, validate):
+    # the constructor's parallel pass (ids in range, distinct, and which nodes are used) against numpy
+    # on the same cells: bad ids raise the exact check's message whichever path ran; good ones give
+    # bincount's unreferenced nodes, also when a cell's geometry is too close to the bound for the pass
+    vol = voxel_volume(np.ones((3, 3, 2), bool), tetra=tetra, jitter=0.1, seed=3)
+    rng = np.random.default_rng(5)
+    n = vol.n_points
+    points = np.vstack([vol.points, rng.uniform(0, 1, (4, 3))])  # four spare nodes, used by nobody
+    for trial in range(12):
+        cells = vol.cells.copy()
+        c = int(rng.integers(cells.shape[0]))
+        kind = trial % 3
+        if kind == 0:
+            cells[c, int(rng.integers(cells.shape[1]))] = int(rng.choice([-1, n + 4, n + 100]))
+            with pytest.raises(VolumeError, match=r"outside 0\.\.%d, e\.g\. cells \[%d\]" % (n + 3, c)):
+                UnstructuredVolume(points, cells, validate=validate)
+        elif kind == 1:
+            i, j = rng.choice(cells.shape[1], 2, replace=False)
+            cells[c, i] = cells[c, j]
+            with pytest.raises(VolumeError, match=r"repeat a node, e\.g\. cells \[%d\]" % c):
+                UnstructuredVolume(points, cells, validate=validate)
+        else:
+            with pytest.warns(VolumeWarning, match="4 of"):
+                got = UnstructuredVolume(points, cells, validate=validate)
+            want = np.flatnonzero(np.bincount(cells.ravel(), minlength=n + 4) == 0)
+            assert got.unreferenced_nodes.tolist() == want.tolist() == list(range(n, n + 4))
+
+
+def test_borderline_tetrahedron_is_counted_in_the_used_nodes(monkeypatch):
+    # a tetrahedron the one-pass check cannot call clearly valid but the exact check accepts: its nodes
+    # are still counted as used (the pass marks only the cells it calls valid)
+    from polygen.volume import mesh as _mesh
+
+    p = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1.0]])
+    cells = [[0, 1, 2, 3], [1, 2, 3, 4][::-1]]
+    vol = UnstructuredVolume(p, cells, orient=True)  # the second one the right way round
+    ratios = [abs(float(np.linalg.det(p[c[1:]] - p[c[0]]))) / max(np.linalg.norm(p[a] - p[b]) for a in c for b in c)**3
+              for c in vol.cells]
+    # the bound a hair below the flatter cell's 6V / longest^3: the exact check (|6V| <= rtol longest^3 is
+    # degenerate) accepts it, the pass (with its 1e-9 margin) does not call it clearly valid
+    monkeypatch.setattr(_mesh, "_DEGENERATE_RTOL", min(ratios) * (1 - 1e-12))
+    got = UnstructuredVolume(p, vol.cells)
+    assert got.unreferenced_nodes.size == 0

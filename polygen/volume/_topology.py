@@ -243,6 +243,38 @@ def tet_cells_clearly_valid(points, cells, rtol, used):
 
 
 @njit(parallel=True)
+def cell_ids_valid(cells, n, used):
+    """How many cells have a node id outside ``0..n-1`` or a repeated node; marks ``used[node] = 1`` for the others.
+
+    One parallel pass, no temporaries, any node count: the constructor's check
+    of the ids where :func:`tet_cells_clearly_valid` does not run
+    (``validate=False``, hexahedra). It runs the exact checks (and their
+    messages) only when this count is not zero.
+    """
+    m, k = cells.shape
+    bad = 0
+    for c in prange(m):
+        ok = True
+        for i in range(k):
+            a = cells[c, i]
+            if a < 0 or a >= n:
+                ok = False
+                break
+            for j in range(i):
+                if cells[c, j] == a:
+                    ok = False
+                    break
+            if not ok:
+                break
+        if not ok:
+            bad += 1
+            continue
+        for i in range(k):
+            used[cells[c, i]] = 1
+    return bad
+
+
+@njit(parallel=True)
 def hex_jacobians(points, cells, corners):
     """Corner Jacobian determinants ``(M, 8)``, volume and longest edge of each hexahedron."""
     m = cells.shape[0]
@@ -250,14 +282,24 @@ def hex_jacobians(points, cells, corners):
     vol = np.empty(m)
     longest = np.empty(m)
     for c in prange(m):
+        # scalars throughout (row slices such as points[i] - p0 would allocate an array each, in the loop)
         for i in range(8):
-            p0 = points[cells[c, corners[i, 0]]]
-            a = points[cells[c, corners[i, 1]]] - p0
-            b = points[cells[c, corners[i, 2]]] - p0
-            d = points[cells[c, corners[i, 3]]] - p0
-            jac[c, i] = (a[0] * (b[1] * d[2] - b[2] * d[1])
-                         - a[1] * (b[0] * d[2] - b[2] * d[0])
-                         + a[2] * (b[0] * d[1] - b[1] * d[0]))
+            i0 = cells[c, corners[i, 0]]
+            i1 = cells[c, corners[i, 1]]
+            i2 = cells[c, corners[i, 2]]
+            i3 = cells[c, corners[i, 3]]
+            a0 = points[i1, 0] - points[i0, 0]
+            a1 = points[i1, 1] - points[i0, 1]
+            a2 = points[i1, 2] - points[i0, 2]
+            b0 = points[i2, 0] - points[i0, 0]
+            b1 = points[i2, 1] - points[i0, 1]
+            b2 = points[i2, 2] - points[i0, 2]
+            d0 = points[i3, 0] - points[i0, 0]
+            d1 = points[i3, 1] - points[i0, 1]
+            d2 = points[i3, 2] - points[i0, 2]
+            jac[c, i] = (a0 * (b1 * d2 - b2 * d1)
+                         - a1 * (b0 * d2 - b2 * d0)
+                         + a2 * (b0 * d1 - b1 * d0))
         # volume by the divergence theorem over the six faces split at their centroid
         v = 0.0
         for f in range(6):
@@ -269,15 +311,22 @@ def hex_jacobians(points, cells, corners):
                 cx += points[cells[c, q[j]], 0] * 0.25
                 cy += points[cells[c, q[j]], 1] * 0.25
                 cz += points[cells[c, q[j]], 2] * 0.25
+            o = cells[c, 0]
             for j in range(4):
-                pa = points[cells[c, q[j]]] - points[cells[c, 0]]
-                pb = points[cells[c, q[(j + 1) % 4]]] - points[cells[c, 0]]
-                px = cx - points[cells[c, 0], 0]
-                py = cy - points[cells[c, 0], 1]
-                pz = cz - points[cells[c, 0], 2]
-                v += (px * (pa[1] * pb[2] - pa[2] * pb[1])
-                      - py * (pa[0] * pb[2] - pa[2] * pb[0])
-                      + pz * (pa[0] * pb[1] - pa[1] * pb[0]))
+                ja = cells[c, q[j]]
+                jb = cells[c, q[(j + 1) % 4]]
+                pa0 = points[ja, 0] - points[o, 0]
+                pa1 = points[ja, 1] - points[o, 1]
+                pa2 = points[ja, 2] - points[o, 2]
+                pb0 = points[jb, 0] - points[o, 0]
+                pb1 = points[jb, 1] - points[o, 1]
+                pb2 = points[jb, 2] - points[o, 2]
+                px = cx - points[o, 0]
+                py = cy - points[o, 1]
+                pz = cz - points[o, 2]
+                v += (px * (pa1 * pb2 - pa2 * pb1)
+                      - py * (pa0 * pb2 - pa2 * pb0)
+                      + pz * (pa0 * pb1 - pa1 * pb0))
         vol[c] = v / 6.0
         e = 0.0
         for i in range(8):

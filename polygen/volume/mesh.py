@@ -159,12 +159,14 @@ class UnstructuredVolume:
                               "rescale the coordinates")
         # tetrahedra, checked in full: one parallel pass decides when every cell is clearly valid (the usual
         # case); otherwise the exact checks below find the bad cells and name them
-        used = None
-        if self.cells.shape[1] == 4 and validate and not orient:
-            used = np.zeros(n, np.uint8)
-            if _k.tet_cells_clearly_valid(self.points, self.cells, _DEGENERATE_RTOL, used):
-                used = None
-        if used is None:
+        # (hexahedra, validate=False, orient=True: the ids in one parallel pass, the geometry if asked below)
+        used = np.zeros(n, np.uint8)  # 1 for the nodes of the cells the pass found clearly valid
+        fast_geometry = self.cells.shape[1] == 4 and validate and not orient
+        if fast_geometry:
+            clear = _k.tet_cells_clearly_valid(self.points, self.cells, _DEGENERATE_RTOL, used) == 0
+        else:
+            clear = _k.cell_ids_valid(self.cells, n, used) == 0
+        if not clear:
             self._check_cells(n)
         self.cell_type = _CELL_TYPES[self.cells.shape[1]]
         self.fields = _Fields(self)
@@ -179,9 +181,9 @@ class UnstructuredVolume:
         self.preparation = "background"
         for name, values in (fields or {}).items():
             self.add_field(name, values)
-        if used is None:
-            if validate or orient:
-                self._check_geometry(orient)
+        if (validate or orient) and not (fast_geometry and clear):
+            self._check_geometry(orient)
+        if not clear:  # a cell the pass could not call valid passed the exact checks: count its nodes too
             used = np.bincount(self.cells.ravel(), minlength=n)
         self.unreferenced_nodes = np.flatnonzero(used == 0)
         if self.unreferenced_nodes.size:
@@ -312,6 +314,7 @@ class UnstructuredVolume:
                 self.cells[inverted[:, None], [1, 2]] = self.cells[inverted[:, None], [2, 1]]
             else:
                 self.cells[inverted] = self.cells[inverted][:, [4, 5, 6, 7, 0, 1, 2, 3]]
+                jac, _, longest = _k.hex_jacobians(self.points, self.cells, HEX_CORNER_FRAMES)
             inverted = inverted[:0]
         if inverted.size:
             raise VolumeError(
@@ -319,7 +322,6 @@ class UnstructuredVolume:
                 f"e.g. cells {_examples(inverted)}; pass orient=True to reorder their nodes"
             )
         if self.cell_type == "hexa":
-            jac, _, longest = _k.hex_jacobians(self.points, self.cells, HEX_CORNER_FRAMES)
             folded = np.flatnonzero(np.any(jac <= _DEGENERATE_RTOL * (longest**3)[:, None], axis=1))
             if folded.size:
                 raise VolumeError(
