@@ -39,6 +39,7 @@ smallest angle) is recorded too.  Writes
     python benchmarks/intensity_mesh.py --fine-first
     python benchmarks/intensity_mesh.py --only plate
     python benchmarks/intensity_mesh.py --only narrow
+    python benchmarks/intensity_mesh.py --only single
     python benchmarks/intensity_mesh.py --calibrate
 
 ``--only plate`` runs only the plate row: the first mesh and radiosity at ``size_initial``
@@ -52,6 +53,28 @@ D1 lines only where the penumbra they bound is narrower than the element the fir
 grid asks there; criterion fixed before measuring), with and without the width cap, at the
 combination's settings, and compares it with both parents' curves of the last full run (and
 of ``--fine-first``) by ``error_at_elements``; writes ``intensity_mesh_narrow.json`` and ``.md``.
+
+``--only single`` (issue 15, after ``benchmarks/combination_error_zones.py``: at 2808
+elements the narrow-lines combination has 43 % of its squared image error as extra error
+against this method's 3088-element mesh *away* from the lines, where its elements are as coarse
+as this method's at 1.7, while 51 % of its elements lie within 0.85 of a line with a quarter of
+the area the size grid asks: the width cap binds in the strips between two kept lines of a
+narrow penumbra and grades outwards from them; without the cap the same second mesh has 1752
+elements instead of 2808) runs only the combination with ``lines="single"``, defined before
+measuring its error: the second mesh's lines are ``"narrow"``'s, then of two kept lines closer
+than the largest element (``size_min / 2**element_levels``) only the longer stays
+(:func:`polygen.discontinuity.combined.single_lines`: D0 lines first and whole, then D1 lines
+longest first, cut into pieces of the finest element's length, a piece dropped when its
+midpoint lies within that distance of the polygon's edge or of a piece kept before; no end is
+moved), so that a narrow penumbra is one line and no strip narrower than an element is left
+between kept lines for the cap to fill.  Width cap on, at the combination's settings
+(``size_initial`` 2.4, 1.7, the ``size_min`` sweep at 1.7 from the same first pass).  The
+criterion is the existing one: at each of its points, its error against each parent's curve
+of the last full run (this method with its sweep, and with ``--fine-first``'s points as
+notebook 04 compares; simplified DM) interpolated in log-log at its element count
+(``error_at_elements``); it *beats both* if it is lower than both at every one of its points
+that lies inside both curves' ranges (and there is at least one such point).  Writes
+``intensity_mesh_single.json`` and ``.md``.
 
 ``--calibrate`` (issue 15) anchors Table 4.1's second mesh to the thesis by a rule fixed
 before any quality or error was measured at its result: the thesis's second mesh keeps
