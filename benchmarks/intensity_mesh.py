@@ -278,9 +278,10 @@ def main(argv=None):
                     help="only the loop from a finer first mesh and its adaptive re-mesh")
     ap.add_argument("--calibrate", action="store_true",
                     help="only the bisection of Table 4.1's size_min on the thesis's ratio")
-    ap.add_argument("--only", choices=["plate", "narrow"],
+    ap.add_argument("--only", choices=["plate", "narrow", "single"],
                     help="only this row (plate: the 200 x 200 size grid, by phase; narrow: "
-                         "the combination with lines='narrow' against the parents' curves)")
+                         "the combination with lines='narrow' against the parents' curves; "
+                         "single: the same with lines='single')")
     args = ap.parse_args(argv)
     solve = {"tol": args.tol, "ambient": True}
     sc = scenes.three_rectangles_box()
@@ -293,6 +294,8 @@ def main(argv=None):
         return plate_only(sc, solve, args)
     if args.only == "narrow":
         return narrow_only(sc, cam, solve, args)
+    if args.only == "single":
+        return single_only(sc, cam, solve, args)
     sizes = [4.0] if args.quick else [2.4, 1.7]
     main_size = 4.0 if args.quick else 1.7
     SWEEP = (2.0, 1.5)   # size_min / size_initial besides Table 4.1's (2.0: the earlier setting)
@@ -538,6 +541,104 @@ def narrow_only(sc, cam, solve, args):
                          f"{os.cpu_count()} CPUs"])
     (RESULTS / "intensity_mesh_narrow.json").write_text(json.dumps(
         {"machine": machine(), "rows": rows, "parents": parents}, indent=2) + "\n")
+
+
+def parent_curves():
+    """Both parents' (elements, error) curves of the stored full and ``--fine-first`` runs."""
+    curves = json.loads((RESULTS / "intensity_mesh.json").read_text())["curves"]
+    parents = {"this method": sorted((p["n_elements"], p["error"]) for p in
+                                     curves["intensity"] + curves["intensity, other size_min"]),
+               "simplified DM": sorted((p["n_elements"], p["error"])
+                                       for p in curves["simplified DM"])}
+    fine = json.loads((RESULTS / "intensity_mesh_fine_first.json").read_text())["rows"]
+    parents["this method, fine first too"] = sorted(parents["this method"] + [
+        (r["elements"], r["rms_error"]) for r in fine if r["mesh"].startswith("this method")])
+    return parents
+
+
+def single_only(sc, cam, solve, args):
+    """The combination with ``lines="single"`` (issue 15), width cap on.
+
+    Defined before measuring its error (module docstring, ``--only single``): ``"narrow"``'s
+    lines, then of two kept lines closer than the largest element only the longer
+    (:func:`polygen.discontinuity.combined.single_lines`).  The combination's settings
+    (size_initial 2.4, 1.7, the size_min sweep at 1.7 from the same first pass); the parents'
+    curves are the stored full run's (this method with its sweep, with and without the
+    ``--fine-first`` points; simplified DM), each interpolated in log-log at the
+    combination's element count (``error_at_elements``).  It beats both if it is below both
+    at every point of it inside both curves' ranges (at least one such point).
+    """
+    full = json.loads((RESULTS / "intensity_mesh.json").read_text())
+    parents = parent_curves()
+    sd = simplified_discontinuity(sc)
+    main_size, runs = 1.7, []
+    sizes = ((4.0, SIZE_MIN_RATIO),) if args.quick else (
+        (2.4, SIZE_MIN_RATIO), (1.7, SIZE_MIN_RATIO), (1.7, 2.0), (1.7, 1.5))
+    for si, f in sizes:
+        first = None if f == SIZE_MIN_RATIO else base
+        q = combined_bubble_mesh(sc, size_initial=si, size_min=f * si, size_max=si / 2,
+                                 solve=solve, discontinuity=sd, improve=IMPROVE,
+                                 lines="single", first=first)
+        if si == main_size and f == SIZE_MIN_RATIO:
+            base = q
+        label = (f"combination {si:g}" + ("" if f == SIZE_MIN_RATIO else f", size_min {f:g} x")
+                 + ", width cap, single lines")
+        print(f"{label}: {q.first_mesh.n_elements} -> {q.second_mesh.n_elements} "
+              f"elements, {q.total_seconds:.1f} s", flush=True)
+        runs.append((label, q))
+    ref_mesh, reference = reference_image(sc, cam, solve, args.quick)
+    if not args.quick:
+        assert ref_mesh.n_elements == full["reference_elements"]
+    rows = []
+    for label, q in runs:
+        p = loop_point(label, q, cam, reference)
+        row = {"table": "single lines vs parents", "mesh": label,
+               "first_elements": q.first_mesh.n_elements, "elements": p.n_elements,
+               "rms_error": round(p.error, 5),
+               "lines": sum(len(v) for v in q.parameters["segments"].values()),
+               "pieces_kept": sum(len(v) for v in q.parameters["second_segments"].values()),
+               "seconds": round(p.seconds, 1)}
+        row["mean_q"], row["min_angle"] = quality(q.second_mesh)
+        for name, curve in parents.items():
+            e = error_at_elements(curve, p.n_elements)
+            row[name] = None if e is None else round(e, 5)
+        rows.append(row)
+        print(row, flush=True)
+    verdict = {}
+    for name in ("this method", "this method, fine first too"):
+        both = [r for r in rows if r[name] is not None and r["simplified DM"] is not None]
+        wins = [r for r in both if p_less(r, name)]
+        verdict[name] = {"points inside both": len(both), "below both": len(wins),
+                         "beats both": bool(both) and len(wins) == len(both)}
+    print(verdict, flush=True)
+    if args.quick:
+        return rows
+    write_results("intensity_mesh_single", rows,
+                  ["table", "mesh", "first_elements", "elements", "rms_error", "this method",
+                   "this method, fine first too", "simplified DM", "lines", "pieces_kept",
+                   "mean_q", "min_angle", "seconds"],
+                  title="The combination with lines='single' (issue 15) against both parents",
+                  notes=[" ".join(single_only.__doc__.split("\n\n")[1].split()),
+                         "lines: merged lines of the first mesh; pieces_kept: D0 lines and "
+                         "kept D1 stretches of the second mesh",
+                         "this method, simplified DM: that parent's error interpolated at the "
+                         "combination's element count (None: outside its curve's range); "
+                         "'this method, fine first too': its curve with the --fine-first points "
+                         "(intensity_mesh_fine_first.json), as notebook 04 compares",
+                         "verdict (points inside both curves / below both / beats both): "
+                         + "; ".join(f"{k}: {v['points inside both']} / {v['below both']} / "
+                                     f"{v['beats both']}" for k, v in verdict.items()),
+                         f"load average at the end: {os.getloadavg()[0]:.1f} on "
+                         f"{os.cpu_count()} CPUs"])
+    (RESULTS / "intensity_mesh_single.json").write_text(json.dumps(
+        {"machine": machine(), "rows": rows, "parents": parents, "verdict": verdict},
+        indent=2) + "\n")
+    return rows
+
+
+def p_less(row, name):
+    """The row's error below this parent's and simplified DM's interpolated errors."""
+    return row["rms_error"] < row[name] and row["rms_error"] < row["simplified DM"]
 
 
 #: Table 4.1's second / first element ratio in the thesis (1396 / 1976).
