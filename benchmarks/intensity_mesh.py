@@ -28,7 +28,9 @@ discontinuity meshing as ``mesh_scene`` along the scene's discontinuity
 lines with patch size 3.4, 2.4, 1.7 and half that in the penumbra regions
 (``region_sizes(s, s / 2)``); the combination
 (:func:`polygen.discontinuity.combined.combined_bubble_mesh`, regions capped
-by their local width) with exactly this method's parameters: ``size_initial``
+by their local width, ``lines="all"``: every merged line in both meshes, the default
+until ``--only single`` measured ``lines="single"``, now the default) with exactly this
+method's parameters: ``size_initial``
 2.4, 1.7 and the same ``size_min`` sweep at 1.7; at each of its points its
 error against each parent's curve interpolated in log-log at its element
 count (``error_at_elements``; none outside a curve's range).  Each mesh's quality (mean radius ratio,
@@ -322,14 +324,14 @@ def main(argv=None):
     for si in sizes:
         combos[si] = combined_bubble_mesh(sc, size_initial=si, size_min=SIZE_MIN_RATIO * si,
                                           size_max=si / 2, solve=solve, discontinuity=sd,
-                                          improve=IMPROVE)
+                                          improve=IMPROVE, lines="all")
         print(f"combination size_initial {si}: {combos[si].first_mesh.n_elements} -> "
               f"{combos[si].second_mesh.n_elements} elements, "
               f"{combos[si].total_seconds:.1f} s", flush=True)
     combo_sweep = {} if args.quick else {
         f: combined_bubble_mesh(sc, size_initial=main_size, size_min=f * main_size,
                                 size_max=main_size / 2, solve=solve, discontinuity=sd,
-                                first=combos[main_size], improve=IMPROVE)
+                                first=combos[main_size], improve=IMPROVE, lines="all")
         for f in SWEEP}
     plate_s, plate_cpu, plate_free = plate_timing(r, 20 if args.quick else 200)
     print(f"plate 200 x 200: {plate_s:.2f} s wall, {plate_cpu:.2f} s CPU ({plate_free} grid "

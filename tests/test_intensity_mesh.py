@@ -279,7 +279,7 @@ def test_combined_loop_keeps_the_lines(cut):
 
     sd, _ = cut
     r = combined_bubble_mesh(sd.scene, size_initial=4.0, size_min=8.0, size_max=2.0,
-                             solve={"tol": 0.05}, discontinuity=sd)
+                             solve={"tol": 0.05}, discontinuity=sd, lines="all")
     lines = r.parameters["segments"]
     # merged at half the finest element (size_max 2 / 2 / 2): fewer or as many lines
     assert r.parameters["merge_gap"] == 0.5 and set(lines) <= set(sd.segments)
@@ -609,7 +609,7 @@ def test_combined_loop_single_lines(cut):
     kw = dict(size_initial=4.0, size_min=8.0, size_max=2.0, solve={"tol": 0.05},
               discontinuity=sd)
     narrow = combined_bubble_mesh(sd.scene, lines="narrow", **kw)
-    single = combined_bubble_mesh(sd.scene, lines="single", first=narrow, **kw)
+    single = combined_bubble_mesh(sd.scene, first=narrow, **kw)   # the default
     assert single.parameters["lines"] == "single"
     a, b = narrow.parameters["second_segments"], single.parameters["second_segments"]
     assert set(b) <= set(a)

@@ -20,6 +20,16 @@ size (a line meeting a wall near a corner, a wedge between two lines) gets
 its size capped by the region's local width
 (:func:`polygen.mesh2d.region_width.region_width`), graded so that the
 neighbours of a capped spot follow it.
+
+The second mesh keeps fewer lines (``lines="single"``, the default): the D0 lines, the
+stretches of D1 lines along a penumbra narrower than the element there (a wider one is a
+smooth ramp that the size grid resolves, :func:`narrow_lines`), and of two such lines
+closer than the largest element only the longer (:func:`single_lines`).  With every line
+kept (``lines="all"``) the cap filled the strips between the two lines of each narrow
+penumbra, and the cones graded out of them, with elements: on the scene of Fig. 4.8 half
+of the second mesh's elements lay within 0.85 of a line, while away from the lines it was as
+coarse as the intensity-based bubble mesh alone at the same settings, and that is where its
+extra image error was (benchmarks/results/combination_error_zones.md).
 """
 
 from __future__ import annotations
@@ -265,7 +275,7 @@ def single_lines(polygon, lines, *, gap, step):
 
 
 def combined_bubble_mesh(scene, *, size_initial, size_min, size_max, discontinuity=None,
-                         merge_gap=None, width_cap=True, lines="all", **kwargs):
+                         merge_gap=None, width_cap=True, lines="single", **kwargs):
     """The two-pass loop of Fig. 4.3 on a mesh cut by the scene's discontinuity lines.
 
     Parameters
@@ -299,7 +309,9 @@ def combined_bubble_mesh(scene, *, size_initial, size_min, size_max, discontinui
         "single": "narrow"'s lines of which, of two closer than the largest element
         ``size_min / 2**element_levels`` (to each other or to the polygon's edge), only the
         longer stays (:func:`single_lines`): a narrow penumbra is one line, and no strip
-        narrower than an element is left between kept lines for the width cap to fill; the
+        narrower than an element is left between kept lines for the width cap to fill (the
+        default: on the scene of Fig. 4.8 it is below both parents' error curves at every
+        one of its points inside both, benchmarks/results/intensity_mesh_single.md); the
         first mesh keeps all the merged lines, and the second mesh's size grids are built
         per region of the kept lines.
     **kwargs
@@ -309,8 +321,9 @@ def combined_bubble_mesh(scene, *, size_initial, size_min, size_max, discontinui
     Returns
     -------
     IntensityMesh
-        Its ``parameters["segments"]`` are the lines used (after merging);
-        both meshes have regions (``element_region``).
+        Its ``parameters["segments"]`` are the first mesh's lines (after merging),
+        ``parameters["second_segments"]`` the second mesh's; the first mesh has regions
+        (``element_region``), the second where its lines cut the polygon.
 
     Raises
     ------
