@@ -166,12 +166,13 @@ def main():
                 mz = ok_s & (zone == z) & pen_mask
                 row = {"zones of": cname, "zone": zname, "penumbra": pen_name,
                        "pixels": int(mz.sum())}
-                for n, short in ((cname, "combination"), ("this method, fine first", "this method")):
+                for n, short in ((cname, "combination"),
+                                 ("this method, fine first", "this method")):
                     row[f"{short}: sq error share"] = round(float(sq[n][mz].sum()) / tot[n], 4)
                     row[f"{short}: rms in zone"] = (
                         round(float(np.sqrt(sq[n][mz].mean() / 3 / norm)), 5) if mz.any() else None)
-                row["extra sq error / combination total"] = round(
-                    float((sq[cname][mz] - sq["this method, fine first"][mz]).sum()) / tot[cname], 4)
+                extra = float((sq[cname][mz] - sq["this method, fine first"][mz]).sum())
+                row["extra sq error / combination total"] = round(extra / tot[cname], 4)
                 rows.append(row)
     counts = []
     for name, r in list(meshes.items()) + [("this method 1.7", ours17)]:
