@@ -28,7 +28,9 @@ discontinuity meshing as ``mesh_scene`` along the scene's discontinuity
 lines with patch size 3.4, 2.4, 1.7 and half that in the penumbra regions
 (``region_sizes(s, s / 2)``); the combination
 (:func:`polygen.discontinuity.combined.combined_bubble_mesh`, regions capped
-by their local width) with exactly this method's parameters: ``size_initial``
+by their local width, ``lines="all"``: every merged line in both meshes, the default
+until ``--only single`` measured ``lines="single"``, now the default) with exactly this
+method's parameters: ``size_initial``
 2.4, 1.7 and the same ``size_min`` sweep at 1.7; at each of its points its
 error against each parent's curve interpolated in log-log at its element
 count (``error_at_elements``; none outside a curve's range).  Each mesh's quality (mean radius ratio,
@@ -39,6 +41,7 @@ smallest angle) is recorded too.  Writes
     python benchmarks/intensity_mesh.py --fine-first
     python benchmarks/intensity_mesh.py --only plate
     python benchmarks/intensity_mesh.py --only narrow
+    python benchmarks/intensity_mesh.py --only single
     python benchmarks/intensity_mesh.py --calibrate
 
 ``--only plate`` runs only the plate row: the first mesh and radiosity at ``size_initial``
@@ -52,6 +55,28 @@ D1 lines only where the penumbra they bound is narrower than the element the fir
 grid asks there; criterion fixed before measuring), with and without the width cap, at the
 combination's settings, and compares it with both parents' curves of the last full run (and
 of ``--fine-first``) by ``error_at_elements``; writes ``intensity_mesh_narrow.json`` and ``.md``.
+
+``--only single`` (issue 15, after ``benchmarks/combination_error_zones.py``: at 2808
+elements the narrow-lines combination has 43 % of its squared image error as extra error
+against this method's 3088-element mesh *away* from the lines, where its elements are as coarse
+as this method's at 1.7, while 51 % of its elements lie within 0.85 of a line with a quarter of
+the area the size grid asks: the width cap binds in the strips between two kept lines of a
+narrow penumbra and grades outwards from them; without the cap the same second mesh has 1752
+elements instead of 2808) runs only the combination with ``lines="single"``, defined before
+measuring its error: the second mesh's lines are ``"narrow"``'s, then of two kept lines closer
+than the largest element (``size_min / 2**element_levels``) only the longer stays
+(:func:`polygen.discontinuity.combined.single_lines`: D0 lines first and whole, then D1 lines
+longest first, cut into pieces of the finest element's length, a piece dropped when its
+midpoint lies within that distance of the polygon's edge or of a piece kept before; no end is
+moved), so that a narrow penumbra is one line and no strip narrower than an element is left
+between kept lines for the cap to fill.  Width cap on, at the combination's settings
+(``size_initial`` 2.4, 1.7, the ``size_min`` sweep at 1.7 from the same first pass).  The
+criterion is the existing one: at each of its points, its error against each parent's curve
+of the last full run (this method with its sweep, and with ``--fine-first``'s points as
+notebook 04 compares; simplified DM) interpolated in log-log at its element count
+(``error_at_elements``); it *beats both* if it is lower than both at every one of its points
+that lies inside both curves' ranges (and there is at least one such point).  Writes
+``intensity_mesh_single.json`` and ``.md``.
 
 ``--calibrate`` (issue 15) anchors Table 4.1's second mesh to the thesis by a rule fixed
 before any quality or error was measured at its result: the thesis's second mesh keeps
@@ -255,9 +280,10 @@ def main(argv=None):
                     help="only the loop from a finer first mesh and its adaptive re-mesh")
     ap.add_argument("--calibrate", action="store_true",
                     help="only the bisection of Table 4.1's size_min on the thesis's ratio")
-    ap.add_argument("--only", choices=["plate", "narrow"],
+    ap.add_argument("--only", choices=["plate", "narrow", "single"],
                     help="only this row (plate: the 200 x 200 size grid, by phase; narrow: "
-                         "the combination with lines='narrow' against the parents' curves)")
+                         "the combination with lines='narrow' against the parents' curves; "
+                         "single: the same with lines='single')")
     args = ap.parse_args(argv)
     solve = {"tol": args.tol, "ambient": True}
     sc = scenes.three_rectangles_box()
@@ -270,6 +296,8 @@ def main(argv=None):
         return plate_only(sc, solve, args)
     if args.only == "narrow":
         return narrow_only(sc, cam, solve, args)
+    if args.only == "single":
+        return single_only(sc, cam, solve, args)
     sizes = [4.0] if args.quick else [2.4, 1.7]
     main_size = 4.0 if args.quick else 1.7
     SWEEP = (2.0, 1.5)   # size_min / size_initial besides Table 4.1's (2.0: the earlier setting)
@@ -296,14 +324,14 @@ def main(argv=None):
     for si in sizes:
         combos[si] = combined_bubble_mesh(sc, size_initial=si, size_min=SIZE_MIN_RATIO * si,
                                           size_max=si / 2, solve=solve, discontinuity=sd,
-                                          improve=IMPROVE)
+                                          improve=IMPROVE, lines="all")
         print(f"combination size_initial {si}: {combos[si].first_mesh.n_elements} -> "
               f"{combos[si].second_mesh.n_elements} elements, "
               f"{combos[si].total_seconds:.1f} s", flush=True)
     combo_sweep = {} if args.quick else {
         f: combined_bubble_mesh(sc, size_initial=main_size, size_min=f * main_size,
                                 size_max=main_size / 2, solve=solve, discontinuity=sd,
-                                first=combos[main_size], improve=IMPROVE)
+                                first=combos[main_size], improve=IMPROVE, lines="all")
         for f in SWEEP}
     plate_s, plate_cpu, plate_free = plate_timing(r, 20 if args.quick else 200)
     print(f"plate 200 x 200: {plate_s:.2f} s wall, {plate_cpu:.2f} s CPU ({plate_free} grid "
@@ -515,6 +543,104 @@ def narrow_only(sc, cam, solve, args):
                          f"{os.cpu_count()} CPUs"])
     (RESULTS / "intensity_mesh_narrow.json").write_text(json.dumps(
         {"machine": machine(), "rows": rows, "parents": parents}, indent=2) + "\n")
+
+
+def parent_curves():
+    """Both parents' (elements, error) curves of the stored full and ``--fine-first`` runs."""
+    curves = json.loads((RESULTS / "intensity_mesh.json").read_text())["curves"]
+    parents = {"this method": sorted((p["n_elements"], p["error"]) for p in
+                                     curves["intensity"] + curves["intensity, other size_min"]),
+               "simplified DM": sorted((p["n_elements"], p["error"])
+                                       for p in curves["simplified DM"])}
+    fine = json.loads((RESULTS / "intensity_mesh_fine_first.json").read_text())["rows"]
+    parents["this method, fine first too"] = sorted(parents["this method"] + [
+        (r["elements"], r["rms_error"]) for r in fine if r["mesh"].startswith("this method")])
+    return parents
+
+
+def single_only(sc, cam, solve, args):
+    """The combination with ``lines="single"`` (issue 15), width cap on.
+
+    Defined before measuring its error (module docstring, ``--only single``): ``"narrow"``'s
+    lines, then of two kept lines closer than the largest element only the longer
+    (:func:`polygen.discontinuity.combined.single_lines`).  The combination's settings
+    (size_initial 2.4, 1.7, the size_min sweep at 1.7 from the same first pass); the parents'
+    curves are the stored full run's (this method with its sweep, with and without the
+    ``--fine-first`` points; simplified DM), each interpolated in log-log at the
+    combination's element count (``error_at_elements``).  It beats both if it is below both
+    at every point of it inside both curves' ranges (at least one such point).
+    """
+    full = json.loads((RESULTS / "intensity_mesh.json").read_text())
+    parents = parent_curves()
+    sd = simplified_discontinuity(sc)
+    main_size, runs = 1.7, []
+    sizes = ((4.0, SIZE_MIN_RATIO),) if args.quick else (
+        (2.4, SIZE_MIN_RATIO), (1.7, SIZE_MIN_RATIO), (1.7, 2.0), (1.7, 1.5))
+    for si, f in sizes:
+        first = None if f == SIZE_MIN_RATIO else base
+        q = combined_bubble_mesh(sc, size_initial=si, size_min=f * si, size_max=si / 2,
+                                 solve=solve, discontinuity=sd, improve=IMPROVE,
+                                 lines="single", first=first)
+        if si == main_size and f == SIZE_MIN_RATIO:
+            base = q
+        label = (f"combination {si:g}" + ("" if f == SIZE_MIN_RATIO else f", size_min {f:g} x")
+                 + ", width cap, single lines")
+        print(f"{label}: {q.first_mesh.n_elements} -> {q.second_mesh.n_elements} "
+              f"elements, {q.total_seconds:.1f} s", flush=True)
+        runs.append((label, q))
+    ref_mesh, reference = reference_image(sc, cam, solve, args.quick)
+    if not args.quick:
+        assert ref_mesh.n_elements == full["reference_elements"]
+    rows = []
+    for label, q in runs:
+        p = loop_point(label, q, cam, reference)
+        row = {"table": "single lines vs parents", "mesh": label,
+               "first_elements": q.first_mesh.n_elements, "elements": p.n_elements,
+               "rms_error": round(p.error, 5),
+               "lines": sum(len(v) for v in q.parameters["segments"].values()),
+               "pieces_kept": sum(len(v) for v in q.parameters["second_segments"].values()),
+               "seconds": round(p.seconds, 1)}
+        row["mean_q"], row["min_angle"] = quality(q.second_mesh)
+        for name, curve in parents.items():
+            e = error_at_elements(curve, p.n_elements)
+            row[name] = None if e is None else round(e, 5)
+        rows.append(row)
+        print(row, flush=True)
+    verdict = {}
+    for name in ("this method", "this method, fine first too"):
+        both = [r for r in rows if r[name] is not None and r["simplified DM"] is not None]
+        wins = [r for r in both if p_less(r, name)]
+        verdict[name] = {"points inside both": len(both), "below both": len(wins),
+                         "beats both": bool(both) and len(wins) == len(both)}
+    print(verdict, flush=True)
+    if args.quick:
+        return rows
+    write_results("intensity_mesh_single", rows,
+                  ["table", "mesh", "first_elements", "elements", "rms_error", "this method",
+                   "this method, fine first too", "simplified DM", "lines", "pieces_kept",
+                   "mean_q", "min_angle", "seconds"],
+                  title="The combination with lines='single' (issue 15) against both parents",
+                  notes=[" ".join(single_only.__doc__.split("\n\n")[1].split()),
+                         "lines: merged lines of the first mesh; pieces_kept: D0 lines and "
+                         "kept D1 stretches of the second mesh",
+                         "this method, simplified DM: that parent's error interpolated at the "
+                         "combination's element count (None: outside its curve's range); "
+                         "'this method, fine first too': its curve with the --fine-first points "
+                         "(intensity_mesh_fine_first.json), as notebook 04 compares",
+                         "verdict (points inside both curves / below both / beats both): "
+                         + "; ".join(f"{k}: {v['points inside both']} / {v['below both']} / "
+                                     f"{v['beats both']}" for k, v in verdict.items()),
+                         f"load average at the end: {os.getloadavg()[0]:.1f} on "
+                         f"{os.cpu_count()} CPUs"])
+    (RESULTS / "intensity_mesh_single.json").write_text(json.dumps(
+        {"machine": machine(), "rows": rows, "parents": parents, "verdict": verdict},
+        indent=2) + "\n")
+    return rows
+
+
+def p_less(row, name):
+    """The row's error below this parent's and simplified DM's interpolated errors."""
+    return row["rms_error"] < row[name] and row["rms_error"] < row["simplified DM"]
 
 
 #: Table 4.1's second / first element ratio in the thesis (1396 / 1976).

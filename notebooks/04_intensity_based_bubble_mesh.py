@@ -414,6 +414,13 @@ plt.show()
 # smallest angle between lines at a vertex (21.4°), is still not met (strict xfail in
 # `tests/test_intensity_mesh.py`): the triangles left below it sit where a node that the
 # neighbouring polygon puts on a shared edge falls next to a line's end on that edge.
+#
+# The second mesh keeps fewer lines (`lines="single"`, the default since issue 15's
+# measurement below): the D0 lines; the stretches of D1 lines along a penumbra narrower than
+# the element the first pass's size grid asks there (a wider penumbra is a smooth ramp that
+# the size grid resolves; `narrow_lines`); and of two kept lines closer than the largest
+# element (`size_min` / 2) only the longer (`single_lines`), so that a narrow penumbra is one
+# line and no strip narrower than an element is left for the width cap to fill.
 # %%
 from polygen.discontinuity import simplified_discontinuity
 from polygen.discontinuity.combined import combined_bubble_mesh
@@ -464,7 +471,8 @@ plt.show()
 # 1.7 at Table 4.1's ratios and, from the first solution of 1.7, `size_min` 2 (the earlier
 # setting) and 1.5 `size_initial`; simplified discontinuity meshing with patch size 3.4,
 # 2.4, 1.7 and half that in the penumbra regions; the combination (width-capped) with
-# exactly this method's parameters.
+# exactly this method's parameters, with every line in both meshes (`lines="all"`, the full
+# run) and with the default `lines="single"` (`--only single`).
 #
 # What the last run says:
 #
@@ -485,7 +493,8 @@ plt.show()
 #   first mesh (1.7) it has 1448 elements with 0.0297: below the uniform and the adaptive
 #   curves at that count (printed below), but far from the adaptive re-mesh's 0.0148, which
 #   has twice its elements.
-# * **The combination does not beat both parents at equal element count** (the comparison,
+# * **With every line kept (`lines="all"`, the earlier default) the combination does not
+#   beat both parents at equal element count** (the comparison,
 #   fixed before the run: at each of its points, its error against each parent's curve
 #   interpolated in log-log at its element count where that curve reaches,
 #   `error_at_elements`; this method's curve with every point of it, the fine first mesh's
@@ -510,7 +519,36 @@ plt.show()
 #   0.0196 instead of 3664 with 0.0177) and beats simplified DM at 4 of its 6 points within
 #   that curve (2808: 0.0196 against 0.0224; uncapped, 1736: 0.0307 against 0.0331), but this
 #   method at none of its 8 (2808: 0.0196 against 0.0158; uncapped, 1400: 0.0348 against
-#   0.0310), so the default stays `lines="all"` (`benchmarks/results/intensity_mesh_narrow.md`).
+#   0.0310), so the default stayed `lines="all"` (`benchmarks/results/intensity_mesh_narrow.md`).
+# * **Where the extra error was** (`benchmarks/combination_error_zones.py`, zones fixed before
+#   measuring, taken from the combination's mesh): narrow lines at 1.7 (2808 elements, 0.0196)
+#   against this method from the fine first mesh (3088, 0.0145), per pixel. In skinny
+#   triangles (< 20°), in strips under two elements wide between kept lines and within one
+#   element of a line the combination has *less* squared error than this method; the extra
+#   error is away from the lines: there its RMS is 0.0200 against 0.0123, 43 % of its
+#   squared error (all lines, 3648 elements: 48 %). The elements went to the lines: 1421 of
+#   the 2808 lie within 0.85 of a line (this method: 741 of 3088; at 1.7 alone, 342 of 1448),
+#   with a quarter of the area the size grid asks there (mean 0.110 against 0.456), while
+#   away from the lines the mesh is as coarse as this method's at 1.7 (mean area 0.39 against
+#   0.44; from the fine first mesh 0.20). The size grid does not ask for them (median size
+#   near the lines 2.09, size_min 2.2): the width cap does, in the strips between the two
+#   kept lines of each narrow penumbra and in the cones graded out of them (without the cap
+#   the same second mesh has 1752 elements).
+# * **Keeping one line per narrow penumbra, the combination beats both parents** by the same
+#   comparison, fixed (with the variant) before measuring it. `lines="single"`: `"narrow"`'s
+#   lines, and of two closer than the largest element only the longer. At the combination's
+#   settings it has 856 / 1576 elements (2.4 / 1.7) and 728 / 1216 in the `size_min` sweep,
+#   with errors 0.0495 / 0.0270 / 0.0479 / 0.0383. Two of its points lie within both curves
+#   and it is below both at each: **1576 elements with 0.0270 against this method's 0.0274
+#   and simplified DM's 0.0354; 1216 with 0.0383 against 0.0399 and 0.0425**. Below simplified
+#   DM's range it is level with this method at 856 (0.04948 against 0.04951) and below it at
+#   728 (0.0479 against 0.0537). The margins over this method are small (1.6 % and 4 %), and
+#   they depend on its curve: without the fine first mesh's points only 1216 lies within both
+#   curves, and there this method's 1.7 points give 0.0374 (the combination 2.5 % above), the
+#   fine first mesh's `size_min` 2× point (1240, 0.0394) 0.0399; 1576 lies beyond the
+#   1.7 points (1448) and is compared along the segment to the fine first mesh's 3088. So
+#   `lines="single"` is now the default (`benchmarks/results/intensity_mesh_single.md`;
+#   smallest angle 13.3° at 1.7, mean q 0.925).
 # * **What the default run shows**: nothing about error. This notebook's run solves the
 #   meshes at `size_initial` 2.4 but has no reference solution (the benchmark's, 19328
 #   elements, takes 4–6 minutes here), so the curves are the benchmark's stored ones, and no
@@ -521,7 +559,7 @@ res = json.loads((Path("..") / "benchmarks" / "results" / "intensity_mesh.json")
 METHODS = {"uniform": ["uniform"], "adaptive subdivision": ["adaptive"],
            "this method": ["intensity", "intensity, other size_min"],
            "simplified DM": ["simplified DM"],
-           "combination": ["combination", "combination, other size_min"]}
+           "combination, all lines": ["combination", "combination, other size_min"]}
 curves = {m: sorted((p["n_elements"], p["error"]) for k in keys for p in res["curves"].get(k, []))
           for m, keys in METHODS.items()}
 fine = json.loads((Path("..") / "benchmarks" / "results" /
@@ -530,6 +568,10 @@ curves["this method, fine first mesh"] = sorted(
     (r["elements"], r["rms_error"]) for r in fine if r["mesh"].startswith("this method"))
 curves["adaptive subdivision"] = sorted(curves["adaptive subdivision"] + [
     (r["elements"], r["rms_error"]) for r in fine if r["mesh"] == "adaptive re-mesh"])
+single = json.loads((Path("..") / "benchmarks" / "results" /
+                     "intensity_mesh_single.json").read_text())["rows"]
+curves["combination, single lines (default)"] = sorted(
+    (r["elements"], r["rms_error"]) for r in single)
 plot_intensity.plot_error_curves(
     curves, title=f"Fig. 4.8 scene (reference: {res['reference_elements']} elements)")
 plt.show()
@@ -546,14 +588,16 @@ print(table(fine, ["mesh", "elements", "rms_error", "mean_q", "min_angle"]))
 # this method's curve for the comparison: all its points, the fine first mesh's included
 ours_all = sorted(curves["this method"] + curves["this method, fine first mesh"])
 rows = []
-for n, e in curves["combination"]:
-    ours = error_at_elements(ours_all, n)
-    dm = error_at_elements(curves["simplified DM"], n)
-    rows.append({"elements": n, "combination": round(e, 4),
-                 "this method": "-" if ours is None else round(ours, 4),
-                 "simplified DM": "-" if dm is None else round(dm, 4)})
+for lines, pts in (("all", curves["combination, all lines"]),
+                   ("single (default)", curves["combination, single lines (default)"])):
+    for n, e in pts:
+        ours = error_at_elements(ours_all, n)
+        dm = error_at_elements(curves["simplified DM"], n)
+        rows.append({"lines": lines, "elements": n, "combination": round(e, 4),
+                     "this method": "-" if ours is None else round(ours, 4),
+                     "simplified DM": "-" if dm is None else round(dm, 4)})
 print("at the combination's element counts (interpolated; '-': outside that curve's range)")
-print(table(rows, ["elements", "combination", "this method", "simplified DM"]))
+print(table(rows, ["lines", "elements", "combination", "this method", "simplified DM"]))
 
 # %% [markdown]
 # ## Try other sizes

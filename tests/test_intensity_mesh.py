@@ -279,7 +279,7 @@ def test_combined_loop_keeps_the_lines(cut):
 
     sd, _ = cut
     r = combined_bubble_mesh(sd.scene, size_initial=4.0, size_min=8.0, size_max=2.0,
-                             solve={"tol": 0.05}, discontinuity=sd)
+                             solve={"tol": 0.05}, discontinuity=sd, lines="all")
     lines = r.parameters["segments"]
     # merged at half the finest element (size_max 2 / 2 / 2): fewer or as many lines
     assert r.parameters["merge_gap"] == 0.5 and set(lines) <= set(sd.segments)
@@ -541,6 +541,88 @@ def test_narrow_lines_keep_d0_and_narrow_penumbrae():
     assert list(np.asarray(wide.kinds)) == ["D0"]
     with pytest.raises(MeshError, match="step"):
         narrow_lines(poly, found, found, pen, 1.0, step=0.0)
+
+
+def test_single_lines_keep_one_of_two_close_lines():
+    """A 20 x 10 rectangle; gap 0.5, pieces 0.25: a D0 line kept whole even next to a longer
+    D1 line (that line drops the stretch within 0.5 of it); of two D1 lines 0.3 apart the
+    longer kept whole and the shorter dropped; a line 1 away kept whole; a line 0.2 from the
+    polygon's edge dropped; a line converging on a kept one kept until it comes within 0.5
+    (up to one piece); every kept piece a stretch of an input line (no end moved)."""
+    from polygen.discontinuity.combined import single_lines
+    from polygen.radiosity.layout import Segments
+    from polygen.radiosity.scene import Polygon
+
+    poly = Polygon(np.array([[0, 0, 0], [20, 0, 0], [20, 10, 0], [0, 10, 0]], float), name="sq")
+
+    def seg(x0, y0, x1, y1):
+        return [[x0, y0, 0.0], [x1, y1, 0.0]]
+
+    ends = np.array([seg(4.0, 2, 4.0, 8), seg(4.3, 1, 4.3, 9),       # D0 (short), D1 0.3 away
+                     seg(8.0, 2, 8.0, 7), seg(8.3, 1, 8.3, 9),       # two D1 0.3 apart
+                     seg(9.3, 1, 9.3, 9),                            # 1 from the longer
+                     seg(0.2, 1, 0.2, 9),                            # 0.2 from the edge
+                     seg(14.0, 1, 14.0, 9), seg(16.0, 1, 14.1, 7)])  # converging on x = 14
+    kinds = ["D0", "D1", "D1", "D1", "D1", "D1", "D1", "D1"]
+    step, gap = 0.25, 0.5
+    out = single_lines(poly, Segments(ends, kinds), gap=gap, step=step)
+    e3 = poly.to_3d(out.ends.reshape(-1, 2)).reshape(-1, 2, 3)
+    k = np.asarray(out.kinds)
+    length = np.linalg.norm(e3[:, 1] - e3[:, 0], axis=1)
+
+    def on(i):
+        """Kept pieces lying on input line i, and their total length."""
+        a, b = ends[i, 0], ends[i, 1]
+        d = (b - a) / np.linalg.norm(b - a)
+        rel = e3 - a
+        off = np.linalg.norm(rel - (rel @ d)[..., None] * d, axis=-1)
+        m = np.all(off < 1e-9, axis=1)
+        return m, length[m].sum()
+
+    m0, l0 = on(0)
+    assert l0 == pytest.approx(6.0) and set(k[m0]) == {"D0"}
+    # within 0.5 of the D0 line's ends (0.3 across) for |dy| < 0.4: kept y < 1.6 and y > 8.4
+    assert abs(on(1)[1] - 1.2) <= 2 * step
+    assert on(3)[1] == pytest.approx(8.0) and on(2)[1] == 0.0
+    assert on(4)[1] == pytest.approx(8.0)
+    assert on(5)[1] == 0.0
+    assert on(6)[1] == pytest.approx(8.0)
+    mc, lc = on(7)
+    # the converging line (shorter, so after x = 14): 0.5 from it at y = 1 + 6 * 1.5 / 1.9
+    assert abs(lc - np.hypot(1.5, 6 * 1.5 / 1.9)) <= step + 1e-9
+    # every piece lies on an input line
+    assert sum(on(i)[0].sum() for i in range(len(ends))) == len(e3)
+    assert single_lines(poly, Segments(ends[5:6], "D1"), gap=gap, step=step) is None
+    with pytest.raises(MeshError, match="gap"):
+        single_lines(poly, Segments(ends, kinds), gap=-1.0, step=step)
+    with pytest.raises(MeshError, match="step"):
+        single_lines(poly, Segments(ends, kinds), gap=gap, step=0.0)
+
+
+@pytest.mark.slow
+def test_combined_loop_single_lines(cut):
+    """lines="single": the second mesh's lines are single_lines of "narrow"'s, with the
+    largest element (size_min / 2) as the gap and the finest (size_max / 2) as the step."""
+    from polygen.discontinuity.combined import combined_bubble_mesh, single_lines
+
+    sd, _ = cut
+    kw = dict(size_initial=4.0, size_min=8.0, size_max=2.0, solve={"tol": 0.05},
+              discontinuity=sd)
+    narrow = combined_bubble_mesh(sd.scene, lines="narrow", **kw)
+    single = combined_bubble_mesh(sd.scene, first=narrow, **kw)   # the default
+    assert single.parameters["lines"] == "single"
+    a, b = narrow.parameters["second_segments"], single.parameters["second_segments"]
+    assert set(b) <= set(a)
+    assert sum(len(x) for x in b.values()) > 0
+    for k, sg in a.items():
+        poly = sd.scene.polygons[k]
+        want = single_lines(poly, sg, gap=8.0 / 2, step=2.0 / 2)
+        if want is None:
+            assert k not in b
+            continue
+        got = b[k]
+        assert list(np.asarray(got.kinds)) == list(np.asarray(want.kinds))
+        np.testing.assert_allclose(got.in_plane(poly)[0], want.ends)
 
 
 def test_size_grids_per_region_of_other_layouts(cut):

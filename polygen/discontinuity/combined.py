@@ -20,6 +20,16 @@ size (a line meeting a wall near a corner, a wedge between two lines) gets
 its size capped by the region's local width
 (:func:`polygen.mesh2d.region_width.region_width`), graded so that the
 neighbours of a capped spot follow it.
+
+The second mesh keeps fewer lines (``lines="single"``, the default): the D0 lines, the
+stretches of D1 lines along a penumbra narrower than the element there (a wider one is a
+smooth ramp that the size grid resolves, :func:`narrow_lines`), and of two such lines
+closer than the largest element only the longer (:func:`single_lines`).  With every line
+kept (``lines="all"``) the cap filled the strips between the two lines of each narrow
+penumbra, and the cones graded out of them, with elements: on the scene of Fig. 4.8 half
+of the second mesh's elements lay within 0.85 of a line, while away from the lines it was as
+coarse as the intensity-based bubble mesh alone at the same settings, and that is where its
+extra image error was (benchmarks/results/combination_error_zones.md).
 """
 
 from __future__ import annotations
@@ -33,9 +43,9 @@ from polygen.radiosity.layout import Segments
 from polygen.radiosity.mesh import MeshError
 from polygen.radiosity.scene import Scene, SceneError
 
-__all__ = ["combined_bubble_mesh", "merged_lines", "narrow_lines"]
+__all__ = ["combined_bubble_mesh", "merged_lines", "narrow_lines", "single_lines"]
 
-LINES = ("all", "narrow")
+LINES = ("all", "narrow", "single")
 
 
 def merged_lines(scene, segments, *, gap):
@@ -186,8 +196,86 @@ def narrow_lines(polygon, found, lines, penumbra_points, size, *, step, near=0.0
     return Segments(np.asarray(out, dtype=np.float64), out_kinds)
 
 
+def _runs(a, b, t, keep):
+    """The stretches ``[t[i], t[j + 1]]`` of segment ``a -> b`` over runs of kept pieces."""
+    out, i, n = [], 0, len(keep)
+    while i < n:
+        if not keep[i]:
+            i += 1
+            continue
+        j = i
+        while j + 1 < n and keep[j + 1]:
+            j += 1
+        out.append((a + t[i] * (b - a), a + t[j + 1] * (b - a)))
+        i = j + 1
+    return out
+
+
+def single_lines(polygon, lines, *, gap, step):
+    """The lines with, of any two closer than ``gap``, only the longer one kept.
+
+    D0 lines are kept whole, first.  Then the D1 lines, longest first, are cut into pieces
+    about ``step`` long, and a piece is dropped when its midpoint lies within ``gap`` of the
+    polygon's edge (its rings) or of a line or piece kept before it.  No end point is moved:
+    every kept piece is a stretch of one input line (runs of consecutive kept pieces joined).
+    Used with ``gap`` the largest element: the two lines of a penumbra narrower than an
+    element become one, and no strip narrower than an element is left between kept lines.
+
+    Parameters
+    ----------
+    polygon : Polygon
+    lines : Segments
+        E.g. :func:`narrow_lines`' pieces for this polygon.
+    gap : float, keyword-only
+        Distance, >= 0 (0: the lines as given, D0 first then D1 longest first).
+    step : float, keyword-only
+        Length of the pieces, > 0.
+
+    Returns
+    -------
+    Segments or None
+        2-D in the polygon's frame; None when nothing is kept.
+    """
+    gap, step = float(gap), float(step)
+    if not (np.isfinite(step) and step > 0):
+        raise MeshError(f"step must be finite and > 0, got {step}")
+    if not (np.isfinite(gap) and gap >= 0):
+        raise MeshError(f"gap must be finite and >= 0, got {gap}")
+    ends, kinds = lines.in_plane(polygon)
+    ends = np.asarray(ends, dtype=np.float64).reshape(-1, 2, 2)
+    kinds = np.asarray(np.broadcast_to(np.asarray(kinds), (len(ends),)))
+    if len(ends) == 0:
+        return None
+    rings = []
+    for ring in [polygon.exterior_2d, *polygon.holes_2d]:
+        r = np.asarray(ring, dtype=np.float64)
+        rings.append(np.stack([r, np.roll(r, -1, axis=0)], axis=1))
+    near = list(rings)
+    out, out_kinds = [], []
+    for i in np.flatnonzero(kinds == "D0"):
+        out.append((ends[i, 0], ends[i, 1]))
+        out_kinds.append("D0")
+        near.append(ends[i:i + 1])
+    d1 = np.flatnonzero(kinds != "D0")
+    length = np.linalg.norm(ends[d1, 1] - ends[d1, 0], axis=1)
+    for i in d1[np.argsort(-length, kind="stable")]:
+        a, b = ends[i]
+        n = max(1, int(np.ceil(float(np.linalg.norm(b - a)) / step - 1e-9)))
+        t = np.linspace(0.0, 1.0, n + 1)
+        mid = a + 0.5 * (t[:-1] + t[1:])[:, None] * (b - a)
+        dist, _ = _nearest_on_segments(mid, np.concatenate(near))
+        kept = _runs(a, b, t, dist >= gap)
+        out += kept
+        out_kinds += ["D1"] * len(kept)
+        if kept:
+            near.append(np.asarray(kept, dtype=np.float64))
+    if not out:
+        return None
+    return Segments(np.asarray(out, dtype=np.float64), out_kinds)
+
+
 def combined_bubble_mesh(scene, *, size_initial, size_min, size_max, discontinuity=None,
-                         merge_gap=None, width_cap=True, lines="all", **kwargs):
+                         merge_gap=None, width_cap=True, lines="single", **kwargs):
     """The two-pass loop of Fig. 4.3 on a mesh cut by the scene's discontinuity lines.
 
     Parameters
@@ -213,11 +301,17 @@ def combined_bubble_mesh(scene, *, size_initial, size_min, size_max, discontinui
         costs elements: on the scene of Fig. 4.8 at ``size_initial`` 2.4 the first mesh has
         2440 elements instead of 1288 (smallest angle 12.3 degrees instead of 6.9), and the
         image error per element is worse (benchmarks/results/intensity_mesh.md).
-    lines : {"all", "narrow"}, keyword-only
+    lines : {"all", "narrow", "single"}, keyword-only
         The second mesh's lines: "all" (the merged lines, as the first mesh), or "narrow":
         the D0 lines and the stretches of D1 lines along a penumbra narrower than the
         elements the first pass's size grids ask for there (:func:`narrow_lines`, pieces of
-        the finest element's length, within the merge gap of the penumbra found); the
+        the finest element's length, within the merge gap of the penumbra found), or
+        "single": "narrow"'s lines of which, of two closer than the largest element
+        ``size_min / 2**element_levels`` (to each other or to the polygon's edge), only the
+        longer stays (:func:`single_lines`): a narrow penumbra is one line, and no strip
+        narrower than an element is left between kept lines for the width cap to fill (the
+        default: on the scene of Fig. 4.8 it is below both parents' error curves at every
+        one of its points inside both, benchmarks/results/intensity_mesh_single.md); the
         first mesh keeps all the merged lines, and the second mesh's size grids are built
         per region of the kept lines.
     **kwargs
@@ -227,15 +321,16 @@ def combined_bubble_mesh(scene, *, size_initial, size_min, size_max, discontinui
     Returns
     -------
     IntensityMesh
-        Its ``parameters["segments"]`` are the lines used (after merging);
-        both meshes have regions (``element_region``).
+        Its ``parameters["segments"]`` are the first mesh's lines (after merging),
+        ``parameters["second_segments"]`` the second mesh's; the first mesh has regions
+        (``element_region``), the second where its lines cut the polygon.
 
     Raises
     ------
     SceneError
         ``scene`` is not a Scene, or ``discontinuity`` is of another scene.
     MeshError
-        ``lines`` not one of "all", "narrow"; as
+        ``lines`` not one of "all", "narrow", "single"; as
         :func:`~polygen.radiosity.intensity_bubble_mesh`.
     """
     if not isinstance(scene, Scene):
@@ -262,8 +357,9 @@ def combined_bubble_mesh(scene, *, size_initial, size_min, size_max, discontinui
     finest = float(size_max) / 2 ** levels
     floor = finest if width_cap else None
     choose = None
-    if lines_mode == "narrow":
+    if lines_mode in ("narrow", "single"):
         found, pens = discontinuity.segments, discontinuity.penumbra_points
+        largest = float(size_min) / 2 ** levels
 
         def choose(first_mesh, grids):
             out = {}
@@ -272,6 +368,8 @@ def combined_bubble_mesh(scene, *, size_initial, size_min, size_max, discontinui
                 kept = narrow_lines(poly, found[k], sg, pens.get(k, np.zeros((0, 2))),
                                     grids[k], step=finest, near=merge_gap,
                                     element_levels=levels)
+                if kept is not None and lines_mode == "single":
+                    kept = single_lines(poly, kept, gap=largest, step=finest)
                 if kept is not None:
                     out[k] = kept
             return out
