@@ -42,6 +42,7 @@ smallest angle) is recorded too.  Writes
     python benchmarks/intensity_mesh.py --only plate
     python benchmarks/intensity_mesh.py --only narrow
     python benchmarks/intensity_mesh.py --only single
+    python benchmarks/intensity_mesh.py --only equal
     python benchmarks/intensity_mesh.py --calibrate
 
 ``--only plate`` runs only the plate row: the first mesh and radiosity at ``size_initial``
@@ -77,6 +78,35 @@ notebook 04 compares; simplified DM) interpolated in log-log at its element coun
 (``error_at_elements``); it *beats both* if it is lower than both at every one of its points
 that lies inside both curves' ranges (and there is at least one such point).  Writes
 ``intensity_mesh_single.json`` and ``.md``.
+
+``--only equal`` (issue 15) measures both parents at the combination's own element counts
+instead of interpolating their curves; protocol fixed and committed before any of its errors was
+computed.  For each point of the single-lines combination (``--only single``'s four, recomputed
+here, deterministic: 1576 and 1216 elements first, then 856 and 728; 856 from its own first
+pass at ``size_initial`` 2.4, the other three from the 1.7 first pass):
+
+* **this method** (:func:`polygen.radiosity.intensity_bubble_mesh`, no lines) from one first
+  pass at the same ``size_initial`` (computed once per ``size_initial``, reused through
+  ``first=`` for every step, as ``--calibrate``; the combination's own first mesh is cut by its
+  lines and ``first=`` refuses a run with other segments, so "the same first pass" is the
+  parent's uniform first mesh and solution at the same ``size_initial``, the one its curve's
+  points come from), ``size_max`` ``size_initial / 2``, grid ``size_max / 2`` and
+  ``improve=3`` as the combination; ``size_min`` bisected on ``(size_initial, 3
+  size_initial]``: a midpoint whose second mesh has more elements than the target moves the
+  lower end up, else the upper end down;
+* **simplified DM** (``mesh_scene`` along the discontinuity lines with
+  ``region_sizes(s, s / 2)``, as the full run's DM curve), the patch size ``s`` bisected on
+  ``[1.0, 8.0]`` by the same rule;
+
+each bisection looks at element counts only (no solve, no error) and stops at the first
+midpoint whose count is within 2 % of the combination's; after 16 midpoints without one that
+parent is *not matched* at that point.  The matched mesh is then solved (progressive
+refinement, tol 0.01, ambient) and its error measured with the yardstick of the full run (the
+same 19328-element reference, ``--image`` 160).  Verdict per point: the combination's error
+below both parents' errors at their matched counts.  The claim "the combination beats both
+parents at equal element count" holds only if that verdict holds at *every* point where both
+parents were matched (and at least one was).  Writes ``intensity_mesh_equal.json`` and ``.md``
+(after each point, so a partial run leaves its finished points).
 
 ``--calibrate`` (issue 15) anchors Table 4.1's second mesh to the thesis by a rule fixed
 before any quality or error was measured at its result: the thesis's second mesh keeps
@@ -280,10 +310,11 @@ def main(argv=None):
                     help="only the loop from a finer first mesh and its adaptive re-mesh")
     ap.add_argument("--calibrate", action="store_true",
                     help="only the bisection of Table 4.1's size_min on the thesis's ratio")
-    ap.add_argument("--only", choices=["plate", "narrow", "single"],
+    ap.add_argument("--only", choices=["plate", "narrow", "single", "equal"],
                     help="only this row (plate: the 200 x 200 size grid, by phase; narrow: "
                          "the combination with lines='narrow' against the parents' curves; "
-                         "single: the same with lines='single')")
+                         "single: the same with lines='single'; equal: both parents bisected to "
+                         "the single-lines combination's element counts and measured there)")
     args = ap.parse_args(argv)
     solve = {"tol": args.tol, "ambient": True}
     sc = scenes.three_rectangles_box()
@@ -298,6 +329,8 @@ def main(argv=None):
         return narrow_only(sc, cam, solve, args)
     if args.only == "single":
         return single_only(sc, cam, solve, args)
+    if args.only == "equal":
+        return equal_only(sc, cam, solve, args)
     sizes = [4.0] if args.quick else [2.4, 1.7]
     main_size = 4.0 if args.quick else 1.7
     SWEEP = (2.0, 1.5)   # size_min / size_initial besides Table 4.1's (2.0: the earlier setting)
@@ -636,6 +669,165 @@ def single_only(sc, cam, solve, args):
         {"machine": machine(), "rows": rows, "parents": parents, "verdict": verdict},
         indent=2) + "\n")
     return rows
+
+
+#: --only equal: a parent's element count is matched within this fraction of the combination's.
+EQUAL_TOL = 0.02
+#: --only equal: midpoints per bisection before a parent is called not matched.
+EQUAL_STEPS = 16
+
+
+def bisect_count(count, lo, hi, target, *, tol=EQUAL_TOL, steps=EQUAL_STEPS):
+    """Bisect a coarsening parameter on [lo, hi] until ``count(x)`` is within ``tol`` of target.
+
+    A midpoint with more elements than the target moves the lower end up, else the upper end
+    down.  Returns ``(x, count, trail)``; ``x`` and ``count`` are None when no midpoint of
+    ``steps`` was within ``tol``; ``trail`` lists every ``(x, count)`` looked at.
+    """
+    trail = []
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        n = int(count(mid))
+        trail.append((round(mid, 6), n))
+        print(f"    {mid:.5f}: {n} elements (target {target})", flush=True)
+        if abs(n - target) <= tol * target:
+            return mid, n, trail
+        if n > target:
+            lo = mid
+        else:
+            hi = mid
+    return None, None, trail
+
+
+def equal_only(sc, cam, solve, args):
+    """Both parents bisected to the single-lines combination's element counts (issue 15).
+
+    Protocol (module docstring, ``--only equal``, fixed before measuring): for each
+    combination point, this method's ``size_min`` (from its uniform first pass at the same
+    ``size_initial``) and simplified DM's patch size ``s`` are bisected on element counts only
+    until within 2 % of the combination's count; the matched meshes are solved and measured
+    with the full run's yardstick.  Verdict per point: the combination below both.  The claim
+    holds only if the verdict holds at every point where both parents were matched.
+    """
+    from polygen.radiosity.intensity import _seeded
+
+    full = json.loads((RESULTS / "intensity_mesh.json").read_text())
+    stored = {r["mesh"]: r for r in
+              json.loads((RESULTS / "intensity_mesh_single.json").read_text())["rows"]}
+    sd = simplified_discontinuity(sc)
+    ref_mesh, reference = reference_image(sc, cam, solve, args.quick)
+    if not args.quick:
+        assert ref_mesh.n_elements == full["reference_elements"]
+    # (size_initial, size_min / size_initial) of the combination points, in the brief's order
+    points = ((4.0, SIZE_MIN_RATIO),) if args.quick else (
+        (1.7, SIZE_MIN_RATIO), (1.7, 1.5), (2.4, SIZE_MIN_RATIO), (1.7, 2.0))
+    combo_first, ours_first, rows, extra = {}, {}, [], []
+
+    def ours_count(base, size_min):
+        p = base.parameters
+        sizes = size_function(base.variation, size_min=size_min, size_max=p["size_max"])
+        grids = polygon_size_grids(base.first_mesh, sizes, grid=p["grid"], nu=p["nu"])
+        return mesh_scene(sc, grids, element_levels=p["element_levels"],
+                          mesher=_seeded(p["seed"], improve=IMPROVE)).n_elements
+
+    def dm_mesh(s):
+        return mesh_scene(sc, sd.region_sizes(s, s / 2), segments=sd.segments,
+                          mesher=bubble_mesher)
+
+    for si, f in points:
+        t0 = time.perf_counter()
+        label = (f"combination {si:g}" + ("" if f == SIZE_MIN_RATIO else f", size_min {f:g} x")
+                 + ", width cap, single lines")
+        q = combined_bubble_mesh(sc, size_initial=si, size_min=f * si, size_max=si / 2,
+                                 solve=solve, discontinuity=sd, improve=IMPROVE,
+                                 lines="single", first=combo_first.get(si))
+        combo_first.setdefault(si, q)
+        target = q.second_mesh.n_elements
+        comb_err = image_error(shade(q.second_mesh, q.second_radiosity, cam), reference)
+        print(f"{label}: {target} elements, error {comb_err:.5f}", flush=True)
+        if si not in ours_first:
+            ours_first[si] = intensity_bubble_mesh(
+                sc, size_initial=si, size_min=SIZE_MIN_RATIO * si, size_max=si / 2,
+                solve=solve, improve=IMPROVE)
+        base = ours_first[si]
+        print("  this method: size_min", flush=True)
+        smin, n_ours, trail_ours = bisect_count(lambda x: ours_count(base, x), si, 3 * si,
+                                                target)
+        ours_err = ours_q = None
+        if smin is not None:
+            r = intensity_bubble_mesh(sc, size_initial=si, size_min=smin, size_max=si / 2,
+                                      solve=solve, first=base, improve=IMPROVE)
+            assert r.second_mesh.n_elements == n_ours
+            ours_err = image_error(shade(r.second_mesh, r.second_radiosity, cam), reference)
+            ours_q = quality(r.second_mesh)
+        print("  simplified DM: s", flush=True)
+        s_dm, n_dm, trail_dm = bisect_count(lambda x: dm_mesh(x).n_elements, 1.0, 8.0, target)
+        dm_err = dm_q = None
+        if s_dm is not None:
+            m = dm_mesh(s_dm)
+            assert m.n_elements == n_dm
+            dm_err = image_error(shade(m, progressive_refinement(m, **solve).display_radiosity(m),
+                                       cam), reference)
+            dm_q = quality(m)
+        old = stored.get(label, {})
+        both = ours_err is not None and dm_err is not None
+        row = {"table": "equal element counts", "mesh": label, "elements": target,
+               "rms_error": round(comb_err, 5),
+               "stored elements / error": (f"{old.get('elements')} / {old.get('rms_error')}"),
+               "this method size_min": None if smin is None else round(smin, 5),
+               "this method elements": n_ours,
+               "this method error": None if ours_err is None else round(ours_err, 5),
+               "DM s": None if s_dm is None else round(s_dm, 5), "DM elements": n_dm,
+               "DM error": None if dm_err is None else round(dm_err, 5),
+               "both matched": both,
+               "below both": bool(both and comb_err < ours_err and comb_err < dm_err),
+               "seconds": round(time.perf_counter() - t0, 1)}
+        rows.append(row)
+        extra.append({"mesh": label, "combination_quality": quality(q.second_mesh),
+                      "this_method_quality": ours_q, "dm_quality": dm_q,
+                      "this_method_first_elements": base.first_mesh.n_elements,
+                      "combination_first_elements": q.first_mesh.n_elements,
+                      "this_method_bisection": trail_ours, "dm_bisection": trail_dm,
+                      "unrounded": {"combination": comb_err, "this method": ours_err,
+                                    "simplified DM": dm_err}})
+        print(row, flush=True)
+        if not args.quick:
+            _write_equal(rows, extra, ref_mesh, args)
+    return rows
+
+
+def _write_equal(rows, extra, ref_mesh, args):
+    matched = [r for r in rows if r["both matched"]]
+    wins = [r for r in matched if r["below both"]]
+    verdict = {"points": len(rows), "both parents matched": len(matched),
+               "below both": len(wins), "beats both": bool(matched) and len(wins) == len(matched)}
+    load = os.getloadavg()
+    write_results("intensity_mesh_equal", rows,
+                  ["table", "mesh", "elements", "rms_error", "stored elements / error",
+                   "this method size_min", "this method elements", "this method error",
+                   "DM s", "DM elements", "DM error", "both matched", "below both",
+                   "seconds"],
+                  title="The single-lines combination against both parents at equal element "
+                        "count (issue 15), measured",
+                  notes=[" ".join(equal_only.__doc__.split("\n\n")[1].split()),
+                         f"bisection: this method's size_min on (size_initial, 3 size_initial], "
+                         f"simplified DM's s on [1, 8]; stop within {EQUAL_TOL:.0%} of the "
+                         f"combination's count, at most {EQUAL_STEPS} midpoints (each step's "
+                         "value and count in intensity_mesh_equal.json)",
+                         "stored elements / error: the same combination point in "
+                         "intensity_mesh_single.json (recomputed here: deterministic)",
+                         f"error: relative RMS over the covered pixels of a {args.image}^2 "
+                         f"Gouraud image against a uniform mesh of {ref_mesh.n_elements} "
+                         "elements (as intensity_mesh.md)",
+                         "verdict (points / both parents matched / below both / beats both): "
+                         f"{verdict['points']} / {verdict['both parents matched']} / "
+                         f"{verdict['below both']} / {verdict['beats both']}",
+                         f"load average at the end: {load[0]:.1f} on {os.cpu_count()} CPUs"])
+    (RESULTS / "intensity_mesh_equal.json").write_text(json.dumps(
+        {"machine": machine(), "image": args.image, "tol": args.tol,
+         "match_tolerance": EQUAL_TOL, "bisection_steps": EQUAL_STEPS,
+         "reference_elements": ref_mesh.n_elements, "rows": rows, "details": extra,
+         "verdict": verdict, "load_average": load}, indent=2) + "\n")
 
 
 def p_less(row, name):
