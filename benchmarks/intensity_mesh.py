@@ -160,6 +160,7 @@ from polygen.radiosity.intensity import (
     PHASES,
     error_at_elements,
     intensity_variation,
+    match_element_count,
     polygon_size_grids,
     size_function,
 )
@@ -678,25 +679,13 @@ EQUAL_STEPS = 16
 
 
 def bisect_count(count, lo, hi, target, *, tol=EQUAL_TOL, steps=EQUAL_STEPS):
-    """Bisect a coarsening parameter on [lo, hi] until ``count(x)`` is within ``tol`` of target.
+    """:func:`polygen.radiosity.intensity.match_element_count`, printing each step."""
+    def counted(x):
+        n = count(x)
+        print(f"    {x:.5f}: {n} elements (target {target})", flush=True)
+        return n
 
-    A midpoint with more elements than the target moves the lower end up, else the upper end
-    down.  Returns ``(x, count, trail)``; ``x`` and ``count`` are None when no midpoint of
-    ``steps`` was within ``tol``; ``trail`` lists every ``(x, count)`` looked at.
-    """
-    trail = []
-    for _ in range(steps):
-        mid = 0.5 * (lo + hi)
-        n = int(count(mid))
-        trail.append((round(mid, 6), n))
-        print(f"    {mid:.5f}: {n} elements (target {target})", flush=True)
-        if abs(n - target) <= tol * target:
-            return mid, n, trail
-        if n > target:
-            lo = mid
-        else:
-            hi = mid
-    return None, None, trail
+    return match_element_count(counted, lo, hi, target, tol=tol, steps=steps)
 
 
 def equal_only(sc, cam, solve, args):

@@ -38,7 +38,7 @@ from polygen.radiosity.solve import progressive_refinement
 
 __all__ = ["IntensityMesh", "intensity_variation", "size_function", "check_size_parameters",
            "polygon_size_grids", "intensity_bubble_mesh", "bright_scale", "PHASES",
-           "remesh_polygon", "error_at_elements", "width_capped_sizes"]
+           "remesh_polygon", "error_at_elements", "match_element_count", "width_capped_sizes"]
 
 #: Table 4.2's five phases, the keys of :attr:`IntensityMesh.seconds`.
 PHASES = ("first_mesh", "first_radiosity", "size_function", "second_mesh", "second_radiosity")
@@ -684,6 +684,38 @@ def remesh_polygon(run, polygon, *, size_min, size_max, grid=None):
     mesh = mesh_scene(Scene([scene.polygons[polygon]]), [grids[polygon]], element_levels=levels,
                       mesher=mesher)
     return grids[polygon], mesh
+
+
+def match_element_count(count, lo, hi, target, *, tol=0.02, steps=16):
+    """Bisect a coarsening parameter on ``[lo, hi]`` until ``count(x)`` is within ``tol`` of ``target``.
+
+    For comparing two meshing methods at equal element count by measuring both
+    (rather than interpolating a curve, :func:`error_at_elements`): ``count(x)``
+    gives the element count of one method's mesh at its size parameter ``x``
+    (larger ``x``, fewer elements); only counts are looked at. A midpoint
+    with more elements than the target moves the lower end up, else the upper
+    end down.
+
+    Returns
+    -------
+    (x, n, trail)
+        The parameter and its count, both None when none of ``steps`` midpoints
+        came within ``tol * target``; ``trail`` lists every ``(x, count)`` tried.
+    """
+    if not (lo < hi and target > 0 and tol >= 0 and steps >= 1):
+        raise MeshError(f"need lo < hi, target > 0, tol >= 0, steps >= 1; got {lo}, {hi}, {target}, {tol}, {steps}")
+    trail = []
+    for _ in range(int(steps)):
+        mid = 0.5 * (lo + hi)
+        n = int(count(mid))
+        trail.append((round(mid, 6), n))
+        if abs(n - target) <= tol * target:
+            return mid, n, trail
+        if n > target:
+            lo = mid
+        else:
+            hi = mid
+    return None, None, trail
 
 
 def error_at_elements(curve, n):
