@@ -482,8 +482,10 @@ class EdgeCentredTable:
         daemon thread then asks Linux to back them by 2 MiB pages
         (``MADV_COLLAPSE``; their contents do not change, and queries may run
         meanwhile). The queries' random reads of them then miss the TLB far
-        less. Measured on 2M: the collapse takes ~0.3 s of one core (172 MB);
-        see ``benchmarks/results/huge_pages.md`` for what it buys. Returns
+        less. Measured on 2M: the collapse takes ~0.3 s of one core (170 MB);
+        20 values, interleaved in one process: 1 thread 2-7 % and ``"auto"``
+        3-4 % faster; one process per arm (``benchmarks/prefetch_ab.py``)
+        +1 % and -3 %, inside the 10-20 % spread between processes. Returns
         the bytes collapsed (0 where the kernel cannot: not Linux, older
         than 6.1, or nothing to do).
         """
