@@ -517,15 +517,8 @@ def narrow_only(sc, cam, solve, args):
     the combination's element count (``error_at_elements``).
     """
     full = json.loads((RESULTS / "intensity_mesh.json").read_text())
-    curves = full["curves"]
-    parents = {"this method": sorted((p["n_elements"], p["error"]) for p in
-                                     curves["intensity"] + curves["intensity, other size_min"]),
-               "simplified DM": sorted((p["n_elements"], p["error"])
-                                       for p in curves["simplified DM"])}
-    # notebook 04's curve of this method: with the fine first mesh's points (--fine-first)
-    fine = json.loads((RESULTS / "intensity_mesh_fine_first.json").read_text())["rows"]
-    parents["this method, fine first too"] = sorted(parents["this method"] + [
-        (r["elements"], r["rms_error"]) for r in fine if r["mesh"].startswith("this method")])
+    # with notebook 04's curve of this method: the fine first mesh's points too (--fine-first)
+    parents = parent_curves()
     sd = simplified_discontinuity(sc)
     main_size, rows, runs = 1.7, [], []
     for cap in (True, False):

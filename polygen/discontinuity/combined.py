@@ -180,17 +180,9 @@ def narrow_lines(polygon, found, lines, penumbra_points, size, *, step, near=0.0
                 m = reg == r
                 sz[m] = np.minimum(sz[m], fields[r](x[m]))
         keep = width < sz / 2 ** int(element_levels)
-        i = 0
-        while i < n:
-            if not keep[i]:
-                i += 1
-                continue
-            j = i
-            while j + 1 < n and keep[j + 1]:
-                j += 1
-            out.append((a + t[i] * (b - a), a + t[j + 1] * (b - a)))
+        for piece in _runs(a, b, t, keep):
+            out.append(piece)
             out_kinds.append("D1")
-            i = j + 1
     if not out:
         return None
     return Segments(np.asarray(out, dtype=np.float64), out_kinds)
