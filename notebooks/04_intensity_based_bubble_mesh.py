@@ -598,6 +598,8 @@ curves["combination, single lines (default)"] = sorted(
 plot_intensity.plot_error_curves(
     curves, title=f"Fig. 4.8 scene (reference: {res['reference_elements']} elements)")
 plt.show()
+
+# %%
 print(table([{"method": name, "mesh": p["label"], "elements": p["n_elements"],
               "error": round(p["error"], 4)} for name, pts in res["curves"].items() for p in pts],
             ["method", "mesh", "elements", "error"]))
