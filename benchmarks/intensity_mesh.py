@@ -48,7 +48,9 @@ smallest angle) is recorded too.  Writes
 ``--only plate`` runs only the plate row: the first mesh and radiosity at ``size_initial``
 1.7 (Table 4.1's parameters, as the full run), then the floor's 200 x 200 size grid, best of
 3 (wall and CPU), and its phases one by one (IDW, element matrix, nested-dissection order,
-free-DOF CSC assembly with the held values' right-hand side, SuperLU factorisation, solve);
+free-DOF CSC assembly with the held values' right-hand side, the fronts, the multifrontal
+Cholesky factor, solves), and SuperLU on the same matrix and order for comparison (the solver
+before, not part of the step);
 writes ``intensity_mesh_plate.json``.
 
 ``--only narrow`` (issue 15) runs only the combination with ``lines="narrow"`` (D0 lines, and
@@ -154,6 +156,7 @@ from polygen.radiosity import (
     scenes,
 )
 from polygen.radiosity.error import ErrorPoint, adaptive_curve, image_error, shade, uniform_curve
+from polygen.mesh2d import _multifrontal as _mf
 from polygen.mesh2d import plate as _plate
 from polygen.mesh2d.size_grid import assign_grid_sizes, grid_lattice
 from polygen.radiosity.intensity import (
@@ -227,18 +230,22 @@ def plate_phases(result, n=200):
         free = np.ones(3 * nx * ny, dtype=bool)
         free[held] = False
 
-        def order():
-            o = (3 * _plate._nested_dissection(nx, ny)[:, None] + np.arange(3)).ravel()
-            return o[free[o]]
-        o = clock("nested-dissection order", order)
+        o, sn_ptr, parent = clock("nested-dissection order",
+                                  lambda: _plate._free_order(nx, ny, free))
         new = np.full(3 * nx * ny, -1, dtype=np.int32)
         new[o] = np.arange(len(o), dtype=np.int32)
         ip, ix, d, rhs = clock("assembly (CSC) + rhs",
                                lambda: _plate._free_system(ke, nx, ny, new, o, u))
+        bp, bd, stack = clock("fronts (symbolic)",
+                              lambda: _mf.symbolic(ip, ix, sn_ptr, parent))
+        lp, lf, _ = clock("Cholesky factor (multifrontal)",
+                          lambda: _mf.factor(ip, ix, d, sn_ptr, parent, bp, bd, stack))
+        clock("triangular solves", lambda: _mf.solve(sn_ptr, bp, bd, lp, lf, rhs))
+        # the solver before it, on the same matrix and order, for comparison (not in the step)
         k = sp.csc_matrix((d, ix, ip), shape=(len(o), len(o)))
-        lu = clock("SuperLU factor", lambda: spla.splu(
+        lu = clock("reference: SuperLU factor", lambda: spla.splu(
             k, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True}))
-        clock("triangular solves", lambda: lu.solve(rhs))
+        clock("reference: SuperLU solves", lambda: lu.solve(rhs))
     return best
 
 
@@ -264,7 +271,7 @@ def plate_only(sc, solve, args):
     print(f"the loop's size grids ({len(grids)} polygons, step {si / 4:g}): {loop_wall:.3f} s "
           f"wall, {loop_cpu:.3f} s CPU")
     for name, (w, c) in phases.items():
-        print(f"  {name:26s} {w:.3f} s wall, {c:.3f} s CPU")
+        print(f"  {name:32s} {w:.3f} s wall, {c:.3f} s CPU")
     if not args.quick:
         RESULTS.mkdir(parents=True, exist_ok=True)
         (RESULTS / "intensity_mesh_plate.json").write_text(json.dumps(

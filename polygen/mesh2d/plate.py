@@ -22,10 +22,14 @@ matrix, integrated by 3 x 3 Gauss points (exact for this polynomial).
 :func:`assemble_plate` sums it into the global matrix by one vectorised COO
 assembly; :func:`solve_plate` writes the free DOFs' block straight into CSC
 (a numba kernel over the 3 x 3 grid points around each DOF) in a
-nested-dissection order and factors it once with SuperLU, which is most of
-its time (on 200 x 200 points about 80 %).  Degrees of freedom are
-numbered ``3 * (j * nx + i) + c`` for grid point ``(i, j)`` (``x = x0 + i
-dx``, ``y = y0 + j dy``) and component ``c`` in ``(w, w_x, w_y)``.
+nested-dissection order of the grid, and factors it by Cholesky along that
+same dissection's tree (:mod:`polygen.mesh2d._multifrontal`: one dense
+front per separator line, BLAS for the dense work).  On 200 x 200 points
+that factor took 0.73 s where SuperLU took 1.79 s on the same matrix and
+order (a slow 2-core VM; ``benchmarks/intensity_mesh.py --only plate``).
+Degrees of freedom are numbered ``3 * (j * nx + i) + c`` for grid point
+``(i, j)`` (``x = x0 + i dx``, ``y = y0 + j dy``) and component ``c`` in
+``(w, w_x, w_y)``.
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from polygen._jit import njit
+from polygen.mesh2d import _multifrontal as _mf
 
 __all__ = ["PlateError", "plate_element_stiffness", "plate_element_load", "assemble_plate",
            "plate_edge_dofs", "solve_plate", "square_plate_centre"]
@@ -158,34 +163,67 @@ def _cell_dofs(nx, ny):
 
 @lru_cache(maxsize=16)
 def _nested_dissection(nx, ny, leaf=4):
-    """(nx ny,) int64 grid points in nested-dissection order (separators last), read-only.
+    """The grid points in nested-dissection order and its tree, read-only arrays.
 
-    Cached: the polygons of a scene share a few grid shapes.
+    A grid line separates two halves (a cell spans two lines), so each
+    separator is one line of points; boxes of at most ``leaf x leaf`` points
+    are not cut further.  Cached: the polygons of a scene share a few grid
+    shapes.
+
+    Returns
+    -------
+    order : (nx ny,) int64
+        Grid points, each box before the separator that cuts its parent box.
+    ptr : (nb + 1,) int64
+        Box or separator ``k`` (postorder) is ``order[ptr[k]:ptr[k + 1]]``.
+    parent : (nb,) int64
+        The separator whose cut made it, -1 for the first cut.
     """
-    out = []
+    rects = []  # (i0, i1, j0, j1) of each leaf box or separator line, in postorder
+    parent = []
 
     def rec(i0, i1, j0, j1):
         w, h = i1 - i0, j1 - j0
         if w <= 0 or h <= 0:
-            return
+            return []
         if w <= leaf and h <= leaf:
-            jj, ii = np.meshgrid(np.arange(j0, j1), np.arange(i0, i1), indexing="ij")
-            out.append((jj * nx + ii).ravel())
+            sub, box = [], (i0, i1, j0, j1)
         elif w >= h:
             m = (i0 + i1) // 2
-            rec(i0, m, j0, j1)
-            rec(m + 1, i1, j0, j1)
-            out.append(np.arange(j0, j1) * nx + m)
+            sub = rec(i0, m, j0, j1) + rec(m + 1, i1, j0, j1)
+            box = (m, m + 1, j0, j1)
         else:
             m = (j0 + j1) // 2
-            rec(i0, i1, j0, m)
-            rec(i0, i1, m + 1, j1)
-            out.append(m * nx + np.arange(i0, i1))
+            sub = rec(i0, i1, j0, m) + rec(i0, i1, m + 1, j1)
+            box = (i0, i1, m, m + 1)
+        k = len(rects)
+        rects.append(box)
+        parent.append(-1)
+        for c in sub:
+            parent[c] = k
+        return [k]
 
     rec(0, nx, 0, ny)
-    order = np.concatenate(out).astype(np.int64)
-    order.flags.writeable = False
-    return order
+    r = np.array(rects, dtype=np.int64).reshape(-1, 4)
+    ptr = np.concatenate([[0], np.cumsum((r[:, 1] - r[:, 0]) * (r[:, 3] - r[:, 2]))])
+    order = _fill_boxes(r, ptr, nx)
+    parent = np.array(parent, dtype=np.int64)
+    for a in (order, ptr, parent):
+        a.flags.writeable = False
+    return order, ptr, parent
+
+
+@njit
+def _fill_boxes(rects, ptr, nx):
+    """The grid points of each box ``(i0, i1, j0, j1)``, row by row, one box after another."""
+    out = np.empty(ptr[-1], dtype=np.int64)
+    for k in range(len(rects)):
+        t = ptr[k]
+        for j in range(rects[k, 2], rects[k, 3]):
+            for i in range(rects[k, 0], rects[k, 1]):
+                out[t] = j * nx + i
+                t += 1
+    return out
 
 
 def _check_shape(shape):
@@ -424,35 +462,49 @@ def solve_plate(shape, spacing, *, fixed_dofs, fixed_values=0.0, load=0.0, nu=0.
     u[fixed] = vals
     free = np.ones(n, dtype=bool)
     free[fixed] = False
-    # a nested-dissection order of the grid (one grid line separates two halves, since a cell
-    # spans two lines) keeps the factor's fill O(n log n); SuperLU's own orderings do not
-    # know the grid and fill in ~10x more
-    order = 3 * _nested_dissection(nx, ny)[:, None] + np.arange(3)
-    order = order.ravel()[free[order.ravel()]]
-    if len(order) == 0:
+    if not np.any(free):
         return u.reshape(ny, nx, 3)
     if not _pinned(fixed, nx):
         raise PlateError("the held DOFs do not pin the plate down (a zero-energy mode is free: "
                          "hold w at three points not on one line)")
+    order, sn_ptr, parent = _free_order(nx, ny, free)
     # assemble straight into the free DOFs' new numbering, as CSC (no COO, no slicing of a
     # global matrix); held DOFs move to the right-hand side
     new = np.full(n, -1, dtype=np.int32)
     new[order] = np.arange(len(order), dtype=np.int32)
-    nf = len(order)
     indptr, indices, data, rhs_held = _free_system(ke, nx, ny, new, order, u)
-    kff = sp.csc_matrix((data, indices, indptr), shape=(nf, nf))
-    rhs = f[order] + rhs_held
-    try:
-        # symmetric positive definite (checked above): no pivoting, keep the order
-        lu = spla.splu(kff, permc_spec="NATURAL", diag_pivot_thresh=0.0,
-                       options={"SymmetricMode": True})
-    except RuntimeError as exc:  # SuperLU: "Factor is exactly singular"
-        raise PlateError(f"the held DOFs do not pin the plate down ({exc})") from None
-    x = lu.solve(rhs)
+    x = _spd_solve(indptr, indices, data, sn_ptr, parent, f[order] + rhs_held)
     if not np.all(np.isfinite(x)):
         raise PlateError("the plate solve gave non-finite deflections")
     u[order] = x
     return u.reshape(ny, nx, 3)
+
+
+def _free_order(nx, ny, free, leaf=4):
+    """The free DOFs in nested-dissection order, and the dissection's tree over them.
+
+    Returns ``(order, sn_ptr, parent)``: ``order`` (nf,) int64 DOFs; supernode ``k`` (a box or
+    a separator line of :func:`_nested_dissection`) holds ``order[sn_ptr[k]:sn_ptr[k + 1]]``.
+    """
+    points, ptr, parent = _nested_dissection(nx, ny, leaf)
+    dofs = 3 * points[:, None] + np.arange(3)
+    keep = free[dofs]
+    counts = np.concatenate([[0], np.cumsum(keep.sum(axis=1))])
+    return dofs[keep], counts[ptr], parent
+
+
+def _spd_solve(indptr, indices, data, sn_ptr, parent, rhs):
+    """Solve the free block by Cholesky along the dissection's tree (:mod:`._multifrontal`).
+
+    The grid's own dissection is the factor's tree: one dense front per separator line, so
+    the fill stays O(n log n) and the flops O(n^1.5), with BLAS doing the dense work.
+    """
+    bnd_ptr, bnd, stack = _mf.symbolic(indptr, indices, sn_ptr, parent)
+    l_ptr, lf, bad = _mf.factor(indptr, indices, data, sn_ptr, parent, bnd_ptr, bnd, stack)
+    if bad >= 0:
+        raise PlateError("the held DOFs do not pin the plate down (the stiffness of the free "
+                         "DOFs is not positive definite)")
+    return _mf.solve(sn_ptr, bnd_ptr, bnd, l_ptr, lf, rhs)
 
 
 def square_plate_centre(support, m, *, nu=0.3):
