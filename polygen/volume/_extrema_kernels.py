@@ -29,22 +29,39 @@ def _mark_cells(cells, s, not_max, not_min, plural_max, plural_min):
     """
     nn = cells.shape[1]
     for c in range(cells.shape[0]):
-        hi = s[cells[c, 0]]
+        n0 = cells[c, 0]
+        hi = s[n0]
         lo = hi
+        node_hi = n0
+        node_lo = n0
         for i in range(1, nn):
-            v = s[cells[c, i]]
+            node = cells[c, i]
+            v = s[node]
             if v > hi:
                 hi = v
+                node_hi = node
             if v < lo:
                 lo = v
+                node_lo = node
         n_hi = 0
         n_lo = 0
         for i in range(nn):
             v = s[cells[c, i]]
-            if v == hi:
-                n_hi += 1
-            if v == lo:
-                n_lo += 1
+            n_hi += v == hi
+            n_lo += v == lo
+        if n_hi == 1 and n_lo == 1:
+            # no tie (the common case): mark every node, then put the largest's "not-maximum" and the
+            # smallest's "not-minimum" back as they were -- stores without a test per node (2M: 95 -> 60 ms,
+            # 10M: 0.42 -> 0.23 s, benchmarks/extrema_marks_ab.py)
+            keep_hi = not_max[node_hi]
+            keep_lo = not_min[node_lo]
+            for i in range(nn):
+                node = cells[c, i]
+                not_max[node] = True
+                not_min[node] = True
+            not_max[node_hi] = keep_hi
+            not_min[node_lo] = keep_lo
+            continue
         for i in range(nn):
             node = cells[c, i]
             v = s[node]

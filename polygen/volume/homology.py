@@ -203,28 +203,13 @@ def boundary_defects(vol):
     nodes : (V,) int64
         Boundary nodes whose boundary faces form more than one fan.
     """
+    # the boundary edge table (numbered by lower node, then higher; the boundary groups are built from
+    # it, so the thinning has it already) in place of a lexsort of every face edge: best of 5, alone,
+    # 2M 0.077 -> 0.011 s, 10M 0.40 -> 0.035 s (benchmarks/boundary_defects_ab.py)
     fn = np.ascontiguousarray(vol.boundary_face_nodes, np.int64)
-    nbf, k = fn.shape
-    corner = np.arange(nbf * k, dtype=np.int64).reshape(nbf, k)
-    a = fn.ravel()
-    b = np.roll(fn, -1, axis=1).ravel()
-    ca = corner.ravel()
-    cb = np.roll(corner, -1, axis=1).ravel()
-    swap = a > b
-    lo, hi = np.where(swap, b, a), np.where(swap, a, b)
-    clo, chi = np.where(swap, cb, ca), np.where(swap, ca, cb)
-    order = np.lexsort((hi, lo))
-    lo, hi, clo, chi = lo[order], hi[order], clo[order], chi[order]
-    start = np.flatnonzero(np.r_[True, (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])])
-    count = np.diff(np.r_[start, lo.size])
-    bad_edges = np.stack([lo[start[count != 2]], hi[start[count != 2]]], axis=1)
-    two = start[count == 2]
-    pairs = np.ascontiguousarray(np.stack([clo[two], clo[two + 1], chi[two], chi[two + 1]], axis=1))
-    root = _tk.corner_fans(nbf * k, pairs)
-    key = np.unique(a * (nbf * k) + root)
-    node_of = key // (nbf * k)
-    fans = np.bincount(node_of, minlength=vol.n_points)
-    return bad_edges.astype(np.int64), np.flatnonzero(fans > 1).astype(np.int64)
+    ids, edges = vol.boundary_edge_table
+    bad, nodes = _tk.boundary_defects(fn, np.ascontiguousarray(ids, np.int64), edges.shape[0], vol.n_points)
+    return np.ascontiguousarray(edges[bad], np.int64).reshape(-1, 2), nodes
 
 
 @njit
