@@ -153,8 +153,9 @@ def factor(indptr, indices, data, sn_ptr, parent, bnd_ptr, bnd, stack_size):
 
     The front is held as three contiguous blocks (``A11`` in a work buffer,
     ``A12`` in its place in ``L``, the update ``A22`` in a second work
-    buffer), so that BLAS gets contiguous operands and no front allocates:
-    on a VM every new page costs a fault, about 1 ms per MB here.
+    buffer), so that BLAS gets contiguous operands and the fronts are not
+    allocated one by one: on a VM every new page costs a fault, about 1 ms
+    per MB here (the BLAS calls' results still are, and are reused by malloc).
     """
     nsn = len(parent)
     n = sn_ptr[nsn]

@@ -25,8 +25,9 @@ assembly; :func:`solve_plate` writes the free DOFs' block straight into CSC
 nested-dissection order of the grid, and factors it by Cholesky along that
 same dissection's tree (:mod:`polygen.mesh2d._multifrontal`: one dense
 front per separator line, BLAS for the dense work).  On 200 x 200 points
-that factor took 0.73 s where SuperLU took 1.79 s on the same matrix and
-order (a slow 2-core VM; ``benchmarks/intensity_mesh.py --only plate``).
+that factor took 0.70 s where SuperLU took 1.89 s on the same matrix and
+order in the same run (a slow 2-core VM; ``benchmarks/intensity_mesh.py
+--only plate``).
 Degrees of freedom are numbered ``3 * (j * nx + i) + c`` for grid point
 ``(i, j)`` (``x = x0 + i dx``, ``y = y0 + j dy``) and component ``c`` in
 ``(w, w_x, w_y)``.
