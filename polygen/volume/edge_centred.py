@@ -1293,6 +1293,23 @@ SEED_SOURCES = _registry.SEED_SOURCES
 _BESIDE_MIN_CELLS = 200_000
 
 
+#: numba threads for the edge table and records built beside the thinning: the cores its FIFO halves
+#: (:func:`polygen.volume.thinning._fifo_halves`, two threads) leave, at least one; None: numba's count.
+#: On two cores a second team of two beside the halves put four busy or spinning threads on two cores,
+#: and doubled the system time of the preparation's page faults (``benchmarks/beside_threads_ab.py``)
+BESIDE_THREADS = "cores left"
+
+
+def _beside_threads():
+    """The numba thread count for the records thread (:data:`BESIDE_THREADS`), or None to leave it as it is."""
+    if BESIDE_THREADS is None:
+        return None
+    import numba
+
+    n = numba.get_num_threads()
+    return max(1, n - 2) if BESIDE_THREADS == "cores left" else max(1, min(int(BESIDE_THREADS), n))
+
+
 def _builds_beside(vol):
     """Whether the edge table and records are built in a second thread while the seeds are prepared."""
     return (getattr(vol, "n_cells", 0) >= _BESIDE_MIN_CELLS and (os.cpu_count() or 1) >= 2
@@ -1310,18 +1327,24 @@ def _seeds_beside_table(vol, field, seeds, params, order, kw):
     lists and face neighbours are built first (parallel kernels, every
     core), then the edge table and the records in a second thread while the
     thinning runs in this one (on 2M the two sides take about the same CPU
-    time).
-    Each table is built once and read-only afterwards; the results are
-    those of building one after the other.
+    time; the second thread runs its parallel kernels on
+    :data:`BESIDE_THREADS`). Each table is built once and read-only
+    afterwards; the results are those of building one after the other (the
+    kernels' outputs do not depend on their thread count).
     """
     vol.node_cells  # the edge table and the face neighbours are both matched through it
     vol.face_neighbors
     if not parallel_kernels_may_overlap():  # numba's workqueue layer: one after the other
         return seed_source(vol, field, seeds, **params), EdgeCentredTable(vol, field, order=order, **kw)
     out = {}
+    n_threads = _beside_threads()
 
     def build():
         try:
+            if n_threads is not None:  # numba's thread count is per calling thread: this one only
+                import numba
+
+                numba.set_num_threads(n_threads)
             out["builder"] = EdgeCentredTable(vol, field, order=order, **kw)
         except BaseException as exc:  # re-raised in the caller's thread
             out["error"] = exc
