@@ -40,7 +40,7 @@ from _common import write_results
 
 ARMS = {"numba's count": None, "cores left": "cores left"}
 ROUNDS = {"2M": 8, "10M": 5}
-FIELDS = {"2M": "fem", "10M": "gaussians"}
+FIELDS = {"data4": "fem", "2M": "fem", "10M": "gaussians"}
 
 
 def worker(name, arm):
