@@ -4,6 +4,7 @@ Both variants: the paper's, without stored edges (``EdgeCentredWalk``, method ``
 with an edge table and an edge -> cells index (``EdgeCentredTable``, method ``edge-centred-table``).
 """
 
+import numba
 import numpy as np
 import pytest
 
@@ -602,13 +603,20 @@ def test_records_built_beside_the_thinning_are_the_serial_ones(monkeypatch, tets
     real = ecm.EdgeCentredTable
 
     def spy(*a, **k):
-        seen.append(threading.current_thread().name)
+        seen.append((threading.current_thread().name, numba.get_num_threads()))
         return real(*a, **k)
 
     monkeypatch.setattr(ecm, "EdgeCentredTable", spy)
     monkeypatch.setattr(ecm.EdgeCentredTableMethod, "builder_class", staticmethod(ecm.EdgeCentredTable))
+    n = numba.get_num_threads()
     beside = methods.get("edge-centred-table")(fresh())
-    assert seen == ["polygen-edge-records"]  # the other path was taken
+    assert seen == [("polygen-edge-records", n)]  # the other path was taken, on numba's thread count
+    # on the cores the thinning's two halves leave, at least one: the same records; the caller's count kept
+    monkeypatch.setattr(ecm, "BESIDE_THREADS", "cores left")
+    again = methods.get("edge-centred-table")(fresh())
+    assert seen[1:] == [("polygen-edge-records", max(1, n - 2))]
+    assert numba.get_num_threads() == n
+    assert np.array_equal(again.builder.rec, beside.builder.rec)
     assert np.array_equal(serial.builder.rec, beside.builder.rec)
     assert np.array_equal(serial.builder.ec, beside.builder.ec)
     assert np.array_equal(serial.source.structure.cells, beside.source.structure.cells)

@@ -1293,11 +1293,12 @@ SEED_SOURCES = _registry.SEED_SOURCES
 _BESIDE_MIN_CELLS = 200_000
 
 
-#: numba threads for the edge table and records built beside the thinning: the cores its FIFO halves
-#: (:func:`polygen.volume.thinning._fifo_halves`, two threads) leave, at least one; None: numba's count.
-#: On two cores a second team of two beside the halves put four busy or spinning threads on two cores,
-#: and doubled the system time of the preparation's page faults (``benchmarks/beside_threads_ab.py``)
-BESIDE_THREADS = "cores left"
+#: numba threads for the edge table and records built beside the thinning: None (numba's count), a
+#: number, or "cores left" (those the thinning's two FIFO halves leave, at least one). Measured on two
+#: cores, first preparation of a fresh process (``benchmarks/beside_threads_ab.py``): "cores left" is
+#: faster on 2M (0.98 against 1.15 s; the seeds side is the longer one) and slower on 10M (5.47
+#: against 4.82 s: the records on one thread become the longer side), so numba's count stays
+BESIDE_THREADS = None
 
 
 def _beside_threads():
