@@ -6,7 +6,9 @@ are the same everywhere. ``POLYGEN_NUMBA_CACHE=0`` turns the cache off,
 for example on a read-only install.
 """
 
+import math
 import os
+import threading
 
 import numba
 import numpy as np
@@ -81,11 +83,131 @@ def empty(shape, dtype=np.float64):
     return _words((nbytes + 7) // 8).view(np.uint8)[:nbytes].view(dtype).reshape(shape)
 
 
-def astype(a, dtype):
-    """``a.astype(dtype)`` into an array from :func:`empty`."""
-    out = empty(a.shape, dtype)
+def astype(a, dtype, *, output=False):
+    """``a.astype(dtype)`` into an array from :func:`empty` (:func:`output_empty` with ``output``)."""
+    out = (output_empty if output else empty)(a.shape, dtype)
     out[...] = a
     return out
+
+
+# ------------------------------------------------------------------ recycled output buffers
+# A query's output arrays (a surface's triangles, vertices, normals: megabytes each) are fresh memory,
+# and fresh memory is paid for by a page fault per 4 KiB on its first write. malloc hands back memory
+# that a program freed, but gives large blocks to the kernel when they are freed (and trims its heap),
+# so a surface asked for after other work -- VTK drawing the previous one, say -- faults all over
+# again: measured here on 2M, in benchmarks/interactive.py's sweeps between VTK's, 2,000-2,300 faults
+# at 6 us each (this VM) turned the 212,073-triangle surface's 15 ms into 29. The output arrays of the
+# queries therefore sit on buffers that go back to a small pool when the last array on them is
+# dropped, and the next query of a similar size takes them from there, already mapped.
+
+#: bytes of released output buffers kept for reuse; the least recently released go first (0: none kept)
+OUTPUT_POOL_BYTES = 256 << 20
+#: below this an output array comes from :func:`empty` (malloc keeps such blocks itself)
+OUTPUT_POOL_MIN_BYTES = 1 << 16
+_pool = []  # (size class, buffer), least recently released first
+_pool_held = [0]
+_pool_lock = threading.Lock()
+#: counters (tests, benchmarks): buffers taken from the pool, buffers allocated, buffers kept on release
+pool_stats = {"reused": 0, "allocated": 0, "kept": 0}
+
+
+def _size_class(nbytes):
+    """``(k, bytes)``: the smallest ``OUTPUT_POOL_MIN_BYTES * 2 ** (k / 4)``, in whole 4 KiB pages, that holds
+    ``nbytes`` (at most a fifth of a buffer unused, and surfaces of similar sizes share buffers)."""
+    k = max(0, math.ceil(4 * math.log2(max(nbytes, 1) / OUTPUT_POOL_MIN_BYTES)))
+    while True:
+        cap = -(-int(math.ceil(OUTPUT_POOL_MIN_BYTES * 2 ** (k / 4))) // 4096) * 4096
+        if cap >= nbytes:
+            return k, cap
+        k += 1  # pragma: no cover - only where the float rounding falls short
+
+
+class _Lease:
+    """The owner (``base``) of the arrays on one pooled buffer; gives the buffer back when they are all gone."""
+
+    __slots__ = ("buffer", "size_class", "__array_interface__")
+
+    def __init__(self, buffer, size_class, shape, dtype):
+        self.buffer = buffer
+        self.size_class = size_class
+        self.__array_interface__ = {"data": (buffer.ctypes.data, False), "shape": shape, "typestr": dtype.str,
+                                    "version": 3}
+
+    def __del__(self):
+        try:
+            _give_back(self.buffer, self.size_class)
+        except Exception:  # pragma: no cover - at interpreter exit the module may be half torn down
+            pass
+
+
+def _give_back(buffer, size_class):
+    """Keep a released buffer for reuse, dropping the least recently released beyond the budget.
+
+    Called from ``__del__``, on whatever thread let the last array go (the
+    garbage collector's too, possibly while this thread is inside
+    :func:`output_empty`): the lock is only tried, and a buffer that cannot
+    be kept right now is simply freed.
+    """
+    if buffer.nbytes > OUTPUT_POOL_BYTES or not _pool_lock.acquire(blocking=False):
+        return
+    try:
+        _pool.append((size_class, buffer))
+        _pool_held[0] += buffer.nbytes
+        pool_stats["kept"] += 1
+        while _pool_held[0] > OUTPUT_POOL_BYTES:
+            _pool_held[0] -= _pool.pop(0)[1].nbytes
+    finally:
+        _pool_lock.release()
+
+
+def output_empty(shape, dtype=np.float64):
+    """``numpy.empty(shape, dtype)`` for an output array that the caller hands to the user.
+
+    Arrays of :data:`OUTPUT_POOL_MIN_BYTES` or more sit on a buffer from
+    the pool of released output buffers when one of their size class is
+    there (its pages already mapped: no page faults), else on a new buffer
+    from numba's allocator (as :func:`empty`). When the last array on the
+    buffer is dropped it goes back to the pool, which keeps at most
+    :data:`OUTPUT_POOL_BYTES` (:func:`release_output_pool` empties it). The
+    result is an ordinary writeable C-contiguous array whose ``base`` is
+    the buffer's owner; two arrays alive at once never share a buffer.
+    """
+    dtype = np.dtype(dtype)
+    shape = (int(shape),) if np.ndim(shape) == 0 else tuple(int(n) for n in shape)
+    nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+    if nbytes < OUTPUT_POOL_MIN_BYTES or nbytes > OUTPUT_POOL_BYTES:
+        return empty(shape, dtype)
+    k, cap = _size_class(nbytes)
+    buffer = None
+    with _pool_lock:
+        for i in range(len(_pool) - 1, -1, -1):  # the most recently released of this class
+            if _pool[i][0] == k:
+                buffer = _pool.pop(i)[1]
+                _pool_held[0] -= buffer.nbytes
+                pool_stats["reused"] += 1
+                break
+    if buffer is None:
+        buffer = _words(cap // 8)
+        pool_stats["allocated"] += 1
+    return np.asarray(_Lease(buffer, k, shape, dtype))
+
+
+def release_output_pool():
+    """Free the released output buffers that :func:`output_empty` keeps; returns the bytes freed."""
+    with _pool_lock:
+        held = _pool_held[0]
+        _pool.clear()
+        _pool_held[0] = 0
+    return held
+
+
+def _after_fork():  # pragma: no cover - a child must not inherit a lock held by another thread of its parent
+    global _pool_lock
+    _pool_lock = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork)
 
 
 # MADV_COLLAPSE (Linux 6.1+): back a range by transparent huge pages now, synchronously, copying the

@@ -507,3 +507,29 @@ def test_gradient_and_no_normals_with_two_threads(tets):
                 assert b.normals is None
             else:
                 np.testing.assert_array_equal(a.normals, b.normals)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_surfaces_kept_alive_are_untouched_by_later_queries(threads):
+    """The output arrays sit on recycled buffers (polygen._jit.output_empty): a surface the caller keeps is never
+    written by a later query, and a dropped one's buffers are taken again (no fresh pages)."""
+    from polygen import _jit
+
+    vol = datasets.load("data2")
+    s = vol.scalars("fem")
+    m = methods.get("edge-centred-table")(vol, field="fem", threads=threads)
+    values = np.linspace(s.min(), s.max(), 22)[1:-1]
+    kept = []
+    for v in list(values) + list(values[::-1]):  # every size class twice, the surfaces all alive
+        iso = m.extract(v)
+        kept.append((iso, iso.triangles.copy(), iso.vertices.copy(), iso.normals.copy(), iso.vertex_keys.copy()))
+        for old, t, x, n, k in kept:
+            assert np.array_equal(old.triangles, t) and np.array_equal(old.vertices, x)
+            assert np.array_equal(old.normals, n) and np.array_equal(old.vertex_keys, k)
+    big = kept[len(values) // 2][0]
+    assert isinstance(big.triangles.base, _jit._Lease)
+    before = _jit.pool_stats["reused"]
+    del kept, iso, old
+    for v in values:
+        m.extract(v)
+    assert _jit.pool_stats["reused"] > before

@@ -38,3 +38,106 @@ def test_astype_equals_numpy(n):
     a = rng.integers(-2**31, 2**31 - 1, size=(n, 3), dtype=np.int64).astype(np.int32)
     b = _jit.astype(a, np.int64)
     assert b.dtype == np.int64 and np.array_equal(b, a.astype(np.int64))
+
+
+# ------------------------------------------------------------------ output_empty: recycled output buffers
+@pytest.fixture
+def pool(monkeypatch):
+    """An empty pool with the default budget, emptied again afterwards."""
+    _jit.release_output_pool()
+    yield _jit
+    _jit.release_output_pool()
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.int64, np.int32, np.float32])
+@pytest.mark.parametrize("shape", [0, 7, (5, 3), (1 << 14, 3), (1 << 20, 3)])
+def test_output_empty_is_an_ordinary_array(pool, shape, dtype):
+    a = pool.output_empty(shape, dtype)
+    want = (shape,) if np.ndim(shape) == 0 else shape
+    assert a.shape == want and a.dtype == np.dtype(dtype)
+    assert a.flags.c_contiguous and a.flags.writeable and a.flags.aligned
+    a[...] = 3
+    assert a.sum() == 3 * a.size
+    b = pickle.loads(pickle.dumps(a))
+    assert np.array_equal(a, b) and b.dtype == a.dtype
+    assert isinstance(a.base, _jit._Lease) == (a.nbytes >= _jit.OUTPUT_POOL_MIN_BYTES)
+
+
+def test_a_released_buffer_is_taken_again_and_a_live_one_never(pool):
+    a = pool.output_empty((50_000, 3), np.int64)
+    where = a.ctypes.data
+    view = a[10:20]
+    del a
+    b = pool.output_empty((50_000, 3), np.int64)
+    assert b.ctypes.data != where  # the view keeps a's buffer out of the pool
+    del view
+    before = dict(pool.pool_stats)
+    c = pool.output_empty((49_000, 3), np.int64)  # same size class
+    assert c.ctypes.data == where and pool.pool_stats["reused"] == before["reused"] + 1
+    assert not np.shares_memory(b, c)
+
+
+def test_live_arrays_never_share_and_keep_their_contents(pool):
+    """A random sequence of takes and releases against a model: every live array keeps what was written."""
+    rng = np.random.default_rng(1)
+    live = {}
+    for step in range(400):
+        if live and rng.random() < 0.45:
+            del live[rng.choice(list(live))]
+        else:
+            n = int(rng.integers(1, 200_000))
+            a = pool.output_empty(n, np.int64)
+            a[...] = step
+            live[step] = a
+        for k, a in live.items():
+            assert a[0] == k and a[-1] == k
+    arrays = list(live.values())
+    assert not any(np.shares_memory(arrays[i], arrays[j]) for i in range(len(arrays))
+                   for j in range(i + 1, len(arrays)))
+    assert pool.pool_stats["reused"] > 0
+
+
+def test_the_pool_keeps_at_most_its_budget(pool, monkeypatch):
+    monkeypatch.setattr(_jit, "OUTPUT_POOL_BYTES", 4 << 20)
+    arrays = [pool.output_empty(1 << 17, np.float64) for _ in range(8)]  # 1 MiB each
+    del arrays
+    assert 0 < _jit._pool_held[0] <= 4 << 20
+    assert _jit._pool_held[0] == sum(b.nbytes for _, b in _jit._pool)
+    assert pool.release_output_pool() > 0 and _jit._pool_held[0] == 0 and not _jit._pool
+
+
+@pytest.mark.parametrize("nbytes", [1, 4095, 65_536, 65_537, 1 << 20, 5_089_752, 123_456_789])
+def test_size_classes_hold_the_request_with_little_to_spare(nbytes):
+    k, cap = _jit._size_class(nbytes)
+    assert cap >= nbytes and cap % 4096 == 0
+    assert cap <= max(_jit.OUTPUT_POOL_MIN_BYTES, 2 ** 0.25 * nbytes) + 4096
+    assert _jit._size_class(nbytes + 1)[0] >= k and (nbytes < 2 or _jit._size_class(nbytes - 1)[0] <= k)
+
+
+def test_threads_taking_and_releasing_at_once(pool):
+    import threading
+
+    errors = []
+
+    def work(seed):
+        rng = np.random.default_rng(seed)
+        mine = []
+        try:
+            for i in range(300):
+                a = pool.output_empty(int(rng.integers(10_000, 300_000)), np.int64)
+                a[...] = seed * 1000 + i
+                mine.append((seed * 1000 + i, a))
+                if len(mine) > 5:
+                    mine.pop(int(rng.integers(len(mine))))
+                for want, b in mine:
+                    if b[0] != want or b[-1] != want:
+                        errors.append((seed, want))
+        except Exception as exc:  # pragma: no cover - reported below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=work, args=(s,)) for s in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors == []

@@ -668,9 +668,9 @@ class EdgeCentredTable:
                 cap = 2 * self._vkey.shape[0]
                 self._vkey = np.empty(cap, np.int32)
                 self._vend = np.empty((cap, 2), np.int32)
-        tri = _jit.astype(self._tris[:n_t], np.int64)
-        tri_cell = _jit.astype(self._tri_cell[:n_t], np.int64)
-        keys = _jit.astype(self._vkey[:n_v], np.int64)
+        tri = _jit.astype(self._tris[:n_t], np.int64, output=True)  # the user's arrays: on recycled buffers
+        tri_cell = _jit.astype(self._tri_cell[:n_t], np.int64, output=True)
+        keys = _jit.astype(self._vkey[:n_v], np.int64, output=True)
         vend = self._vend[:n_v]
         tri, tri_cell, keys, vend, collapsed = _drop_at_nodes(any_node, tri, tri_cell, keys, vend, self.n_edges)
         fused = fused and keys.shape[0] == n_v  # positions and normal sums of the vertices kept, in their order
@@ -678,7 +678,7 @@ class EdgeCentredTable:
         t2 = time.perf_counter() - t0
 
         t0 = time.perf_counter()
-        vertices = _jit.empty((n_v, 3))
+        vertices = _jit.output_empty((n_v, 3))
         if fused:
             vertices[...] = self._pos[:n_v]
         elif n_v:
@@ -899,15 +899,15 @@ class EdgeCentredTable:
         v_base[1:] = np.cumsum(counters[:, 1])
         n_t, n_v = int(t_base[-1]), int(v_base[-1])
         n_node_v = int(counters[:, 7].sum())
-        tri = _jit.empty((n_t, 3), np.int64)
-        tri_cell_out = _jit.empty(n_t, np.int64)
-        keys = _jit.empty(n_v, np.int64)
-        ends = np.empty((n_v, 2), np.int32)
+        tri = _jit.output_empty((n_t, 3), np.int64)  # the user's arrays: on recycled buffers (polygen._jit)
+        tri_cell_out = _jit.output_empty(n_t, np.int64)
+        keys = _jit.output_empty(n_v, np.int64)
+        ends = _jit.output_empty((n_v, 2), np.int32)  # a temporary: back to the pool at the return
         # the tetrahedron kernel's positions and mean normals, unless vertices on nodes are dropped below
         fused = tet and n_node_v == 0
         if tet:
-            vertices = _jit.empty((n_v, 3))
-            unit = _jit.empty((n_v, 3)) if mean else vertices[:0]
+            vertices = _jit.output_empty((n_v, 3))
+            unit = _jit.output_empty((n_v, 3)) if mean else vertices[:0]
             n_zero = np.zeros(threads, np.int64)
             _k.gather_tet_parallel(tris, tri_cell, vkey, vend, *parts[5:9], counters, t_base, v_base, mean and fused,
                                    tri, tri_cell_out, keys, ends, vertices, unit, n_zero)
@@ -924,7 +924,7 @@ class EdgeCentredTable:
             if mean:
                 mean_done = (unit, int(n_zero.sum()))
         else:
-            vertices = _jit.empty((n_v, 3))
+            vertices = _jit.output_empty((n_v, 3))
             if n_t >= self.STAGE3_PARALLEL_TRIANGLES:  # positions and mean normals by the threads too
                 if n_v:
                     _k.positions_parallel(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
@@ -1203,8 +1203,8 @@ class EdgeCentredWalk:
             else:
                 self._around = np.empty(2 * self._around.shape[0], np.int32)
                 self._around_local = np.empty(2 * self._around.shape[0], np.int32)
-        tri = self._tris[:n_t].astype(np.int64)
-        tri_cell = self._tri_cell[:n_t].astype(np.int64)
+        tri = _jit.astype(self._tris[:n_t], np.int64, output=True)
+        tri_cell = _jit.astype(self._tri_cell[:n_t], np.int64, output=True)
         pkeys = self._vkey[:n_v].copy()
         vend = self._vend[:n_v]
         tri, tri_cell, pkeys, vend, collapsed = _drop_at_nodes(any_node, tri, tri_cell, pkeys, vend,

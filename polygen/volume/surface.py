@@ -488,7 +488,7 @@ def vertex_normals(normals, vertices, tri, keys, *, edges, s, value, node_grad, 
     if normals == "mean" and mean_done is not None:
         nrm, n_zero = mean_done
     else:
-        nrm = _jit.empty(vertices.shape, vertices.dtype)
+        nrm = _jit.output_empty(vertices.shape, vertices.dtype)
         n_zero = -1  # not counted
     if vertices.shape[0]:
         if normals == "mean" and mean_done is not None:
