@@ -6,7 +6,9 @@ are the same everywhere. ``POLYGEN_NUMBA_CACHE=0`` turns the cache off,
 for example on a read-only install.
 """
 
+import bisect
 import math
+import operator
 import os
 import threading
 
@@ -111,36 +113,40 @@ _pool_lock = threading.Lock()
 pool_stats = {"reused": 0, "allocated": 0, "kept": 0}
 
 
+def _class_bytes(k):
+    return -(-int(math.ceil(OUTPUT_POOL_MIN_BYTES * 2 ** (k / 4))) // 4096) * 4096
+
+
+#: the buffer sizes: 64 KiB * 2 ** (k / 4) in whole 4 KiB pages, k = 0 .. 127 (up to 2 ** 47 bytes)
+_CLASS_BYTES = [_class_bytes(k) for k in range(128)]
+
+
 def _size_class(nbytes):
-    """``(k, bytes)``: the smallest ``OUTPUT_POOL_MIN_BYTES * 2 ** (k / 4)``, in whole 4 KiB pages, that holds
-    ``nbytes`` (at most a fifth of a buffer unused, and surfaces of similar sizes share buffers)."""
-    k = max(0, math.ceil(4 * math.log2(max(nbytes, 1) / OUTPUT_POOL_MIN_BYTES)))
-    while True:
-        cap = -(-int(math.ceil(OUTPUT_POOL_MIN_BYTES * 2 ** (k / 4))) // 4096) * 4096
-        if cap >= nbytes:
-            return k, cap
-        k += 1  # pragma: no cover - only where the float rounding falls short
+    """``(k, bytes)``: the smallest buffer size of :data:`_CLASS_BYTES` that holds ``nbytes`` (at most a fifth
+    of a buffer unused, and surfaces of similar sizes share buffers)."""
+    k = bisect.bisect_left(_CLASS_BYTES, nbytes)
+    return k, _CLASS_BYTES[k]
 
 
 class _Lease:
     """The owner (``base``) of the arrays on one pooled buffer; gives the buffer back when they are all gone."""
 
-    __slots__ = ("buffer", "size_class", "__array_interface__")
+    __slots__ = ("buffer", "address", "size_class", "__array_interface__")
 
-    def __init__(self, buffer, size_class, shape, dtype):
+    def __init__(self, buffer, address, size_class, shape, typestr):
         self.buffer = buffer
+        self.address = address
         self.size_class = size_class
-        self.__array_interface__ = {"data": (buffer.ctypes.data, False), "shape": shape, "typestr": dtype.str,
-                                    "version": 3}
+        self.__array_interface__ = {"data": (address, False), "shape": shape, "typestr": typestr, "version": 3}
 
     def __del__(self):
         try:
-            _give_back(self.buffer, self.size_class)
+            _give_back(self.buffer, self.address, self.size_class)
         except Exception:  # pragma: no cover - at interpreter exit the module may be half torn down
             pass
 
 
-def _give_back(buffer, size_class):
+def _give_back(buffer, address, size_class):
     """Keep a released buffer for reuse, dropping the least recently released beyond the budget.
 
     Called from ``__del__``, on whatever thread let the last array go (the
@@ -151,7 +157,7 @@ def _give_back(buffer, size_class):
     if buffer.nbytes > OUTPUT_POOL_BYTES or not _pool_lock.acquire(blocking=False):
         return
     try:
-        _pool.append((size_class, buffer))
+        _pool.append((size_class, buffer, address))
         _pool_held[0] += buffer.nbytes
         pool_stats["kept"] += 1
         while _pool_held[0] > OUTPUT_POOL_BYTES:
@@ -173,8 +179,8 @@ def output_empty(shape, dtype=np.float64):
     the buffer's owner; two arrays alive at once never share a buffer.
     """
     dtype = np.dtype(dtype)
-    shape = (int(shape),) if np.ndim(shape) == 0 else tuple(int(n) for n in shape)
-    nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+    shape = tuple(map(operator.index, shape)) if isinstance(shape, (tuple, list)) else (operator.index(shape),)
+    nbytes = math.prod(shape) * dtype.itemsize
     if nbytes < OUTPUT_POOL_MIN_BYTES or nbytes > OUTPUT_POOL_BYTES:
         return empty(shape, dtype)
     k, cap = _size_class(nbytes)
@@ -182,14 +188,15 @@ def output_empty(shape, dtype=np.float64):
     with _pool_lock:
         for i in range(len(_pool) - 1, -1, -1):  # the most recently released of this class
             if _pool[i][0] == k:
-                buffer = _pool.pop(i)[1]
+                _, buffer, address = _pool.pop(i)
                 _pool_held[0] -= buffer.nbytes
                 pool_stats["reused"] += 1
                 break
     if buffer is None:
         buffer = _words(cap // 8)
+        address = buffer.ctypes.data
         pool_stats["allocated"] += 1
-    return np.asarray(_Lease(buffer, k, shape, dtype))
+    return np.asarray(_Lease(buffer, address, k, shape, dtype.str))
 
 
 def release_output_pool():

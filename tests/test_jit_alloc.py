@@ -102,7 +102,7 @@ def test_the_pool_keeps_at_most_its_budget(pool, monkeypatch):
     arrays = [pool.output_empty(1 << 17, np.float64) for _ in range(8)]  # 1 MiB each
     del arrays
     assert 0 < _jit._pool_held[0] <= 4 << 20
-    assert _jit._pool_held[0] == sum(b.nbytes for _, b in _jit._pool)
+    assert _jit._pool_held[0] == sum(b.nbytes for _, b, _ in _jit._pool)
     assert pool.release_output_pool() > 0 and _jit._pool_held[0] == 0 and not _jit._pool
 
 
@@ -110,6 +110,7 @@ def test_the_pool_keeps_at_most_its_budget(pool, monkeypatch):
 def test_size_classes_hold_the_request_with_little_to_spare(nbytes):
     k, cap = _jit._size_class(nbytes)
     assert cap >= nbytes and cap % 4096 == 0
+    assert k == 0 or _jit._CLASS_BYTES[k - 1] < nbytes  # the smallest that holds it
     assert cap <= max(_jit.OUTPUT_POOL_MIN_BYTES, 2 ** 0.25 * nbytes) + 4096
     assert _jit._size_class(nbytes + 1)[0] >= k and (nbytes < 2 or _jit._size_class(nbytes - 1)[0] <= k)
 
