@@ -471,6 +471,7 @@ def test_auto_threads_policy(monkeypatch):
     many = n if n >= 2 and _k.ATOMICS else 1
     idle = {"busy": 0}
     monkeypatch.setattr(ec_mod, "_runnable_elsewhere", lambda: idle["busy"])
+    monkeypatch.setattr(ec_mod, "BUSY_SECONDS", 0.0)  # a reading per query (test_busy_reading_is_reused)
     value = 0.5
     est = auto.crossed_estimate(value)
     assert est > 100
@@ -486,6 +487,25 @@ def test_auto_threads_policy(monkeypatch):
     assert ser.stats["threads"] == 1
     with pytest.raises(IsoSurfaceError, match="threads must be a whole number >= 1, 'auto'"):
         EdgeCentredTable(vol, s, threads="all")
+
+
+def test_busy_reading_is_reused(monkeypatch):
+    """One reading of the machine's runnable tasks serves the ``"auto"`` queries of the next BUSY_SECONDS."""
+    from polygen.volume import edge_centred as ec_mod
+
+    readings = []
+    monkeypatch.setattr(ec_mod, "_runnable_elsewhere", lambda: readings.append(1) or len(readings))
+    monkeypatch.setattr(ec_mod, "_busy_reading", [float("-inf"), 0])
+    clock = [100.0]
+    monkeypatch.setattr(ec_mod.time, "monotonic", lambda: clock[0])
+    monkeypatch.setattr(ec_mod, "BUSY_SECONDS", 0.1)
+    assert [ec_mod._busy() for _ in range(3)] == [1, 1, 1]
+    clock[0] += 0.099
+    assert ec_mod._busy() == 1
+    clock[0] += 0.002
+    assert ec_mod._busy() == 2 and ec_mod._busy() == 2
+    monkeypatch.setattr(ec_mod, "BUSY_SECONDS", 0.0)
+    assert ec_mod._busy() == 3 and ec_mod._busy() == 4
 
 
 @pytest.mark.parametrize("tets", [True, False])

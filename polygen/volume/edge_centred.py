@@ -171,6 +171,32 @@ def _runnable_elsewhere():
         return None
 
 
+#: seconds one reading of the machine's runnable tasks (:func:`_runnable_elsewhere`) serves the ``"auto"``
+#: thread count: a reading costs 10-60 us (the /proc files; right after a parallel query numba's workers are
+#: still spinning, so this process's thread list is read too), 7 % of a 15,000-triangle surface on 2M. 0: read
+#: at every query
+BUSY_SECONDS = 0.1
+_busy_reading = [float("-inf"), 0]  # (time.monotonic(), reading); a race between threads only reads twice
+_CPUS = []
+
+
+def _cpus():
+    """``os.cpu_count()`` (at least 1), asked once (5 us a call)."""
+    if not _CPUS:
+        _CPUS.append(os.cpu_count() or 1)
+    return _CPUS[0]
+
+
+def _busy():
+    """:func:`_runnable_elsewhere`, read again when the last reading is :data:`BUSY_SECONDS` old."""
+    now = time.monotonic()
+    seen, reading = _busy_reading
+    if now - seen >= BUSY_SECONDS:
+        reading = _runnable_elsewhere()
+        _busy_reading[:] = (now, reading)
+    return reading
+
+
 def canonical_order(iso):
     """``iso`` with its vertices sorted by key and its triangles by cell (each cell's in its own order).
 
@@ -338,8 +364,9 @@ class EdgeCentredTable:
         launch parallel regions at once (``omp``, ``tbb``; not
         ``workqueue``), and (c) no other program's task is runnable now
         (``/proc/loadavg``, less this process's own threads; elsewhere the
-        1-minute load average) -- else, and for every smaller surface, on
-        one. Why (c): a parallel region ends when its last thread does, and
+        1-minute load average; one reading serves the queries of the next
+        :data:`BUSY_SECONDS`, 0.1 s) -- else, and for every smaller surface,
+        on one. Why (c): a parallel region ends when its last thread does, and
         on a busy machine the second thread waits for a scheduler slice
         (measured here at load 3-4: an empty parallel region 7.5 ms;
         20 values on 2M with ``threads=2`` median 22.7 ms against 1.6 with
@@ -575,15 +602,15 @@ class EdgeCentredTable:
         """The thread count of a ``threads="auto"`` query (see the class docstring)."""
         import numba
 
-        n = min(numba.get_num_threads(), os.cpu_count() or 1)
+        n = min(numba.get_num_threads(), _cpus())
         if n < 2 or not _k.ATOMICS or self.crossed_estimate(value) < self.PARALLEL_MIN_CELLS:
             return 1
         if not _overlap_safe():  # workqueue: two Python threads' parallel queries would abort
             return 1
-        busy = _runnable_elsewhere()
+        busy = _busy()
         if busy is None:
             return n
-        return max(1, min(n, int((os.cpu_count() or 1) - busy)))
+        return max(1, min(n, int(_cpus() - busy)))
 
     def _next_generation(self, n=1):
         """The first of ``n`` new generations (a parallel query takes one per thread)."""
