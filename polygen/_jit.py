@@ -106,7 +106,7 @@ def astype(a, dtype, *, output=False):
 OUTPUT_POOL_BYTES = 256 << 20
 #: below this an output array comes from :func:`empty` (malloc keeps such blocks itself)
 OUTPUT_POOL_MIN_BYTES = 1 << 16
-_pool = []  # (size class, buffer), least recently released first
+_pool = []  # (size class, buffer, its address), least recently released first
 _pool_held = [0]
 _pool_lock = threading.Lock()
 #: counters (tests, benchmarks): buffers taken from the pool, buffers allocated, buffers kept on release
