@@ -25,8 +25,8 @@ KNOWN_CYCLES = []
 #: polygen/volume, bottom up: a module may import its own layer or lower ones (CONTRIBUTING.md)
 VOLUME_LAYERS = [
     ("tables", ["_cells", "registry", "errors"]),
-    ("kernels", ["_topology", "marching", "_edge_centred_kernels", "_edge_walk_kernels", "_vertex_hash",
-                 "_extrema_kernels", "_thinning_kernels"]),
+    ("kernels", ["_topology", "marching", "_intrinsics", "_edge_centred_kernels", "_edge_walk_kernels",
+                 "_vertex_hash", "_extrema_kernels", "_thinning_kernels"]),
     ("formats", ["io"]),
     ("mesh", ["mesh"]),
     ("data sets", ["datasets"]),

@@ -469,6 +469,53 @@ def test_skeleton_far_smaller_and_fewer_cells_tested():
     assert n_thin < n_egra
 
 
+# ------------------------------------------------------------------ the plain kernels behind the prefetch hint
+_FALLBACK_SCRIPT = """
+import sys
+import numpy as np
+from polygen.volume import _intrinsics, datasets
+from polygen.volume.thinning import thin_volume
+
+assert not _intrinsics.PREFETCH, "POLYGEN_PREFETCH=0 did not select the plain kernels"
+out = {}
+for name in sys.argv[2:]:
+    sk = thin_volume(datasets.load(name), record=True, parallel=True)
+    rec = sk.record
+    for a, x in (("classes", sk.classes), ("cells", sk.cells), ("groups", sk.node_groups),
+                 ("order", rec.removal_order), ("dcell", rec.decided_cell), ("dremoved", rec.decided_removed)):
+        out[f"{name}-{a}"] = x
+np.savez(sys.argv[1], **out)
+"""
+
+
+def test_fallback_kernels_give_the_same_skeleton(tmp_path):
+    """``POLYGEN_PREFETCH=0`` (a fresh process: the kernels are chosen at import) runs the halves' FIFO
+    without the prefetch hint (``_thinning_kernels.FIFO_LOOKAHEAD``) to the very same skeleton, removals and
+    decisions, in the same order, as the intrinsic kernels here."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from polygen.volume import _intrinsics
+
+    assert _intrinsics.PREFETCH  # here the hint is in: the two runs differ by it
+    names = ["data1", "hexa1"]
+    env = dict(os.environ, POLYGEN_PREFETCH="0")
+    root = Path(__file__).resolve().parents[1]
+    env["PYTHONPATH"] = os.pathsep.join([str(root), env.get("PYTHONPATH", "")])
+    path = tmp_path / "fallback.npz"
+    subprocess.run([sys.executable, "-c", _FALLBACK_SCRIPT, str(path), *names], env=env, cwd=root, check=True)
+    theirs = np.load(path)
+    for name in names:
+        sk = thin_volume(datasets.load(name), record=True, parallel=True)
+        assert sk.stats["removed_in_halves"] > 0  # the halves' FIFO ran
+        rec = sk.record
+        for a, x in (("classes", sk.classes), ("cells", sk.cells), ("groups", sk.node_groups),
+                     ("order", rec.removal_order), ("dcell", rec.decided_cell), ("dremoved", rec.decided_removed)):
+            np.testing.assert_array_equal(x, theirs[f"{name}-{a}"], err_msg=f"{name} {a}")
+
+
 # ------------------------------------------------------------------ the recorder, the API
 def test_record():
     vol = datasets.load("hollow_cube")

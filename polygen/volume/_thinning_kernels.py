@@ -12,6 +12,7 @@ tetrahedra (4 faces of 3 nodes) and hexahedra (6 faces of 4 nodes).
 import numpy as np
 
 from polygen._jit import njit, prange
+from polygen.volume._intrinsics import _KCACHE, _prefetch_row
 
 # slots of the ``stats`` array the thinning kernel fills
 ST_PROCESSED = 0  # 8 slots: cells taken from the FIFO of class q (index q)
@@ -24,6 +25,14 @@ ST_PRICK_CELLS = 20  # cells removed by pricking
 ST_IMPLICIT = 21  # unmarked cells whose last non-removed neighbour was removed
 ST_STALE = 22  # FIFO entries skipped because the cell had moved to a lower class
 N_STATS = 24
+#: how far ahead in a FIFO of :func:`_thin_half` the ``face_nb`` and ``cells`` rows of a cell are
+#: fetched (a hint: no result changes). The removal tests of each cell taken read both rows, and the
+#: FIFO's cells are scattered over arrays much larger than the caches; fetching them this far ahead
+#: overlaps those misses. Measured on 2M (2 cores, A/B interleaved, medians, same skeleton): the
+#: halves kernel alone 0.228 -> 0.214 s (-6 %, 15 runs each), ``T_halves`` inside ``thin_volume``
+#: 0.489 -> 0.450 s (-8 %, 9 runs each; an earlier prototype: 0.209 -> 0.192 s). The serial FIFO of
+#: :func:`thin_resume` has the same loop but was not measured, so it has no hint.
+FIFO_LOOKAHEAD = 16
 
 
 @njit
@@ -489,10 +498,14 @@ def cell_halves(cells, nc_off, nc, split):
     return out
 
 
-@njit
+@njit(cache=_KCACHE)  # built with the prefetch intrinsic or its plain fallback (see _intrinsics)
 def _thin_half(t, lo, hi, cells, face_nb, fmask, cls, nb_node, half, stats, order, decisions, st, src,
                labelled):
-    """The FIFO of 7.5.2 (lowest class first, no pricking) over the cells ``half == t`` of ``[lo, hi)``."""
+    """The FIFO of 7.5.2 (lowest class first, no pricking) over the cells ``half == t`` of ``[lo, hi)``.
+
+    Each pop hints the rows of ``face_nb`` and ``cells`` of the cell :data:`FIFO_LOOKAHEAD` places
+    further in the same FIFO, which the removal tests will read.
+    """
     nf = face_nb.shape[1]
     queue = np.empty((nf, hi - lo), np.int32)  # a cell enters each class's FIFO at most once
     head = np.zeros(nf, np.int64)
@@ -510,8 +523,13 @@ def _thin_half(t, lo, hi, cells, face_nb, fmask, cls, nb_node, half, stats, orde
         c = -1
         while q < nf:
             while head[q] < tail[q]:
-                x = queue[q, head[q]]
-                head[q] += 1
+                h = head[q]
+                if h + FIFO_LOOKAHEAD < tail[q]:
+                    y = queue[q, h + FIFO_LOOKAHEAD]
+                    _prefetch_row(face_nb, y)
+                    _prefetch_row(cells, y)
+                x = queue[q, h]
+                head[q] = h + 1
                 if cls[x] == q:
                     c = x
                     break
@@ -538,7 +556,7 @@ def _thin_half(t, lo, hi, cells, face_nb, fmask, cls, nb_node, half, stats, orde
     st[ST_N_DEC] = n_dec
 
 
-@njit(parallel=True)
+@njit(parallel=True, cache=_KCACHE)  # it compiles _thin_half in: the same cache rule
 def thin_halves(cells, face_nb, fmask, cls, nb_node, half, split, stats2, order, decisions, dec_split, st2, src,
                 labelled2):
     """The FIFO of 7.5.2 in the two halves of the cells at once, each over its interior cells only.
