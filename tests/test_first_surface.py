@@ -178,3 +178,34 @@ def test_background_work_runs_inline_under_the_workqueue_layer():
     env = dict(os.environ, NUMBA_THREADING_LAYER="workqueue")
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
     assert out.returncode == 0 and out.stdout.strip().endswith("ok"), out.stderr[-2000:]
+
+
+def test_more_vertices_than_the_table_was_sized_for():
+    """The unprepared scan sizes its hash table for at most ``n_t`` vertices and starts over with a table for
+    the bound (``3 n_t``) when there are more: disjoint tetrahedra cut at one corner each give one triangle
+    of three vertices of its own (``V = 3 T``), past the first table's half. The result is still the scan's."""
+    from polygen.volume import UnstructuredVolume
+    from polygen.volume import marching as _m
+
+    k = 5
+    corner = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    points = np.concatenate([corner + [3.0 * i, 0, 0] for i in range(k)])
+    cells = np.arange(4 * k).reshape(k, 4)
+    s = np.tile([1.0, 0.0, 0.0, 0.0], k)
+    vol = UnstructuredVolume(points, cells, {"f": s})
+    # the kernel on its own: a table with room for n_t = 5 codes (16 slots, 8 at most) refuses 15
+    n_t = k
+    tri_codes = np.arange(3 * n_t, dtype=np.int64).reshape(n_t, 3) * 7 + 1
+    bits = max(4, int(2 * n_t).bit_length())
+    out = [np.empty((n_t, 3), np.int64), np.empty((3 * n_t, 2), np.int64), np.empty(3 * n_t, np.int64)]
+    got = _m._number_pair_codes(tri_codes, 1000, 64 - bits, np.full(1 << bits, -1, np.int64),
+                                np.empty(1 << bits, np.int32), np.empty(3 * n_t, np.int64), *out)
+    assert got == -1
+    bits = max(4, int(2 * 3 * n_t).bit_length())
+    got = _m._number_pair_codes(tri_codes, 1000, 64 - bits, np.full(1 << bits, -1, np.int64),
+                                np.empty(1 << bits, np.int32), np.empty(3 * n_t, np.int64), *out)
+    assert got == 3 * n_t and np.array_equal(out[0], np.arange(3 * n_t).reshape(n_t, 3))
+    # the whole scan
+    fresh = _scan_unprepared(vol, 0.5, "f", "mean")
+    assert fresh.n_triangles == k and fresh.vertices.shape[0] == 3 * k
+    assert_identical(fresh, extract(vol, 0.5, field="f"), "disjoint corners")

@@ -44,6 +44,7 @@ from polygen.volume.surface import (
 __all__ = ["IsoSurface", "extract", "IsoSurfaceError", "same_surface"]
 
 _CHUNK = 8192
+_INT32_MAX = np.iinfo(np.int32).max
 _NO_CELL_EDGES = np.zeros((0, 6), np.int64)  # the unprepared scan keys by node pairs: no edge table
 
 
@@ -130,14 +131,24 @@ def _scan_unprepared(vol, value, field, normals, node_grad=None):
     _m._scan_fill(cells, s, value, _NO_CELL_EDGES, 0, n_points, True, table, count, local_edges, _CHUNK,
                   cases, tri_off, tri_codes, tri_cell)
     tri = np.empty((n_t, 3), np.int64)
-    v_max = 3 * n_t
-    bits = max(4, int(2 * v_max).bit_length())  # load factor <= 1/2
-    table_keys = np.full(1 << bits, -1, np.int64)
-    table_vals = np.empty(1 << bits, np.int64)
+    v_max = 3 * n_t  # every corner its own vertex: the bound (rows past the count are never touched)
     codes = np.empty(v_max, np.int64)
     edges = np.empty((v_max, 2), np.int64)
     keys = np.empty(v_max, np.int64)
-    n_v = _m._number_pair_codes(tri_codes, n_points, 64 - bits, table_keys, table_vals, codes, tri, edges, keys)
+    # the hash table is sized for at most n_t vertices (a closed surface has about n_t / 2), half full at
+    # most; past that the kernel stops and the table is sized for the bound. A table for the bound (12 n_t
+    # slots, all written) was most of the memory a first surface touched: 268 of ~560 MB on 10M, 2.0 M
+    # triangles, where each fresh page costs a fault.
+    n_v = -1
+    for n_most in (n_t, v_max):
+        bits = max(4, int(2 * n_most).bit_length())
+        table_keys = np.full(1 << bits, -1, np.int64)
+        table_vals = np.empty(1 << bits, np.int32 if v_max < _INT32_MAX else np.int64)
+        n_v = _m._number_pair_codes(tri_codes, n_points, 64 - bits, table_keys, table_vals, codes, tri, edges,
+                                    keys)
+        del table_keys, table_vals
+        if n_v >= 0:
+            break
     keys = keys[:n_v]
     t2 = time.perf_counter() - t0
 

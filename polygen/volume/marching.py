@@ -757,15 +757,19 @@ def _number_pair_codes(tri_codes, n_points, shift, table_keys, table_vals, codes
     :func:`_number_vertices`, so the numbering is the full scan's); returns the count.
 
     An open-addressing hash table (``table_keys`` (H,) int64 all -1, ``H`` a
-    power of two ``2**(64 - shift)`` above the number of codes; ``table_vals`` (H,) int64
+    power of two ``2**(64 - shift)``; ``table_vals`` (H,) int32 or int64
     scratch) replaces the volume-sized ``seen`` array: only the crossed
     edges are touched. Fills ``codes`` (V,), ``tris`` (T, 3) vertex ids,
     ``edges`` (V, 2) the node pair of each vertex and ``keys`` (V,) its key
     in the numbering of ``edges``: ``v`` on an edge, ``V_max + node`` on a
     node, with ``V_max = edges.shape[0]`` (what :func:`_vertex_positions` reads).
+    Returns -1 instead, at once, when the codes are more than ``H / 2`` (the
+    table was sized from an estimate: the caller sizes it again and starts
+    over; nothing written so far is kept).
     """
     n_slots = table_keys.shape[0]
     n_edges = edges.shape[0]
+    n_max = n_slots // 2
     n = 0
     for t in range(tri_codes.shape[0]):
         for j in range(3):
@@ -777,6 +781,8 @@ def _number_pair_codes(tri_codes, n_points, shift, table_keys, table_vals, codes
                     tris[t, j] = table_vals[h]
                     break
                 if cur == -1:
+                    if n == n_max:
+                        return -1
                     table_keys[h] = k
                     table_vals[h] = n
                     codes[n] = k
