@@ -109,3 +109,19 @@ def assert_complete(name, vol, field, values, **params):
             f"value {v}: {a.shape[0]} triangles by {name}, {b.shape[0]} by the scan")
         assert m.stats["N_ci"] == ref.cells_intersected
     return m
+
+
+def run_without_prefetch(script, path, *args):
+    """Run ``script`` (``python -c``) in a fresh process with ``POLYGEN_PREFETCH=0`` and this checkout's
+    polygen: the kernels are chosen at import, so only a new process gets the plain ones. ``script``
+    writes its results to ``path`` (its first argument); returns them, ``numpy.load``-ed."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    env = dict(os.environ, POLYGEN_PREFETCH="0")
+    root = Path(__file__).resolve().parents[1]
+    env["PYTHONPATH"] = os.pathsep.join([str(root), env.get("PYTHONPATH", "")])
+    subprocess.run([sys.executable, "-c", script, str(path), *args], env=env, cwd=root, check=True)
+    return np.load(path)

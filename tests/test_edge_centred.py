@@ -525,18 +525,10 @@ np.savez(sys.argv[1], **out)
 def test_fallback_kernels_give_the_same_surfaces(tmp_path):
     """``POLYGEN_PREFETCH=0`` (a fresh process: the kernels are chosen at import) builds the very same
     surfaces, array for array and in the same order, as the intrinsic kernels here."""
-    import os
-    import subprocess
-    import sys
-    from pathlib import Path
+    from _surfaces import run_without_prefetch
 
     names = ["torus", "torus_hex", "genus3"]
-    env = dict(os.environ, POLYGEN_PREFETCH="0")
-    root = Path(__file__).resolve().parents[1]
-    env["PYTHONPATH"] = os.pathsep.join([str(root), env.get("PYTHONPATH", "")])
-    path = tmp_path / "fallback.npz"
-    subprocess.run([sys.executable, "-c", _FALLBACK_SCRIPT, str(path), *names], env=env, cwd=root, check=True)
-    theirs = np.load(path)
+    theirs = run_without_prefetch(_FALLBACK_SCRIPT, tmp_path / "fallback.npz", *names)
     n = 0
     for name in names:
         vol = datasets.load(name)

@@ -492,21 +492,13 @@ def test_fallback_kernels_give_the_same_skeleton(tmp_path):
     """``POLYGEN_PREFETCH=0`` (a fresh process: the kernels are chosen at import) runs the halves' FIFO
     without the prefetch hint (``_thinning_kernels.FIFO_LOOKAHEAD``) to the very same skeleton, removals and
     decisions, in the same order, as the intrinsic kernels here."""
-    import os
-    import subprocess
-    import sys
-    from pathlib import Path
+    from _surfaces import run_without_prefetch
 
     from polygen.volume import _intrinsics
 
     assert _intrinsics.PREFETCH  # here the hint is in: the two runs differ by it
     names = ["data1", "hexa1"]
-    env = dict(os.environ, POLYGEN_PREFETCH="0")
-    root = Path(__file__).resolve().parents[1]
-    env["PYTHONPATH"] = os.pathsep.join([str(root), env.get("PYTHONPATH", "")])
-    path = tmp_path / "fallback.npz"
-    subprocess.run([sys.executable, "-c", _FALLBACK_SCRIPT, str(path), *names], env=env, cwd=root, check=True)
-    theirs = np.load(path)
+    theirs = run_without_prefetch(_FALLBACK_SCRIPT, tmp_path / "fallback.npz", *names)
     for name in names:
         sk = thin_volume(datasets.load(name), record=True, parallel=True)
         assert sk.stats["removed_in_halves"] > 0  # the halves' FIFO ran

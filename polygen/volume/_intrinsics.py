@@ -114,6 +114,20 @@ if intrinsic is not None:
         idx = [context.cast(builder, a, t, types.intp) for a, t in zip(idx_vals, idx_tys)]
         return cgutils.get_item_pointer(context, builder, aryty, ary, idx, wraparound=False)
 
+    def _cas_codegen(dt, n_idx):
+        """The code of a compare-and-swap on the element at the ``n_idx`` indices after the array; ``old``
+        and ``new`` follow them."""
+
+        def codegen(context, builder, signature, args):
+            a = signature.args
+            ptr = _element_pointer(context, builder, a[0], args[0], args[1:1 + n_idx], a[1:1 + n_idx])
+            o = context.cast(builder, args[1 + n_idx], a[1 + n_idx], dt)
+            n = context.cast(builder, args[2 + n_idx], a[2 + n_idx], dt)
+            pair = builder.cmpxchg(ptr, o, n, "seq_cst", "seq_cst")
+            return builder.extract_value(pair, 0)
+
+        return codegen
+
     @intrinsic
     def _cas(typingctx, arr, i, old, new):
         """Compare-and-swap ``arr[i]`` (a 1-D integer array): if it holds ``old``, store ``new``.
@@ -125,16 +139,7 @@ if intrinsic is not None:
         if (not isinstance(arr, types.Array) or arr.ndim != 1 or not isinstance(arr.dtype, types.Integer)
                 or not all(isinstance(x, types.Integer) for x in (i, old, new))):
             return None
-        dt = arr.dtype
-
-        def codegen(context, builder, signature, args):
-            ptr = _element_pointer(context, builder, signature.args[0], args[0], args[1:2], signature.args[1:2])
-            o = context.cast(builder, args[2], signature.args[2], dt)
-            n = context.cast(builder, args[3], signature.args[3], dt)
-            pair = builder.cmpxchg(ptr, o, n, "seq_cst", "seq_cst")
-            return builder.extract_value(pair, 0)
-
-        return dt(arr, i, old, new), codegen
+        return arr.dtype(arr, i, old, new), _cas_codegen(arr.dtype, 1)
 
     @intrinsic
     def _cas_row(typingctx, arr, i, j, old, new):
@@ -142,16 +147,7 @@ if intrinsic is not None:
         if (not isinstance(arr, types.Array) or arr.ndim != 2 or not isinstance(arr.dtype, types.Integer)
                 or not all(isinstance(x, types.Integer) for x in (i, j, old, new))):
             return None
-        dt = arr.dtype
-
-        def codegen(context, builder, signature, args):
-            ptr = _element_pointer(context, builder, signature.args[0], args[0], args[1:3], signature.args[1:3])
-            o = context.cast(builder, args[3], signature.args[3], dt)
-            n = context.cast(builder, args[4], signature.args[4], dt)
-            pair = builder.cmpxchg(ptr, o, n, "seq_cst", "seq_cst")
-            return builder.extract_value(pair, 0)
-
-        return dt(arr, i, j, old, new), codegen
+        return arr.dtype(arr, i, j, old, new), _cas_codegen(arr.dtype, 2)
 
     @intrinsic
     def _fetch_add(typingctx, arr, i, inc):
