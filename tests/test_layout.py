@@ -26,7 +26,7 @@ KNOWN_CYCLES = []
 VOLUME_LAYERS = [
     ("tables", ["_cells", "registry", "errors"]),
     ("kernels", ["_topology", "marching", "_intrinsics", "_edge_centred_kernels", "_edge_walk_kernels",
-                 "_vertex_hash", "_extrema_kernels", "_thinning_kernels"]),
+                 "_vertex_hash", "_extrema_kernels", "_thinning_kernels", "_active_scan_kernels"]),
     ("formats", ["io"]),
     ("mesh", ["mesh"]),
     ("data sets", ["datasets"]),
@@ -34,7 +34,7 @@ VOLUME_LAYERS = [
     ("search structures", ["seeds"]),
     ("constructions", ["propagate", "isosurface"]),
     ("methods", ["methods"]),
-    ("chapter methods", ["homology", "extrema_graph", "thinning", "edge_centred", "analysis", "constructions"]),
+    ("chapter methods", ["homology", "extrema_graph", "thinning", "edge_centred", "active_scan", "analysis", "constructions"]),
     ("applications", ["render"]),
     ("partitioned volumes", ["partitioned", "distributed"]),
 ]

@@ -6,7 +6,7 @@ tables (``_cells``) -> kernels (``_topology``, ``marching``, ``_*_kernels``)
 (``surface``) -> search structures (``seeds``) -> constructions
 (``propagate``, ``isosurface``, ``edge_centred``'s builder) -> chapter
 algorithms and methods (``methods``, ``homology``, ``extrema_graph``,
-``thinning``, ``edge_centred``). Data sets (``datasets``) build on the mesh.
+``thinning``, ``edge_centred``, ``active_scan``). Data sets (``datasets``) build on the mesh.
 
 Importing this package imports every module that registers a method or a
 seed source (:mod:`polygen.volume.registry`), so that the registries are
@@ -21,5 +21,6 @@ from polygen.volume import methods  # noqa: E402,F401  isort: skip
 from polygen.volume import extrema_graph  # noqa: E402,F401  isort: skip
 from polygen.volume import thinning  # noqa: E402,F401  isort: skip
 from polygen.volume import edge_centred  # noqa: E402,F401  isort: skip
+from polygen.volume import active_scan  # noqa: E402,F401  isort: skip
 
 __all__ = ["UnstructuredVolume", "VolumeError", "VolumeWarning", "IsoSurface", "IsoSurfaceError", "isovalues"]

@@ -1,0 +1,524 @@
+"""Numba kernels of the active-cell scan (:mod:`polygen.volume.active_scan`).
+
+Arrays in, arrays out; the only polygen imports are the marching kernels and
+the JIT options. See :mod:`polygen.volume.active_scan` for the method.
+
+The table ``tab`` (M, W) int32 holds one row per cell, in *span-space
+order*: the cells are grouped in rows of their minimum value (the bins
+``lower``), and inside a row sorted by their maximum, largest first. A row
+of ``tab`` is
+
+``tab[p, 0:nn]``
+    the cell's nodes;
+``tab[p, nn:nn+ne]``
+    its edges' ids (the volume's ``cell_edges``: the vertex keys);
+``tab[p, nn+ne]``
+    bit ``w``: the cell *owns* its local edge ``w`` (it is the first cell
+    of the edge): the one cell that makes the vertex of a crossed edge;
+``tab[p, nn+ne+1]``
+    the cell's id.
+
+The cells a value ``C`` crosses (minimum ``< C <=`` maximum) are then in a
+prefix of each row whose lower bound is below ``C``: :func:`active_ranges`
+finds them by one binary search per row over ``cmx`` (the maxima, float32
+rounded up: a cell may be tested for nothing, none is missed). The ranges,
+seen as one sequence, are cut into chunks of ``chunk`` cells that the
+threads take: three passes (count, vertices, triangles), each over the
+chunks in parallel, and the numbering by chunk makes the output the same
+whatever the thread count.
+"""
+
+import numpy as np
+
+from polygen._jit import njit, prange
+from polygen.volume import marching as _m
+from polygen.volume._intrinsics import _KCACHE, _ctz, _prefetch_item
+
+#: ``st`` of a cell the value does not cross
+NOT_CROSSED = -1
+#: how many cells ahead the count pass asks for the node values, and the vertex pass for the node positions
+#: and the edge vertices it will write (2M, 20 values, A/B: count pass 10.4 -> 8.3 ms, vertex pass 13.6-14.3
+#: -> 11.7-12.1 ms; the same hint for the triangle pass's vertex ids made no measurable difference)
+LOOKAHEAD = 8
+
+
+# ------------------------------------------------------------------ preparation
+@njit(parallel=True)
+def cell_extremes(cells, s, cmin, cmax):
+    """Each cell's smallest and largest node value."""
+    nn = cells.shape[1]
+    for c in prange(cells.shape[0]):
+        a = s[cells[c, 0]]
+        b = a
+        for i in range(1, nn):
+            x = s[cells[c, i]]
+            if x < a:
+                a = x
+            if x > b:
+                b = x
+        cmin[c] = a
+        cmax[c] = b
+
+
+@njit
+def edge_owners(cell_edges, n_edges, own):
+    """``own[c]`` bit ``w``: cell ``c`` is the first cell of its local edge ``w`` (each edge has one owner).
+
+    Returns the number of edges without a cell (0 for a volume's own edge table).
+    """
+    seen = np.zeros(n_edges, np.uint8)
+    for c in range(cell_edges.shape[0]):
+        bits = 0
+        for w in range(cell_edges.shape[1]):
+            e = cell_edges[c, w]
+            if seen[e] == 0:
+                seen[e] = 1
+                bits |= 1 << w
+        own[c] = bits
+    missing = 0
+    for e in range(n_edges):
+        if seen[e] == 0:
+            missing += 1
+    return missing
+
+
+@njit
+def rows_by_count(row, n_rows, row_off, order):
+    """Counting sort of the cells by row (stable: by id inside a row); ``row_off`` (n_rows + 1) the row starts."""
+    for i in range(n_rows + 1):
+        row_off[i] = 0
+    for c in range(row.shape[0]):
+        row_off[row[c] + 1] += 1
+    for i in range(n_rows):
+        row_off[i + 1] += row_off[i]
+    fill = row_off[:-1].copy()
+    for c in range(row.shape[0]):
+        r = row[c]
+        order[fill[r]] = c
+        fill[r] += 1
+
+
+@njit(parallel=True)
+def sort_rows_by_max(order, row_off, cmax32):
+    """Inside each row, the cells by their maximum, largest first (ties by cell id: a stable sort)."""
+    for r in prange(row_off.shape[0] - 1):
+        a = row_off[r]
+        b = row_off[r + 1]
+        if b - a < 2:
+            continue
+        part = order[a:b].copy()
+        keys = np.empty(b - a, np.float32)
+        for i in range(b - a):
+            keys[i] = -cmax32[part[i]]
+        idx = np.argsort(keys, kind="mergesort")
+        for i in range(b - a):
+            order[a + i] = part[idx[i]]
+
+
+@njit(parallel=True)
+def fill_table(order, cells, cell_edges, own, cmax32, tab, cmx):
+    """``tab`` and ``cmx`` in span-space order (see the module docstring)."""
+    nn = cells.shape[1]
+    ne = cell_edges.shape[1]
+    for p in prange(order.shape[0]):
+        c = order[p]
+        for i in range(nn):
+            tab[p, i] = cells[c, i]
+        for w in range(ne):
+            tab[p, nn + w] = cell_edges[c, w]
+        tab[p, nn + ne] = own[c]
+        tab[p, nn + ne + 1] = c
+        cmx[p] = cmax32[c]
+
+
+# ------------------------------------------------------------------ a query
+@njit
+def active_ranges(lower, row_off, cmx, value, out):
+    """The rows' prefixes whose cells may be crossed by ``value``: ``out[:n]`` (start, end); returns ``n``.
+
+    Row ``r`` holds the cells whose minimum is at least ``lower[r]`` (and
+    below ``lower[r + 1]``); a crossed cell has its minimum below ``value``,
+    so the rows from the first one with ``lower[r] >= value`` on are skipped.
+    """
+    n = 0
+    for r in range(lower.shape[0]):
+        if lower[r] >= value:
+            break
+        a = row_off[r]
+        lo = a
+        hi = row_off[r + 1]
+        while lo < hi:  # the first position whose maximum is below value
+            mid = (lo + hi) >> 1
+            if cmx[mid] >= value:
+                lo = mid + 1
+            else:
+                hi = mid
+        if lo > a:
+            out[n, 0] = a
+            out[n, 1] = lo
+            n += 1
+    return n
+
+
+@njit(inline="always")
+def _start(roff, i):
+    """The range holding the ``i``-th active cell (``roff``: the ranges' starts in the active sequence)."""
+    lo = 0
+    hi = roff.shape[0] - 1
+    while hi - lo > 1:
+        mid = (lo + hi) >> 1
+        if roff[mid] <= i:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+@njit(inline="always")
+def _case_of(tab, p, nn, s, value, faces, vals):
+    """``(case, exact)`` of the cell in row ``p`` (marching._cell_case's, -1: not crossed), values into ``vals``."""
+    case = 0
+    exact = 0
+    for i in range(nn):
+        x = s[tab[p, i]]
+        vals[i] = x
+        if x >= value:
+            case |= 1 << i
+        if x == value:
+            exact |= 1 << i
+    if case == 0 or case == (1 << nn) - 1:
+        return -1, exact
+    for f in range(faces.shape[0]):
+        a = vals[faces[f, 0]]
+        b = vals[faces[f, 1]]
+        d = vals[faces[f, 2]]
+        e = vals[faces[f, 3]]
+        ua, ub, ud, ue = a >= value, b >= value, d >= value, e >= value
+        if ua == ud and ub == ue and ua != ub:
+            # face-centre value [71]: the mean of the four corners (as marching._cell_case)
+            if _m._sorted_sum4(a, b, d, e) * 0.25 >= value:
+                case |= 1 << (8 + f)
+    return case, exact
+
+
+@njit
+def _exact_codes(case, exact, vals, value, tri_table, tri_count, local_edges, out):
+    """Triangles of a polygon with a node at ``value`` as vertex codes (``ne + i``: node ``i``); returns
+    ``(k, mask)``: the triangles kept (zero-area ones dropped) and the codes of the whole polygon as bits."""
+    ne = local_edges.shape[0]
+    k = 0
+    mask = 0
+    for t in range(tri_count[case]):
+        for j in range(3):
+            e = tri_table[case, 3 * t + j]
+            a = local_edges[e, 0]
+            hi = a if vals[a] >= value else local_edges[e, 1]
+            out[k, j] = ne + hi if (exact >> hi) & 1 else e
+            mask |= 1 << out[k, j]
+        if out[k, 0] != out[k, 1] and out[k, 0] != out[k, 2] and out[k, 1] != out[k, 2]:
+            k += 1
+    return k, mask
+
+
+@njit(inline="always")
+def _walk_start(ranges, roff, i):
+    """``(range, place in tab)`` of the ``i``-th active cell."""
+    r = _start(roff, i)
+    return r, ranges[r, 0] + i - roff[r]
+
+
+@njit(cache=_KCACHE)
+def _count_part(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
+                k0, k1, st, ch):
+    """Pass 1 over chunks ``k0 .. k1``: each active cell's case into ``st`` (by its place in the active
+    sequence, ``NOT_CROSSED`` or ``case | exact << 16``); per chunk ``k`` into ``ch[:, k]``: the triangles,
+    the vertices of its owned crossed edges, its cells with a node at ``value``, its crossed cells."""
+    n_act = roff[roff.shape[0] - 1]
+    vals = np.empty(nn, np.float64)
+    codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+    own_col = nn + ne
+    edge_bits = (1 << ne) - 1
+    last = tab.shape[0] - 1
+    for k in range(k0, k1):
+        i0 = k * chunk
+        i1 = min(n_act, i0 + chunk)
+        n_t = 0
+        n_v = 0
+        n_x = 0
+        n_c = 0
+        r, p = _walk_start(ranges, roff, i0)
+        for i in range(i0, i1):
+            while p >= ranges[r, 1]:
+                r += 1
+                p = ranges[r, 0]
+            pa = min(p + LOOKAHEAD, last)  # a cell a little ahead (maybe past the range: only a hint)
+            for j in range(nn):
+                _prefetch_item(s, tab[pa, j])
+            case, exact = _case_of(tab, p, nn, s, value, faces, vals)
+            if case < 0:
+                st[i] = NOT_CROSSED
+                p += 1
+                continue
+            st[i] = case | (exact << 16)
+            n_c += 1
+            if exact == 0:
+                n_t += tri_count[case]
+                mask = case_mask[case]
+            else:
+                kk, mask = _exact_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
+                n_t += kk
+                n_x += 1
+            bits = mask & tab[p, own_col] & edge_bits
+            while bits:
+                bits &= bits - 1
+                n_v += 1
+            p += 1
+        ch[0, k] = n_t
+        ch[1, k] = n_v
+        ch[2, k] = n_x
+        ch[3, k] = n_c
+
+
+@njit(cache=_KCACHE)
+def _vertex_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
+                 k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc):
+    """Pass 2 over chunks ``k0 .. k1``: each owned crossed edge's vertex (ids from ``v_off[k]``):
+    ``ev[edge]``, its position (5.2), its key and, where ``acc`` (P, V, 3) has rows, its normal sums zeroed;
+    the cells with a node at ``value`` into ``exact_cells`` (place in ``tab``, ``st``; from ``x_off[k]``)."""
+    n_act = roff[roff.shape[0] - 1]
+    vals = np.empty(nn, np.float64)
+    codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+    own_col = nn + ne
+    edge_bits = (1 << ne) - 1
+    n_acc = acc.shape[0] if acc.shape[1] > 0 else 0
+    pts = points.reshape(-1)  # flat, for the hints (a view)
+    last = tab.shape[0] - 1
+    for k in range(k0, k1):
+        i0 = k * chunk
+        i1 = min(n_act, i0 + chunk)
+        v = v_off[k]
+        x = x_off[k]
+        r, p = _walk_start(ranges, roff, i0)
+        for i in range(i0, i1):
+            while p >= ranges[r, 1]:
+                r += 1
+                p = ranges[r, 0]
+            if i + LOOKAHEAD < i1 and st[i + LOOKAHEAD] >= 0:
+                pa = min(p + LOOKAHEAD, last)  # the positions and edge vertices a cell ahead will write
+                own = tab[pa, own_col] & edge_bits
+                while own:
+                    w = _ctz(own)
+                    own &= own - 1
+                    _prefetch_item(ev, tab[pa, nn + w])
+                for j in range(nn):
+                    _prefetch_item(pts, tab[pa, j] * 3)
+            code = st[i]
+            if code < 0:
+                p += 1
+                continue
+            case = code & 0xFFFF
+            exact = code >> 16
+            if exact == 0:
+                mask = case_mask[case]
+            else:
+                for j in range(nn):
+                    vals[j] = s[tab[p, j]]
+                _, mask = _exact_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
+                exact_cells[x, 0] = p
+                exact_cells[x, 1] = code
+                x += 1
+            bits = mask & tab[p, own_col] & edge_bits
+            while bits:
+                w = _ctz(bits)
+                bits &= bits - 1
+                e = tab[p, nn + w]
+                ev[e] = v
+                a = tab[p, local_edges[w, 0]]
+                b = tab[p, local_edges[w, 1]]
+                na = min(a, b)
+                nb = max(a, b)
+                c1 = s[na]
+                c2 = s[nb]
+                # (5.2) P_c = ((C - C1) P2 - (C - C2) P1) / (C2 - C1)
+                for d in range(3):
+                    pos[v, d] = ((value - c1) * points[nb, d] - (value - c2) * points[na, d]) / (c2 - c1)
+                keys[v] = e
+                for q in range(n_acc):
+                    acc[q, v, 0] = 0.0
+                    acc[q, v, 1] = 0.0
+                    acc[q, v, 2] = 0.0
+                v += 1
+            p += 1
+
+
+@njit(cache=_KCACHE)
+def _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, k0, k1,
+                   st, t_off, ev, nvid, tris, tri_cell, pos, acc):
+    """Pass 3 over chunks ``k0 .. k1``: each crossed cell's triangles as vertex ids (``ev`` of its edges,
+    ``nvid`` of its nodes at ``value``), from ``t_off[k]`` on; with ``acc`` (V, 3) (rows: the mean
+    normals are asked for and no node is at ``value``) each triangle's normal
+    (:func:`~polygen.volume.marching.triangle_normal` of ``pos``) added into its corners' rows."""
+    n_act = roff[roff.shape[0] - 1]
+    vals = np.empty(nn, np.float64)
+    codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+    cell_col = nn + ne + 1
+    mean = acc.shape[0] > 0
+    for k in range(k0, k1):
+        i0 = k * chunk
+        i1 = min(n_act, i0 + chunk)
+        t = t_off[k]
+        r, p = _walk_start(ranges, roff, i0)
+        for i in range(i0, i1):
+            while p >= ranges[r, 1]:
+                r += 1
+                p = ranges[r, 0]
+            code = st[i]
+            if code < 0:
+                p += 1
+                continue
+            case = code & 0xFFFF
+            exact = code >> 16
+            c = tab[p, cell_col]
+            if exact == 0:
+                for j in range(tri_count[case]):
+                    i0_ = ev[tab[p, nn + tri_table[case, 3 * j]]]
+                    i1_ = ev[tab[p, nn + tri_table[case, 3 * j + 1]]]
+                    i2_ = ev[tab[p, nn + tri_table[case, 3 * j + 2]]]
+                    tris[t, 0] = i0_
+                    tris[t, 1] = i1_
+                    tris[t, 2] = i2_
+                    tri_cell[t] = c
+                    t += 1
+                    if mean:
+                        nx, ny, nz = _m.triangle_normal(pos, i0_, i1_, i2_)
+                        acc[i0_, 0] += nx
+                        acc[i0_, 1] += ny
+                        acc[i0_, 2] += nz
+                        acc[i1_, 0] += nx
+                        acc[i1_, 1] += ny
+                        acc[i1_, 2] += nz
+                        acc[i2_, 0] += nx
+                        acc[i2_, 1] += ny
+                        acc[i2_, 2] += nz
+            else:
+                for j in range(nn):
+                    vals[j] = s[tab[p, j]]
+                kk, _ = _exact_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
+                for j in range(kk):
+                    for m in range(3):
+                        w = codes[j, m]
+                        if w < ne:
+                            tris[t, m] = ev[tab[p, nn + w]]
+                        else:
+                            tris[t, m] = nvid[tab[p, w - ne]] & 0xFFFFFFFF
+                    tri_cell[t] = c
+                    t += 1
+            p += 1
+
+
+@njit(inline="always")
+def _part(n, n_parts, q):
+    """Chunks ``q * n // P .. (q + 1) * n // P``: part ``q`` of ``P`` consecutive parts."""
+    return q * n // n_parts, (q + 1) * n // n_parts
+
+
+# The passes split the chunks into one run of consecutive chunks per thread (not prange over the chunks):
+# each part is one thread's from start to end, so its normal sums go into its own rows and the sums come
+# out the same whatever the scheduler did.
+@njit(parallel=True, cache=_KCACHE)
+def count_pass(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
+               st, ch, n_parts):
+    """:func:`_count_part` by ``n_parts`` threads."""
+    for q in prange(n_parts):
+        k0, k1 = _part(ch.shape[1], n_parts, q)
+        _count_part(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
+                    k0, k1, st, ch)
+
+
+@njit(parallel=True, cache=_KCACHE)
+def vertex_pass(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
+                st, v_off, x_off, ev, pos, keys, exact_cells, acc, n_parts):
+    """:func:`_vertex_part` by ``n_parts`` threads."""
+    for q in prange(n_parts):
+        k0, k1 = _part(v_off.shape[0] - 1, n_parts, q)
+        _vertex_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
+                     chunk, k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc)
+
+
+@njit(parallel=True, cache=_KCACHE)
+def triangle_pass(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, st,
+                  t_off, ev, nvid, tris, tri_cell, pos, acc, n_parts):
+    """:func:`_triangle_part` by ``n_parts`` threads, part ``q``'s normal sums into ``acc[q]``."""
+    for q in prange(n_parts):
+        k0, k1 = _part(t_off.shape[0] - 1, n_parts, q)
+        _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, k0,
+                       k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc[q] if acc.shape[1] > 0 else acc[0, :0])
+
+
+@njit
+def _sum_part(acc, out, v0, v1):
+    """``out[v]`` for ``v0 <= v < v1``: the unit sum of the parts' rows ``acc[:, v]`` (as
+    marching.normalised: a zero sum stays zero); returns how many of them are zero (marching.zero_rows)."""
+    n_zero = 0
+    for v in range(v0, v1):
+        x = acc[0, v, 0]
+        y = acc[0, v, 1]
+        z = acc[0, v, 2]
+        for q in range(1, acc.shape[0]):
+            x += acc[q, v, 0]
+            y += acc[q, v, 1]
+            z += acc[q, v, 2]
+        ln = np.sqrt(x ** 2 + y ** 2 + z ** 2)
+        if ln > 0.0:
+            x /= ln
+            y /= ln
+            z /= ln
+        out[v, 0] = x
+        out[v, 1] = y
+        out[v, 2] = z
+        if not (abs(x) + abs(y) + abs(z) > 0.0):
+            n_zero += 1
+    return n_zero
+
+
+@njit(parallel=True)
+def sum_normals(acc, out, n_parts):
+    """:func:`_sum_part` over all of ``out`` by ``n_parts`` threads."""
+    zeros = np.zeros(n_parts, np.int64)
+    for q in prange(n_parts):
+        v0, v1 = _part(out.shape[0], n_parts, q)
+        zeros[q] = _sum_part(acc, out, v0, v1)
+    return zeros.sum()
+
+
+@njit
+def node_vertices(tab, nn, s, value, points, tri_table, tri_count, local_edges, exact_cells, n_edges, nvid, gen,
+                  first, pos, keys):
+    """The vertices exactly on nodes, in the order of the cells listed in ``exact_cells`` (place in ``tab``,
+    ``st``), ids from ``first`` on.
+
+    ``nvid[node]`` is ``gen << 32 | id`` once the node's vertex is made in
+    query ``gen``. Returns the vertex count after them.
+    """
+    ne = local_edges.shape[0]
+    vals = np.empty(nn, np.float64)
+    codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+    v = first
+    for q in range(exact_cells.shape[0]):
+        p = exact_cells[q, 0]
+        code = exact_cells[q, 1]
+        for j in range(nn):
+            vals[j] = s[tab[p, j]]
+        _, mask = _exact_codes(code & 0xFFFF, code >> 16, vals, value, tri_table, tri_count, local_edges, codes)
+        for i in range(nn):
+            if (mask >> (ne + i)) & 1 == 0:
+                continue
+            node = tab[p, i]
+            if (nvid[node] >> 32) == gen:
+                continue
+            nvid[node] = (np.int64(gen) << 32) | v
+            for d in range(3):
+                pos[v, d] = points[node, d]
+            keys[v] = n_edges + node
+            v += 1
+    return v

@@ -1,0 +1,293 @@
+"""The active-cell scan: the crossed cells, stored in span-space order, scanned in parallel (ours, issue 20).
+
+Every construction of the thesis finds the crossed cells by a search
+(chapter 5's active-cell searches, chapter 6's extrema graph, chapter 7's
+thinning) and then walks from cell to neighbouring cell. The walk is a
+chain of dependent loads into arrays much larger than the caches (record,
+then the cells around an edge, then their records), and on today's
+processors it, not the cell tests, is what a large surface costs: about
+160 ns of one core per crossed cell on 2M for the cell-edge-centred
+construction.
+
+This method walks nothing. It keeps the cells in **span-space order**
+(Livnat, Shen & Johnson 1996): in rows of their minimum value, and inside a
+row by their maximum, largest first. The cells a value ``C`` crosses
+(minimum ``< C <=`` maximum) are then a prefix of every row whose lower
+bound is below ``C`` -- one binary search per row -- and only the rows'
+last cells are tested for nothing (at most one row's worth: the row that
+holds ``C``). The table holds, per cell and in that order, its nodes and
+its edges' ids, so the scan streams through memory:
+
+1. **count** (parallel over chunks of the active cells): each cell's case;
+   per chunk the triangles and the vertices it will make;
+2. **vertices**: every crossed edge has one *owner*, its first cell (fixed
+   when the table is built; the value does not change it, and every cell
+   of a crossed edge is crossed), and only the owner makes the edge's
+   vertex -- its id (numbered by chunk) into ``ev[edge]``, its position
+   (5.2) -- with no search, no hash and no atomic operation. A vertex
+   exactly on a node (rare) is numbered after them, serially;
+3. **triangles**: each cell reads its corners from ``ev``.
+
+Chunks are numbered in the table's order, so the vertices and triangles
+come out in the same order whatever the number of threads. The triangles
+are the marching ones of every other method (same keys, same positions bit
+for bit, normals equal up to rounding: :func:`~polygen.volume.surface.same_surface`).
+
+Cost: the table (nodes, edge ids, owned edges and the cell id per cell: 48
+bytes per tetrahedron, 88 per hexahedron), the maxima (4 bytes per cell),
+``ev`` (4 bytes per edge) and a stamp per node. Preparation: the volume's
+edge table, then a counting sort by row and a sort of each row.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numba
+import numpy as np
+
+from polygen import _jit
+from polygen.volume import _active_scan_kernels as _k
+from polygen.volume import _edge_centred_kernels as _ek
+from polygen.volume import marching as _m
+from polygen.volume.methods import IsosurfaceMethod, register
+from polygen.volume.surface import (
+    IsoSurface,
+    IsoSurfaceError,
+    check_normals,
+    check_value,
+    drop_double_faces,
+    drop_unreferenced,
+    node_gradients,
+    vertex_normals,
+    volume_arrays,
+)
+
+__all__ = ["ActiveScan", "ActiveScanMethod"]
+
+_INT32_MAX = np.iinfo(np.int32).max
+#: the normal sums of a query that does not fuse them (no rows)
+_NO_SUMS = np.zeros((1, 0, 3))
+
+
+class _Scratch:
+    """What one query writes: the vertex of each crossed edge (``ev``, never cleared: a query reads only
+    the entries it wrote), the stamped vertex of each node at the value (``nvid``: ``gen << 32 | id``),
+    the rows' ranges and buffers kept between queries (grown, never shrunk: a fresh array of megabytes
+    costs a page fault per 4 KiB at its first write, every query)."""
+
+    def __init__(self, scan):
+        self.ev = np.empty(scan.n_edges, scan._idx)
+        self.nvid = np.zeros(scan.points.shape[0], np.int64)
+        self.ranges = np.empty((scan.lower.shape[0], 2), np.int64)
+        self.gen = 0
+        self.buffers = {}
+
+    def next_generation(self):
+        if self.gen >= _INT32_MAX:
+            self.nvid.fill(0)
+            self.gen = 0
+        self.gen += 1
+        return self.gen
+
+    def buffer(self, name, n, dtype):
+        buf = self.buffers.get(name)
+        if buf is None or buf.shape[0] < n:
+            buf = self.buffers[name] = _jit.empty(max(n, 1024), dtype)
+        return buf[:n]
+
+    def nbytes(self):
+        return self.ev.nbytes + self.nvid.nbytes + self.ranges.nbytes + sum(b.nbytes for b in self.buffers.values())
+
+
+class ActiveScan:
+    """The active-cell scan prepared on one volume and field (see the module docstring).
+
+    Parameters
+    ----------
+    vol : UnstructuredVolume
+    field : str or (N,) float64, optional
+        Field name (the first field by default) or node values.
+    rows : int, optional
+        Rows of the span-space order (bins of the cells' minima, equally
+        filled). By default one per 4096 cells, between 1 and 4096: a query
+        tests at most about one row of cells it does not cross.
+    chunk : int, optional
+        Active cells per unit of parallel work (default 1024).
+
+    Threads: a query writes ``ev`` and the node stamps; use one per thread or
+    the method's lock (:class:`ActiveScanMethod`).
+    """
+
+    #: from this many triangles up the mean normals are summed by all threads (as the edge-centred method)
+    STAGE3_PARALLEL_TRIANGLES = 20_000
+
+    def __init__(self, vol, field=None, *, rows=None, chunk=1024):
+        points, cells, s, cell_type = volume_arrays(vol, field)
+        if isinstance(rows, bool) or not (rows is None or (isinstance(rows, (int, np.integer)) and rows >= 1)):
+            raise IsoSurfaceError(f"rows must be a positive integer; got {rows!r}")
+        if isinstance(chunk, bool) or not (isinstance(chunk, (int, np.integer)) and chunk >= 1):
+            raise IsoSurfaceError(f"chunk must be a positive integer; got {chunk!r}")
+        self.vol = vol
+        self.points = points
+        self.s = s
+        self.cell_type = cell_type
+        self.tri_table, self.tri_count, self.local_edges, self.faces = _m.local_tables(cell_type)
+        self.case_mask = _ek.case_masks(self.tri_table, self.tri_count)
+        self.chunk = int(chunk)
+        m = cells.shape[0]
+        self.nn = cells.shape[1]
+        self.ne = self.local_edges.shape[0]
+        self.n_edges = vol.edges.shape[0]
+        cell_edges = vol.cell_edges
+        wide = max(points.shape[0], self.n_edges, m) >= _INT32_MAX
+        idx = np.int64 if wide else np.int32
+
+        cmin = _jit.empty(m)
+        cmax = _jit.empty(m)
+        if m:
+            _k.cell_extremes(cells, s, cmin, cmax)
+        n_rows = int(rows) if rows is not None else min(4096, max(1, m // 4096))
+        # row bounds: equally filled by the minima (from a sample of them); the first row starts at -inf
+        sample = np.sort(cmin[:: max(1, m // (64 * n_rows))]) if m else np.zeros(1)
+        bounds = np.unique(sample[(np.arange(1, n_rows) * sample.size) // n_rows])
+        self.lower = np.concatenate([[-np.inf], bounds])
+        row = np.searchsorted(self.lower, cmin, side="right") - 1
+        np.clip(row, 0, self.lower.shape[0] - 1, out=row)  # guarded: an index computed from floats
+        with np.errstate(over="ignore"):  # beyond float32's range: +-inf, then rounded up below as the rest
+            cmax32 = cmax.astype(np.float32)  # rounded up where float32 is below: tested maybe, never missed
+        low = cmax32.astype(np.float64) < cmax
+        cmax32[low] = np.nextafter(cmax32[low], np.float32(np.inf))
+        del cmin, cmax, low
+
+        self.row_off = np.empty(self.lower.shape[0] + 1, np.int64)
+        order = np.empty(m, np.int64)
+        _k.rows_by_count(row, self.lower.shape[0], self.row_off, order)
+        del row
+        _k.sort_rows_by_max(order, self.row_off, cmax32)
+        own = np.empty(m, np.int32)
+        if _k.edge_owners(cell_edges, self.n_edges, own):
+            raise IsoSurfaceError("the volume's edge table has edges without a cell")  # pragma: no cover
+        self.table = _jit.empty((m, self.nn + self.ne + 2), idx)
+        self.cmx = _jit.empty(m, np.float32)
+        _k.fill_table(order, cells, cell_edges, own, cmax32, self.table, self.cmx)
+        del order, own, cmax32
+        self._idx = idx
+        self._scratch = _Scratch(self)  # ev, node stamps, buffers: what one query writes
+        self._node_grad = None
+        self.stats = {}
+
+    def node_gradients(self):
+        if self._node_grad is None:
+            self._node_grad = node_gradients(self.vol, self.s)
+        return self._node_grad
+
+    def extract(self, value, *, normals="mean"):
+        """The isosurface ``S = value`` (:class:`~polygen.volume.surface.IsoSurface`), by all of numba's threads."""
+        value = check_value(value)
+        check_normals(normals)
+        node_grad = self.node_gradients() if normals == "gradient" else None
+        iso, self.stats = self._extract(value, normals, node_grad, self._scratch, numba.get_num_threads())
+        return iso
+
+    def _extract(self, value, normals, node_grad, sc, n_parts):
+        """One query with the scratch ``sc``, by ``n_parts`` threads."""
+        tab, nn, ne, s, chunk = self.table, self.nn, self.ne, self.s, self.chunk
+        gen = sc.next_generation()
+
+        t0 = time.perf_counter()
+        n_r = _k.active_ranges(self.lower, self.row_off, self.cmx, value, sc.ranges)
+        ranges = sc.ranges[:n_r]
+        roff = np.zeros(n_r + 1, np.int64)
+        np.cumsum(ranges[:, 1] - ranges[:, 0], out=roff[1:])
+        n_act = int(roff[-1])
+        n_ch = -(-n_act // chunk)
+        n_parts = max(1, min(n_parts, n_ch))
+        st = sc.buffer("st", n_act, np.int32)
+        ch = np.zeros((4, n_ch), np.int64)  # triangles, vertices, cells with a node at the value, crossed
+        args = (tab, nn, ne, s, value, self.faces, self.tri_table, self.tri_count, self.case_mask, self.local_edges,
+                ranges, roff, chunk, st, ch)
+        if n_ch:
+            _k.count_pass(*args, n_parts)
+        off = np.zeros((3, n_ch + 1), np.int64)
+        np.cumsum(ch[:3], axis=1, out=off[:, 1:])
+        n_t, n_ev, n_x = (int(x) for x in off[:, -1])
+        t1 = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        n_vmax = n_ev + nn * n_x
+        pos = _jit.output_empty((n_vmax, 3))
+        keys = _jit.output_empty(n_vmax, np.int64)
+        exact_cells = np.empty((n_x, 2), np.int64)
+        fused = normals == "mean" and n_x == 0  # the normal sums ride along with the triangles
+        acc = (sc.buffer("normals", n_parts * n_vmax * 3, np.float64).reshape(n_parts, n_vmax, 3) if fused
+               else _NO_SUMS)
+        if n_ch:
+            args = (tab, nn, ne, s, value, self.points, self.local_edges, self.tri_table, self.tri_count,
+                    self.case_mask, ranges, roff, chunk, st, off[1], off[2], sc.ev, pos, keys, exact_cells, acc)
+            _k.vertex_pass(*args, n_parts)
+        n_v = n_ev
+        if n_x:
+            n_v = _k.node_vertices(tab, nn, s, value, self.points, self.tri_table, self.tri_count, self.local_edges,
+                                   exact_cells, self.n_edges, sc.nvid, gen, n_ev, pos, keys)
+        tri = _jit.output_empty((n_t, 3), np.int64)
+        tri_cell = _jit.output_empty(n_t, np.int64)
+        if n_ch:
+            args = (tab, nn, ne, s, value, self.tri_table, self.tri_count, self.case_mask, self.local_edges, ranges,
+                    roff, chunk, st, off[0], sc.ev, sc.nvid, tri, tri_cell, pos, acc)
+            _k.triangle_pass(*args, n_parts)
+        vertices, keys = pos[:n_v], keys[:n_v]
+        if n_x:  # a face at C kept once, vertices of polygons collapsed onto nodes dropped (as every method)
+            tri, tri_cell = drop_double_faces(keys, tri, tri_cell, self.n_edges)
+            tri, keep = drop_unreferenced(tri, n_v)
+            if keep is not None:
+                vertices, keys = vertices[keep], keys[keep]
+        t2 = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        mean_done = mean_kernel = None
+        if fused:
+            nrm = _jit.output_empty((n_v, 3))
+            n_zero = _k.sum_normals(acc, nrm, n_parts)
+            mean_done = (nrm, int(n_zero))
+        elif n_parts > 1 and tri.shape[0] >= self.STAGE3_PARALLEL_TRIANGLES:
+            def mean_kernel(v, t, out):
+                _ek.mean_normals_parallel(v, t, out, np.empty((n_parts - 1, v.shape[0], 3)))
+        nrm = vertex_normals(normals, vertices, tri, keys, edges=self.vol.edges, s=s, value=value,
+                             node_grad=node_grad, points=self.points, mean_kernel=mean_kernel, mean_done=mean_done)
+        t3 = time.perf_counter() - t0
+        n_crossed = int(ch[3].sum())
+        stats = {"active": n_act, "crossed": n_crossed, "ranges": n_r, "chunks": n_ch, "node_cells": n_x,
+                 "threads": n_parts}
+        return IsoSurface(
+            value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell,
+            cells_tested=n_act, cells_intersected=n_crossed, vertex_lookups=0, t1=t1, t2=t2, t3=t3,
+            method="active-scan",
+        ), stats
+
+    def memory_bytes(self):
+        """Bytes held between queries, by array: ``table`` (nodes, edge ids, owned edges, cell id per cell),
+        ``maxima`` (float32 per cell), ``rows`` (the row bounds and starts) and ``scratch`` (``ev``, node
+        stamps, the buffers of the largest query so far)."""
+        return {
+            "table": int(self.table.nbytes),
+            "maxima": int(self.cmx.nbytes),
+            "rows": int(self.lower.nbytes + self.row_off.nbytes),
+            "scratch": int(self._scratch.nbytes()),
+        }
+
+
+@register
+class ActiveScanMethod(IsosurfaceMethod):
+    name = "active-scan"
+    description = ("the crossed cells as prefixes of span-space rows (cells by minimum, then maximum), scanned in "
+                   "parallel; each crossed edge's vertex made by its one owner cell: no search, no walk (ours)")
+    construction = "scan"
+
+    def _prepare(self, rows=None, chunk=1024):
+        self.scan = ActiveScan(self.vol, self.field, rows=rows, chunk=chunk)
+
+    def extract(self, value, *, normals="mean"):
+        iso = self.scan.extract(value, normals=normals)
+        self.seed_cells_tested = iso.cells_tested
+        return iso

@@ -1,0 +1,165 @@
+"""The active-cell scan (:mod:`polygen.volume.active_scan`): the full scan's surfaces, from the crossed cells
+alone, the same arrays whatever the threads, chunks and rows.
+
+Oracles: the full scan (every cell tested, vertices merged through the edge table), array for array up to
+the order of the vertices; the span-space invariant (a query tests the crossed cells plus at most one row).
+"""
+
+import numba
+import numpy as np
+import pytest
+
+from polygen.volume import UnstructuredVolume, datasets, isovalues, methods
+from polygen.volume.active_scan import ActiveScan, ActiveScanMethod
+from polygen.volume.isosurface import extract
+from polygen.volume.surface import IsoSurfaceError, same_surface
+from tests._surfaces import block_volume, grid_volume
+
+
+def values_of(s, n=9):
+    """Values between the nodes', and values exactly at nodes (vertices on nodes, faces at C)."""
+    nodes = np.unique(s)
+    return list(isovalues(s, n)) + list(nodes[:: max(1, nodes.size // 6)]) + [s.min(), s.max()]
+
+
+def arrays(iso):
+    return iso.vertices, iso.triangles, iso.vertex_keys, iso.triangle_cells
+
+
+@pytest.mark.parametrize("name", ["data1", "hexa1", "torus", "genus3_hex", "two_tets", "one_hex"])
+def test_the_full_scans_surfaces_on_data_sets(name):
+    vol = datasets.load(name)
+    field = "fem" if "fem" in vol.fields else next(iter(vol.fields))
+    scan = ActiveScan(vol, field)
+    n_crossed = 0
+    for v in values_of(vol.scalars(field)):
+        for normals in ("mean", "gradient", None):
+            ref = extract(vol, v, field=field, normals=normals)
+            iso = scan.extract(v, normals=normals)
+            assert same_surface(iso, ref, normals_atol=1e-10), (name, v, normals)
+        n_crossed += iso.cells_intersected
+    assert n_crossed > 0
+
+
+def test_integer_field_every_value_at_nodes():
+    # an integer field on jittered tetrahedra and on hexahedra: most crossings are on nodes, with faces
+    # exactly at C (kept once) and polygons that collapse onto nodes (their vertices dropped)
+    for tets in (True, False):
+        vol = grid_volume((6, 5, 5), tets=tets, jitter=0.2, seed=4)
+        rng = np.random.default_rng(7)
+        vol.add_field("k", rng.integers(0, 4, vol.n_points).astype(float))
+        scan = ActiveScan(vol, "k")
+        on_nodes = 0
+        for v in (0.0, 1.0, 2.0, 3.0, 0.5, 2.5):
+            ref = extract(vol, v, field="k")
+            iso = scan.extract(v)
+            assert same_surface(iso, ref, normals_atol=1e-10), (tets, v)
+            on_nodes += int(np.sum(iso.vertex_keys >= vol.edges.shape[0]))
+        assert on_nodes > 0
+
+
+def test_maxima_rounded_to_float32_miss_no_cell():
+    # node values a hair apart (float32 cannot tell them apart): the rows' maxima are stored as float32
+    # rounded up, so a value between two of them, or at the largest, still finds every crossed cell
+    vol = grid_volume((5, 5, 4), tets=True, jitter=0.1, seed=2)
+    base = 1.0 + np.arange(vol.n_points) * 2.0 ** -45
+    vol.add_field("f", base[np.random.default_rng(3).permutation(vol.n_points)])
+    scan = ActiveScan(vol, "f", rows=5)
+    s = vol.scalars("f")
+    assert np.unique(s.astype(np.float32)).size < s.size // 4  # the maxima do collapse in float32
+    ordered = np.sort(s)
+    between = list((ordered[1:-1:7] + ordered[2::7]) / 2)
+    for v in between + list(ordered[1::7]) + [s.max(), np.nextafter(s.max(), 0)]:
+        ref = extract(vol, v, field="f")
+        assert ref.n_triangles > 0 or v not in between
+        assert same_surface(scan.extract(v), ref, normals_atol=1e-9), v
+
+
+def test_tests_the_crossed_cells_and_at_most_one_row_more():
+    # the span-space order's claim: the cells a value crosses are prefixes of the rows, and only the
+    # row that holds the value has cells in its prefix that the value does not cross. Node values that
+    # float32 holds exactly (multiples of 1/64), so that no maximum is rounded.
+    vol = datasets.load("data2")
+    s = np.round(vol.scalars("fem") * 64) / 64
+    vol.add_field("q", s)
+    for rows in (1, 7, 64):
+        scan = ActiveScan(vol, "q", rows=rows)
+        widest = int(np.diff(scan.row_off).max())
+        for v in isovalues(s, 15):
+            iso = scan.extract(v)
+            crossed = int(np.sum((s[vol.cells].min(axis=1) < v) & (s[vol.cells].max(axis=1) >= v)))
+            assert iso.cells_intersected == crossed
+            assert crossed <= iso.cells_tested <= crossed + widest
+        if rows == 1:
+            assert widest == vol.n_cells
+
+
+def test_the_same_arrays_whatever_the_threads_and_chunks():
+    # the vertices are numbered along the table's order, chunk by chunk: the threads and the chunk size
+    # change nothing but the rounding of the normal sums; other rows give another order, the same surface
+    vol = datasets.load("data2")
+    s = vol.scalars("fem")
+    values = isovalues(s, 6)
+    ref = ActiveScan(vol, "fem")
+    before = numba.get_num_threads()
+    try:
+        for threads, chunk, rows in ((1, 1024, None), (before, 1, None), (before, 37, None), (1, 5000, None),
+                                     (before, 64, 1), (1, 100, 1000)):
+            numba.set_num_threads(threads)
+            other = ActiveScan(vol, "fem", chunk=chunk, rows=rows)
+            for v in values:
+                numba.set_num_threads(before)
+                a = ref.extract(v)
+                numba.set_num_threads(threads)
+                b = other.extract(v)
+                assert other.stats["threads"] <= threads
+                if rows is None:
+                    for x, y in zip(arrays(a), arrays(b)):
+                        np.testing.assert_array_equal(x, y)
+                    np.testing.assert_allclose(a.normals, b.normals, atol=1e-12, rtol=0)
+                else:
+                    assert same_surface(a, b, normals_atol=1e-12)
+    finally:
+        numba.set_num_threads(before)
+
+
+def test_registered_method_memory_and_bad_parameters():
+    vol = datasets.load("data1")
+    m = methods.get("active-scan")(vol, field="fem")
+    assert isinstance(m, ActiveScanMethod)
+    v = isovalues(vol.scalars("fem"), 3)[1]
+    iso = m.extract(v)
+    assert same_surface(iso, extract(vol, v, field="fem"))
+    assert m.seed_cells_tested == iso.cells_tested < vol.n_cells
+    held = m.scan.memory_bytes()
+    # 48 bytes of table and 4 of maxima per tetrahedron; the scratch: ev per edge and a stamp per node
+    assert held["table"] == 48 * vol.n_cells and held["maxima"] == 4 * vol.n_cells
+    assert held["scratch"] >= 4 * vol.edges.shape[0] + 8 * vol.n_points
+    assert m.memory_bytes() >= sum(held.values()) - held["rows"]
+    for bad in ({"rows": 0}, {"rows": 2.5}, {"chunk": 0}, {"chunk": True}):
+        with pytest.raises(IsoSurfaceError, match=next(iter(bad))):
+            ActiveScan(vol, "fem", **bad)
+    with pytest.raises(IsoSurfaceError, match="finite"):
+        m.extract(float("nan"))
+    with pytest.raises(IsoSurfaceError, match="normals"):
+        m.extract(0.5, normals="flat")
+
+
+def test_a_replaced_field_is_not_answered_from_the_old_table():
+    vol = block_volume(np.ones((3, 2, 2), bool), "tetra", jitter=0.1, seed=5)
+    m = methods.get("active-scan")(vol, field="bumps")
+    m.extract(0.5)
+    vol.add_field("bumps", vol.fields["bumps"] + 1.0)
+    with pytest.raises(IsoSurfaceError, match="replaced"):
+        m.extract(0.5)
+
+
+def test_values_outside_the_field_give_empty_surfaces():
+    vol = datasets.load("data1")
+    s = vol.scalars("fem")
+    scan = ActiveScan(vol, "fem")
+    for v in (s.min() - 1.0, s.min(), s.max() + 1.0):
+        iso = scan.extract(v)
+        ref = extract(vol, v, field="fem")
+        assert iso.n_triangles == ref.n_triangles == 0 and iso.n_vertices == 0
+    assert scan.extract(s.max() + 1.0).cells_tested == 0
