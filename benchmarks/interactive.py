@@ -7,9 +7,10 @@ cached):
   ``vtkContourFilter`` and ``vtkContour3DLinearGrid``, each without and
   with ``vtkSpanSpace`` (merged points, normals on, scalars off,
   ``VTK_SMP_BACKEND_IN_USE=STDThread``); polygen's prepared default method
-  (``edge-centred-table``) one value at a time and by ``extract_many``, the
-  paper's variant without stored edges (``edge-centred``), the full scan
-  and the unprepared scan (mean normals on). Repeats are interleaved
+  (``active-scan``) and the cell-edge-centred construction with the edge
+  table (``edge-centred-table``, the default before), each one value at a
+  time and by ``extract_many``, the paper's variant without stored edges
+  (``edge-centred``), the full scan and the unprepared scan (mean normals on). Repeats are interleaved
   (every configuration once per round); the table gives medians over the
   rounds. The best VTK configuration is the fastest median of the four,
   chosen in this run.
@@ -22,10 +23,11 @@ cached):
   fresh volume (the unprepared scan answers; the preparation starts in
   the background), against VTK's grid construction and its first
   ``vtkContourFilter`` update (no tree) on that fresh grid; then the
-  preparation of the default method until it is ready, alone (a fresh
-  volume's ``edge-centred`` method: topology, thinning, records).
-* **memory**: bytes per cell held by the prepared method and by the
-  volume's derived tables (``memory_bytes()``); and the peak RSS of each
+  preparation of the default method until it is ready, and alone on a
+  fresh volume (edge table, span-space table); and alone the preparation
+  of ``edge-centred-table`` (topology, thinning, records).
+* **memory**: bytes per cell held by each of the two prepared methods and
+  by the volume's derived tables (``memory_bytes()``); and the peak RSS of each
   side, each in its own subprocess (arrays loaded from a ``.npy`` file,
   then: polygen's constructor, first surface, preparation and a sweep; or
   VTK's grid and a sweep in the best configuration), with the RSS after
@@ -120,8 +122,11 @@ def rss_now_mb(key="VmRSS"):
     return float("nan")
 
 
-#: polygen's methods in the sweeps: the prepared default (the edge table), the paper's walk, the two scans
-POLYGEN = (methods.DEFAULT, "edge-centred", "scan", "unprepared-scan")
+#: polygen's methods in the sweeps: the prepared default (the active-cell scan), the edge-centred construction
+#: with the edge table (the default before), the paper's walk, the two scans
+POLYGEN = tuple(dict.fromkeys((methods.DEFAULT, "edge-centred-table", "edge-centred", "scan", "unprepared-scan")))
+#: the methods timed by extract_many too (the edge-centred table runs values side by side there)
+MANY = tuple(dict.fromkeys((methods.DEFAULT, "edge-centred-table")))
 
 
 def warm_up():
@@ -170,10 +175,10 @@ def first_surface(points, cells, s, value):
     t_first, iso = timed(lambda: vol.isosurface(value))
     t_ready, _ = timed(vol.wait_prepared)
     kind = type(iso).__name__
-    # the prepared method's records move to huge pages in a background thread (EdgeCentredTable.settle):
+    # an edge-centred method's records move to huge pages in a background thread (EdgeCentredTable.settle):
     # waited for here, untimed, so that it does not run into the timings below (10M: 1-2 s of a core)
     vol.isosurface(value, prepare=True)
-    vol._prepared(FIELD, methods.DEFAULT).builder.settle()
+    _settle(vol._prepared(FIELD, methods.DEFAULT))
     del vol
     gc.collect()
     t_grid, grid = timed(vtk_grid, points, cells, s)
@@ -181,23 +186,34 @@ def first_surface(points, cells, s, value):
     t_vtk, n_vtk = timed(one, value)
     del grid
     gc.collect()
-    # the full preparation alone, on a fresh volume (topology + the method), nothing else running
-    vol = UnstructuredVolume(points, cells, {FIELD: s}, validate=False)
-    t_prep, c_prep, m = timed_cpu(lambda: methods.get(methods.DEFAULT)(vol, field=FIELD))
-    vol.release_preparation_tables()  # as vol.isosurface() does once the default method is prepared
-    mem_method = m.memory_bytes()
-    mem_volume = vol.memory_bytes()
-    phases = {"seeds_s": m.seed_preprocess_s, "records_s": m.construct_preprocess_s,
-              "thinning": {k: v for k, v in m.source.structure.stats.items() if k.startswith("T_")}}
-    del m, vol
-    gc.collect()
-    return {"ctor_s": t_ctor, "ctor_cpu_s": c_ctor, "prepare_alone_cpu_s": c_prep, "prepare_phases": phases,
+    # the full preparation alone, on a fresh volume (topology + the method), nothing else running: the
+    # default method's, then the edge-centred table's (the default before)
+    out = {}
+    for key, name in (("", methods.DEFAULT), ("ect_", "edge-centred-table")):
+        vol = UnstructuredVolume(points, cells, {FIELD: s}, validate=False)
+        t_prep, c_prep, m = timed_cpu(lambda: methods.get(name)(vol, field=FIELD))
+        vol.release_preparation_tables()  # as vol.isosurface() does once the default method is prepared
+        _settle(m)
+        out.update({f"{key}method": name, f"{key}prepare_alone_s": t_prep, f"{key}prepare_alone_cpu_s": c_prep,
+                    f"{key}method_bytes": m.memory_bytes(), f"{key}volume_bytes": vol.memory_bytes()})
+        if hasattr(m, "seed_preprocess_s") and hasattr(m, "construct_preprocess_s"):
+            out[f"{key}prepare_phases"] = {
+                "seeds_s": m.seed_preprocess_s, "records_s": m.construct_preprocess_s,
+                "thinning": {k: v for k, v in m.source.structure.stats.items() if k.startswith("T_")}}
+        del m, vol
+        gc.collect()
+    return {"ctor_s": t_ctor, "ctor_cpu_s": c_ctor,
             "first_isosurface_s": t_first, "ctor_plus_first_s": t_ctor + t_first,
             "first_answered_by": kind, "first_triangles": iso.n_triangles,
             "background_ready_after_s": t_first + t_ready,
-            "vtk_grid_s": t_grid, "vtk_first_contour_s": t_vtk, "vtk_first_triangles": n_vtk,
-            "prepare_alone_s": t_prep,
-            "method_bytes": mem_method, "volume_bytes": mem_volume}
+            "vtk_grid_s": t_grid, "vtk_first_contour_s": t_vtk, "vtk_first_triangles": n_vtk, **out}
+
+
+def _settle(m):
+    """Wait for a prepared edge-centred method's move of its records to huge pages (nothing for the others)."""
+    settle = getattr(getattr(m, "builder", None), "settle", None)
+    if settle is not None:
+        settle()
 
 
 def sweeps(vol, grid, values, values200, n_rounds):
@@ -210,10 +226,9 @@ def sweeps(vol, grid, values, values200, n_rounds):
         confs[label] = {"one": one, "filter": f, "build_s": time.perf_counter() - t0}
     prepared = {name: methods.get(name)(vol, field=FIELD) for name in POLYGEN}
     for m in prepared.values():  # the records' move to huge pages, in the background, done before timing
-        settle = getattr(getattr(m, "builder", None), "settle", None)
-        if settle is not None:
-            settle()
-    times = {k: [] for k in list(confs) + [f"polygen {name}" for name in POLYGEN] + ["polygen extract_many"]}
+        _settle(m)
+    times = {k: [] for k in list(confs) + [f"polygen {name}" for name in POLYGEN] +
+             [f"polygen {name} extract_many" for name in MANY]}
     tris = {}
     for _ in range(n_rounds):
         for label, c in confs.items():
@@ -225,10 +240,11 @@ def sweeps(vol, grid, values, values200, n_rounds):
             times[f"polygen {name}"].append(ts)
             tris[f"polygen {name}"] = [i.n_triangles for i in out]
             del out
-        t, out = timed(prepared[methods.DEFAULT].extract_many, values)
-        times["polygen extract_many"].append([t / len(values)] * len(values))
-        tris["polygen extract_many"] = [i.n_triangles for i in out]
-        del out
+        for name in MANY:
+            t, out = timed(prepared[name].extract_many, values)
+            times[f"polygen {name} extract_many"].append([t / len(values)] * len(values))
+            tris[f"polygen {name} extract_many"] = [i.n_triangles for i in out]
+            del out
         gc.collect()
     rows = {}
     for k, per_round in times.items():
@@ -347,32 +363,37 @@ def sweep_lines(r):
 
 def first_lines(r):
     f = r["first"]
-    pm = f["method_bytes"] / r["cells"]
-    pv = sum(f["volume_bytes"].values()) / r["cells"]
-    tables = ", ".join(f"{k} {v / r['cells']:.1f}" for k, v in f["volume_bytes"].items())
     cpu = (lambda k: f" (CPU {f[k]:.3f})" if k in f else "")  # noqa: E731
-    ph = f.get("prepare_phases")
-    phases = "" if ph is None else (f"| of which: seeds (thinning) {ph['seeds_s']:.3f}, edge records {ph['records_s']:.3f} "
-                                    "(side by side from 200k cells) | |")
-    return ["| time to first surface | s |", "|---|---|",
-            f"| polygen constructor (validation{', median of %d' % CTOR_REPEATS if 'ctor_cpu_s' in f else ''}) | "
-            f"{f['ctor_s']:.3f}{cpu('ctor_cpu_s')} |",
-            f"| polygen first `vol.isosurface(v)` ({f['first_answered_by']}, {f['first_triangles']} triangles) "
-            f"| {f['first_isosurface_s']:.3f} |",
-            f"| polygen constructor + first surface | {f['ctor_plus_first_s']:.3f} |",
-            f"| VTK grid from the arrays | {f['vtk_grid_s']:.3f} |",
-            f"| VTK first vtkContourFilter, no tree ({f['vtk_first_triangles']} triangles) | "
-            f"{f['vtk_first_contour_s']:.3f} |",
-            f"| (constructor + first) / VTK first contour | {f['ctor_plus_first_s'] / f['vtk_first_contour_s']:.2f} |",
-            f"| first surface alone / VTK first contour | {f['first_isosurface_s'] / f['vtk_first_contour_s']:.2f} |",
-            f"| background preparation ready, from the first call | {f['background_ready_after_s']:.3f} |",
-            f"| full preparation alone (topology + thinning + edge-centred records) | {f['prepare_alone_s']:.3f}"
-            f"{cpu('prepare_alone_cpu_s')} |"] + ([phases] if phases else []) + [
-            "", "| memory | |", "|---|---|",
-            f"| prepared edge-centred method, bytes per cell | {pm:.1f} |",
-            f"| volume's derived tables, bytes per cell | {pv:.1f} ({tables}) |",
-            f"| together | {pm + pv:.1f} |",
-            f"| input arrays (points, cells, field), bytes per cell | {r['array_bytes'] / r['cells']:.1f} |", ""]
+    lines = ["| time to first surface | s |", "|---|---|",
+             f"| polygen constructor (validation{', median of %d' % CTOR_REPEATS if 'ctor_cpu_s' in f else ''}) | "
+             f"{f['ctor_s']:.3f}{cpu('ctor_cpu_s')} |",
+             f"| polygen first `vol.isosurface(v)` ({f['first_answered_by']}, {f['first_triangles']} triangles) "
+             f"| {f['first_isosurface_s']:.3f} |",
+             f"| polygen constructor + first surface | {f['ctor_plus_first_s']:.3f} |",
+             f"| VTK grid from the arrays | {f['vtk_grid_s']:.3f} |",
+             f"| VTK first vtkContourFilter, no tree ({f['vtk_first_triangles']} triangles) | "
+             f"{f['vtk_first_contour_s']:.3f} |",
+             f"| (constructor + first) / VTK first contour | {f['ctor_plus_first_s'] / f['vtk_first_contour_s']:.2f} |",
+             f"| first surface alone / VTK first contour | {f['first_isosurface_s'] / f['vtk_first_contour_s']:.2f} |",
+             f"| background preparation of `{f.get('method', methods.DEFAULT)}` ready, from the first call | "
+             f"{f['background_ready_after_s']:.3f} |"]
+    memory = ["", "| memory, bytes per cell | prepared method | volume's derived tables | together |", "|---|---|---|---|"]
+    for key, what in (("", "edge table + span-space table"), ("ect_", "topology + thinning + edge-centred records")):
+        if f"{key}method_bytes" not in f:
+            continue
+        name = f.get(f"{key}method", methods.DEFAULT)
+        lines.append(f"| full preparation alone of `{name}` ({what}) | {f[f'{key}prepare_alone_s']:.3f}"
+                     f"{cpu(f'{key}prepare_alone_cpu_s')} |")
+        ph = f.get(f"{key}prepare_phases")
+        if ph is not None:
+            lines.append(f"| of which: seeds (thinning) {ph['seeds_s']:.3f}, edge records {ph['records_s']:.3f} "
+                         "(side by side from 200k cells) | |")
+        pm = f[f"{key}method_bytes"] / r["cells"]
+        pv = sum(f[f"{key}volume_bytes"].values()) / r["cells"]
+        tables = ", ".join(f"{k} {v / r['cells']:.1f}" for k, v in f[f"{key}volume_bytes"].items())
+        memory.append(f"| `{name}` | {pm:.1f} | {pv:.1f} ({tables}) | {pm + pv:.1f} |")
+    return lines + memory + [
+        f"| input arrays (points, cells, field) | | | {r['array_bytes'] / r['cells']:.1f} |", ""]
 
 
 def report(rows, load_before, load_after):
@@ -399,9 +420,10 @@ def report(rows, load_before, load_after):
         "200 values: one pass; extract_many: its wall clock / 20 per value",
         "- VTK: merged points, normals on, scalars off, VTK_SMP_BACKEND_IN_USE=STDThread; the span-space build "
         "(inside the first update) is not in the sweep times (build_s in the JSON)",
-        f"- polygen: mean normals on; '{methods.DEFAULT}' = the prepared default method (extract_many and the "
-        "200 values too), 'edge-centred' = the paper's variant without stored edges, 'unprepared-scan' = what "
-        "vol.isosurface answers before the preparation is ready",
+        f"- polygen: mean normals on; '{methods.DEFAULT}' = the prepared default method (the 200 values too), "
+        "'edge-centred-table' = the cell-edge-centred construction with the edge table (the default before "
+        "issue 20's active-cell scan), 'edge-centred' = the paper's variant without stored edges, "
+        "'unprepared-scan' = what vol.isosurface answers before the preparation is ready",
         "- peak RSS: each side in its own subprocess (VmHWM); polygen's includes the numba runtime and "
         "its warm-up on data1 and data4, and its background preparation",
         f"- machine load average (1, 5, 15 min) before {load_before}, after {load_after}; "

@@ -115,8 +115,10 @@ class ActiveScan:
     chunk : int, optional
         Active cells per unit of parallel work (default 1024).
 
-    Threads: a query writes ``ev`` and the node stamps; use one per thread or
-    the method's lock (:class:`ActiveScanMethod`).
+    Notes
+    -----
+    A query writes ``ev`` and the node stamps: one query at a time per
+    object (the method's lock, :class:`ActiveScanMethod`, sees to it).
     """
 
     #: from this many triangles up the mean normals are summed by all threads (as the edge-centred method)

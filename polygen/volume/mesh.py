@@ -375,11 +375,11 @@ class UnstructuredVolume:
         """The isosurface ``S = value``: at once on a fresh volume, by the fastest method once it is ready.
 
         **Policy** (``method=None``, the usual call). The default method
-        (:data:`~polygen.volume.registry.DEFAULT_METHOD`, the cell-edge-centred
-        construction) needs a preparation -- face neighbours, edges,
-        thinning, edge records: about half a second per million cells on two cores -- that a
-        single surface does not repay. So the first surface never waits
-        for it:
+        (:data:`~polygen.volume.registry.DEFAULT_METHOD`, the active-cell
+        scan of :mod:`polygen.volume.active_scan`) needs a preparation -- the
+        edge table, the cells sorted in span-space order: about 0.3 s per
+        million cells on two cores -- that a single surface does not repay.
+        So the first surface never waits for it:
 
         * ``prepare=None`` (default) follows :attr:`preparation`, the
           volume's setting, ``"background"`` unless changed: until the
@@ -417,7 +417,7 @@ class UnstructuredVolume:
         method : str, optional, keyword-only
             A registered method (:func:`polygen.volume.registry.method_names`);
             by default :data:`~polygen.volume.registry.DEFAULT_METHOD`
-            (``"edge-centred-table"``) once prepared, the unprepared scan before.
+            (``"active-scan"``) once prepared, the unprepared scan before.
         normals : {"mean", "gradient", None}, keyword-only
         prepare : bool or None, keyword-only
             Force (True) or skip (False) the preparation of the default method.
@@ -549,7 +549,7 @@ class UnstructuredVolume:
         """Drop the tables only a preparation reads: ``node_cells``, ``cell_components``, ``face_neighbors``,
         ``cell_edges`` and ``boundary_edge_table`` (about 63 bytes per tetrahedron on 2M).
 
-        The prepared default method keeps what it needs in its own records
+        The prepared default method keeps what it needs in its own table
         and reads only :attr:`edges` from the volume afterwards, so
         :meth:`isosurface` calls this once it has prepared it (``edges``,
         ``boundary_faces`` and the boundary groups computed from the
