@@ -82,38 +82,42 @@ def test_tests_the_crossed_cells_and_at_most_one_row_more():
     vol = datasets.load("data2")
     s = np.round(vol.scalars("fem") * 64) / 64
     vol.add_field("q", s)
-    for rows in (1, 7, 64):
-        scan = ActiveScan(vol, "q", rows=rows)
-        widest = int(np.diff(scan.row_off).max())
+    for rows, block in ((1, None), (7, None), (64, None), (3, 5000), (16, 997)):
+        scan = ActiveScan(vol, "q", rows=rows, block=block)
+        n_blocks = scan.block_min.size
+        widest = int(np.diff(scan.row_off).max())  # one segment: a row of one block
         for v in isovalues(s, 15):
             iso = scan.extract(v)
             crossed = int(np.sum((s[vol.cells].min(axis=1) < v) & (s[vol.cells].max(axis=1) >= v)))
             assert iso.cells_intersected == crossed
-            assert crossed <= iso.cells_tested <= crossed + widest
-        if rows == 1:
+            assert crossed <= iso.cells_tested <= crossed + n_blocks * widest
+        assert n_blocks == (1 if block is None else -(-vol.n_cells // block))
+        if rows == 1 and block is None:
             assert widest == vol.n_cells
 
 
 def test_the_same_arrays_whatever_the_threads_and_chunks():
     # the vertices are numbered along the table's order, chunk by chunk: the threads and the chunk size
-    # change nothing but the rounding of the normal sums; other rows give another order, the same surface
+    # change nothing but the rounding of the normal sums; other rows or blocks give another order, the
+    # same surface
     vol = datasets.load("data2")
     s = vol.scalars("fem")
     values = isovalues(s, 6)
     ref = ActiveScan(vol, "fem")
     before = numba.get_num_threads()
     try:
-        for threads, chunk, rows in ((1, 1024, None), (before, 1, None), (before, 37, None), (1, 5000, None),
-                                     (before, 64, 1), (1, 100, 1000)):
+        for threads, chunk, rows, block in ((1, 1024, None, None), (before, 1, None, None), (before, 37, None, None),
+                                            (1, 5000, None, None), (before, 64, 1, None), (1, 100, 1000, None),
+                                            (before, 300, None, 4096)):
             numba.set_num_threads(threads)
-            other = ActiveScan(vol, "fem", chunk=chunk, rows=rows)
+            other = ActiveScan(vol, "fem", chunk=chunk, rows=rows, block=block)
             for v in values:
                 numba.set_num_threads(before)
                 a = ref.extract(v)
                 numba.set_num_threads(threads)
                 b = other.extract(v)
                 assert other.stats["threads"] <= threads
-                if rows is None:
+                if rows is None and block is None:
                     for x, y in zip(arrays(a), arrays(b)):
                         np.testing.assert_array_equal(x, y)
                     np.testing.assert_allclose(a.normals, b.normals, atol=1e-12, rtol=0)
@@ -136,7 +140,7 @@ def test_registered_method_memory_and_bad_parameters():
     assert held["table"] == 48 * vol.n_cells and held["maxima"] == 4 * vol.n_cells
     assert held["scratch"] >= 4 * vol.edges.shape[0] + 8 * vol.n_points
     assert m.memory_bytes() >= sum(held.values()) - held["rows"]
-    for bad in ({"rows": 0}, {"rows": 2.5}, {"chunk": 0}, {"chunk": True}):
+    for bad in ({"rows": 0}, {"rows": 2.5}, {"chunk": 0}, {"chunk": True}, {"block": 0}, {"block": "big"}):
         with pytest.raises(IsoSurfaceError, match=next(iter(bad))):
             ActiveScan(vol, "fem", **bad)
     with pytest.raises(IsoSurfaceError, match="finite"):
@@ -163,3 +167,16 @@ def test_values_outside_the_field_give_empty_surfaces():
         ref = extract(vol, v, field="fem")
         assert iso.n_triangles == ref.n_triangles == 0 and iso.n_vertices == 0
     assert scan.extract(s.max() + 1.0).cells_tested == 0
+
+
+def test_blocks_from_a_size_on(monkeypatch):
+    # one block below BLOCKS_FROM cells, blocks of BLOCK cells from there: the same surfaces either way
+    vol = datasets.load("data2")
+    one = ActiveScan(vol, "fem")
+    monkeypatch.setattr(ActiveScan, "BLOCKS_FROM", vol.n_cells)
+    monkeypatch.setattr(ActiveScan, "BLOCK", 5000)
+    blocked = ActiveScan(vol, "fem")
+    assert one.block_min.size == 1 and blocked.block_min.size == -(-vol.n_cells // 5000)
+    assert 1 < blocked.lower.size <= 5000 // 128  # a row per 128 cells of a block (equal bounds merge)
+    for v in isovalues(vol.scalars("fem"), 7):
+        assert same_surface(one.extract(v), blocked.extract(v))

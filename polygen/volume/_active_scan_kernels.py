@@ -83,6 +83,21 @@ def edge_owners(cell_edges, n_edges, own):
 
 
 @njit
+def block_extremes(cmin, cmax, block, bmin, bmax):
+    """Each block of ``block`` consecutive cells: its cells' smallest minimum and largest maximum."""
+    for blk in range(bmin.shape[0]):
+        a = blk * block
+        b = min(cmin.shape[0], a + block)
+        lo = cmin[a]
+        hi = cmax[a]
+        for c in range(a + 1, b):
+            lo = min(lo, cmin[c])
+            hi = max(hi, cmax[c])
+        bmin[blk] = lo
+        bmax[blk] = hi
+
+
+@njit
 def rows_by_count(row, n_rows, row_off, order):
     """Counting sort of the cells by row (stable: by id inside a row); ``row_off`` (n_rows + 1) the row starts."""
     for i in range(n_rows + 1):
@@ -133,30 +148,39 @@ def fill_table(order, cells, cell_edges, own, cmax32, tab, cmx):
 
 # ------------------------------------------------------------------ a query
 @njit
-def active_ranges(lower, row_off, cmx, value, out):
-    """The rows' prefixes whose cells may be crossed by ``value``: ``out[:n]`` (start, end); returns ``n``.
+def active_ranges(lower, row_off, cmx, value, bmin, bmax, out):
+    """The segments' prefixes whose cells may be crossed by ``value``: ``out[:n]`` (start, end); returns ``n``.
 
-    Row ``r`` holds the cells whose minimum is at least ``lower[r]`` (and
-    below ``lower[r + 1]``); a crossed cell has its minimum below ``value``,
-    so the rows from the first one with ``lower[r] >= value`` on are skipped.
+    Block ``b`` (its cells' smallest minimum ``bmin[b]`` and largest maximum
+    ``bmax[b]``) holds rows ``r`` of the cells whose minimum is at least
+    ``lower[r]`` (and below ``lower[r + 1]``), segment ``b * R + r`` of the
+    table (``R = lower.shape[0]``). A crossed cell has its minimum below
+    ``value`` and its maximum at or above it: blocks without such cells are
+    skipped, and in a block the rows from the first one with ``lower[r] >=
+    value`` on.
     """
+    n_rows = lower.shape[0]
     n = 0
-    for r in range(lower.shape[0]):
-        if lower[r] >= value:
-            break
-        a = row_off[r]
-        lo = a
-        hi = row_off[r + 1]
-        while lo < hi:  # the first position whose maximum is below value
-            mid = (lo + hi) >> 1
-            if cmx[mid] >= value:
-                lo = mid + 1
-            else:
-                hi = mid
-        if lo > a:
-            out[n, 0] = a
-            out[n, 1] = lo
-            n += 1
+    for blk in range(bmin.shape[0]):
+        if not (bmin[blk] < value and bmax[blk] >= value):
+            continue
+        for r in range(n_rows):
+            if lower[r] >= value:
+                break
+            seg = blk * n_rows + r
+            a = row_off[seg]
+            lo = a
+            hi = row_off[seg + 1]
+            while lo < hi:  # the first position whose maximum is below value
+                mid = (lo + hi) >> 1
+                if cmx[mid] >= value:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            if lo > a:
+                out[n, 0] = a
+                out[n, 1] = lo
+                n += 1
     return n
 
 
