@@ -31,6 +31,7 @@ whatever the thread count.
 import numpy as np
 
 from polygen._jit import njit, prange
+from polygen.volume import _edge_centred_kernels as _ek
 from polygen.volume import marching as _m
 from polygen.volume._intrinsics import _KCACHE, _ctz, _prefetch_item
 
@@ -210,38 +211,15 @@ def _case_of(tab, p, nn, s, value, faces, vals):
             case |= 1 << i
         if x == value:
             exact |= 1 << i
-    if case == 0 or case == (1 << nn) - 1:
-        return -1, exact
-    for f in range(faces.shape[0]):
-        a = vals[faces[f, 0]]
-        b = vals[faces[f, 1]]
-        d = vals[faces[f, 2]]
-        e = vals[faces[f, 3]]
-        ua, ub, ud, ue = a >= value, b >= value, d >= value, e >= value
-        if ua == ud and ub == ue and ua != ub:
-            # face-centre value [71]: the mean of the four corners (as marching._cell_case)
-            if _m._sorted_sum4(a, b, d, e) * 0.25 >= value:
-                case |= 1 << (8 + f)
-    return case, exact
+    return _ek._face_bits(case, exact, nn, vals, value, faces)
 
 
 @njit
 def _exact_codes(case, exact, vals, value, tri_table, tri_count, local_edges, out):
     """Triangles of a polygon with a node at ``value`` as vertex codes (``ne + i``: node ``i``); returns
-    ``(k, mask)``: the triangles kept (zero-area ones dropped) and the codes of the whole polygon as bits."""
-    ne = local_edges.shape[0]
-    k = 0
-    mask = 0
-    for t in range(tri_count[case]):
-        for j in range(3):
-            e = tri_table[case, 3 * t + j]
-            a = local_edges[e, 0]
-            hi = a if vals[a] >= value else local_edges[e, 1]
-            out[k, j] = ne + hi if (exact >> hi) & 1 else e
-            mask |= 1 << out[k, j]
-        if out[k, 0] != out[k, 1] and out[k, 0] != out[k, 2] and out[k, 1] != out[k, 2]:
-            k += 1
-    return k, mask
+    ``(k, mask)``: the triangles kept (zero-area ones dropped) and the codes of the whole polygon as bits
+    (the edge-centred construction's, the rare path: not inlined)."""
+    return _ek._polygon_codes(case, exact, vals, value, tri_table, tri_count, local_edges, out)
 
 
 @njit(inline="always")
