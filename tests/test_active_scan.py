@@ -180,3 +180,21 @@ def test_blocks_from_a_size_on(monkeypatch):
     assert 1 < blocked.lower.size <= 5000 // 128  # a row per 128 cells of a block (equal bounds merge)
     for v in isovalues(vol.scalars("fem"), 7):
         assert same_surface(one.extract(v), blocked.extract(v))
+
+
+def test_parts_cut_by_work_tile_the_chunks():
+    # the vertex and triangle passes give each thread about the same number of items, not of chunks: the
+    # parts are consecutive, cover every chunk once, and none holds more than its share plus one chunk
+    from polygen.volume._active_scan_kernels import _part_by
+
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        n = int(rng.integers(1, 40))
+        counts = rng.integers(0, 50, n) * (rng.random(n) < 0.7)
+        off = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        for n_parts in (1, 2, 3, 7):
+            cuts = [_part_by(off, n_parts, q) for q in range(n_parts)]
+            assert cuts[0][0] == 0 and cuts[-1][1] == n
+            assert all(a[1] == b[0] for a, b in zip(cuts, cuts[1:])) and all(k0 <= k1 for k0, k1 in cuts)
+            share = off[-1] / n_parts
+            assert all(off[k1] - off[k0] <= share + counts.max() for k0, k1 in cuts)

@@ -275,7 +275,7 @@ class ActiveScan:
         tri_cell = _jit.output_empty(n_t, np.int64)
         if n_ch:
             args = (tab, nn, ne, s, value, self.tri_table, self.tri_count, self.case_mask, self.local_edges, ranges,
-                    roff, chunk, st, off[0], sc.ev, sc.nvid, tri, tri_cell, pos, acc)
+                    roff, chunk, st, off[0], sc.ev, sc.nvid, tri, tri_cell, pos, acc, self.block_min.shape[0] <= 1)
             _k.triangle_pass(*args, n_parts)
         vertices, keys = pos[:n_v], keys[:n_v]
         if n_x:  # a face at C kept once, vertices of polygons collapsed onto nodes dropped (as every method)
