@@ -33,7 +33,7 @@ import numpy as np
 from polygen._jit import njit, prange
 from polygen.volume import _edge_centred_kernels as _ek
 from polygen.volume import marching as _m
-from polygen.volume._intrinsics import _KCACHE, _ctz, _prefetch_item, _prefetch_row
+from polygen.volume._intrinsics import _KCACHE, _ctz, _prefetch_item
 
 #: ``st`` of a cell the value does not cross
 NOT_CROSSED = -1
@@ -185,7 +185,7 @@ def active_ranges(lower, row_off, cmx, value, bmin, bmax, out):
     skipped, and in a block the rows from the first one with ``lower[r] >=
     value`` on. The blocks are searched in parallel, each into its own ``R``
     rows of ``out`` (``out`` has one per segment), then moved together in
-    block order (10M: 1,221 blocks of 64 rows, 1.1 ms a value on one thread).
+    block order (10M in blocks of 8192 cells, 78,000 segments: 1.1 ms a value on one thread).
     """
     n_rows = lower.shape[0]
     n_blocks = bmin.shape[0]
@@ -374,25 +374,16 @@ def _vertex_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_coun
 
 @njit(cache=_KCACHE)
 def _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, k0, k1,
-                   st, t_off, ev, nvid, tris, tri_cell, pos, acc, hints):
+                   st, t_off, ev, nvid, tris, tri_cell, pos, acc):
     """Pass 3 over chunks ``k0 .. k1``: each crossed cell's triangles as vertex ids (``ev`` of its edges,
     ``nvid`` of its nodes at ``value``), from ``t_off[k]`` on; with ``acc`` (V, 3) (rows: the mean
     normals are asked for and no node is at ``value``) each triangle's normal
-    (:func:`~polygen.volume.marching.triangle_normal` of ``pos``) added into its corners' rows.
-
-    With ``hints``, the vertex ids, positions and normal sums of the cells ahead are asked for early:
-    where the table is one block, a cell's vertices are scattered over the whole surface (2M, 20 values:
-    the sweep 4-6 % faster here); with blocks they are near each other, and the hints cost more than
-    they bring (10M: 7 % slower)."""
+    (:func:`~polygen.volume.marching.triangle_normal` of ``pos``) added into its corners' rows."""
     n_act = roff[roff.shape[0] - 1]
     vals = np.empty(nn, np.float64)
     codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
     cell_col = nn + ne + 1
-    edge_bits = (1 << ne) - 1
     mean = acc.shape[0] > 0
-    pts = pos.reshape(-1)  # flat, for the hints (a view)
-    n_v = pos.shape[0]
-    last = tab.shape[0] - 1
     for k in range(k0, k1):
         i0 = k * chunk
         i1 = min(n_act, i0 + chunk)
@@ -402,24 +393,6 @@ def _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local
             while p >= ranges[r, 1]:
                 r += 1
                 p = ranges[r, 0]
-            # hints, in two stages: the vertex ids of a cell 2L ahead, then (read) those of a cell L ahead
-            # and its vertices' positions and normal sums
-            if hints and i + 2 * LOOKAHEAD < i1 and st[i + 2 * LOOKAHEAD] >= 0:
-                pa = min(p + 2 * LOOKAHEAD, last)
-                bits = case_mask[st[i + 2 * LOOKAHEAD] & 0xFFFF] & edge_bits
-                while bits:
-                    _prefetch_item(ev, tab[pa, nn + _ctz(bits)])
-                    bits &= bits - 1
-            if hints and i + LOOKAHEAD < i1 and st[i + LOOKAHEAD] >= 0:
-                pa = min(p + LOOKAHEAD, last)
-                bits = case_mask[st[i + LOOKAHEAD] & 0xFFFF] & edge_bits
-                while bits:
-                    x = ev[tab[pa, nn + _ctz(bits)]]
-                    bits &= bits - 1
-                    if 0 <= x < n_v:  # an entry of another query, or of a cell past the range: a hint only
-                        _prefetch_item(pts, x * 3)
-                        if mean:
-                            _prefetch_row(acc, x)
             code = st[i]
             if code < 0:
                 p += 1
@@ -514,13 +487,12 @@ def vertex_pass(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count
 
 @njit(parallel=True, cache=_KCACHE)
 def triangle_pass(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, st,
-                  t_off, ev, nvid, tris, tri_cell, pos, acc, hints, n_parts):
+                  t_off, ev, nvid, tris, tri_cell, pos, acc, n_parts):
     """:func:`_triangle_part` by ``n_parts`` threads, part ``q``'s normal sums into ``acc[q]``."""
     for q in prange(n_parts):
         k0, k1 = _part_by(t_off, n_parts, q)
         _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, k0,
-                       k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc[q] if acc.shape[1] > 0 else acc[0, :0],
-                       hints)
+                       k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc[q] if acc.shape[1] > 0 else acc[0, :0])
 
 
 @njit

@@ -121,10 +121,9 @@ class ActiveScan:
         Field name (the first field by default) or node values.
     rows : int, optional
         Rows of the span-space order (bins of the cells' minima, equally
-        filled, the same in every block). By default one per 4096 cells
-        (between 1 and 4096) in one block, one per 128 cells of a block with
-        blocks: a query tests at most about one row per block of cells it
-        does not cross.
+        filled, the same in every block). By default one per :attr:`ROW`
+        cells of a block (between 1 and 4096): a query tests at most about
+        one row per block of cells it does not cross.
     block : int, optional
         Cells per block: consecutive cells of the volume, each block in
         span-space order of its own (rows shared). By default one block
@@ -141,13 +140,18 @@ class ActiveScan:
     #: from this many triangles up the mean normals are summed by all threads (as the edge-centred method)
     STAGE3_PARALLEL_TRIANGLES = 20_000
     #: cells per block of a volume of ``BLOCKS_FROM`` cells or more (``block=None``)
-    BLOCK = 8192
+    BLOCK = 65536
     #: Blocks keep a query's reads of node values, positions and edge vertices near each other (a
     #: block's cells are neighbours in the volume's order), at the price of more, shorter ranges and a
-    #: row per block tested for nothing. Measured here (20 values, medians, one process): 2M, one block
-    #: 37.9 ms against 43-44 ms with blocks of 8192-131072 cells; 10M, blocks of 8192 468 ms against
-    #: 599 ms with one block (its node and edge arrays are far larger than the 32 MiB cache).
-    BLOCKS_FROM = 4_000_000
+    #: row per block tested for nothing. Measured (20 values, medians of interleaved sweeps, one process):
+    #: on a 2-core AMD EPYC VM (1 MiB L2, 32 MiB L3 at 13-44 ns) one block was the faster at 2M, 37.9 ms
+    #: against 43-44 ms with blocks of 8192-131072 cells and a row per 128 cells (15,000 segments, searched
+    #: serially then); on a 2-core Intel Xeon VM (2 MiB L2, 37 ns at 4 MB, 69 ns at 16 MB) blocks of 65536
+    #: cells with 128 rows each took 0.88 of one block's time on data3 and data4, 0.88-0.90 on 2M, and 0.95
+    #: of blocks of 8192 cells on 10M (fewer segments, fewer cells tested for nothing).
+    BLOCKS_FROM = 2 * BLOCK
+    #: cells per row (by default): fewer tested for nothing against more binary searches per query
+    ROW = 512
 
     def __init__(self, vol, field=None, *, rows=None, chunk=1024, block=None):
         points, cells, s, cell_type = volume_arrays(vol, field)
@@ -180,8 +184,8 @@ class ActiveScan:
             block = self.BLOCK if m >= self.BLOCKS_FROM else max(1, m)
         self.block = int(block)
         n_blocks = -(-m // self.block) if m else 0
-        if rows is None:  # one block: a row per 4096 cells, at most 4096 (2M: 477); blocks: per 128 cells (64)
-            rows = min(4096, max(1, m // 4096)) if n_blocks <= 1 else max(1, self.block // 128)
+        if rows is None:  # a row per ROW cells of a block, at most 4096 (blocks of 65536 cells: 128)
+            rows = min(4096, max(1, min(m, self.block) // self.ROW))
         n_rows = int(rows)
         # row bounds: equally filled by the minima (from a sample of them); the first row starts at -inf
         sample = np.sort(cmin[:: max(1, m // (64 * n_rows))]) if m else np.zeros(1)
@@ -275,7 +279,7 @@ class ActiveScan:
         tri_cell = _jit.output_empty(n_t, np.int64)
         if n_ch:
             args = (tab, nn, ne, s, value, self.tri_table, self.tri_count, self.case_mask, self.local_edges, ranges,
-                    roff, chunk, st, off[0], sc.ev, sc.nvid, tri, tri_cell, pos, acc, self.block_min.shape[0] <= 1)
+                    roff, chunk, st, off[0], sc.ev, sc.nvid, tri, tri_cell, pos, acc)
             _k.triangle_pass(*args, n_parts)
         vertices, keys = pos[:n_v], keys[:n_v]
         if n_x:  # a face at C kept once, vertices of polygons collapsed onto nodes dropped (as every method)
