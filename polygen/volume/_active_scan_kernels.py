@@ -33,14 +33,14 @@ import numpy as np
 from polygen._jit import njit, prange
 from polygen.volume import _edge_centred_kernels as _ek
 from polygen.volume import marching as _m
-from polygen.volume._intrinsics import _KCACHE, _ctz, _prefetch_item
+from polygen.volume._intrinsics import _KCACHE, _ctz
 
 #: ``st`` of a cell the value does not cross
 NOT_CROSSED = -1
-#: how many cells ahead the count pass asks for the node values, and the vertex pass for the node positions
-#: and the edge vertices it will write (2M, 20 values, A/B: count pass 10.4 -> 8.3 ms, vertex pass 13.6-14.3
-#: -> 11.7-12.1 ms; the same hint for the triangle pass's vertex ids made no measurable difference)
-LOOKAHEAD = 8
+# No prefetch hints: the blocks keep a query's reads near each other. With one block (2M, an AMD VM, the
+# sessions before) hints for the node values, positions and edge vertices of the cells 8 ahead had made
+# the count pass 10.4 -> 8.3 ms and the vertex pass 13.6-14.3 -> 11.7-12.1 ms; with blocks of 65536 cells
+# (an Intel VM) leaving them out made the sweep 5 % faster on 2M and 3 % on 10M.
 
 
 # ------------------------------------------------------------------ preparation
@@ -258,7 +258,6 @@ def _count_part(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, l
     codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
     own_col = nn + ne
     edge_bits = (1 << ne) - 1
-    last = tab.shape[0] - 1
     for k in range(k0, k1):
         i0 = k * chunk
         i1 = min(n_act, i0 + chunk)
@@ -271,9 +270,6 @@ def _count_part(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, l
             while p >= ranges[r, 1]:
                 r += 1
                 p = ranges[r, 0]
-            pa = min(p + LOOKAHEAD, last)  # a cell a little ahead (maybe past the range: only a hint)
-            for j in range(nn):
-                _prefetch_item(s, tab[pa, j])
             case, exact = _case_of(tab, p, nn, s, value, faces, vals)
             if case < 0:
                 st[i] = NOT_CROSSED
@@ -311,8 +307,6 @@ def _vertex_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_coun
     own_col = nn + ne
     edge_bits = (1 << ne) - 1
     n_acc = acc.shape[0] if acc.shape[1] > 0 else 0
-    pts = points.reshape(-1)  # flat, for the hints (a view)
-    last = tab.shape[0] - 1
     for k in range(k0, k1):
         i0 = k * chunk
         i1 = min(n_act, i0 + chunk)
@@ -323,16 +317,6 @@ def _vertex_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_coun
             while p >= ranges[r, 1]:
                 r += 1
                 p = ranges[r, 0]
-            if i + LOOKAHEAD < i1 and st[i + LOOKAHEAD] >= 0:
-                pa = min(p + LOOKAHEAD, last)  # the positions and edge vertices a cell ahead will write
-                own = tab[pa, own_col] & edge_bits
-                while own:
-                    w = _ctz(own)
-                    own &= own - 1
-                    _prefetch_item(ev, tab[pa, nn + w])
-                for j in range(nn):
-                    _prefetch_item(pts, tab[pa, j] * 3)
-                    _prefetch_item(s, tab[pa, j])
             code = st[i]
             if code < 0:
                 p += 1
