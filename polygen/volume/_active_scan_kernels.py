@@ -217,21 +217,6 @@ def _start(roff, i):
     return lo
 
 
-@njit(inline="always")
-def _case_of(tab, p, nn, s, value, faces, vals):
-    """``(case, exact)`` of the cell in row ``p`` (marching._cell_case's, -1: not crossed), values into ``vals``."""
-    case = 0
-    exact = 0
-    for i in range(nn):
-        x = s[tab[p, i]]
-        vals[i] = x
-        if x >= value:
-            case |= 1 << i
-        if x == value:
-            exact |= 1 << i
-    return _ek._face_bits(case, exact, nn, vals, value, faces)
-
-
 @njit
 def _exact_codes(case, exact, vals, value, tri_table, tri_count, local_edges, out):
     """Triangles of a polygon with a node at ``value`` as vertex codes (``ne + i``: node ``i``); returns
@@ -270,7 +255,7 @@ def _count_part(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, l
             while p >= ranges[r, 1]:
                 r += 1
                 p = ranges[r, 0]
-            case, exact = _case_of(tab, p, nn, s, value, faces, vals)
+            case, exact = _ek._values_of(tab, p, nn, s, value, faces, vals)  # a row's first nn: its nodes
             if case < 0:
                 st[i] = NOT_CROSSED
                 p += 1
@@ -492,16 +477,7 @@ def _sum_part(acc, out, v0, v1):
             x += acc[q, v, 0]
             y += acc[q, v, 1]
             z += acc[q, v, 2]
-        ln = np.sqrt(x ** 2 + y ** 2 + z ** 2)
-        if ln > 0.0:
-            x /= ln
-            y /= ln
-            z /= ln
-        out[v, 0] = x
-        out[v, 1] = y
-        out[v, 2] = z
-        if not (abs(x) + abs(y) + abs(z) > 0.0):
-            n_zero += 1
+        n_zero += _m.unit_into(x, y, z, out, v)
     return n_zero
 
 

@@ -1790,19 +1790,7 @@ def gather_tet_parallel(tris, tri_cell, vkey, vend, pos, acc, fcode, fval, count
                             out_nrm[r, d] += fval[t, i, d]
             nz = 0
             for r in range(v_base[u], v_base[u + 1]):
-                x = out_nrm[r, 0]
-                y = out_nrm[r, 1]
-                z = out_nrm[r, 2]
-                ln = np.sqrt(x ** 2 + y ** 2 + z ** 2)
-                if ln > 0.0:
-                    x /= ln
-                    y /= ln
-                    z /= ln
-                out_nrm[r, 0] = x
-                out_nrm[r, 1] = y
-                out_nrm[r, 2] = z
-                if not (abs(x) + abs(y) + abs(z) > 0.0):
-                    nz += 1
+                nz += _m.unit_into(out_nrm[r, 0], out_nrm[r, 1], out_nrm[r, 2], out_nrm, r)
             n_zero[u] = nz
 
 
@@ -1861,11 +1849,4 @@ def mean_normals_parallel(vertices, triangles, out, extra):
             x += extra[p, v, 0]
             y += extra[p, v, 1]
             z += extra[p, v, 2]
-        ln = np.sqrt(x ** 2 + y ** 2 + z ** 2)
-        if ln > 0.0:
-            x /= ln
-            y /= ln
-            z /= ln
-        out[v, 0] = x
-        out[v, 1] = y
-        out[v, 2] = z
+        _m.unit_into(x, y, z, out, v)

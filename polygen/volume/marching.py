@@ -657,26 +657,29 @@ def _normalize(out):
                 out[v, d] /= ln
 
 
+@njit(inline="always")
+def unit_into(x, y, z, out, v):
+    """``out[v] = (x, y, z) / |(x, y, z)|`` (a zero vector as it is), as :func:`_normalize` does in place,
+    bit for bit: the one normalisation of the summed vertex normals; returns 1 where the row is zero (or
+    not finite: :func:`zero_rows` lists it), else 0."""
+    ln = np.sqrt(x ** 2 + y ** 2 + z ** 2)
+    if ln > 0.0:
+        x /= ln
+        y /= ln
+        z /= ln
+    out[v, 0] = x
+    out[v, 1] = y
+    out[v, 2] = z
+    return 0 if abs(x) + abs(y) + abs(z) > 0.0 else 1
+
+
 @njit
 def normalised(sums, out):
-    """``out[v] = sums[v] / |sums[v]|`` for the rows of ``out`` (V, 3) (a zero row copied as it is), as
-    :func:`_normalize` does in place, bit for bit; returns how many rows :func:`zero_rows` would list.
-    ``sums`` (>= V, 3) float64."""
+    """``out[v] = sums[v] / |sums[v]|`` for the rows of ``out`` (V, 3) (:func:`unit_into`); returns how
+    many rows :func:`zero_rows` would list. ``sums`` (>= V, 3) float64."""
     n_zero = 0
     for v in range(out.shape[0]):
-        x = sums[v, 0]
-        y = sums[v, 1]
-        z = sums[v, 2]
-        ln = np.sqrt(x ** 2 + y ** 2 + z ** 2)
-        if ln > 0.0:
-            x /= ln
-            y /= ln
-            z /= ln
-        out[v, 0] = x
-        out[v, 1] = y
-        out[v, 2] = z
-        if not (abs(x) + abs(y) + abs(z) > 0.0):
-            n_zero += 1
+        n_zero += unit_into(sums[v, 0], sums[v, 1], sums[v, 2], out, v)
     return n_zero
 
 
