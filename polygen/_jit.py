@@ -103,7 +103,6 @@ def astype(a, dtype, *, output=False):
 # dropped, and the next query of a similar size takes them from there, already mapped.
 
 
-
 def _default_pool_bytes():
     """A 32nd of the physical memory, between 256 MiB and 2 GiB (256 MiB where it cannot be read).
 

@@ -177,7 +177,7 @@ def test_blocks_from_a_size_on(monkeypatch):
     monkeypatch.setattr(ActiveScan, "BLOCK", 5000)
     blocked = ActiveScan(vol, "fem")
     assert one.block_min.size == 1 and blocked.block_min.size == -(-vol.n_cells // 5000)
-    assert 1 < blocked.lower.size <= 5000 // 128  # a row per 128 cells of a block (equal bounds merge)
+    assert 1 < blocked.lower.size <= 5000 // ActiveScan.ROW  # a row per ROW cells of a block (equal bounds merge)
     for v in isovalues(vol.scalars("fem"), 7):
         assert same_surface(one.extract(v), blocked.extract(v))
 

@@ -650,17 +650,15 @@ def zero_rows(nrm):
 
 @njit
 def _normalize(out):
+    """Each row of ``out`` (V, 3) to unit length in place (:func:`unit_into`; a zero row stays zero)."""
     for v in range(out.shape[0]):
-        ln = np.sqrt(out[v, 0] ** 2 + out[v, 1] ** 2 + out[v, 2] ** 2)
-        if ln > 0.0:
-            for d in range(3):
-                out[v, d] /= ln
+        unit_into(out[v, 0], out[v, 1], out[v, 2], out, v)
 
 
 @njit(inline="always")
 def unit_into(x, y, z, out, v):
-    """``out[v] = (x, y, z) / |(x, y, z)|`` (a zero vector as it is), as :func:`_normalize` does in place,
-    bit for bit: the one normalisation of the summed vertex normals; returns 1 where the row is zero (or
+    """``out[v] = (x, y, z) / |(x, y, z)|`` (a zero vector as it is): the one normalisation of the summed
+    vertex normals (:func:`_normalize` and :func:`normalised` too); returns 1 where the row is zero (or
     not finite: :func:`zero_rows` lists it), else 0."""
     ln = np.sqrt(x ** 2 + y ** 2 + z ** 2)
     if ln > 0.0:
