@@ -78,8 +78,12 @@ def empty(shape, dtype=np.float64):
     None), aligned to 8 bytes at least.
     """
     dtype = np.dtype(dtype)
-    shape = (int(shape),) if np.ndim(shape) == 0 else tuple(int(n) for n in shape)
-    nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+    # (plain Python, not np.ndim and np.prod: a query asks for a handful of arrays, many of them small)
+    if isinstance(shape, (tuple, list)) or (isinstance(shape, np.ndarray) and shape.ndim):
+        shape = tuple(int(n) for n in shape)
+    else:
+        shape = (int(shape),)
+    nbytes = math.prod(shape) * dtype.itemsize
     if nbytes < HUGE_ADVICE_BYTES:
         return np.empty(shape, dtype)
     return _words((nbytes + 7) // 8).view(np.uint8)[:nbytes].view(dtype).reshape(shape)

@@ -177,7 +177,18 @@ def test_blocks_from_a_size_on(monkeypatch):
     monkeypatch.setattr(ActiveScan, "BLOCK", 5000)
     blocked = ActiveScan(vol, "fem")
     assert one.block_min.size == 1 and blocked.block_min.size == -(-vol.n_cells // 5000)
-    assert 1 < blocked.lower.size <= 5000 // ActiveScan.ROW  # a row per ROW cells of a block (equal bounds merge)
+    n_rows = 5000 // ActiveScan.ROW  # a row per ROW cells of a block, bounds of its own
+    assert blocked.lower.shape == (blocked.block_min.size, n_rows)
+    s = vol.scalars("fem")
+    cmin = s[vol.cells].min(axis=1)
+    cell = blocked.table[:, -1]
+    for b, bounds in enumerate(blocked.lower):
+        assert bounds[0] == -np.inf and np.all(np.diff(bounds[np.isfinite(bounds)]) > 0) and np.isfinite(bounds[1])
+        upper = np.append(bounds[1:], np.inf)
+        for r in range(n_rows):  # each cell in the row of its block whose bounds hold its minimum
+            seg = cell[blocked.row_off[b * n_rows + r]:blocked.row_off[b * n_rows + r + 1]]
+            assert np.all(seg // 5000 == b)
+            assert np.all((cmin[seg] >= bounds[r]) & (cmin[seg] < upper[r]))
     for v in isovalues(vol.scalars("fem"), 7):
         assert same_surface(one.extract(v), blocked.extract(v))
 
