@@ -285,9 +285,9 @@ def _walk_start(ranges, roff, i):
     return r, ranges[r, 0] + i - roff[r]
 
 
-@njit(cache=_KCACHE)
-def _count_part(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
-                k0, k1, st, ch):
+@njit(inline="always")
+def _count_part_body(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff,
+                     chunk, k0, k1, st, ch):
     """Pass 1 over chunks ``k0 .. k1``: each active cell's case into ``st`` (by its place in the active
     sequence, ``NOT_CROSSED`` or ``case | exact << 16``); per chunk ``k`` into ``ch[:, k]``: the triangles,
     the vertices of its owned crossed edges, its cells with a node at ``value``, its crossed cells."""
@@ -335,8 +335,27 @@ def _count_part(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, l
 
 
 @njit(cache=_KCACHE)
-def _vertex_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
-                 k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc):
+def _count_part(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
+                k0, k1, st, ch):
+    """Pass 1 (:func:`_count_part_body`) on tetrahedra or hexahedra.
+
+    The body is inlined with the node and edge counts as constants, once per cell type, so that its loops
+    over a cell's nodes and edges are unrolled and the node values kept in registers: the three passes
+    so built took 0.87-0.88 of the generic build's time for 20 values on 2M, 0.88-0.89 on 10M
+    (interleaved sweeps in one process, 2-core Xeon VM). A volume's cells are tetrahedra or hexahedra
+    (:class:`ActiveScan` checks it).
+    """
+    if nn == 4:
+        _count_part_body(tab, 4, 6, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff,
+                         chunk, k0, k1, st, ch)
+    else:
+        _count_part_body(tab, 8, 12, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff,
+                         chunk, k0, k1, st, ch)
+
+
+@njit(inline="always")
+def _vertex_part_body(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
+                      chunk, k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc):
     """Pass 2 over chunks ``k0 .. k1``: each owned crossed edge's vertex (ids from ``v_off[k]``):
     ``ev[edge]``, its position (5.2), its key and, where ``acc`` (P, V, 3) has rows, its normal sums zeroed;
     the cells with a node at ``value`` into ``exact_cells`` (place in ``tab``, ``st``; from ``x_off[k]``)."""
@@ -397,8 +416,20 @@ def _vertex_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_coun
 
 
 @njit(cache=_KCACHE)
-def _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, k0, k1,
-                   st, t_off, ev, nvid, tris, tri_cell, pos, acc):
+def _vertex_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
+                 k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc):
+    """Pass 2 (:func:`_vertex_part_body`) on tetrahedra or hexahedra (see :func:`_count_part`)."""
+    if nn == 4:
+        _vertex_part_body(tab, 4, 6, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
+                          chunk, k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc)
+    else:
+        _vertex_part_body(tab, 8, 12, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
+                          chunk, k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc)
+
+
+@njit(inline="always")
+def _triangle_part_body(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
+                        k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc):
     """Pass 3 over chunks ``k0 .. k1``: each crossed cell's triangles as vertex ids (``ev`` of its edges,
     ``nvid`` of its nodes at ``value``), from ``t_off[k]`` on; with ``acc`` (V, 3) (rows: the mean
     normals are asked for and no node is at ``value``) each triangle's normal
@@ -460,6 +491,18 @@ def _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local
                     tri_cell[t] = c
                     t += 1
             p += 1
+
+
+@njit(cache=_KCACHE)
+def _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, k0, k1,
+                   st, t_off, ev, nvid, tris, tri_cell, pos, acc):
+    """Pass 3 (:func:`_triangle_part_body`) on tetrahedra or hexahedra (see :func:`_count_part`)."""
+    if nn == 4:
+        _triangle_part_body(tab, 4, 6, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
+                            k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc)
+    else:
+        _triangle_part_body(tab, 8, 12, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff,
+                            chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc)
 
 
 @njit(inline="always")
