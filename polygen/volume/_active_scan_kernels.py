@@ -126,7 +126,7 @@ def block_rows(cmin, block, lower, row):
             x = cmin[c]
             lo = 0
             hi = n
-            while hi - lo > 1:  # lower[b, lo] <= x < lower[b, hi]
+            while hi - lo > 1:  # lower[b, lo] <= x < lower[b, hi]; lo stays in 0 .. n - 1 (NaN too: guarded)
                 mid = (lo + hi) >> 1
                 if lower[b, mid] <= x:
                     lo = mid
