@@ -357,14 +357,14 @@ def _count_part(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, l
 def _vertex_part_body(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
                       chunk, k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc):
     """Pass 2 over chunks ``k0 .. k1``: each owned crossed edge's vertex (ids from ``v_off[k]``):
-    ``ev[edge]``, its position (5.2), its key and, where ``acc`` (P, V, 3) has rows, its normal sums zeroed;
+    ``ev[edge]``, its position (5.2), its key and, where ``acc`` (V, 3) has rows, its normal sums zeroed;
     the cells with a node at ``value`` into ``exact_cells`` (place in ``tab``, ``st``; from ``x_off[k]``)."""
     n_act = roff[roff.shape[0] - 1]
     vals = np.empty(nn, np.float64)
     codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
     own_col = nn + ne
     edge_bits = (1 << ne) - 1
-    n_acc = acc.shape[0] if acc.shape[1] > 0 else 0
+    zero = acc.shape[0] > 0
     for k in range(k0, k1):
         i0 = k * chunk
         i1 = min(n_act, i0 + chunk)
@@ -407,10 +407,10 @@ def _vertex_part_body(tab, nn, ne, s, value, points, local_edges, tri_table, tri
                 for d in range(3):
                     pos[v, d] = ((value - c1) * points[nb, d] - (value - c2) * points[na, d]) / (c2 - c1)
                 keys[v] = e
-                for q in range(n_acc):
-                    acc[q, v, 0] = 0.0
-                    acc[q, v, 1] = 0.0
-                    acc[q, v, 2] = 0.0
+                if zero:
+                    acc[v, 0] = 0.0
+                    acc[v, 1] = 0.0
+                    acc[v, 2] = 0.0
                 v += 1
             p += 1
 
@@ -429,7 +429,7 @@ def _vertex_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_coun
 
 @njit(inline="always")
 def _triangle_part_body(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
-                        k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc):
+                        k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side):
     """Pass 3 over chunks ``k0 .. k1``: each crossed cell's triangles as vertex ids (``ev`` of its edges,
     ``nvid`` of its nodes at ``value``), from ``t_off[k]`` on; with ``acc`` (V, 3) (rows: the mean
     normals are asked for and no node is at ``value``) each triangle's normal
@@ -467,16 +467,20 @@ def _triangle_part_body(tab, nn, ne, s, value, tri_table, tri_count, case_mask, 
                     tri_cell[t] = c
                     t += 1
                     if mean:
-                        nx, ny, nz = _m.triangle_normal(pos, i0_, i1_, i2_)
-                        acc[i0_, 0] += nx
-                        acc[i0_, 1] += ny
-                        acc[i0_, 2] += nz
-                        acc[i1_, 0] += nx
-                        acc[i1_, 1] += ny
-                        acc[i1_, 2] += nz
-                        acc[i2_, 0] += nx
-                        acc[i2_, 1] += ny
-                        acc[i2_, 2] += nz
+                        if v0 <= min(i0_, i1_, i2_) and max(i0_, i1_, i2_) < v1:
+                            nx, ny, nz = _m.triangle_normal(pos, i0_, i1_, i2_)
+                            acc[i0_, 0] += nx
+                            acc[i0_, 1] += ny
+                            acc[i0_, 2] += nz
+                            acc[i1_, 0] += nx
+                            acc[i1_, 1] += ny
+                            acc[i1_, 2] += nz
+                            acc[i2_, 0] += nx
+                            acc[i2_, 1] += ny
+                            acc[i2_, 2] += nz
+                        else:
+                            side_t[n_side] = t - 1
+                            n_side += 1
             else:
                 for j in range(nn):
                     vals[j] = s[tab[p, j]]
@@ -491,18 +495,19 @@ def _triangle_part_body(tab, nn, ne, s, value, tri_table, tri_count, case_mask, 
                     tri_cell[t] = c
                     t += 1
             p += 1
+    return n_side
 
 
 @njit(cache=_KCACHE)
 def _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, k0, k1,
-                   st, t_off, ev, nvid, tris, tri_cell, pos, acc):
+                   st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side):
     """Pass 3 (:func:`_triangle_part_body`) on tetrahedra or hexahedra (see :func:`_count_part`)."""
     if nn == 4:
-        _triangle_part_body(tab, 4, 6, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
-                            k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc)
-    else:
-        _triangle_part_body(tab, 8, 12, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff,
-                            chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc)
+        return _triangle_part_body(tab, 4, 6, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff,
+                                   chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t,
+                                   n_side)
+    return _triangle_part_body(tab, 8, 12, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff,
+                               chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side)
 
 
 @njit(inline="always")
@@ -563,40 +568,62 @@ def vertex_pass(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count
                      chunk, k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc)
 
 
+@njit
+def part_cuts(off, n_parts):
+    """The first chunk of each part and the end (``n_parts + 1``): :func:`_cut` by the running counts ``off``."""
+    cuts = np.empty(n_parts + 1, np.int64)
+    for q in range(n_parts + 1):
+        cuts[q] = _cut(off, n_parts, q)
+    return cuts
+
+
 @njit(parallel=True, cache=_KCACHE)
 def triangle_pass(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, st,
-                  t_off, ev, nvid, tris, tri_cell, pos, acc, n_parts):
-    """:func:`_triangle_part` by ``n_parts`` threads, part ``q``'s normal sums into ``acc[q]``."""
+                  t_off, ev, nvid, tris, tri_cell, pos, acc, cuts, v_off, side_t, n_side, n_parts):
+    """:func:`_triangle_part` by ``n_parts`` threads, part ``q`` (chunks ``cuts[q] .. cuts[q + 1]``) adding
+    the normals of its triangles whose corners its chunks made (``v_off``) into ``acc``, the others' ids
+    onto its side list (``side_t`` from ``t_off[cuts[q]]`` on; its length into ``n_side[q]``)."""
     for q in prange(n_parts):
-        k0, k1 = _part_by(t_off, n_parts, q)
-        _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, k0,
-                       k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc[q] if acc.shape[1] > 0 else acc[0, :0])
+        k0, k1 = cuts[q], cuts[q + 1]
+        t0 = t_off[k0]
+        n_side[q] = _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff,
+                                   chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v_off[k0],
+                                   v_off[k1], side_t, t0) - t0
 
 
 @njit
-def _sum_part(acc, out, v0, v1):
-    """``out[v]`` for ``v0 <= v < v1``: the unit sum of the parts' rows ``acc[:, v]`` (as
-    marching.normalised: a zero sum stays zero); returns how many of them are zero (marching.zero_rows)."""
+def _fold_part(acc, out, v0, v1, tris, pos, side_t, t_first, n_side):
+    """Rows ``v0 .. v1`` of ``out``: ``acc``'s rows plus the normals of the side lists' triangles (every
+    part's, in the parts' order) at their corners among these rows, each to unit length
+    (:func:`~polygen.volume.marching.unit_into`: a zero sum stays zero); returns how many are zero
+    (marching.zero_rows)."""
+    for p in range(n_side.shape[0]):
+        for j in range(t_first[p], t_first[p] + n_side[p]):
+            t = side_t[j]
+            nx, ny, nz = _m.triangle_normal(pos, tris[t, 0], tris[t, 1], tris[t, 2])
+            for m in range(3):
+                v = tris[t, m]
+                if v0 <= v < v1:
+                    acc[v, 0] += nx
+                    acc[v, 1] += ny
+                    acc[v, 2] += nz
     n_zero = 0
     for v in range(v0, v1):
-        x = acc[0, v, 0]
-        y = acc[0, v, 1]
-        z = acc[0, v, 2]
-        for q in range(1, acc.shape[0]):
-            x += acc[q, v, 0]
-            y += acc[q, v, 1]
-            z += acc[q, v, 2]
-        n_zero += _m.unit_into(x, y, z, out, v)
+        n_zero += _m.unit_into(acc[v, 0], acc[v, 1], acc[v, 2], out, v)
     return n_zero
 
 
 @njit(parallel=True)
-def sum_normals(acc, out, n_parts):
-    """:func:`_sum_part` over all of ``out`` by ``n_parts`` threads."""
+def fold_normals(acc, out, cuts, v_off, t_off, tris, pos, side_t, n_side):
+    """The mean normals ``out`` from :func:`triangle_pass`'s sums ``acc`` and side lists, each part's
+    vertices by its own thread; returns how many rows are zero."""
+    n_parts = n_side.shape[0]
+    t_first = np.empty(n_parts, np.int64)
+    for q in range(n_parts):
+        t_first[q] = t_off[cuts[q]]
     zeros = np.zeros(n_parts, np.int64)
     for q in prange(n_parts):
-        v0, v1 = _part(out.shape[0], n_parts, q)
-        zeros[q] = _sum_part(acc, out, v0, v1)
+        zeros[q] = _fold_part(acc, out, v_off[cuts[q]], v_off[cuts[q + 1]], tris, pos, side_t, t_first, n_side)
     return zeros.sum()
 
 

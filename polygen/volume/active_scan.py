@@ -79,7 +79,7 @@ __all__ = ["ActiveScan", "ActiveScanMethod"]
 
 _INT32_MAX = np.iinfo(np.int32).max
 #: the normal sums of a query that does not fuse them (no rows)
-_NO_SUMS = np.zeros((1, 0, 3))
+_NO_SUMS = np.zeros((0, 3))
 
 
 class _Scratch:
@@ -270,8 +270,7 @@ class ActiveScan:
         keys = _jit.output_empty(n_vmax, np.int64)
         exact_cells = np.empty((n_x, 2), np.int64)
         fused = normals == "mean" and n_x == 0  # the normal sums ride along with the triangles
-        acc = (sc.buffer("normals", n_parts * n_vmax * 3, np.float64).reshape(n_parts, n_vmax, 3) if fused
-               else _NO_SUMS)
+        acc = sc.buffer("normals", n_vmax * 3, np.float64).reshape(n_vmax, 3) if fused else _NO_SUMS
         if n_ch:
             args = (tab, nn, ne, s, value, self.points, self.local_edges, self.tri_table, self.tri_count,
                     self.case_mask, ranges, roff, chunk, st, off[1], off[2], sc.ev, pos, keys, exact_cells, acc)
@@ -282,9 +281,12 @@ class ActiveScan:
                                    exact_cells, self.n_edges, sc.nvid, gen, n_ev, pos, keys)
         tri = _jit.output_empty((n_t, 3), np.int64)
         tri_cell = _jit.output_empty(n_t, np.int64)
+        cuts = _k.part_cuts(off[0], n_parts)
+        n_side = np.zeros(n_parts, np.int64)
+        side_t = sc.buffer("side", n_t if fused else 0, np.int64)
         if n_ch:
             args = (tab, nn, ne, s, value, self.tri_table, self.tri_count, self.case_mask, self.local_edges, ranges,
-                    roff, chunk, st, off[0], sc.ev, sc.nvid, tri, tri_cell, pos, acc)
+                    roff, chunk, st, off[0], sc.ev, sc.nvid, tri, tri_cell, pos, acc, cuts, off[1], side_t, n_side)
             _k.triangle_pass(*args, n_parts)
         vertices, keys = pos[:n_v], keys[:n_v]
         if n_x:  # a face at C kept once, vertices of polygons collapsed onto nodes dropped (as every method)
@@ -298,7 +300,7 @@ class ActiveScan:
         mean_done = mean_kernel = None
         if fused:
             nrm = _jit.output_empty((n_v, 3))
-            n_zero = _k.sum_normals(acc, nrm, n_parts)
+            n_zero = _k.fold_normals(acc, nrm, cuts, off[1], off[0], tri, vertices, side_t, n_side)
             mean_done = (nrm, int(n_zero))
         elif n_parts > 1 and tri.shape[0] >= self.STAGE3_PARALLEL_TRIANGLES:
             def mean_kernel(v, t, out):
