@@ -535,8 +535,8 @@ def _part_by(off, n_parts, q):
 
 
 # The passes split the chunks into one run of consecutive chunks per thread (not prange over the chunks):
-# each part is one thread's from start to end, so its normal sums go into its own rows and the sums come
-# out the same whatever the scheduler did.
+# each part is one thread's from start to end, so it alone writes the normal sums of the vertices its
+# chunks made, and the sums come out the same whatever the scheduler did.
 @njit(parallel=True, cache=_KCACHE)
 def count_pass(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
                st, ch, off, n_parts):

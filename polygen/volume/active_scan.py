@@ -33,7 +33,10 @@ The three passes:
    (5.2) -- with no search, no hash and no atomic operation. A vertex
    exactly on a node (rare) is numbered after them, serially;
 3. **triangles**: each cell reads its corners from ``ev`` and, for the mean
-   normals, adds its triangles' normals into its thread's sums.
+   normals, adds its triangles' normals into one array of sums shared by the
+   threads: a thread writes only the rows of the vertices its own chunks made,
+   and a triangle with a corner made by another thread's chunks (1.6 % of the
+   corners on 2M) goes on a side list, added afterwards in a fixed order.
 
 Chunks are numbered in the table's order, so the vertices and triangles
 come out in the same order whatever the number of threads. The triangles
