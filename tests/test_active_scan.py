@@ -209,3 +209,76 @@ def test_parts_cut_by_work_tile_the_chunks():
             assert all(a[1] == b[0] for a, b in zip(cuts, cuts[1:])) and all(k0 <= k1 for k0, k1 in cuts)
             share = off[-1] / n_parts
             assert all(off[k1] - off[k0] <= share + counts.max() for k0, k1 in cuts)
+
+
+@pytest.mark.parametrize("block", [1, 7, 5000])
+def test_the_owner_column_against_each_edges_first_cell(block):
+    # brute force: an edge's owner is the smallest id among its cells; the column says which local edges a
+    # cell owns, which are owned in another block, and how many blocks back the earliest owner is
+    from polygen.volume._active_scan_kernels import FOREIGN, REACH, REACH_MAX
+
+    vol = datasets.load("data2")
+    scan = ActiveScan(vol, "fem", block=block)
+    ce = vol.cell_edges
+    m, ne = ce.shape
+    first = np.full(vol.edges.shape[0], m, np.int64)
+    np.minimum.at(first, ce.ravel(), np.repeat(np.arange(m), ne))
+    cell = scan.table[:, -1]
+    col = scan.table[:, scan.nn + scan.ne].astype(np.int64)
+    owner = first[ce[cell]]  # (M, ne), in the table's order
+    blk = cell // block
+    back = blk[:, None] - owner // block
+    w = np.arange(ne)
+    np.testing.assert_array_equal((col[:, None] >> w) & 1, owner == cell[:, None])
+    np.testing.assert_array_equal((col[:, None] >> (FOREIGN + w)) & 1, back > 0)
+    np.testing.assert_array_equal(col >> REACH, np.minimum(back.max(axis=1), REACH_MAX))
+    if block == 1:
+        assert np.any(col >> REACH == REACH_MAX)  # saturated: the triangle pass then defers by the bits
+
+
+def _parts_last_first(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
+                      chunk, block, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, cuts,
+                      side_t, n_side, n_parts):
+    """fused_pass's parts one after the other, the last first, with ``ev`` spoiled before: a part that used a
+    vertex another part (or a block it has not done) makes would read -1."""
+    from polygen.volume import _active_scan_kernels as _k
+
+    ev.fill(-1)
+    for q in reversed(range(n_parts)):
+        n_side[q] = _k._fused_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask,
+                                   ranges, roff, chunk, block, cuts[q], cuts[q + 1], st, v_off, t_off, ev, nvid,
+                                   pos, keys, exact_cells, tris, tri_cell, acc, side_t)
+
+
+@pytest.mark.parametrize("normals", ["mean", "gradient", None])
+def test_block_by_block_passes_give_the_arrays_of_the_separate_passes(normals, monkeypatch):
+    # fused_pass makes each block's vertices then its triangles; a triangle whose corner another part (or a
+    # block not yet done) makes waits on the side list. Any number of parts -- more than the cores, cuts in
+    # the middle of blocks, run in any order -- must give the separate passes' arrays, and the normals up
+    # to rounding
+    from polygen.volume import _active_scan_kernels as _k
+
+    vol = datasets.load("data2")
+    values = isovalues(vol.scalars("fem"), 5)
+    parallel = _k.fused_pass
+    for block, chunk in ((500, 37), (3000, 256), (vol.n_cells, 64)):
+        scan = ActiveScan(vol, "fem", block=block, chunk=chunk)
+        deferred = 0
+        for n_parts in (1, 2, 3, 5):
+            for v in values:
+                monkeypatch.setattr(ActiveScan, "FUSED", False)
+                a, _ = scan._extract(v, normals, scan.node_gradients(), scan._scratch, n_parts)
+                monkeypatch.setattr(ActiveScan, "FUSED", True)
+                for fused_pass in (parallel, _parts_last_first):
+                    monkeypatch.setattr(_k, "fused_pass", fused_pass)
+                    b, stats = scan._extract(v, normals, scan.node_gradients(), scan._scratch, n_parts)
+                    for x, y in zip(arrays(a), arrays(b)):
+                        np.testing.assert_array_equal(x, y)
+                    if normals is not None:
+                        np.testing.assert_allclose(a.normals, b.normals, atol=1e-12, rtol=0)
+                if n_parts > 1 and block < vol.n_cells:
+                    deferred += stats["side"]
+                if n_parts == 2:
+                    assert same_surface(b, extract(vol, v, field="fem", normals=normals), normals_atol=1e-9)
+        if block < vol.n_cells:
+            assert deferred > 0  # the side list was exercised

@@ -15,6 +15,9 @@ of ``tab`` is
 ``tab[p, nn+ne]``
     bit ``w``: the cell *owns* its local edge ``w`` (it is the first cell
     of the edge): the one cell that makes the vertex of a crossed edge;
+    bit ``FOREIGN + w``: that owner lies in another (an earlier) block;
+    bits ``REACH ..``: how many blocks before the cell's own the earliest
+    owner of its edges lies (at most ``REACH_MAX``: that many or more);
 ``tab[p, nn+ne+1]``
     the cell's id.
 
@@ -24,8 +27,13 @@ finds them by one binary search per row over ``cmx`` (the maxima, float32
 rounded up: a cell may be tested for nothing, none is missed). The ranges,
 seen as one sequence, are cut into chunks of ``chunk`` cells that the
 threads take: three passes (count, vertices, triangles), each over the
-chunks in parallel, and the numbering by chunk makes the output the same
+chunks in parallel -- on a volume in blocks the last two block by block
+(:func:`fused_pass`) -- and the numbering by chunk makes the output the same
 whatever the thread count.
+
+The passes step from range to range with the same four lines written out in
+each: as one inline helper returning ``(r, p)`` a 2M sweep took 1.2 times as
+long (numba 0.68, one process, interleaved).
 """
 
 import numpy as np
@@ -37,6 +45,12 @@ from polygen.volume._intrinsics import _KCACHE, _ctz, _prefetch_item
 
 #: ``st`` of a cell the value does not cross
 NOT_CROSSED = -1
+#: the table's owner column: bit ``FOREIGN + w``, the owner of the cell's local edge ``w`` is in another block;
+#: from bit ``REACH`` (7 bits): how many blocks back the earliest owner of the cell's edges is (``REACH_MAX``:
+#: that many or more)
+FOREIGN = 12
+REACH = 24
+REACH_MAX = 127
 #: how many ranges ahead a pass hints the first rows of (:func:`_ask_range`): the one prefetch hint left
 #: (2M, 20 values, in one process: 0.96-0.975 of the time without it; 10M 0.98; data4 0.98)
 RANGES_AHEAD = 2
@@ -65,23 +79,32 @@ def cell_extremes(cells, s, cmin, cmax):
 
 
 @njit
-def edge_owners(cell_edges, n_edges, own):
-    """``own[c]`` bit ``w``: cell ``c`` is the first cell of its local edge ``w`` (each edge has one owner).
+def edge_owners(cell_edges, n_edges, block, first, own):
+    """``own[c]``: the table's owner column (see the module docstring) of cell ``c``: bit ``w``, ``c`` is
+    the first cell of its local edge ``w`` (each edge has one owner, the cell that makes its vertex); bit
+    ``FOREIGN + w``, the edge's owner is in another block of ``block`` consecutive cells (an earlier one:
+    the owner is the edge's first cell); from bit ``REACH``, how many blocks back the earliest owner of the
+    cell's edges is (at most ``REACH_MAX``). ``first`` (n_edges): scratch, each edge's owner.
 
     Returns the number of edges without a cell (0 for a volume's own edge table).
     """
-    seen = np.zeros(n_edges, np.uint8)
+    first[:] = -1
     for c in range(cell_edges.shape[0]):
         bits = 0
+        b = c // block
+        back = 0
         for w in range(cell_edges.shape[1]):
             e = cell_edges[c, w]
-            if seen[e] == 0:
-                seen[e] = 1
+            if first[e] < 0:
+                first[e] = c
                 bits |= 1 << w
-        own[c] = bits
+            elif first[e] // block != b:
+                bits |= 1 << (FOREIGN + w)
+                back = max(back, b - first[e] // block)
+        own[c] = bits | (min(back, REACH_MAX) << REACH)
     missing = 0
     for e in range(n_edges):
-        if seen[e] == 0:
+        if first[e] < 0:
             missing += 1
     return missing
 
@@ -354,65 +377,73 @@ def _count_part(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, l
 
 
 @njit(inline="always")
-def _vertex_part_body(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
-                      chunk, k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc):
-    """Pass 2 over chunks ``k0 .. k1``: each owned crossed edge's vertex (ids from ``v_off[k]``):
-    ``ev[edge]``, its position (5.2), its key and, where ``acc`` (V, 3) has rows, its normal sums zeroed;
-    the cells with a node at ``value`` into ``exact_cells`` (place in ``tab``, ``st``; from ``x_off[k]``)."""
-    n_act = roff[roff.shape[0] - 1]
-    vals = np.empty(nn, np.float64)
-    codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+def _vertex_range(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, i0, i1, r, p,
+                  st, v, x, ev, pos, keys, exact_cells, acc, vals, codes):
+    """Pass 2 over the active cells ``i0 .. i1`` (the first at ``tab`` row ``p`` of range ``r``): each owned
+    crossed edge's vertex, ids from ``v`` on: ``ev[edge]``, its position (5.2), its key and, where ``acc``
+    (V, 3) has rows, its normal sums zeroed; the cells with a node at ``value`` into ``exact_cells``
+    (place in ``tab``, ``st``; from ``x`` on). Returns ``(v, x)`` after them."""
     own_col = nn + ne
     edge_bits = (1 << ne) - 1
     zero = acc.shape[0] > 0
-    for k in range(k0, k1):
-        i0 = k * chunk
-        i1 = min(n_act, i0 + chunk)
-        v = v_off[k]
-        x = x_off[k]
-        r, p = _walk_start(ranges, roff, i0)
-        for i in range(i0, i1):
-            while p >= ranges[r, 1]:
-                r += 1
-                p = ranges[r, 0]
-                _ask_range(tab, ranges, r + RANGES_AHEAD)
-            code = st[i]
-            if code < 0:
-                p += 1
-                continue
-            case = code & 0xFFFF
-            exact = code >> 16
-            if exact == 0:
-                mask = case_mask[case]
-            else:
-                for j in range(nn):
-                    vals[j] = s[tab[p, j]]
-                _, mask = _exact_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
-                exact_cells[x, 0] = p
-                exact_cells[x, 1] = code
-                x += 1
-            bits = mask & tab[p, own_col] & edge_bits
-            while bits:
-                w = _ctz(bits)
-                bits &= bits - 1
-                e = tab[p, nn + w]
-                ev[e] = v
-                a = tab[p, local_edges[w, 0]]
-                b = tab[p, local_edges[w, 1]]
-                na = min(a, b)
-                nb = max(a, b)
-                c1 = s[na]
-                c2 = s[nb]
-                # (5.2) P_c = ((C - C1) P2 - (C - C2) P1) / (C2 - C1)
-                for d in range(3):
-                    pos[v, d] = ((value - c1) * points[nb, d] - (value - c2) * points[na, d]) / (c2 - c1)
-                keys[v] = e
-                if zero:
-                    acc[v, 0] = 0.0
-                    acc[v, 1] = 0.0
-                    acc[v, 2] = 0.0
-                v += 1
+    for i in range(i0, i1):
+        while p >= ranges[r, 1]:
+            r += 1
+            p = ranges[r, 0]
+            _ask_range(tab, ranges, r + RANGES_AHEAD)
+        code = st[i]
+        if code < 0:
             p += 1
+            continue
+        case = code & 0xFFFF
+        exact = code >> 16
+        if exact == 0:
+            mask = case_mask[case]
+        else:
+            for j in range(nn):
+                vals[j] = s[tab[p, j]]
+            _, mask = _exact_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
+            exact_cells[x, 0] = p
+            exact_cells[x, 1] = code
+            x += 1
+        bits = mask & tab[p, own_col] & edge_bits
+        while bits:
+            w = _ctz(bits)
+            bits &= bits - 1
+            e = tab[p, nn + w]
+            ev[e] = v
+            a = tab[p, local_edges[w, 0]]
+            b = tab[p, local_edges[w, 1]]
+            na = min(a, b)
+            nb = max(a, b)
+            c1 = s[na]
+            c2 = s[nb]
+            # (5.2) P_c = ((C - C1) P2 - (C - C2) P1) / (C2 - C1)
+            for d in range(3):
+                pos[v, d] = ((value - c1) * points[nb, d] - (value - c2) * points[na, d]) / (c2 - c1)
+            keys[v] = e
+            if zero:
+                acc[v, 0] = 0.0
+                acc[v, 1] = 0.0
+                acc[v, 2] = 0.0
+            v += 1
+        p += 1
+    return v, x
+
+
+@njit(inline="always")
+def _vertex_part_body(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
+                      chunk, k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc):
+    """Pass 2 over chunks ``k0 .. k1`` (:func:`_vertex_range`; ids from ``v_off[k0]``, ``x_off[k0]``)."""
+    n_act = roff[roff.shape[0] - 1]
+    i0 = k0 * chunk
+    i1 = min(n_act, k1 * chunk)
+    if i0 < i1:
+        vals = np.empty(nn, np.float64)
+        codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+        r, p = _walk_start(ranges, roff, i0)
+        _vertex_range(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, i0, i1,
+                      r, p, st, v_off[k0], x_off[k0], ev, pos, keys, exact_cells, acc, vals, codes)
 
 
 @njit(cache=_KCACHE)
@@ -428,73 +459,121 @@ def _vertex_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_coun
 
 
 @njit(inline="always")
+def _triangle_range(tab, nn, ne, s, value, tri_table, tri_count, local_edges, ranges, i0, i1, r, p, st, t, ev, nvid,
+                    tris, tri_cell, pos, acc, v0, v1, fused, whole, lag, side_t, n_side, vals, codes):
+    """Pass 3 over the active cells ``i0 .. i1`` (the first at ``tab`` row ``p`` of range ``r``): each
+    crossed cell's triangles as vertex ids (``ev`` of its edges, ``nvid`` of its nodes at ``value``), from
+    ``t`` on; with ``acc`` (V, 3) (rows: the mean normals are asked for and no node is at ``value``) each
+    triangle's normal (:func:`~polygen.volume.marching.triangle_normal` of ``pos``) added into its
+    corners' rows where all three are this part's (ids ``v0 .. v1``), else the triangle onto the side list
+    ``side_t[n_side:]``.
+
+    ``fused`` (:func:`_fused_part_body`, no node at ``value``): the cells are one block's, ``whole`` if
+    the part holds all of its active cells, and the part has made the vertices of the ``lag`` blocks before
+    it. A triangle whose vertices may not be made yet -- the block is not whole, or a corner's owner is in
+    an earlier block further back than ``lag`` -- keeps its corners' edge ids and goes onto the side list
+    (:func:`side_normals` looks them up once every vertex is made), and so does one whose corners are not
+    all this part's. Returns ``(t, n_side)`` after them."""
+    cell_col = nn + ne + 1
+    own_col = nn + ne
+    mean = acc.shape[0] > 0
+    for i in range(i0, i1):
+        while p >= ranges[r, 1]:
+            r += 1
+            p = ranges[r, 0]
+            _ask_range(tab, ranges, r + RANGES_AHEAD)
+        code = st[i]
+        if code < 0:
+            p += 1
+            continue
+        case = code & 0xFFFF
+        exact = code >> 16
+        c = tab[p, cell_col]
+        if exact == 0:
+            far = -1  # bit w: the vertex of edge w may not be made yet
+            if whole:
+                own = tab[p, own_col]
+                back = (own >> REACH) & REACH_MAX
+                far = 0 if back < REACH_MAX and back <= lag else (own >> FOREIGN)
+            for j in range(tri_count[case]):
+                w0 = tri_table[case, 3 * j]
+                w1 = tri_table[case, 3 * j + 1]
+                w2 = tri_table[case, 3 * j + 2]
+                e0 = tab[p, nn + w0]
+                e1 = tab[p, nn + w1]
+                e2 = tab[p, nn + w2]
+                tri_cell[t] = c
+                if fused and ((far >> w0) | (far >> w1) | (far >> w2)) & 1:
+                    tris[t, 0] = e0
+                    tris[t, 1] = e1
+                    tris[t, 2] = e2
+                    side_t[n_side] = t
+                    n_side += 1
+                    t += 1
+                    continue
+                i0_ = ev[e0]
+                i1_ = ev[e1]
+                i2_ = ev[e2]
+                if mean and not (v0 <= min(i0_, i1_, i2_) and max(i0_, i1_, i2_) < v1):
+                    if fused:
+                        tris[t, 0] = e0
+                        tris[t, 1] = e1
+                        tris[t, 2] = e2
+                    else:
+                        tris[t, 0] = i0_
+                        tris[t, 1] = i1_
+                        tris[t, 2] = i2_
+                    side_t[n_side] = t
+                    n_side += 1
+                    t += 1
+                    continue
+                tris[t, 0] = i0_
+                tris[t, 1] = i1_
+                tris[t, 2] = i2_
+                t += 1
+                if mean:
+                    nx, ny, nz = _m.triangle_normal(pos, i0_, i1_, i2_)
+                    acc[i0_, 0] += nx
+                    acc[i0_, 1] += ny
+                    acc[i0_, 2] += nz
+                    acc[i1_, 0] += nx
+                    acc[i1_, 1] += ny
+                    acc[i1_, 2] += nz
+                    acc[i2_, 0] += nx
+                    acc[i2_, 1] += ny
+                    acc[i2_, 2] += nz
+        else:
+            for j in range(nn):
+                vals[j] = s[tab[p, j]]
+            kk, _ = _exact_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
+            for j in range(kk):
+                for m in range(3):
+                    w = codes[j, m]
+                    if w < ne:
+                        tris[t, m] = ev[tab[p, nn + w]]
+                    else:
+                        tris[t, m] = nvid[tab[p, w - ne]] & 0xFFFFFFFF
+                tri_cell[t] = c
+                t += 1
+        p += 1
+    return t, n_side
+
+
+@njit(inline="always")
 def _triangle_part_body(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
                         k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side):
-    """Pass 3 over chunks ``k0 .. k1``: each crossed cell's triangles as vertex ids (``ev`` of its edges,
-    ``nvid`` of its nodes at ``value``), from ``t_off[k]`` on; with ``acc`` (V, 3) (rows: the mean
-    normals are asked for and no node is at ``value``) each triangle's normal
-    (:func:`~polygen.volume.marching.triangle_normal` of ``pos``) added into its corners' rows."""
+    """Pass 3 over chunks ``k0 .. k1`` (:func:`_triangle_range`, not fused; ids from ``t_off[k0]``);
+    returns the side list's end."""
     n_act = roff[roff.shape[0] - 1]
-    vals = np.empty(nn, np.float64)
-    codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
-    cell_col = nn + ne + 1
-    mean = acc.shape[0] > 0
-    for k in range(k0, k1):
-        i0 = k * chunk
-        i1 = min(n_act, i0 + chunk)
-        t = t_off[k]
+    i0 = k0 * chunk
+    i1 = min(n_act, k1 * chunk)
+    if i0 < i1:
+        vals = np.empty(nn, np.float64)
+        codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
         r, p = _walk_start(ranges, roff, i0)
-        for i in range(i0, i1):
-            while p >= ranges[r, 1]:
-                r += 1
-                p = ranges[r, 0]
-                _ask_range(tab, ranges, r + RANGES_AHEAD)
-            code = st[i]
-            if code < 0:
-                p += 1
-                continue
-            case = code & 0xFFFF
-            exact = code >> 16
-            c = tab[p, cell_col]
-            if exact == 0:
-                for j in range(tri_count[case]):
-                    i0_ = ev[tab[p, nn + tri_table[case, 3 * j]]]
-                    i1_ = ev[tab[p, nn + tri_table[case, 3 * j + 1]]]
-                    i2_ = ev[tab[p, nn + tri_table[case, 3 * j + 2]]]
-                    tris[t, 0] = i0_
-                    tris[t, 1] = i1_
-                    tris[t, 2] = i2_
-                    tri_cell[t] = c
-                    t += 1
-                    if mean:
-                        if v0 <= min(i0_, i1_, i2_) and max(i0_, i1_, i2_) < v1:
-                            nx, ny, nz = _m.triangle_normal(pos, i0_, i1_, i2_)
-                            acc[i0_, 0] += nx
-                            acc[i0_, 1] += ny
-                            acc[i0_, 2] += nz
-                            acc[i1_, 0] += nx
-                            acc[i1_, 1] += ny
-                            acc[i1_, 2] += nz
-                            acc[i2_, 0] += nx
-                            acc[i2_, 1] += ny
-                            acc[i2_, 2] += nz
-                        else:
-                            side_t[n_side] = t - 1
-                            n_side += 1
-            else:
-                for j in range(nn):
-                    vals[j] = s[tab[p, j]]
-                kk, _ = _exact_codes(case, exact, vals, value, tri_table, tri_count, local_edges, codes)
-                for j in range(kk):
-                    for m in range(3):
-                        w = codes[j, m]
-                        if w < ne:
-                            tris[t, m] = ev[tab[p, nn + w]]
-                        else:
-                            tris[t, m] = nvid[tab[p, w - ne]] & 0xFFFFFFFF
-                    tri_cell[t] = c
-                    t += 1
-            p += 1
+        _, n_side = _triangle_range(tab, nn, ne, s, value, tri_table, tri_count, local_edges, ranges, i0, i1, r, p,
+                                    st, t_off[k0], ev, nvid, tris, tri_cell, pos, acc, v0, v1, False, True, 0,
+                                    side_t, n_side, vals, codes)
     return n_side
 
 
@@ -508,6 +587,68 @@ def _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local
                                    n_side)
     return _triangle_part_body(tab, 8, 12, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff,
                                chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side)
+
+
+@njit(inline="always")
+def _fused_part_body(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
+                     block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, side_t):
+    """Passes 2 and 3 over chunks ``k0 .. k1``, block by block: a block's vertices, then its triangles
+    (:func:`_triangle_range`, fused), while the block's rows of ``ev``, ``pos`` and ``acc`` are still in
+    the core's cache. An edge's owner is its first cell, in the same block or an earlier one, so a block
+    that the part holds whole has made the vertices of every edge whose owner is in it; the triangles with
+    a corner owned elsewhere wait on the side list. Returns the side list's length (from ``t_off[k0]``)."""
+    n_act = roff[roff.shape[0] - 1]
+    n_r = ranges.shape[0]
+    i_beg = k0 * chunk
+    i_end = min(n_act, k1 * chunk)
+    n_side = t_off[k0]
+    if i_beg >= i_end:
+        return 0
+    vals = np.empty(nn, np.float64)
+    codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
+    v0 = v_off[k0]
+    v1 = v_off[k1]
+    v = v0
+    x = 0
+    t = t_off[k0]
+    i = i_beg
+    r, p = _walk_start(ranges, roff, i)
+    done = -1  # the part's first block whose vertices it makes all of
+    while i < i_end:
+        blk = ranges[r, 0] // block  # the ranges of a block are consecutive
+        rs = r
+        while rs > 0 and ranges[rs - 1, 0] // block == blk:
+            rs -= 1
+        re = r
+        while re + 1 < n_r and ranges[re + 1, 0] // block == blk:
+            re += 1
+        g_end = min(i_end, roff[re + 1])
+        whole = roff[rs] >= i_beg and roff[re + 1] <= i_end
+        if done < 0:
+            done = blk if roff[rs] >= i_beg else blk + 1
+        v, x = _vertex_range(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges,
+                             i, g_end, r, p, st, v, x, ev, pos, keys, exact_cells, acc, vals, codes)
+        t, n_side = _triangle_range(tab, nn, ne, s, value, tri_table, tri_count, local_edges, ranges, i, g_end, r,
+                                    p, st, t, ev, nvid, tris, tri_cell, pos, acc, v0, v1, True, whole, blk - done,
+                                    side_t, n_side, vals, codes)
+        i = g_end
+        if i < i_end:
+            r = re + 1
+            p = ranges[r, 0]
+    return n_side - t_off[k0]
+
+
+@njit(cache=_KCACHE)
+def _fused_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
+                block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, side_t):
+    """Passes 2 and 3 (:func:`_fused_part_body`) on tetrahedra or hexahedra (see :func:`_count_part`)."""
+    if nn == 4:
+        return _fused_part_body(tab, 4, 6, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges,
+                                roff, chunk, block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris,
+                                tri_cell, acc, side_t)
+    return _fused_part_body(tab, 8, 12, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
+                            chunk, block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell,
+                            acc, side_t)
 
 
 @njit(inline="always")
@@ -591,22 +732,74 @@ def triangle_pass(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_
                                    v_off[k1], side_t, t0) - t0
 
 
+@njit(parallel=True, cache=_KCACHE)
+def fused_pass(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk, block,
+               st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, cuts, side_t, n_side, n_parts):
+    """:func:`_fused_part` by ``n_parts`` threads (no node at the value), part ``q`` chunks ``cuts[q] ..
+    cuts[q + 1]``, its side list's length into ``n_side[q]`` (see :func:`triangle_pass`); then
+    :func:`side_normals`."""
+    for q in prange(n_parts):
+        n_side[q] = _fused_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges,
+                                roff, chunk, block, cuts[q], cuts[q + 1], st, v_off, t_off, ev, nvid, pos, keys,
+                                exact_cells, tris, tri_cell, acc, side_t)
+
+
+@njit(parallel=True, cache=_KCACHE)
+def side_normals(tris, ev, side_t, cuts, t_off, v_off, n_side, pos, acc, side_n, lookup):
+    """Each part's side list (``side_t`` from ``t_off[cuts[q]]``, ``n_side[q]`` long), by its own thread:
+    with ``lookup`` (:func:`fused_pass`) the triangles' corners from edge ids to vertex ids (``ev``); with
+    ``acc`` (V, 3) (rows: the mean normals) each triangle's normal into ``side_n`` (the parts' lists one
+    after the other) and into the part's own rows of ``acc`` (ids ``v_off[cuts[q]] .. v_off[cuts[q + 1]]``);
+    :func:`fold_normals` adds them into the other parts' rows."""
+    n_parts = n_side.shape[0]
+    mean = acc.shape[0] > 0
+    for q in prange(n_parts):
+        t0 = t_off[cuts[q]]
+        v0 = v_off[cuts[q]]
+        v1 = v_off[cuts[q + 1]]
+        k = 0
+        for p in range(q):
+            k += n_side[p]
+        for j in range(t0, t0 + n_side[q]):
+            t = side_t[j]
+            if lookup:
+                tris[t, 0] = ev[tris[t, 0]]
+                tris[t, 1] = ev[tris[t, 1]]
+                tris[t, 2] = ev[tris[t, 2]]
+            if mean:
+                nx, ny, nz = _m.triangle_normal(pos, tris[t, 0], tris[t, 1], tris[t, 2])
+                side_n[k, 0] = nx
+                side_n[k, 1] = ny
+                side_n[k, 2] = nz
+                for m in range(3):
+                    v = tris[t, m]
+                    if v0 <= v < v1:
+                        acc[v, 0] += nx
+                        acc[v, 1] += ny
+                        acc[v, 2] += nz
+            k += 1
+
+
 @njit
-def _fold_part(acc, out, v0, v1, tris, pos, side_t, t_first, n_side):
-    """Rows ``v0 .. v1`` of ``out``: ``acc``'s rows plus the normals of the side lists' triangles (every
-    part's, in the parts' order) at their corners among these rows, each to unit length
-    (:func:`~polygen.volume.marching.unit_into`: a zero sum stays zero); returns how many are zero
+def _fold_part(acc, out, q, v0, v1, tris, side_t, t_first, n_side, side_n):
+    """Rows ``v0 .. v1`` (part ``q``'s) of ``out``: ``acc``'s rows plus the normals ``side_n`` of the other
+    parts' side lists' triangles (in the parts' order) at their corners among these rows, each to unit
+    length (:func:`~polygen.volume.marching.unit_into`: a zero sum stays zero); returns how many are zero
     (marching.zero_rows)."""
+    k = 0
     for p in range(n_side.shape[0]):
+        if p == q:
+            k += n_side[p]
+            continue
         for j in range(t_first[p], t_first[p] + n_side[p]):
             t = side_t[j]
-            nx, ny, nz = _m.triangle_normal(pos, tris[t, 0], tris[t, 1], tris[t, 2])
             for m in range(3):
                 v = tris[t, m]
                 if v0 <= v < v1:
-                    acc[v, 0] += nx
-                    acc[v, 1] += ny
-                    acc[v, 2] += nz
+                    acc[v, 0] += side_n[k, 0]
+                    acc[v, 1] += side_n[k, 1]
+                    acc[v, 2] += side_n[k, 2]
+            k += 1
     n_zero = 0
     for v in range(v0, v1):
         n_zero += _m.unit_into(acc[v, 0], acc[v, 1], acc[v, 2], out, v)
@@ -614,16 +807,17 @@ def _fold_part(acc, out, v0, v1, tris, pos, side_t, t_first, n_side):
 
 
 @njit(parallel=True)
-def fold_normals(acc, out, cuts, v_off, t_off, tris, pos, side_t, n_side):
-    """The mean normals ``out`` from :func:`triangle_pass`'s sums ``acc`` and side lists, each part's
-    vertices by its own thread; returns how many rows are zero."""
+def fold_normals(acc, out, cuts, v_off, t_off, tris, side_t, n_side, side_n):
+    """The mean normals ``out`` from the sums ``acc`` of :func:`triangle_pass` (or :func:`fused_pass`) and
+    :func:`side_normals`, each part's vertices by its own thread; returns how many rows are zero."""
     n_parts = n_side.shape[0]
     t_first = np.empty(n_parts, np.int64)
     for q in range(n_parts):
         t_first[q] = t_off[cuts[q]]
     zeros = np.zeros(n_parts, np.int64)
     for q in prange(n_parts):
-        zeros[q] = _fold_part(acc, out, v_off[cuts[q]], v_off[cuts[q + 1]], tris, pos, side_t, t_first, n_side)
+        zeros[q] = _fold_part(acc, out, q, v_off[cuts[q]], v_off[cuts[q + 1]], tris, side_t, t_first, n_side,
+                              side_n)
     return zeros.sum()
 
 

@@ -35,8 +35,22 @@ The three passes:
 3. **triangles**: each cell reads its corners from ``ev`` and, for the mean
    normals, adds its triangles' normals into one array of sums shared by the
    threads: a thread writes only the rows of the vertices its own chunks made,
-   and a triangle with a corner made by another thread's chunks (1.6 % of the
-   corners on 2M) goes on a side list, added afterwards in a fixed order.
+   and a triangle with a corner made by another thread's chunks goes on a side
+   list, whose normals are added afterwards in a fixed order.
+
+On a volume in blocks, passes 2 and 3 go **block by block**: each thread makes
+a block's vertices, then its triangles, while the block's rows of ``ev``, the
+positions and the normal sums are still in its core's cache. A triangle may
+then need a vertex not made yet -- one whose owner is in a block another thread
+holds, or in the part of a block cut between two threads -- so the table's
+owner column also says which of a cell's edges are owned in an earlier block
+and how many blocks back the earliest such owner is; a triangle that reaches
+further back than the thread has gone keeps its corners' edge ids and waits on
+the side list, looked up once every vertex is made. Measured (20 values, one
+process, medians of interleaved sweeps, 2-core VM): 0.93 of the separate
+passes' time on 2M (side lists 10 % of the triangles against 3.4 %), 0.89 on
+10M, 1.04 on data4 (nine blocks: the block cut between the two threads is a
+larger share; side lists 24 % of the triangles).
 
 Chunks are numbered in the table's order, so the vertices and triangles
 come out in the same order whatever the number of threads. The triangles
@@ -161,6 +175,9 @@ class ActiveScan:
     BLOCKS_FROM = 2 * BLOCK
     #: cells per row (by default): fewer tested for nothing against more binary searches per query
     ROW = 512
+    #: passes 2 and 3 block by block on a volume in blocks (see the module docstring); False: one after the
+    #: other over all the active cells (the same arrays, for comparison)
+    FUSED = True
 
     def __init__(self, vol, field=None, *, rows=None, chunk=1024, block=None):
         points, cells, s, cell_type = volume_arrays(vol, field)
@@ -218,7 +235,7 @@ class ActiveScan:
         del row
         _k.sort_rows_by_max(order, self.row_off, cmax32)
         own = np.empty(m, np.int32)
-        if _k.edge_owners(cell_edges, self.n_edges, own):
+        if _k.edge_owners(cell_edges, self.n_edges, self.block, np.empty(self.n_edges, idx), own):
             raise IsoSurfaceError("the volume's edge table has edges without a cell")  # pragma: no cover
         self.table = _jit.empty((m, self.nn + self.ne + 2), idx)
         self.cmx = _jit.empty(m, np.float32)
@@ -272,9 +289,20 @@ class ActiveScan:
         pos = _jit.output_empty((n_vmax, 3))
         keys = _jit.output_empty(n_vmax, np.int64)
         exact_cells = np.empty((n_x, 2), np.int64)
-        fused = normals == "mean" and n_x == 0  # the normal sums ride along with the triangles
-        acc = sc.buffer("normals", n_vmax * 3, np.float64).reshape(n_vmax, 3) if fused else _NO_SUMS
-        if n_ch:
+        sums = normals == "mean" and n_x == 0  # the normal sums ride along with the triangles
+        acc = sc.buffer("normals", n_vmax * 3, np.float64).reshape(n_vmax, 3) if sums else _NO_SUMS
+        tri = _jit.output_empty((n_t, 3), np.int64)
+        tri_cell = _jit.output_empty(n_t, np.int64)
+        cuts = _k.part_cuts(off[0], n_parts)
+        n_side = np.zeros(n_parts, np.int64)
+        # block by block (vertices then triangles) where no node is at the value and the parts hold whole blocks
+        by_block = n_x == 0 and (n_parts == 1 or self.table.shape[0] > self.block) and self.FUSED
+        side_t = sc.buffer("side", n_t if sums or by_block else 0, np.int64)
+        if n_ch and by_block:
+            _k.fused_pass(tab, nn, ne, s, value, self.points, self.local_edges, self.tri_table, self.tri_count,
+                          self.case_mask, ranges, roff, chunk, self.block, st, off[1], off[0], sc.ev, sc.nvid, pos,
+                          keys, exact_cells, tri, tri_cell, acc, cuts, side_t, n_side, n_parts)
+        elif n_ch:
             args = (tab, nn, ne, s, value, self.points, self.local_edges, self.tri_table, self.tri_count,
                     self.case_mask, ranges, roff, chunk, st, off[1], off[2], sc.ev, pos, keys, exact_cells, acc)
             _k.vertex_pass(*args, n_parts)
@@ -282,15 +310,14 @@ class ActiveScan:
         if n_x:
             n_v = _k.node_vertices(tab, nn, s, value, self.points, self.tri_table, self.tri_count, self.local_edges,
                                    exact_cells, self.n_edges, sc.nvid, gen, n_ev, pos, keys)
-        tri = _jit.output_empty((n_t, 3), np.int64)
-        tri_cell = _jit.output_empty(n_t, np.int64)
-        cuts = _k.part_cuts(off[0], n_parts)
-        n_side = np.zeros(n_parts, np.int64)
-        side_t = sc.buffer("side", n_t if fused else 0, np.int64)
-        if n_ch:
+        if n_ch and not by_block:
             args = (tab, nn, ne, s, value, self.tri_table, self.tri_count, self.case_mask, self.local_edges, ranges,
                     roff, chunk, st, off[0], sc.ev, sc.nvid, tri, tri_cell, pos, acc, cuts, off[1], side_t, n_side)
             _k.triangle_pass(*args, n_parts)
+        side_n = _NO_SUMS
+        if n_ch and (sums or by_block):  # the side lists: their corners (by_block), their normals (sums)
+            side_n = sc.buffer("side_normals", 3 * int(n_side.sum()) if sums else 0, np.float64).reshape(-1, 3)
+            _k.side_normals(tri, sc.ev, side_t, cuts, off[0], off[1], n_side, pos, acc, side_n, by_block)
         vertices, keys = pos[:n_v], keys[:n_v]
         if n_x:  # a face at C kept once, vertices of polygons collapsed onto nodes dropped (as every method)
             tri, tri_cell = drop_double_faces(keys, tri, tri_cell, self.n_edges)
@@ -301,9 +328,9 @@ class ActiveScan:
 
         t0 = time.perf_counter()
         mean_done = mean_kernel = None
-        if fused:
+        if sums:
             nrm = _jit.output_empty((n_v, 3))
-            n_zero = _k.fold_normals(acc, nrm, cuts, off[1], off[0], tri, vertices, side_t, n_side)
+            n_zero = _k.fold_normals(acc, nrm, cuts, off[1], off[0], tri, side_t, n_side, side_n)
             mean_done = (nrm, int(n_zero))
         elif n_parts > 1 and tri.shape[0] >= self.STAGE3_PARALLEL_TRIANGLES:
             def mean_kernel(v, t, out):
@@ -312,7 +339,7 @@ class ActiveScan:
                              node_grad=node_grad, points=self.points, mean_kernel=mean_kernel, mean_done=mean_done)
         t3 = time.perf_counter() - t0
         stats = {"active": n_act, "crossed": n_crossed, "ranges": n_r, "chunks": n_ch, "node_cells": n_x,
-                 "threads": n_parts}
+                 "threads": n_parts, "side": int(n_side.sum())}
         return IsoSurface(
             value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell,
             cells_tested=n_act, cells_intersected=n_crossed, vertex_lookups=0, t1=t1, t2=t2, t3=t3,
