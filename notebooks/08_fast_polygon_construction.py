@@ -396,7 +396,7 @@ if len(rows_b) >= 2:
 #   their minimum, each row sorted by maximum. The cells a value crosses are then a prefix of
 #   every row below the value: one binary search per row;
 # * the table holds each cell's nodes and edge ids in that order, so the scan streams through it;
-#   on a volume of 131,072 cells or more the order is kept per **block** of 65,536 consecutive cells
+#   on a volume of 32,768 cells or more the order is kept per **block** of 16,384 consecutive cells
 #   (neighbours in the volume), so that a query's reads of node values and vertices stay near each other,
 #   each block with rows of its own (equally filled by its cells' minima);
 # * every edge has one **owner**, its first cell, fixed when the table is built. Every cell of a

@@ -82,7 +82,8 @@ def test_tests_the_crossed_cells_and_at_most_one_row_more():
     vol = datasets.load("data2")
     s = np.round(vol.scalars("fem") * 64) / 64
     vol.add_field("q", s)
-    for rows, block in ((1, None), (7, None), (64, None), (3, 5000), (16, 997)):
+    one = vol.n_cells  # one block
+    for rows, block in ((1, one), (7, one), (64, one), (3, 5000), (16, 997)):
         scan = ActiveScan(vol, "q", rows=rows, block=block)
         n_blocks = scan.block_min.size
         widest = int(np.diff(scan.row_off).max())  # one segment: a row of one block
@@ -91,8 +92,8 @@ def test_tests_the_crossed_cells_and_at_most_one_row_more():
             crossed = int(np.sum((s[vol.cells].min(axis=1) < v) & (s[vol.cells].max(axis=1) >= v)))
             assert iso.cells_intersected == crossed
             assert crossed <= iso.cells_tested <= crossed + n_blocks * widest
-        assert n_blocks == (1 if block is None else -(-vol.n_cells // block))
-        if rows == 1 and block is None:
+        assert n_blocks == -(-vol.n_cells // block)
+        if rows == 1 and block == one:
             assert widest == vol.n_cells
 
 
@@ -172,6 +173,7 @@ def test_values_outside_the_field_give_empty_surfaces():
 def test_blocks_from_a_size_on(monkeypatch):
     # one block below BLOCKS_FROM cells, blocks of BLOCK cells from there: the same surfaces either way
     vol = datasets.load("data2")
+    monkeypatch.setattr(ActiveScan, "BLOCKS_FROM", vol.n_cells + 1)
     one = ActiveScan(vol, "fem")
     monkeypatch.setattr(ActiveScan, "BLOCKS_FROM", vol.n_cells)
     monkeypatch.setattr(ActiveScan, "BLOCK", 5000)

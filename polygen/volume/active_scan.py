@@ -47,7 +47,7 @@ owner column also says which of a cell's edges are owned in an earlier block
 and how many blocks back the earliest such owner is; a triangle that reaches
 further back than the thread has gone keeps its corners' edge ids and waits on
 the side list, looked up once every vertex is made. Measured (20 values, one
-process, medians of interleaved sweeps, 2-core VM): 0.93 of the separate
+process, medians of interleaved sweeps, 2-core VM, blocks of 65,536 cells): 0.93 of the separate
 passes' time on 2M (side lists 10 % of the triangles against 3.4 %), 0.89 on
 10M, 1.04 on data4 (nine blocks: the block cut between the two threads is a
 larger share; side lists 24 % of the triangles).
@@ -163,7 +163,7 @@ class ActiveScan:
     #: from this many triangles up the mean normals are summed by all threads (as the edge-centred method)
     STAGE3_PARALLEL_TRIANGLES = 20_000
     #: cells per block of a volume of ``BLOCKS_FROM`` cells or more (``block=None``)
-    BLOCK = 65536
+    BLOCK = 16384
     #: Blocks keep a query's reads of node values, positions and edge vertices near each other (a
     #: block's cells are neighbours in the volume's order), at the price of more, shorter ranges and a
     #: row per block tested for nothing. Measured (20 values, medians of interleaved sweeps, one process):
@@ -171,7 +171,10 @@ class ActiveScan:
     #: against 43-44 ms with blocks of 8192-131072 cells and a row per 128 cells (15,000 segments, searched
     #: serially then); on a 2-core Intel Xeon VM (2 MiB L2, 37 ns at 4 MB, 69 ns at 16 MB) blocks of 65536
     #: cells with 128 rows each took 0.88 of one block's time on data3 and data4, 0.88-0.90 on 2M, and 0.95
-    #: of blocks of 8192 cells on 10M (fewer segments, fewer cells tested for nothing).
+    #: of blocks of 8192 cells on 10M (fewer segments, fewer cells tested for nothing). Once passes 2 and 3
+    #: went block by block (:attr:`FUSED`), smaller blocks paid (Intel Xeon VM, 4 MiB L2; blocks of 16384
+    #: cells against 65536): data2 0.95 (against one block), data3 0.95-0.975, data4 0.91, 2M 0.97, 10M
+    #: 0.92, hexa3 0.88 of the time; blocks of 8192 against 16384: data4 1.04, 2M 1.06, 10M 1.02.
     BLOCKS_FROM = 2 * BLOCK
     #: cells per row (by default): fewer tested for nothing against more binary searches per query
     ROW = 512
@@ -212,7 +215,7 @@ class ActiveScan:
             block = self.BLOCK if m >= self.BLOCKS_FROM else max(1, m)
         self.block = int(block)
         n_blocks = -(-m // self.block) if m else 0
-        if rows is None:  # a row per ROW cells of a block, at most 4096 (blocks of 65536 cells: 128)
+        if rows is None:  # a row per ROW cells of a block, at most 4096 (blocks of 16384 cells: 32)
             rows = min(4096, max(1, min(m, self.block) // self.ROW))
         # each block's row bounds: equally filled by its cells' minima (from a sample of them)
         self.lower = np.empty((n_blocks, int(rows)))
