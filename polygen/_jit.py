@@ -7,6 +7,8 @@ for example on a read-only install.
 """
 
 import bisect
+import ctypes
+import errno
 import math
 import operator
 import os
@@ -240,6 +242,8 @@ if hasattr(os, "register_at_fork"):
 # pages that are there; safe while other threads read and write the range (it is what khugepaged
 # does to running processes). One 2 MiB page maps what takes 512 entries of 4 KiB in the TLB.
 _MADV_COLLAPSE = 25
+#: tries of one collapse that the kernel calls a transient failure (``EAGAIN``) before the array keeps its pages
+COLLAPSE_TRIES = 3
 HUGE_PAGE_BYTES = 1 << 21
 _madvise = None
 
@@ -262,8 +266,6 @@ def collapse_to_huge_pages(a):
     if a.nbytes < HUGE_PAGE_BYTES or not a.flags.c_contiguous or not os.uname().sysname == "Linux":
         return 0
     if _madvise is None:
-        import ctypes
-
         try:
             libc = ctypes.CDLL(None, use_errno=True)
             fn = libc.madvise
@@ -279,4 +281,9 @@ def collapse_to_huge_pages(a):
     hi = (a.ctypes.data + a.nbytes) // HUGE_PAGE_BYTES * HUGE_PAGE_BYTES
     if hi <= lo:
         return 0
-    return hi - lo if _madvise(lo, hi - lo, _MADV_COLLAPSE) == 0 else 0
+    for _ in range(COLLAPSE_TRIES):  # EAGAIN: a transient failure (a page could not be locked): again
+        if _madvise(lo, hi - lo, _MADV_COLLAPSE) == 0:
+            return hi - lo
+        if ctypes.get_errno() != errno.EAGAIN:
+            break
+    return 0

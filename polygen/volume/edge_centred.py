@@ -252,8 +252,11 @@ def _aligned_records(m, width):
 
 
 def _collapse_all(arrays):
-    """:func:`polygen._jit.collapse_to_huge_pages` on each array, in a :meth:`EdgeCentredTable.settle` thread."""
-    threading.current_thread().collapsed = sum(_jit.collapse_to_huge_pages(a) for a in arrays)
+    """:func:`polygen._jit.collapse_to_huge_pages` on each array, in a :meth:`EdgeCentredTable.settle` thread:
+    the bytes collapsed, each array's (``collapsed_each``) and in all (``collapsed``)."""
+    t = threading.current_thread()
+    t.collapsed_each = [_jit.collapse_to_huge_pages(a) for a in arrays]
+    t.collapsed = sum(t.collapsed_each)
 
 
 def _drop_at_nodes(any_node, tri, tri_cell, keys, vend, n_edges):
