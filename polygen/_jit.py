@@ -20,6 +20,42 @@ import numpy as np
 CACHE = os.environ.get("POLYGEN_NUMBA_CACHE", "1") != "0"
 prange = numba.prange
 
+# ------------------------------------------------------------------ poison mode (tests)
+#: ``POLYGEN_POISON=1``: every buffer handed out here (:func:`scratch`, :func:`empty`, :func:`output_empty`)
+#: is filled with a sentinel before use (NaN for floats, the largest value for integers, True for bools),
+#: and a pooled buffer is filled again when it is given back. A wrapper or kernel that reads an element
+#: nobody wrote then meets a value no algorithm makes -- an out-of-bounds index, a NaN vertex -- instead
+#: of whatever the allocator left there, which is usually plausible. CI runs the volume tests so.
+POISON = os.environ.get("POLYGEN_POISON", "0") not in ("", "0")
+
+
+def poison(a):
+    """Fill ``a`` with its dtype's sentinel (see :data:`POISON`); returns ``a``."""
+    kind = a.dtype.kind
+    if kind in "fc":
+        a.fill(np.nan)
+    elif kind in "iu":
+        a.fill(np.iinfo(a.dtype).max)
+    elif kind == "b":
+        a.fill(True)
+    else:  # pragma: no cover - no other dtype is allocated here
+        a.view(np.uint8).fill(0x7F)
+    return a
+
+
+def _poisoned_empty(shape, dtype=np.float64, order="C"):
+    return poison(np.empty(shape, dtype, order))
+
+
+def _poisoned_empty_like(a, dtype=None, order="K", subok=True, shape=None):
+    return poison(np.empty_like(a, dtype, order, subok, shape))
+
+
+#: ``numpy.empty`` for the wrappers' scratch arrays and outputs (:func:`_poisoned_empty` in poison mode)
+scratch = _poisoned_empty if POISON else np.empty
+#: ``numpy.empty_like``, likewise
+scratch_like = _poisoned_empty_like if POISON else np.empty_like
+
 
 def njit(fn=None, **kwargs):
     """``numba.njit`` with polygen's defaults (``cache=True, nogil=True``).
@@ -87,8 +123,9 @@ def empty(shape, dtype=np.float64):
         shape = (int(shape),)
     nbytes = math.prod(shape) * dtype.itemsize
     if nbytes < HUGE_ADVICE_BYTES:
-        return np.empty(shape, dtype)
-    return _words((nbytes + 7) // 8).view(np.uint8)[:nbytes].view(dtype).reshape(shape)
+        return scratch(shape, dtype)
+    out = _words((nbytes + 7) // 8).view(np.uint8)[:nbytes].view(dtype).reshape(shape)
+    return poison(out) if POISON else out
 
 
 def astype(a, dtype, *, output=False):
@@ -177,6 +214,8 @@ def _give_back(buffer, address, size_class):
     """
     if buffer.nbytes > OUTPUT_POOL_BYTES or not _pool_lock.acquire(blocking=False):
         return
+    if POISON:  # an array that outlived its buffer's release reads the sentinel, not a later surface
+        buffer.view(np.uint8).fill(0x7F)
     try:
         _pool.append((size_class, buffer, address))
         _pool_held[0] += buffer.nbytes
@@ -217,7 +256,8 @@ def output_empty(shape, dtype=np.float64):
         buffer = _words(cap // 8)
         address = buffer.ctypes.data
         pool_stats["allocated"] += 1
-    return np.asarray(_Lease(buffer, address, k, shape, dtype.str))
+    out = np.asarray(_Lease(buffer, address, k, shape, dtype.str))
+    return poison(out) if POISON else out
 
 
 def release_output_pool():

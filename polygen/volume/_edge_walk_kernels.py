@@ -32,7 +32,13 @@ Both walks find every cell around the edge (node) when the cells around it
 are connected through faces, which holds in any conforming mesh of a
 3-manifold with boundary (the walk is how the cells around an edge are
 defined there). At a non-manifold edge (two parts touching along an edge
-only) the walk finds the cells of one side.
+only: a partition's Morton range of cells often does) the walk finds the
+cells of one side only, and the other side makes the vertex again; at a
+non-manifold node the flood fill does the same. Such an edge lies on the
+boundary, so its walk ends at the boundary both ways: the kernel lists
+every vertex whose walk did (and every vertex on a node), and the caller
+merges the vertices of that short list that share a key
+(:func:`merge_open_duplicates`). A manifold volume has none to merge.
 
 The vertex keys are the edge's end nodes (:func:`._vertex_hash.pair_key`),
 not edge ids: no edge is numbered.
@@ -45,6 +51,7 @@ searching variant that shows the look-up counter is live.
 
 import numpy as np
 
+from polygen import _jit
 from polygen._jit import njit
 from polygen.volume import marching as _m
 from polygen.volume._edge_centred_kernels import (
@@ -64,8 +71,8 @@ from polygen.volume._vertex_hash import get, get_or_add, pair_key, shift_of
 OK, FULL_QUEUE, FULL_TRIANGLES, FULL_VERTICES, FULL_HASH, FULL_AROUND, BAD_MESH = 0, 1, 2, 3, 4, 5, 6
 #: counters written by :func:`construct` (indices into ``counters``)
 (C_POPS, C_VISITS, C_TOUCHED, C_CONSTRUCTED, C_NODE_TESTS, C_NODE_VERTICES, C_LOOKUPS, C_PROBES,
- C_WALK_STEPS, C_BAD_CELL) = range(10)
-N_COUNTERS = 10
+ C_WALK_STEPS, C_BAD_CELL, C_OPEN) = range(11)
+N_COUNTERS = 11
 #: a walk around one edge longer than this means a broken mesh
 MAX_RING = 1 << 16
 
@@ -84,7 +91,7 @@ def walk_tables(local_edges, local_faces):
     """
     ne = local_edges.shape[0]
     nn = int(local_edges.max()) + 1
-    edge_faces = np.empty((ne, 2), np.int64)
+    edge_faces = _jit.scratch((ne, 2), np.int64)
     for e, (a, b) in enumerate(local_edges):
         f = [k for k, face in enumerate(local_faces) if a in face and b in face]
         assert len(f) == 2
@@ -92,7 +99,7 @@ def walk_tables(local_edges, local_faces):
     edge_of = np.full((nn, nn), -1, np.int64)
     for e, (a, b) in enumerate(local_edges):
         edge_of[a, b] = edge_of[b, a] = e
-    node_faces = np.empty((nn, 3), np.int64)
+    node_faces = _jit.scratch((nn, 3), np.int64)
     for i in range(nn):
         f = [k for k, face in enumerate(local_faces) if i in face]
         assert len(f) == 3
@@ -218,8 +225,8 @@ def _node_vertex(rec, dyn, ds, nn, on, n_slots, ne, s, value, faces, node_faces,
 
 @njit
 def construct(rec, dyn, ds, nn, nf, n_points, s, value, faces, tri_table, tri_count, case_mask, local_edges, edge_faces,
-              edge_of, node_faces, gen, queue, n_queued, lifo, tris, tri_cell, vkey, vend, around, around_local,
-              search, htable, counters):
+              edge_of, node_faces, gen, queue, n_queued, lifo, tris, tri_cell, vkey, vend, open_v, around,
+              around_local, search, htable, counters):
     """t2: the cell-edge-centred construction, the cells around an edge found by walking (Fig. 5).
 
     As :func:`._edge_centred_kernels.construct`, with the records of this
@@ -229,7 +236,11 @@ def construct(rec, dyn, ds, nn, nf, n_points, s, value, faces, tri_table, tri_co
     :func:`._vertex_hash.get_or_add`) when its triangles are written, instead of being read from
     its slot; the look-ups and the slots probed are counted
     (``counters[C_LOOKUPS]``, ``counters[C_PROBES]``). Without it the
-    kernel makes no look-up and counts none.
+    kernel makes no look-up and counts none. ``open_v`` (as long as
+    ``vkey``) receives the vertices whose edge walk ended at the boundary
+    both ways, and those on a node, in creation order
+    (``counters[C_OPEN]`` of them): the only ones a non-manifold edge or
+    node can make twice.
 
     Returns ``(status, n_polygons, n_triangles, n_vertices,
     any_node_vertex)``; ``status`` other than ``OK`` names the buffer that
@@ -260,6 +271,7 @@ def construct(rec, dyn, ds, nn, nf, n_points, s, value, faces, tri_table, tri_co
     lookups = 0
     probes = 0
     steps = 0
+    n_open = 0
     while head < tail:  # for-loop (1): cells taken from the FIFO
         if lifo:
             tail -= 1
@@ -337,6 +349,9 @@ def construct(rec, dyn, ds, nn, nf, n_points, s, value, faces, tri_table, tri_co
                         prev = j
                     if nxt == c:  # round the edge and back: an inner edge, every cell seen
                         break
+                if nxt != c:  # a boundary edge: another side may touch it (a non-manifold edge)
+                    open_v[n_open] = v
+                    n_open += 1
                 visits += around_n
                 steps += around_n - 1
             else:  # a crossing exactly on a node: shared by every cell around the node
@@ -345,6 +360,8 @@ def construct(rec, dyn, ds, nn, nf, n_points, s, value, faces, tri_table, tri_co
                 vend[v, 0] = node
                 vend[v, 1] = node
                 node_vertices += 1
+                open_v[n_open] = v  # the flood fill stops at a non-manifold node as the walk does at an edge
+                n_open += 1
                 status, tail, n_around, tested, made = _node_vertex(
                     rec, dyn, ds, nn, on, n_slots, ne, s, value, faces, node_faces, c, node, v, gen, queue, tail,
                     around, around_local)
@@ -387,4 +404,35 @@ def construct(rec, dyn, ds, nn, nf, n_points, s, value, faces, tri_table, tri_co
     counters[C_LOOKUPS] = lookups
     counters[C_PROBES] = probes
     counters[C_WALK_STEPS] = steps
+    counters[C_OPEN] = n_open
     return OK, n_p, n_t, n_v, node_vertices > 0
+
+
+def merge_open_duplicates(open_v, tris, vkey, vend):
+    """Vertices made twice at a non-manifold edge or node, merged: ``(tris, vkey, vend, n_merged)``.
+
+    ``open_v`` (ascending vertex ids): the vertices :func:`construct` listed
+    (a walk that ended at the boundary both ways, or a node). Among them,
+    those that share a key are one vertex made once per side; each later
+    copy is dropped and its triangles point at the first. O(k log k) in the
+    short list's length ``k``; the arrays are returned as they are when
+    nothing repeats.
+    """
+    if open_v.shape[0] < 2:
+        return tris, vkey, vend, 0
+    k = vkey[open_v]
+    order = np.argsort(k, kind="stable")
+    ks = k[order]
+    again = np.flatnonzero(ks[1:] == ks[:-1]) + 1
+    if not again.size:
+        return tris, vkey, vend, 0
+    first = np.arange(ks.shape[0])
+    starts = np.r_[True, ks[1:] != ks[:-1]]
+    first = np.maximum.accumulate(np.where(starts, first, 0))  # each sorted row's group start
+    n_v = vkey.shape[0]
+    remap = np.arange(n_v)
+    remap[open_v[order[again]]] = open_v[order[first[again]]]
+    keep = remap == np.arange(n_v)
+    new = np.cumsum(keep) - 1
+    tris = new[remap[tris]].astype(tris.dtype, copy=False)
+    return tris, vkey[keep], np.ascontiguousarray(vend[keep]), int(again.size)

@@ -11,6 +11,7 @@ tetrahedra (4 faces of 3 nodes) and hexahedra (6 faces of 4 nodes).
 
 import numpy as np
 
+from polygen import _jit
 from polygen._jit import njit, prange
 from polygen.volume._intrinsics import _KCACHE, _prefetch_row
 
@@ -331,7 +332,7 @@ def _find_prick(cells, face_nb, local_faces, cls, nb_node, root, is_void, g, pic
     return 0
 
 
-_NO_HALF = np.empty(0, np.int8)  # _remove's filter off: every neighbour of class >= 1 is queued
+_NO_HALF = _jit.scratch(0, np.int8)  # _remove's filter off: every neighbour of class >= 1 is queued
 
 #: slots of the state array of :func:`thin_resume`
 ST_N_REMOVED = 0

@@ -74,7 +74,6 @@ import time
 
 import numba
 import numpy as np
-
 from polygen import _jit
 from polygen.volume import _active_scan_kernels as _k
 from polygen.volume import _edge_centred_kernels as _ek
@@ -106,10 +105,10 @@ class _Scratch:
     costs a page fault per 4 KiB at its first write, every query)."""
 
     def __init__(self, scan):
-        self.ev = np.empty(scan.n_edges, scan._idx)
+        self.ev = _jit.scratch(scan.n_edges, scan._idx)
         self.nvid = np.zeros(scan.points.shape[0], np.int64)
-        self.ranges = np.empty((scan.row_off.shape[0] - 1, 2), np.int64)
-        self.roff = np.empty(scan.row_off.shape[0], np.int64)
+        self.ranges = _jit.scratch((scan.row_off.shape[0] - 1, 2), np.int64)
+        self.roff = _jit.scratch(scan.row_off.shape[0], np.int64)
         self.gen = 0
         self.buffers = {}
 
@@ -218,12 +217,12 @@ class ActiveScan:
         if rows is None:  # a row per ROW cells of a block, at most 4096 (blocks of 16384 cells: 32)
             rows = min(4096, max(1, min(m, self.block) // self.ROW))
         # each block's row bounds: equally filled by its cells' minima (from a sample of them)
-        self.lower = np.empty((n_blocks, int(rows)))
-        row = np.empty(m, np.int64)
+        self.lower = _jit.scratch((n_blocks, int(rows)))
+        row = _jit.scratch(m, np.int64)
         if m:
             _k.block_rows(cmin, self.block, self.lower, row)
-        self.block_min = np.empty(n_blocks)
-        self.block_max = np.empty(n_blocks)
+        self.block_min = _jit.scratch(n_blocks)
+        self.block_max = _jit.scratch(n_blocks)
         if m:
             _k.block_extremes(cmin, cmax, self.block, self.block_min, self.block_max)
         with np.errstate(over="ignore"):  # beyond float32's range: +-inf, then rounded up below as the rest
@@ -232,13 +231,13 @@ class ActiveScan:
         cmax32[low] = np.nextafter(cmax32[low], np.float32(np.inf))
         del cmin, cmax, low
 
-        self.row_off = np.empty(self.lower.size + 1, np.int64)
-        order = np.empty(m, np.int64)
+        self.row_off = _jit.scratch(self.lower.size + 1, np.int64)
+        order = _jit.scratch(m, np.int64)
         _k.rows_by_count(row, self.lower.size, self.row_off, order)
         del row
         _k.sort_rows_by_max(order, self.row_off, cmax32)
-        own = np.empty(m, np.int32)
-        if _k.edge_owners(cell_edges, self.n_edges, self.block, np.empty(self.n_edges, idx), own):
+        own = _jit.scratch(m, np.int32)
+        if _k.edge_owners(cell_edges, self.n_edges, self.block, _jit.scratch(self.n_edges, idx), own):
             raise IsoSurfaceError("the volume's edge table has edges without a cell")  # pragma: no cover
         self.table = _jit.empty((m, self.nn + self.ne + 2), idx)
         self.cmx = _jit.empty(m, np.float32)
@@ -291,7 +290,7 @@ class ActiveScan:
         n_vmax = n_ev + nn * n_x
         pos = _jit.output_empty((n_vmax, 3))
         keys = _jit.output_empty(n_vmax, np.int64)
-        exact_cells = np.empty((n_x, 2), np.int64)
+        exact_cells = _jit.scratch((n_x, 2), np.int64)
         sums = normals == "mean" and n_x == 0  # the normal sums ride along with the triangles
         acc = sc.buffer("normals", n_vmax * 3, np.float64).reshape(n_vmax, 3) if sums else _NO_SUMS
         tri = _jit.output_empty((n_t, 3), np.int64)
@@ -337,7 +336,7 @@ class ActiveScan:
             mean_done = (nrm, int(n_zero))
         elif n_parts > 1 and tri.shape[0] >= self.STAGE3_PARALLEL_TRIANGLES:
             def mean_kernel(v, t, out):
-                _ek.mean_normals_parallel(v, t, out, np.empty((n_parts - 1, v.shape[0], 3)))
+                _ek.mean_normals_parallel(v, t, out, _jit.scratch((n_parts - 1, v.shape[0], 3)))
         nrm = vertex_normals(normals, vertices, tri, keys, edges=self.vol.edges, s=s, value=value,
                              node_grad=node_grad, points=self.points, mean_kernel=mean_kernel, mean_done=mean_done)
         t3 = time.perf_counter() - t0

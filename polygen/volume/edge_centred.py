@@ -78,7 +78,6 @@ import threading
 import time
 
 import numpy as np
-
 from polygen import _jit
 from polygen._jit import parallel_kernels_may_overlap
 from polygen.volume import _edge_centred_kernels as _k
@@ -214,7 +213,7 @@ def canonical_order(iso):
         The same surface, reordered.
     """
     order = np.argsort(iso.vertex_keys, kind="stable")
-    new_id = np.empty_like(order)
+    new_id = _jit.scratch_like(order)
     new_id[order] = np.arange(order.size)
     tri_order = np.argsort(iso.triangle_cells, kind="stable")
     return dataclasses.replace(
@@ -237,11 +236,11 @@ def _output_buffers(m, key_dtype=np.int32):
     q_cap = max(1024, m // 16)
     t_cap = max(2048, m // 6) + _m.MAX_TRIANGLES
     v_cap = max(1024, m // 12)
-    return (np.empty(q_cap, np.int32), np.empty((t_cap, 3), np.int32), np.empty(t_cap, np.int32),
-            np.empty(v_cap, key_dtype), np.empty((v_cap, 2), np.int32))
+    return (_jit.scratch(q_cap, np.int32), _jit.scratch((t_cap, 3), np.int32), _jit.scratch(t_cap, np.int32),
+            _jit.scratch(v_cap, key_dtype), _jit.scratch((v_cap, 2), np.int32))
 
 
-_EMPTY_I32 = np.empty(0, np.int32)
+_EMPTY_I32 = _jit.scratch(0, np.int32)
 
 
 def _aligned_records(m, width):
@@ -471,11 +470,11 @@ class EdgeCentredTable:
         # the edge ids per cell (the volume's own table): read by the kernels only without records (where
         # each edge's list starts); with records an edge's id is the entry before its list, and holding
         # the table here would keep it alive after the volume releases its preparation tables
-        self.ids = ce if layout == "volume" else np.empty((0, ne), ce.dtype)
+        self.ids = ce if layout == "volume" else _jit.scratch((0, ne), ce.dtype)
         # one record per cell, aligned to 64-byte cache lines (see _edge_centred_kernels), filled with the
         # cells around each edge (each with the local index of the edge in it; ec_off: where each edge's
         # list starts) by one parallel kernel
-        rec = _aligned_records(m, width) if layout == "records" else np.empty((0, width), np.int32)
+        rec = _aligned_records(m, width) if layout == "records" else _jit.scratch((0, width), np.int32)
         self.ec, ec_off = _k.edge_lists_and_records(np.ascontiguousarray(cells), ce, self.n_edges,
                                                     _check_threads(None), rec, self.os, ost)
         if layout == "records":
@@ -489,7 +488,7 @@ class EdgeCentredTable:
             # no records: nodes read from the volume's cells, stamps, states and slots apart
             self.rec = None
             self.nodes = np.ascontiguousarray(cells)
-            self.starts = np.empty((0, ne), np.int32)
+            self.starts = _jit.scratch((0, ne), np.int32)
             self.ec_off = ec_off
             self.dyn, self.ds = np.zeros((m, 2 + self.n_slots), np.int32), 2
         self.generation = 0
@@ -538,11 +537,11 @@ class EdgeCentredTable:
         new.dyn = np.zeros((self.dyn.shape[0], 2 + self.n_slots), np.int32)
         new.ds = 2
         new.generation = 0
-        new._queue = np.empty_like(self._queue)
-        new._tris = np.empty_like(self._tris)
-        new._tri_cell = np.empty_like(self._tri_cell)
-        new._vkey = np.empty_like(self._vkey)
-        new._vend = np.empty_like(self._vend)
+        new._queue = _jit.scratch_like(self._queue)
+        new._tris = _jit.scratch_like(self._tris)
+        new._tri_cell = _jit.scratch_like(self._tri_cell)
+        new._vkey = _jit.scratch_like(self._vkey)
+        new._vend = _jit.scratch_like(self._vend)
         new._pos = new._acc = None  # made at its first query
         new._fcode = new._fval = None
         new._ev = None
@@ -676,7 +675,7 @@ class EdgeCentredTable:
             gen = self._next_generation()
             t0 = time.perf_counter()
             if self._queue.shape[0] < seeds.shape[0]:
-                self._queue = np.empty(2 * seeds.shape[0], np.int32)
+                self._queue = _jit.scratch(2 * seeds.shape[0], np.int32)
             tested, n_queued = _k.test_seeds(self.nodes, self.dyn, self.nn, self.s, value, self.faces, seeds, gen,
                                              self._queue)
             t1 = time.perf_counter() - t0
@@ -687,17 +686,17 @@ class EdgeCentredTable:
                 break
             restarts += 1  # a buffer was too small (or a table missing): grow (build) it and do the query again
             if status == _k.FULL_QUEUE:
-                self._queue = np.empty(2 * self._queue.shape[0], np.int32)
+                self._queue = _jit.scratch(2 * self._queue.shape[0], np.int32)
             elif status == _k.FULL_TRIANGLES:
                 cap = 2 * self._tris.shape[0]
-                self._tris = np.empty((cap, 3), np.int32)
-                self._tri_cell = np.empty(cap, np.int32)
+                self._tris = _jit.scratch((cap, 3), np.int32)
+                self._tri_cell = _jit.scratch(cap, np.int32)
             elif status == _k.NEED_NODE_CELLS:
                 self._build_node_cells()
             else:
                 cap = 2 * self._vkey.shape[0]
-                self._vkey = np.empty(cap, np.int32)
-                self._vend = np.empty((cap, 2), np.int32)
+                self._vkey = _jit.scratch(cap, np.int32)
+                self._vend = _jit.scratch((cap, 2), np.int32)
         tri = _jit.astype(self._tris[:n_t], np.int64, output=True)  # the user's arrays: on recycled buffers
         tri_cell = _jit.astype(self._tri_cell[:n_t], np.int64, output=True)
         keys = _jit.astype(self._vkey[:n_v], np.int64, output=True)
@@ -753,8 +752,8 @@ class EdgeCentredTable:
         if lifo and self._specialised():
             cap = self._vkey.shape[0]
             if getattr(self, "_pos", None) is None or self._pos.shape[0] < cap:
-                self._pos = np.empty((cap, 3))
-                self._acc = np.empty((cap, 3))
+                self._pos = _jit.scratch((cap, 3))
+                self._acc = _jit.scratch((cap, 3))
             bufs = (self._tris, self._vend, self.points, self._pos, self._acc)
             if not all(a.flags.c_contiguous for a in bufs):  # flat views, written through (never a copy)
                 raise AssertionError("a query buffer is not contiguous")  # never: they are all made whole
@@ -809,11 +808,11 @@ class EdgeCentredTable:
         tc = self._tris.shape[0] // threads
         vc = self._vkey.shape[0] // threads
         while q < 16 or tc < mt + 16 or vc < 16:  # parts too small for a polygon: grow them first
-            self._queue = np.empty(2 * max(16 * threads, self._queue.shape[0]), np.int32)
-            self._tris = np.empty((2 * max((mt + 16) * threads, self._tris.shape[0]), 3), np.int32)
-            self._tri_cell = np.empty(self._tris.shape[0], np.int32)
-            self._vkey = np.empty(2 * max(16 * threads, self._vkey.shape[0]), np.int32)
-            self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
+            self._queue = _jit.scratch(2 * max(16 * threads, self._queue.shape[0]), np.int32)
+            self._tris = _jit.scratch((2 * max((mt + 16) * threads, self._tris.shape[0]), 3), np.int32)
+            self._tri_cell = _jit.scratch(self._tris.shape[0], np.int32)
+            self._vkey = _jit.scratch(2 * max(16 * threads, self._vkey.shape[0]), np.int32)
+            self._vend = _jit.scratch((self._vkey.shape[0], 2), np.int32)
             q, tc, vc = self._queue.shape[0] // threads, self._tris.shape[0] // threads, self._vkey.shape[0] // threads
         out = (self._queue[:q * threads].reshape(threads, q), self._tris[:tc * threads].reshape(threads, tc, 3),
                self._tri_cell[:tc * threads].reshape(threads, tc), self._vkey[:vc * threads].reshape(threads, vc),
@@ -822,15 +821,15 @@ class EdgeCentredTable:
             return out
         cap = self._vkey.shape[0]
         if getattr(self, "_pos", None) is None or self._pos.shape[0] < cap:
-            self._pos = np.empty((cap, 3))
-            self._acc = np.empty((cap, 3))
+            self._pos = _jit.scratch((cap, 3))
+            self._acc = _jit.scratch((cap, 3))
         if getattr(self, "_fcode", None) is None:  # contested vertices are a few per cent: an eighth of the triangles
-            self._fcode = np.empty(max(64 * threads, self._tris.shape[0] // 8), np.int32)
-            self._fval = np.empty((self._fcode.shape[0], 3))
+            self._fcode = _jit.scratch(max(64 * threads, self._tris.shape[0] // 8), np.int32)
+            self._fval = _jit.scratch((self._fcode.shape[0], 3))
         fc = self._fcode.shape[0] // threads
         while fc < 3 * mt:
-            self._fcode = np.empty(2 * max(3 * mt * threads, self._fcode.shape[0]), np.int32)
-            self._fval = np.empty((self._fcode.shape[0], 3))
+            self._fcode = _jit.scratch(2 * max(3 * mt * threads, self._fcode.shape[0]), np.int32)
+            self._fval = _jit.scratch((self._fcode.shape[0], 3))
             fc = self._fcode.shape[0] // threads
         return out + (self._pos[:vc * threads].reshape(threads, vc, 3),
                       self._acc[:vc * threads].reshape(threads, vc, 3),
@@ -850,17 +849,17 @@ class EdgeCentredTable:
         """
         pops, n_t, n_v = int(counters[:, 4].sum()), int(counters[:, 0].sum()), int(counters[:, 1].sum())
         if self._queue.shape[0] // threads < pops:
-            self._queue = np.empty(threads * pops, np.int32)
+            self._queue = _jit.scratch(threads * pops, np.int32)
         if self._tris.shape[0] // threads < n_t + _m.MAX_TRIANGLES:
-            self._tris = np.empty((threads * (n_t + _m.MAX_TRIANGLES), 3), np.int32)
-            self._tri_cell = np.empty(self._tris.shape[0], np.int32)
+            self._tris = _jit.scratch((threads * (n_t + _m.MAX_TRIANGLES), 3), np.int32)
+            self._tri_cell = _jit.scratch(self._tris.shape[0], np.int32)
         if self._vkey.shape[0] // threads < n_v:
-            self._vkey = np.empty(threads * n_v, np.int32)
-            self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
+            self._vkey = _jit.scratch(threads * n_v, np.int32)
+            self._vend = _jit.scratch((self._vkey.shape[0], 2), np.int32)
         n_f = 2 * int(counters[:, _k.N_PAR_COUNTERS - 1].sum()) + 3 * _m.MAX_TRIANGLES
         if getattr(self, "_fcode", None) is not None and self._fcode.shape[0] // threads < n_f:
-            self._fcode = np.empty(threads * n_f, np.int32)
-            self._fval = np.empty((self._fcode.shape[0], 3))
+            self._fcode = _jit.scratch(threads * n_f, np.int32)
+            self._fval = _jit.scratch((self._fcode.shape[0], 3))
 
     def _extract_parallel(self, value, seeds, normals, node_grad, threads, interleave=0):
         """:meth:`extract` by ``threads`` threads (``_edge_centred_kernels.construct_parallel``, or
@@ -910,18 +909,18 @@ class EdgeCentredTable:
             worst = int(status[status != _k.OK][0])
             causes.append(worst)
             if worst == _k.FULL_QUEUE:
-                self._queue = np.empty(2 * self._queue.shape[0], np.int32)
+                self._queue = _jit.scratch(2 * self._queue.shape[0], np.int32)
             elif worst == _k.FULL_TRIANGLES:
-                self._tris = np.empty((2 * self._tris.shape[0], 3), np.int32)
-                self._tri_cell = np.empty(self._tris.shape[0], np.int32)
+                self._tris = _jit.scratch((2 * self._tris.shape[0], 3), np.int32)
+                self._tri_cell = _jit.scratch(self._tris.shape[0], np.int32)
             elif worst == _k.NEED_NODE_CELLS:
                 self._build_node_cells()
             elif worst == _k.FULL_FOREIGN:
-                self._fcode = np.empty(2 * self._fcode.shape[0], np.int32)
-                self._fval = np.empty((self._fcode.shape[0], 3))
+                self._fcode = _jit.scratch(2 * self._fcode.shape[0], np.int32)
+                self._fval = _jit.scratch((self._fcode.shape[0], 3))
             else:
-                self._vkey = np.empty(2 * self._vkey.shape[0], np.int32)
-                self._vend = np.empty((self._vkey.shape[0], 2), np.int32)
+                self._vkey = _jit.scratch(2 * self._vkey.shape[0], np.int32)
+                self._vend = _jit.scratch((self._vkey.shape[0], 2), np.int32)
         self._fit_parts(threads, counters)
         t_base = np.zeros(threads + 1, np.int64)
         t_base[1:] = np.cumsum(counters[:, 0])
@@ -960,7 +959,7 @@ class EdgeCentredTable:
                     _k.positions_parallel(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
 
                 def mean_kernel(v, t, out):
-                    _k.mean_normals_parallel(v, t, out, np.empty((threads - 1, v.shape[0], 3)))
+                    _k.mean_normals_parallel(v, t, out, _jit.scratch((threads - 1, v.shape[0], 3)))
             elif n_v:
                 _k.positions(np.ascontiguousarray(ends), n_v, self.points, s, value, vertices)
         nrm = vertex_normals(normals, vertices, tri, keys, edges=np.ascontiguousarray(self.vol.edges), s=s,
@@ -1054,8 +1053,10 @@ class EdgeCentredWalk:
     Parameters
     ----------
     vol : UnstructuredVolume
-        Tetrahedra or hexahedra (conforming: the cells around an edge or a
-        node are connected through faces; see :mod:`._edge_walk_kernels`).
+        Tetrahedra or hexahedra, conforming. Where the cells around an edge
+        or a node are not connected through faces (a non-manifold edge or
+        node on the boundary), each side makes the vertex and the copies
+        are merged after the construction (see :mod:`._edge_walk_kernels`).
     field : str or (N,) float64, optional
         Field name or node values (the volume's first field by default).
     order : {"fifo", "lifo"}, keyword-only
@@ -1084,7 +1085,10 @@ class EdgeCentredWalk:
         the edges), ``touched``, ``constructed``, ``node_tests``,
         ``node_vertices``, ``seeds_tested``, ``seeds_crossed``, ``lookups``
         and ``probes`` (hash slots inspected; both 0 unless ``search``),
-        ``restarts``, ``collapsed`` (as :class:`EdgeCentredTable`), ``t_label`` (s).
+        ``restarts``, ``collapsed`` (as :class:`EdgeCentredTable`),
+        ``open_walks`` (vertices whose walk ended at the boundary both ways,
+        or on a node), ``merged_non_manifold`` (vertices made again on the
+        other side of a non-manifold edge or node, and merged), ``t_label`` (s).
     preprocess_s : float
         Seconds to build the records.
     """
@@ -1116,7 +1120,7 @@ class EdgeCentredWalk:
         self.edge_faces, self.edge_of, self.node_faces = _w.walk_tables(self.local_edges, local_faces)
         nbrs = vol.face_neighbors
         self.nf = nbrs.shape[1]
-        self.rec = np.empty((m, _w.record_width(nn, self.nf, self.local_edges.shape[0])), np.int32)
+        self.rec = _jit.scratch((m, _w.record_width(nn, self.nf, self.local_edges.shape[0])), np.int32)
         _w.fill_records(self.rec, np.ascontiguousarray(cells), np.ascontiguousarray(nbrs))
         # stamps, states and slots: in the records for this builder (a copy keeps its own)
         self.n_slots = self.local_edges.shape[0] + nn
@@ -1125,8 +1129,9 @@ class EdgeCentredWalk:
         self._node_grad = None
         self._labels = EdgeLabels(vol)
         self._queue, self._tris, self._tri_cell, self._vkey, self._vend = _output_buffers(m, np.int64)
-        self._around = np.empty(256, np.int32)
-        self._around_local = np.empty(256, np.int32)
+        self._open = _jit.scratch(self._vkey.shape[0], np.int32)  # vertices a non-manifold edge may make twice
+        self._around = _jit.scratch(256, np.int32)
+        self._around_local = _jit.scratch(256, np.int32)
         # open addressing needs a power of two (the probe wraps with a bit mask)
         cap = 1 << int(2 * self._vkey.shape[0] - 1).bit_length() if self.search else 1
         self._htable = np.zeros((cap, 2), np.int64)
@@ -1143,8 +1148,8 @@ class EdgeCentredWalk:
         new.dyn = np.zeros((self.rec.shape[0], 2 + self.n_slots), np.int32)
         new.ds = 2
         new.generation = 0
-        for name in ("_queue", "_tris", "_tri_cell", "_vkey", "_vend", "_around", "_around_local"):
-            setattr(new, name, np.empty_like(getattr(self, name)))
+        for name in ("_queue", "_tris", "_tri_cell", "_vkey", "_vend", "_open", "_around", "_around_local"):
+            setattr(new, name, _jit.scratch_like(getattr(self, name)))
         new._htable = np.zeros_like(self._htable)
         new.stats = {}
         return new
@@ -1200,7 +1205,7 @@ class EdgeCentredWalk:
             gen = self._next_generation()
             t0 = time.perf_counter()
             if self._queue.shape[0] < seeds.shape[0]:
-                self._queue = np.empty(2 * seeds.shape[0], np.int32)
+                self._queue = _jit.scratch(2 * seeds.shape[0], np.int32)
             tested, n_queued = _k.test_seeds(self.rec[:, _k.R_NODES:_k.R_NODES + self.nn], self.dyn, self.nn,
                                              self.s, value, self.faces, seeds, gen, self._queue)
             t1 = time.perf_counter() - t0
@@ -1209,8 +1214,8 @@ class EdgeCentredWalk:
                 self.rec, self.dyn, self.ds, self.nn, self.nf, self.n_points, self.s, value, self.faces, self.table,
                 self.count,
                 self.case_mask, self.local_edges, self.edge_faces, self.edge_of, self.node_faces, gen,
-                self._queue, n_queued, lifo, self._tris, self._tri_cell, self._vkey, self._vend, self._around,
-                self._around_local, self.search, self._htable, counters)
+                self._queue, n_queued, lifo, self._tris, self._tri_cell, self._vkey, self._vend, self._open,
+                self._around, self._around_local, self.search, self._htable, counters)
             if status == _w.OK:
                 break
             if status == _w.BAD_MESH:
@@ -1219,24 +1224,29 @@ class EdgeCentredWalk:
                     "without it: the volume is not a conforming mesh")
             restarts += 1  # a buffer was too small: grow it and do the query again
             if status == _w.FULL_QUEUE:
-                self._queue = np.empty(2 * self._queue.shape[0], np.int32)
+                self._queue = _jit.scratch(2 * self._queue.shape[0], np.int32)
             elif status == _w.FULL_TRIANGLES:
                 cap = 2 * self._tris.shape[0]
-                self._tris = np.empty((cap, 3), np.int32)
-                self._tri_cell = np.empty(cap, np.int32)
+                self._tris = _jit.scratch((cap, 3), np.int32)
+                self._tri_cell = _jit.scratch(cap, np.int32)
             elif status == _w.FULL_VERTICES:
                 cap = 2 * self._vkey.shape[0]
-                self._vkey = np.empty(cap, np.int64)
-                self._vend = np.empty((cap, 2), np.int32)
+                self._vkey = _jit.scratch(cap, np.int64)
+                self._vend = _jit.scratch((cap, 2), np.int32)
+                self._open = _jit.scratch(cap, np.int32)
             elif status == _w.FULL_HASH:
                 self._htable = np.zeros((2 * self._htable.shape[0], 2), np.int64)
             else:
-                self._around = np.empty(2 * self._around.shape[0], np.int32)
-                self._around_local = np.empty(2 * self._around.shape[0], np.int32)
+                self._around = _jit.scratch(2 * self._around.shape[0], np.int32)
+                self._around_local = _jit.scratch(2 * self._around.shape[0], np.int32)
         tri = _jit.astype(self._tris[:n_t], np.int64, output=True)
         tri_cell = _jit.astype(self._tri_cell[:n_t], np.int64, output=True)
         pkeys = self._vkey[:n_v].copy()
         vend = self._vend[:n_v]
+        # a non-manifold edge or node (two parts touching there only; a partition's seam often has them) is
+        # walked round one side at a time, and each side made its vertex: one vertex again
+        tri, pkeys, vend, n_merged = _w.merge_open_duplicates(self._open[:int(counters[_w.C_OPEN])], tri, pkeys,
+                                                              vend)
         tri, tri_cell, pkeys, vend, collapsed = _drop_at_nodes(any_node, tri, tri_cell, pkeys, vend,
                                                                np.int64(self.n_points) * self.n_points)
         t2 = time.perf_counter() - t0
@@ -1262,6 +1272,8 @@ class EdgeCentredWalk:
             "probes": int(counters[_w.C_PROBES]),
             "restarts": restarts,
             "collapsed": tuple(map(tuple, collapsed.tolist())),
+            "open_walks": int(counters[_w.C_OPEN]),
+            "merged_non_manifold": n_merged,
             "t_label": t_label,
         }
         return IsoSurface(
@@ -1288,7 +1300,8 @@ class EdgeCentredWalk:
         out = {
             "records": int(self.rec.nbytes),
             "buffers": int(sum(getattr(self, n).nbytes for n in (
-                "_queue", "_tris", "_tri_cell", "_vkey", "_vend", "_around", "_around_local", "_htable"))),
+                "_queue", "_tris", "_tri_cell", "_vkey", "_vend", "_open", "_around", "_around_local",
+                "_htable"))),
         }
         if self.dyn is not self.rec:
             out["query_state"] = int(self.dyn.nbytes)

@@ -60,6 +60,7 @@ import time
 
 import numpy as np
 
+from polygen import _jit
 from polygen.volume import _extrema_kernels as _k
 from polygen.volume.homology import BoundaryLoops, boundary_loops
 from polygen.volume.methods import SeedsThenPropagate, register
@@ -379,7 +380,7 @@ class ExtremaGraph:
         self._stamp += 1
         cells = np.ascontiguousarray(self.vol.cells, np.int64)
         n_boundary = self.loops.cells.shape[0] if self.boundary == "loops" else self.blist_min.shape[0]
-        hits = np.empty(self.arc_cells.shape[0] + n_boundary, np.int64)
+        hits = _jit.scratch(self.arc_cells.shape[0] + n_boundary, np.int64)
         t0 = time.perf_counter()
         n_arc_hits, tested_arcs, arcs_tested = _k._query_arcs(cells, self.s, self.arc_offsets, self.arc_cells,
                                                              self.arc_smin, self.arc_smax, value, self._mark,
@@ -499,8 +500,8 @@ def build_extrema_graph(vol, field=None, *, polyline=True, boundary="lists", rec
     t1 = time.perf_counter()
     arc_ext, arc_off, arc_cells, arc_kind, comp, counters, tries, tcells = _k._build_graph(
         points, cells, s, faces, face_nb, off, nc, ext.nodes, bool(polyline), bool(record))
-    smin = np.empty(arc_ext.shape[0])
-    smax = np.empty(arc_ext.shape[0])
+    smin = _jit.scratch(arc_ext.shape[0])
+    smax = _jit.scratch(arc_ext.shape[0])
     _k._arc_ranges(cells, s, arc_off, arc_cells, smin, smax)
     t2 = time.perf_counter()
     loops = loop_smin = loop_smax = None
@@ -522,8 +523,8 @@ def build_extrema_graph(vol, field=None, *, polyline=True, boundary="lists", rec
             loop_smin = loop_smax = np.zeros(0)
         bcells = np.zeros(0, np.int64)
     # 6.3.3: S_min and S_max of each boundary cell (each cell once), two sorted lists
-    lo = np.empty(bcells.shape[0])
-    hi = np.empty(bcells.shape[0])
+    lo = _jit.scratch(bcells.shape[0])
+    hi = _jit.scratch(bcells.shape[0])
     _k._cell_min_max(cells, s, bcells, lo, hi)
     o_min = np.argsort(lo, kind="stable")
     o_max = np.argsort(hi, kind="stable")

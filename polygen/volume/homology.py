@@ -39,6 +39,7 @@ import dataclasses
 
 import numpy as np
 
+from polygen import _jit
 from polygen._jit import njit
 from polygen.volume import _thinning_kernels as _tk
 from polygen.volume import _topology as _k
@@ -311,8 +312,8 @@ def boundary_loops(vol) -> BoundaryLoops:
     bad_edges, bad_nodes = boundary_defects(vol)
     lengths = dist[edges[left, 0]] + dist[edges[left, 1]] + 1
     offsets = np.zeros(left.shape[0] + 1, np.int64)
-    nodes = np.empty(int(lengths.sum()), np.int64)
-    cells = np.empty_like(nodes)
+    nodes = _jit.scratch(int(lengths.sum()), np.int64)
+    cells = _jit.scratch_like(nodes)
     n = _close_loops(edges, left.astype(np.int64), dist, pred, pred_edge, edge_cell, offsets, nodes, cells)
     return BoundaryLoops(offsets=offsets, nodes=verts[nodes[:n]], cells=cells[:n].copy(),
                          component=comp_of[edges[left, 0]], leftover_edges=edges_g[left],

@@ -69,7 +69,6 @@ import warnings
 import xml.etree.ElementTree as ET
 
 import numpy as np
-
 from polygen import _jit
 from polygen.volume import marching as _m
 from polygen.volume import registry as _registry
@@ -150,7 +149,7 @@ def _sorted_by_global_id(vol, gids):
         raise PartitionError(f"global node id {int(dup)} is given to two nodes of one piece")
     if np.array_equal(order, np.arange(order.size)):
         return vol, gids
-    new_id = np.empty(order.size, np.int64)
+    new_id = _jit.scratch(order.size, np.int64)
     new_id[order] = np.arange(order.size)
     out = UnstructuredVolume(vol.points[order], new_id[vol.cells], {k: v[order] for k, v in vol.fields.items()},
                              validate=False)
@@ -239,7 +238,7 @@ class PreparedPartition:
         # every vertex key's global key, negative (-1 - key) for a seam vertex: made once here, so that a query
         # reads one int64 per vertex instead of its edge's two nodes, their global ids and seam marks (2M, one
         # partition, 20 values: 4.6-7.2 -> 1.6 ms)
-        self._key_map = np.empty(vol.edges.shape[0] + vol.n_points, np.int64)
+        self._key_map = _jit.scratch(vol.edges.shape[0] + vol.n_points, np.int64)
         _key_map(np.ascontiguousarray(vol.edges, np.int64), self.global_ids, self._shared_node, self.n_ids,
                  self._key_map)
         on_seam = np.all(self._shared_node[vol.boundary_face_nodes], axis=1)
@@ -258,7 +257,7 @@ class PreparedPartition:
         # sorts them (measured on 2M in two partitions: isin took as long as the extraction itself)
         if not self.seam_cells.size:
             return self.seam_cells
-        out = np.empty(self.seam_cells.shape[0], np.int64)
+        out = _jit.scratch(self.seam_cells.shape[0], np.int64)
         n = _missed_seam_cells(self.seam_cells, self._seam_min, self._seam_max, value,
                                np.ascontiguousarray(iso.triangle_cells, np.int64), self._made, out)
         return out[:n]
@@ -317,7 +316,7 @@ class PreparedPartition:
         gkeys = empty(n, np.int64)
         verts = empty((n, 3), np.float64)
         verts[...] = iso.vertices
-        seam = np.empty(n, np.bool_)
+        seam = _jit.scratch(n, np.bool_)
         seam_at = empty(n, np.int64)
         n_seam = _global_keys(np.ascontiguousarray(iso.vertex_keys, np.int64), self._key_map, gkeys, seam, seam_at)
         tri_in = np.ascontiguousarray(iso.triangles, np.int64)
@@ -325,7 +324,7 @@ class PreparedPartition:
         tri = empty((m, 3), np.int32 if n < 2**31 else np.int64)
         seam_tris = empty(m, np.int64)
         gcells = empty(m, np.int32 if self._cells32 else np.int64)
-        nrm = empty((n, 3), np.float64) if normals is not None else np.empty((0, 3))
+        nrm = empty((n, 3), np.float64) if normals is not None else _jit.scratch((0, 3))
         flat = np.zeros(n if normals is not None else 0, np.bool_)
         n_seam_tris, n_flat = _piece_triangles(verts, tri_in, seam, tri, seam_tris, nrm, flat)
         _global_cells(np.ascontiguousarray(iso.triangle_cells, np.int64),
@@ -390,7 +389,7 @@ class PreparedPartition:
         vertices and the edges they lie on, not one per phase).
         """
         n = iso.vertices.shape[0]
-        keys, is_seam, at = np.empty(n, np.int64), np.empty(n, np.bool_), np.empty(n, np.int64)
+        keys, is_seam, at = _jit.scratch(n, np.int64), _jit.scratch(n, np.bool_), _jit.scratch(n, np.int64)
         ns = _global_keys(np.ascontiguousarray(iso.vertex_keys, np.int64), self._key_map, keys, is_seam, at)
         at = at[:ns].copy()
         return {"seam": at, "seam_keys": keys[at], "keys": keys, "is_seam": is_seam}
@@ -419,17 +418,17 @@ class PreparedPartition:
         row0, tri0 = int(plan["row0"]), int(plan["tri0"])
         gone = np.asarray(plan["gone"], np.int64)
         targets = np.asarray(plan["targets"], np.int64)
-        newidx = np.empty(n if gone.size else 0, np.int64)
+        newidx = _jit.scratch(n if gone.size else 0, np.int64)
         marks = self.marks(iso) if marks is None else marks
         seam = marks["is_seam"]
         _write_vertices(marks["keys"], iso.vertices, gone, targets, row0, out["keys"], out["vertices"], newidx)
         if normals is not None:
             # nothing dropped: the normals summed straight into the surface's rows; else here, then the kept rows
-            nrm = out["normals"][row0:row0 + n] if not gone.size else np.empty((n, 3))
+            nrm = out["normals"][row0:row0 + n] if not gone.size else _jit.scratch((n, 3))
         else:
-            nrm = np.empty((0, 3))
+            nrm = _jit.scratch((0, 3))
         flat = np.zeros(n if normals is not None else 0, np.bool_)
-        seam_tris = np.empty(m, np.int64)
+        seam_tris = _jit.scratch(m, np.int64)
         n_seam_tris, n_flat = _write_triangles(
             iso.vertices, np.ascontiguousarray(iso.triangles, np.int64), seam, newidx, row0, out["triangles"], tri0,
             seam_tris, nrm, flat, np.ascontiguousarray(iso.triangle_cells, np.int64),
@@ -691,7 +690,7 @@ def _with_missed(iso, extra, made):
     ``np.isin`` and ``np.unique``); each surface's own keys must be unique (a method's and a propagation's
     are).
     """
-    keep = np.empty(extra.triangle_cells.shape[0], np.bool_)
+    keep = _jit.scratch(extra.triangle_cells.shape[0], np.bool_)
     _cells_not_made(np.ascontiguousarray(iso.triangle_cells, np.int64),
                     np.ascontiguousarray(extra.triangle_cells, np.int64), made, keep)
     ek = np.ascontiguousarray(extra.vertex_keys, np.int64)
@@ -911,13 +910,18 @@ def seam_plan(sizes, seams, seam_keys):
     inv = inv.ravel()
     dup = np.ones(skeys.shape[0], bool)
     dup[first] = False
-    first_new = np.empty(uniq.shape[0], np.int64)
+    first_new = _jit.scratch(uniq.shape[0], np.int64)
     plans, base = [], 0
     for i in range(k):
         here = sowner == i
         gone = sidx[here & dup]
         kept_here = here & ~dup
-        targets = first_new[inv[here & dup]]  # an earlier piece's rows: set already
+        again = inv[here & dup]
+        twice = sowner[first[again]] == i
+        if twice.any():  # its row is not laid out yet: a wrong surface, never a guess
+            raise PartitionError(f"piece {i} names seam vertex key {int(uniq[again[twice][0]])} twice: its "
+                                 "method made one vertex twice")
+        targets = first_new[again]  # an earlier piece's rows: set already
         kept = sidx[kept_here]
         # a kept vertex v goes to row base + v less the dropped ones before it
         first_new[inv[kept_here]] = base + kept - (np.searchsorted(gone, kept) if gone.size else 0)
@@ -1274,7 +1278,7 @@ class PartitionedVolume:
         if not all(isinstance(p, _MemoryPiece) for p in self.pieces):
             raise PartitionError("partition_of_cells needs the pieces of split(): pieces from files are numbered "
                                  "piece after piece when prepared")
-        out = np.empty(sum(p.cell_ids.shape[0] for p in self.pieces), np.int32)
+        out = _jit.scratch(sum(p.cell_ids.shape[0] for p in self.pieces), np.int32)
         for i, p in enumerate(self.pieces):
             out[p.cell_ids] = i
         return out

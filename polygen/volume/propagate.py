@@ -42,6 +42,7 @@ import time
 
 import numpy as np
 
+from polygen import _jit
 from polygen._jit import njit
 from polygen.volume import _vertex_hash as _h
 from polygen.volume import marching as _m
@@ -238,7 +239,7 @@ def pair_stage3(vend, tri, points, s, value, normals, node_grad):
     list. Returns ``(vertices (V, 3), normals (V, 3) or None)``.
     """
     n_v = vend.shape[0]
-    vertices = np.empty((n_v, 3))
+    vertices = _jit.scratch((n_v, 3))
     if n_v:
         _m.crossing_points(vend, vend.shape[0], points, s, value, vertices)
     if normals is None:
@@ -246,7 +247,7 @@ def pair_stage3(vend, tri, points, s, value, normals, node_grad):
     on_node = vend[:, 0] == vend[:, 1]
     on_edge = np.flatnonzero(~on_node)
     local_edges = np.ascontiguousarray(vend[on_edge], np.int64)
-    local_keys = np.empty(n_v, np.int64)
+    local_keys = _jit.scratch(n_v, np.int64)
     local_keys[on_edge] = np.arange(on_edge.size)
     local_keys[on_node] = on_edge.size + vend[on_node, 0]
     nrm = vertex_normals(normals, vertices, tri, local_keys, edges=local_edges, s=s, value=value,
@@ -283,7 +284,7 @@ class EdgeLabels:
             self._sorted = (codes[order], order)
         codes, order = self._sorted
         pair_keys = np.asarray(pair_keys, np.int64)
-        out = np.empty(pair_keys.shape, np.int64)
+        out = _jit.scratch(pair_keys.shape, np.int64)
         node = pair_keys >= n * n
         out[node] = edges.shape[0] + (pair_keys[node] - n * n)
         want = pair_keys[~node]
@@ -345,8 +346,8 @@ class Propagator:
         self.generation = 0
         self._node_grad = None
         # scratch buffers reused across queries; the kernel doubles the ones that fill up
-        self._queue = np.empty(1024, np.int64)
-        self._qcase = np.empty(1024, np.int64)
+        self._queue = _jit.scratch(1024, np.int64)
+        self._qcase = _jit.scratch(1024, np.int64)
         if vertex_search == "hash":
             self.edges = None
             cap = hash_capacity if hash_capacity is not None else 2 * max(1024, self.cells.shape[0] // 16)
@@ -360,10 +361,10 @@ class Propagator:
             self.edges = np.ascontiguousarray(vol.edges, np.int64)
             self._htable = np.zeros((1, 2), np.int64)
             self._vtable = np.zeros((self.edges.shape[0] + self.n_points, 2), np.int32)  # stamp, vertex id
-        self._keys = np.empty(512, np.int64)
-        self._vend = np.empty((512, 2), np.int64)
-        self._tris = np.empty((1024, 3), np.int64)
-        self._tri_cell = np.empty(1024, np.int64)
+        self._keys = _jit.scratch(512, np.int64)
+        self._vend = _jit.scratch((512, 2), np.int64)
+        self._tris = _jit.scratch((1024, 3), np.int64)
+        self._tri_cell = _jit.scratch(1024, np.int64)
         self.stats = {}
         #: FIFO order of the last query: the cells in the order they were registered
         self.last_order = np.zeros(0, np.int64)
@@ -460,8 +461,8 @@ class Propagator:
 
         t0 = time.perf_counter()
         if self._queue.shape[0] < seeds.shape[0]:
-            self._queue = np.empty(2 * seeds.shape[0], np.int64)
-            self._qcase = np.empty(2 * seeds.shape[0], np.int64)
+            self._queue = _jit.scratch(2 * seeds.shape[0], np.int64)
+            self._qcase = _jit.scratch(2 * seeds.shape[0], np.int64)
         nn, nf = self._nn, self._nf
         tested_seeds, n_queued = _test_seeds(self.rec, nn, self.s, value, self.faces, seeds, self.visited,
                                              self.generation, self._queue, self._qcase)

@@ -16,7 +16,6 @@ import functools
 import time
 
 import numpy as np
-
 from polygen import _jit
 from polygen.volume import io as _io
 from polygen.volume import marching as _m
@@ -280,7 +279,7 @@ class PairKeyedIsoSurface(IsoSurface):
         n = vol.n_points
         edges = vol.edges  # (E, 2), a < b, numbered by a then b: sorted codes
         on_node = pairs[:, 0] == pairs[:, 1]
-        keys = np.empty(pairs.shape[0], np.int64)
+        keys = _jit.scratch(pairs.shape[0], np.int64)
         keys[on_node] = edges.shape[0] + pairs[on_node, 0]
         codes = pairs[~on_node, 0] * n + pairs[~on_node, 1]
         edge_codes = edges[:, 0] * n + edges[:, 1]
@@ -410,7 +409,7 @@ def check_normals(normals):
 def node_gradients(vol, field=None):
     """(N, 3) float64 node gradients: volume-weighted mean of the cell gradients."""
     points, cells, s, _ = volume_arrays(vol, field)
-    out = np.empty((points.shape[0], 3))
+    out = _jit.scratch((points.shape[0], 3))
     _m._node_gradients(points, cells, s, _m._HEX_DN, out)
     return out
 
@@ -422,7 +421,7 @@ def finish(value, keys, tri, tri_cell, *, points, edges, s, normals, node_grad, 
     tri, tri_cell = drop_double_faces(keys, tri, tri_cell, edges.shape[0])
     t2 += time.perf_counter() - t0
     t0 = time.perf_counter()
-    vertices = np.empty((keys.shape[0], 3))
+    vertices = _jit.scratch((keys.shape[0], 3))
     if keys.shape[0]:
         _m._vertex_positions(keys, edges, points, s, value, vertices)
     nrm = vertex_normals(normals, vertices, tri, keys, edges=edges, s=s, value=value, node_grad=node_grad,

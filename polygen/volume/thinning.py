@@ -73,6 +73,7 @@ import warnings
 
 import numpy as np
 
+from polygen import _jit
 from polygen._jit import parallel_kernels_may_overlap
 from polygen.volume import _thinning_kernels as _k
 from polygen.volume.extrema_graph import Extrema, find_extrema
@@ -500,7 +501,7 @@ def _fifo_halves(vol, cells, face_nb, fmask, cls, nb_node, order, decisions, cou
     dec_split = split * (nf + 1) if decisions.shape[0] else 0
     stats2 = np.zeros((2, _k.N_STATS), np.int64)
     st2 = np.zeros((2, _k.N_STATE), np.int64)
-    labelled2 = np.empty((2, vol.n_points if src.shape[0] else 0), np.int32)
+    labelled2 = _jit.scratch((2, vol.n_points if src.shape[0] else 0), np.int32)
     _k.thin_halves(cells, face_nb, fmask, cls, nb_node, half, split, stats2, order, decisions, dec_split, st2, src,
                    labelled2)
     counters += stats2.sum(axis=0)
@@ -598,16 +599,16 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets, parallel):
     m = cells.shape[0]
     local_faces = np.ascontiguousarray(vol.local_faces, np.int64)
     fmask = _k.face_masks(local_faces, cells.shape[1])
-    none = np.empty(0, np.int32)
+    none = _jit.scratch(0, np.int32)
 
     def start(marked):
-        cls = np.empty(m, np.int8)
+        cls = _jit.scratch(m, np.int8)
         _k.initial_classes(face_nb, marked, cls)
         # every FIFO entry is taken once: the initial ones and up to F per removal (with the halves first,
         # the serial run's initial ones again)
         n_dec = m * (fmask.shape[0] + 1) + (m * fmask.shape[0] if parallel else 0)
-        return (cls, np.zeros(vol.n_points, np.int64), np.empty(m if record else 0, np.int64),
-                np.zeros(_k.N_STATS, np.int64), np.empty((n_dec if record else 0, 4), np.int64),
+        return (cls, np.zeros(vol.n_points, np.int64), _jit.scratch(m if record else 0, np.int64),
+                np.zeros(_k.N_STATS, np.int64), _jit.scratch((n_dec if record else 0, 4), np.int64),
                 np.zeros(_k.N_STATE, np.int64))
 
     def first_pass(src):
@@ -635,8 +636,8 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets, parallel):
             raise side["error"]
         bfn = vol.boundary_face_nodes  # built by the helper (read once it is there)
         nb_node[bfn.ravel()] = 1
-        src = np.empty(vol.n_points, np.int32)
-        labelled = np.empty(vol.n_points, np.int32)
+        src = _jit.scratch(vol.n_points, np.int32)
+        labelled = _jit.scratch(vol.n_points, np.int32)
         fifo, lists = first_pass(src)
         queue, head, tail = fifo
         _k.thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, np.zeros(1, np.int64),
@@ -690,7 +691,7 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets, parallel):
 
     # 7.5.4: the skeleton and its value classes
     skel = np.flatnonzero(cls != 0).astype(np.int64)
-    counts = np.empty(skel.shape[0], np.int64)
+    counts = _jit.scratch(skel.shape[0], np.int64)
     _k.neighbour_counts(face_nb, cls, skel, counts)
     vals = s[cells[skel]]
     cmin = np.ascontiguousarray(vals.min(axis=1))
@@ -742,7 +743,7 @@ def _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets, parallel):
                              decided_after=d[:, 3].copy())
     return Skeleton(vol=vol, s=s, extrema=ext, marked=marked, classes=cls, cells=skel, neighbour_counts=counts,
                     node_groups=nb_node, group_root=root, unpricked_voids=unpricked, record=rec, stats=stats,
-                    _cmin=cmin, _cmax=cmax, _buckets=buckets, _hits=np.empty(skel.shape[0], np.int64))
+                    _cmin=cmin, _cmax=cmax, _buckets=buckets, _hits=_jit.scratch(skel.shape[0], np.int64))
 
 
 # ------------------------------------------------------------------ 2D image thinning
@@ -773,7 +774,7 @@ def thin_image(image, *, record=False):
         if not np.issubdtype(img.dtype, np.number) or not np.isin(img, (0, 1)).all():
             raise ThinningError("image must be boolean (or hold only 0 and 1)")
     out = np.ascontiguousarray(img, dtype=np.bool_).copy()
-    order = np.empty((int(out.sum()) if record else 0, 2), np.int64)
+    order = _jit.scratch((int(out.sum()) if record else 0, 2), np.int64)
     n = _k.thin_image(out, order)
     return (out, order[:n]) if record else out
 

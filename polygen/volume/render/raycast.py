@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 
+from polygen import _jit
 from polygen.volume.render import _kernels as _k
 from polygen.volume.render.transfer import Lighting, check_tf
 from polygen.volume.render.view import RenderError, check_background, check_step, check_view
@@ -142,10 +143,10 @@ class RayCaster:
         offsets, items, origins, dirs, start = self._view(camera)
         t1 = time.perf_counter()
         npix = origins.shape[0]
-        image = np.empty((npix, 3))
-        length = np.empty(npix)
-        entries = np.empty(npix, np.int64)
-        samples = np.empty(npix, np.int64)
+        image = _jit.scratch((npix, 3))
+        length = _jit.scratch(npix)
+        entries = _jit.scratch(npix, np.int64)
+        samples = _jit.scratch(npix, np.int64)
         _k.cast(self.vol.points, self.vol.cells, self.faces, self.is_hex, self.nb, self.values, self.grads,
                 self.btris, self.bcell, offsets, items, origins, dirs, start, step, tf.knots, tf.rgb,
                 tf.corrected(step), e, energy, light, head, shade, bg, self.scale, self.vol.n_cells,

@@ -26,6 +26,7 @@ import time
 
 import numpy as np
 
+from polygen import _jit
 from polygen.volume import methods as _methods
 from polygen.volume.render import _kernels as _k
 from polygen.volume.render.raycast import RenderResult
@@ -234,7 +235,7 @@ class ShellRenderer:
                 shell.append(np.full(iso.n_triangles, k, np.int64))
                 per.append(iso.n_triangles)
                 nv += iso.n_vertices
-            cat = (lambda xs, shape: np.concatenate(xs) if xs else np.empty(shape))
+            cat = (lambda xs, shape: np.concatenate(xs) if xs else _jit.scratch(shape))
             out = Shells(step=step, radii=radii, vertices=np.ascontiguousarray(cat(verts, (0, 3))),
                          triangles=np.ascontiguousarray(cat(tris, (0, 3)), np.int64),
                          shell=np.ascontiguousarray(cat(shell, (0,)), np.int64),
@@ -268,8 +269,8 @@ class ShellRenderer:
             origins, dirs = cam.rays()
             eye, f, r, u, hw, hh, w, h, ortho = cam._kernel_args()
             offsets, items = _k.bin_triangles(sh.vertices, sh.triangles, eye, f, r, u, hw, hh, w, h, ortho)
-            frag_sg = np.empty((items.shape[0], 4))
-            frag_n = np.empty(origins.shape[0], np.int64)
+            frag_sg = _jit.scratch((items.shape[0], 4))
+            frag_n = _jit.scratch(origins.shape[0], np.int64)
             _k.fill_fragments(sh.vertices, sh.triangles, sh.shell, sh.scalars, sh.gradients, offsets, items, origins,
                               dirs, frag_sg, frag_n)
             frag_off = offsets
@@ -310,7 +311,7 @@ class ShellRenderer:
             frag_off, frag_n, frag_sg, dirs = self.fragments(step)
             t3 = time.perf_counter()
             npix = dirs.shape[0]
-            image = np.empty((npix, 3))
+            image = _jit.scratch((npix, 3))
             _k.composite_fragments(frag_off, frag_n, frag_sg, dirs, tf.knots, tf.rgb, tf.corrected(step), e, energy,
                                    light, head, shade, bg, image)
             t4 = time.perf_counter()

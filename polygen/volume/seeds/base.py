@@ -37,6 +37,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from polygen import _jit
 from polygen._jit import njit, prange
 from polygen.volume import registry as _registry
 from polygen.volume.seeds.source import Seeds
@@ -174,7 +175,7 @@ class ActiveCellSearch(abc.ABC):
         self.cmin = cmin
         self.cmax = cmax
         self.preprocess_s = 0.0
-        self._out = np.empty(cmin.shape[0], dtype=np.int64)
+        self._out = _jit.scratch(cmin.shape[0], dtype=np.int64)
 
     @property
     def n_cells(self) -> int:
@@ -330,8 +331,8 @@ def cell_ranges(cells, scalars):
     if bad.size:
         raise IntervalError(f"scalars must be finite; {bad.size} node(s) are not: nodes {_examples(bad)}")
     m = cells.shape[0]
-    cmin = np.empty(m, dtype=np.float64)
-    cmax = np.empty(m, dtype=np.float64)
+    cmin = _jit.scratch(m, dtype=np.float64)
+    cmax = _jit.scratch(m, dtype=np.float64)
     if m:
         _cell_ranges(cells, s, cmin, cmax)
     return cmin, cmax

@@ -24,6 +24,7 @@ and query, so a cell with ``S_min <= C <= S_max`` is always found, also when
 
 import numpy as np
 
+from polygen import _jit
 from polygen._jit import njit
 from polygen.volume.seeds.base import ActiveCellSearch, IntervalError, register
 
@@ -164,7 +165,7 @@ class SpanFilter(ActiveCellSearch):
         obj.width = (obj.hi - obj.lo) / nb if obj.hi > obj.lo else 0.0
         if layout == "replicate":
             obj.offsets, obj.ids = _build_replicate(cmin, cmax, obj.lo, obj.width, nb)
-            obj.top = np.empty(0)
+            obj.top = _jit.scratch(0)
         else:
             obj.offsets, obj.ids, obj.top, obj.kmin, obj.kmax = _build_by_min(cmin, cmax, np.argsort(-cmax), obj.lo, obj.width, nb)
         return obj
