@@ -144,5 +144,8 @@ html_theme_options = {
     "show_toc_level": 2,
 }
 html_sidebars = {"index": []}
+# the theme's own default is "", which its script rejects with a console error on a reader's
+# first visit ("Got invalid theme mode"); auto follows the system's light or dark
+html_context = {"default_mode": "auto"}
 html_static_path = ["_static"]
 html_css_files = ["book.css"]

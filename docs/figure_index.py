@@ -47,9 +47,12 @@ def _is_table(text):
 
 
 def expected_refs():
-    """Every reference the index must hold once, in the originals' order."""
-    refs = [f"Fig. {c}.{k}" for c, n in THESIS_FIGURES.items() for k in range(1, n + 1)]
-    refs += [f"Table {c}.{k}" for c, n in THESIS_TABLES.items() for k in range(1, n + 1)]
+    """Every reference the index must hold once, in order: chapter by chapter, its figures
+    then its tables, then the paper's."""
+    refs = []
+    for c, n in THESIS_FIGURES.items():
+        refs += [f"Fig. {c}.{k}" for k in range(1, n + 1)]
+        refs += [f"Table {c}.{k}" for k in range(1, THESIS_TABLES.get(c, 0) + 1)]
     refs += [f"2001 Fig. {k}" for k in range(1, PAPER_FIGURES + 1)]
     refs += [f"2001 Table {k}" for k in range(1, PAPER_TABLES + 1)]
     return refs
