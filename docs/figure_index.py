@@ -131,7 +131,7 @@ def locate(notebook, section, snippet=None, *, root=ROOT):
 
 def _cell_link(where, title=None):
     place = locate(where["notebook"], where["section"], where.get("cell"))
-    text = title or f"{place.notebook} § {place.heading}"
+    text = title or f"{place.notebook.split('_')[0]} § {place.heading}"
     return f"[{_md(text)}](notebooks/{place.notebook}.ipynb#{place.anchor})"
 
 
