@@ -1,21 +1,22 @@
 """The book builds with warnings as errors, and shows what the notebooks stored.
 
 The command is the README's: ``python -m sphinx -W --keep-going -b html docs docs/_build/html``
-(here into a temporary folder). Sphinx, myst-nb and the theme come with the test
+(here into a temporary folder, once per session: ``tests/_book.py``, shared with the
+browser test and the figure index's). Sphinx, myst-nb and the theme come with the test
 extra: a missing one fails the imports below, it is never skipped.
 """
 
 import json
 from html import unescape
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import myst_nb  # noqa: F401  (the docs' requirements, in the test extra)
 import pydata_sphinx_theme  # noqa: F401
 import pytest
 import sphinx  # noqa: F401
+
+import _book
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -27,12 +28,7 @@ def _pngs(ipynb):
 
 @pytest.fixture(scope="module")
 def site(tmp_path_factory):
-    out = tmp_path_factory.mktemp("book")
-    cmd = [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html",
-           "-d", str(out / "doctrees"), "docs", str(out / "html")]
-    run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=900)
-    assert run.returncode == 0, f"the book does not build without warnings:\n{run.stderr[-6000:]}"
-    return out / "html"
+    return _book.site(tmp_path_factory)
 
 
 def test_index(site):
