@@ -2,10 +2,12 @@
 
 ``tests/test_book.py``, ``tests/test_book_browser.py`` and ``tests/test_figure_index.py``
 read the same site; the first to ask builds it (the README's command, into a temporary
-folder), the others get the same folder, or the same failure. ``POLYGEN_BOOK_HTML=<folder>``
+folder; under pytest-xdist one build shared by the workers), the others get the same folder,
+or the same failure. ``POLYGEN_BOOK_HTML=<folder>``
 points them at a site already built instead (e.g. ``docs/_build/html``).
 """
 
+import fcntl
 import os
 import subprocess
 import sys
@@ -25,12 +27,23 @@ def site(tmp_path_factory):
     if "error" in _built:
         raise AssertionError(_built["error"])
     if "html" not in _built:
-        out = tmp_path_factory.mktemp("book")
-        cmd = [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html",
-               "-d", str(out / "doctrees"), "docs", str(out / "html")]
-        run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=900)
-        if run.returncode != 0:
-            _built["error"] = f"the book does not build without warnings:\n{run.stderr[-6000:]}"
-            raise AssertionError(_built["error"])
+        # under pytest-xdist each worker is a session: the first to come builds into the folder the
+        # workers share (their base temp's parent), the others wait on the lock and read its outcome
+        base = tmp_path_factory.getbasetemp()
+        shared = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+        out = shared / "book"
+        out.mkdir(exist_ok=True)
+        with open(out / ".lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            if not (out / "outcome").exists():
+                cmd = [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html",
+                       "-d", str(out / "doctrees"), "docs", str(out / "html")]
+                run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=900)
+                (out / "outcome").write_text("ok" if run.returncode == 0 else
+                                             f"the book does not build without warnings:\n{run.stderr[-6000:]}")
+        outcome = (out / "outcome").read_text()
+        if outcome != "ok":
+            _built["error"] = outcome
+            raise AssertionError(outcome)
         _built["html"] = out / "html"
     return _built["html"]
