@@ -59,7 +59,7 @@ grid asks there; criterion fixed before measuring), with and without the width c
 combination's settings, and compares it with both parents' curves of the last full run (and
 of ``--fine-first``) by ``error_at_elements``; writes ``intensity_mesh_narrow.json`` and ``.md``.
 
-``--only single`` (issue 15, after ``benchmarks/combination_error_zones.py``: at 2808
+``--only single`` (issue 15, after ``benchmarks/experiments/combination_error_zones.py``: at 2808
 elements the narrow-lines combination has 43 % of its squared image error as extra error
 against this method's 3088-element mesh *away* from the lines, where its elements are as coarse
 as this method's at 1.7, while 51 % of its elements lie within 0.85 of a line with a quarter of

@@ -520,7 +520,7 @@ plt.show()
 #   that curve (2808: 0.0196 against 0.0224; uncapped, 1736: 0.0307 against 0.0331), but this
 #   method at none of its 8 (2808: 0.0196 against 0.0158; uncapped, 1400: 0.0348 against
 #   0.0310), so the default stayed `lines="all"` (`benchmarks/results/intensity_mesh_narrow.md`).
-# * **Where the extra error was** (`benchmarks/combination_error_zones.py`, zones fixed before
+# * **Where the extra error was** (`benchmarks/experiments/combination_error_zones.py`, zones fixed before
 #   measuring, taken from the combination's mesh): narrow lines at 1.7 (2808 elements, 0.0196)
 #   against this method from the fine first mesh (3088, 0.0145), per pixel. In skinny
 #   triangles (< 20°), in strips under two elements wide between kept lines and within one

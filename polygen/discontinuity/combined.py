@@ -29,7 +29,7 @@ kept (``lines="all"``) the cap filled the strips between the two lines of each n
 penumbra, and the cones graded out of them, with elements: on the scene of Fig. 4.8 half
 of the second mesh's elements lay within 0.85 of a line, while away from the lines it was as
 coarse as the intensity-based bubble mesh alone at the same settings, and that is where its
-extra image error was (benchmarks/results/combination_error_zones.md).
+extra image error was (benchmarks/experiments/results/combination_error_zones.md).
 """
 
 from __future__ import annotations

@@ -52,7 +52,7 @@ def _mark_cells(cells, s, not_max, not_min, plural_max, plural_min):
         if n_hi == 1 and n_lo == 1:
             # no tie (the common case): mark every node, then put the largest's "not-maximum" and the
             # smallest's "not-minimum" back as they were -- stores without a test per node (2M: 95 -> 60 ms,
-            # 10M: 0.42 -> 0.23 s, benchmarks/extrema_marks_ab.py)
+            # 10M: 0.42 -> 0.23 s, benchmarks/experiments/extrema_marks_ab.py)
             keep_hi = not_max[node_hi]
             keep_lo = not_min[node_lo]
             for i in range(nn):

@@ -513,7 +513,7 @@ class EdgeCentredTable:
         meanwhile). The queries' random reads of them then miss the TLB far
         less. Measured on 2M: the collapse takes ~0.3 s of one core (170 MB);
         20 values, interleaved in one process: 1 thread 2-7 % and ``"auto"``
-        3-4 % faster; one process per arm (``benchmarks/prefetch_ab.py``)
+        3-4 % faster; one process per arm (``benchmarks/experiments/prefetch_ab.py``)
         +1 % and -3 %, inside the 10-20 % spread between processes. Returns
         the bytes collapsed (0 where the kernel cannot: not Linux, older
         than 6.1, or nothing to do).
@@ -1338,7 +1338,7 @@ _BESIDE_MIN_CELLS = 200_000
 
 #: numba threads for the edge table and records built beside the thinning: None (numba's count), a
 #: number, or "cores left" (those the thinning's two FIFO halves leave, at least one). Measured on two
-#: cores, first preparation of a fresh process (``benchmarks/beside_threads_ab.py``): "cores left" is
+#: cores, first preparation of a fresh process (``benchmarks/experiments/beside_threads_ab.py``): "cores left" is
 #: faster on 2M (0.98 against 1.15 s; the seeds side is the longer one) and slower on 10M (5.47
 #: against 4.82 s: the records on one thread become the longer side), so numba's count stays
 BESIDE_THREADS = None

@@ -206,7 +206,7 @@ def boundary_defects(vol):
     """
     # the boundary edge table (numbered by lower node, then higher; the boundary groups are built from
     # it, so the thinning has it already) in place of a lexsort of every face edge: best of 5, alone,
-    # 2M 0.077 -> 0.011 s, 10M 0.40 -> 0.035 s (benchmarks/boundary_defects_ab.py)
+    # 2M 0.077 -> 0.011 s, 10M 0.40 -> 0.035 s (benchmarks/experiments/boundary_defects_ab.py)
     fn = np.ascontiguousarray(vol.boundary_face_nodes, np.int64)
     ids, edges = vol.boundary_edge_table
     bad, nodes = _tk.boundary_defects(fn, np.ascontiguousarray(ids, np.int64), edges.shape[0], vol.n_points)

@@ -27,8 +27,8 @@ processes as the other jobs' load changed, so only the ratios between the
 rows of one run mean much. The 1-minute load average at the end is
 recorded.
 
-    python benchmarks/locality.py          # 2M
-    python benchmarks/locality.py data4
+    python benchmarks/experiments/locality.py          # 2M
+    python benchmarks/experiments/locality.py data4
 """
 
 import os
@@ -37,6 +37,7 @@ import time
 
 import numpy as np
 
+import _experiment  # noqa: F401  (benchmarks/_common.py, results under experiments/results/)
 from _common import write_results
 from polygen.volume import UnstructuredVolume, datasets, isovalues, methods
 

@@ -24,7 +24,7 @@ Criterion, written before the first measurement: ``cores left`` becomes the
 default when its median wall time is at least 5 % below ``numba's count`` on
 both 2M and 10M.
 
-    python benchmarks/beside_threads_ab.py
+    python benchmarks/experiments/beside_threads_ab.py
 """
 
 import json
@@ -36,6 +36,7 @@ import time
 
 import numpy as np
 
+import _experiment  # noqa: F401  (benchmarks/_common.py, results under experiments/results/)
 from _common import write_results
 
 ARMS = {"numba's count": None, "cores left": "cores left"}

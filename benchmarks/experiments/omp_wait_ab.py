@@ -33,7 +33,7 @@ preparations are both at least 5 % faster than ``default``'s, and its 2M
 sweep sum and largest surface (``threads=2`` and ``"auto"``) are no more
 than 5 % slower.
 
-    python benchmarks/omp_wait_ab.py
+    python benchmarks/experiments/omp_wait_ab.py
 """
 
 
@@ -45,6 +45,7 @@ import time
 
 import numpy as np
 
+import _experiment  # noqa: F401  (benchmarks/_common.py, results under experiments/results/)
 from _common import write_results
 
 ARMS = {"default": {}, "passive": {"OMP_WAIT_POLICY": "passive"}}

@@ -12,7 +12,7 @@ rounds, the best per arm; both arms must give equal marks and extrema.
 Criterion, fixed before measuring: adopt if ``after`` is faster than
 ``before`` for ``find_extrema`` at both 2M and 10M and all tests pass.
 
-    python benchmarks/extrema_marks_ab.py            # 2M 10M
+    python benchmarks/experiments/extrema_marks_ab.py            # 2M 10M
 """
 
 import sys
@@ -25,6 +25,7 @@ from polygen.volume import _extrema_kernels as _k
 from polygen.volume import datasets
 from polygen.volume import extrema_graph as eg
 
+import _experiment  # noqa: F401  (benchmarks/_common.py, results under experiments/results/)
 from _common import write_results
 
 ROUNDS = 5

@@ -30,9 +30,9 @@ Also split: pixels in a penumbra region of the lines as found, or not.  Element 
 elements whose centroid lies within 0.425 / 0.85 / 1.7 (the finest element at 1.7, the
 patch size at size_max, size_initial) of a line as found, and the rest.
 
-    python benchmarks/combination_error_zones.py
+    python benchmarks/experiments/combination_error_zones.py
 
-Writes ``benchmarks/results/combination_error_zones.json`` and ``.md``.
+Writes ``benchmarks/experiments/results/combination_error_zones.json`` and ``.md``.
 """
 
 from __future__ import annotations
@@ -43,6 +43,7 @@ import time
 
 import numpy as np
 
+import _experiment  # noqa: F401  (benchmarks/_common.py, results under experiments/results/)
 from _common import RESULTS, machine, write_results
 from intensity_mesh import IMPROVE, SIZE_MIN_RATIO, camera
 

@@ -25,8 +25,8 @@ the max over the values. Every arm must give the same serial surfaces (a
 digest of the triangles and vertices) and 2-thread surfaces equal to the
 serial ones (``same_surface``).
 
-    python benchmarks/prefetch_ab.py          # 2M
-    python benchmarks/prefetch_ab.py data4
+    python benchmarks/experiments/prefetch_ab.py          # 2M
+    python benchmarks/experiments/prefetch_ab.py data4
 """
 
 import hashlib
@@ -117,6 +117,7 @@ def run(name):
 
 
 def main(names):
+    import _experiment  # noqa: F401  (benchmarks/_common.py, results under experiments/results/)
     from _common import write_results
 
     rows = []

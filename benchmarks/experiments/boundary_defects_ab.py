@@ -16,8 +16,8 @@ return equal arrays. ``/proc/loadavg`` before and after.
 Criterion, fixed before measuring: the kernel is adopted if ``kernel`` is
 faster than ``sort`` at both 2M and 10M and all tests pass.
 
-    python benchmarks/boundary_defects_ab.py            # 2M 10M
-    python benchmarks/boundary_defects_ab.py data4
+    python benchmarks/experiments/boundary_defects_ab.py            # 2M 10M
+    python benchmarks/experiments/boundary_defects_ab.py data4
 """
 
 import sys
@@ -29,6 +29,7 @@ from polygen._jit import njit
 from polygen.volume import datasets
 from polygen.volume.homology import boundary_defects
 
+import _experiment  # noqa: F401  (benchmarks/_common.py, results under experiments/results/)
 from _common import write_results
 
 ROUNDS = 5
