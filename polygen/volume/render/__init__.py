@@ -15,8 +15,8 @@
 
 from polygen.volume.render.view import View, RenderError, view_around
 from polygen.volume.render.raycast import RayCaster, RenderResult, boundary_triangles, raycast
-from polygen.volume.render.shells import ShellRenderer, Shells, eye_distance, psnr
-from polygen.volume.render.transfer import Lighting, TransferFunction
+from polygen.volume.render.shells import ShellRenderer, Shells, eye_distance, foreground, psnr
+from polygen.volume.render.transfer import OPTICAL_MODELS, Lighting, TransferFunction
 
 __all__ = [
     "RenderError",
@@ -32,4 +32,6 @@ __all__ = [
     "Shells",
     "ShellRenderer",
     "psnr",
+    "foreground",
+    "OPTICAL_MODELS",
 ]
