@@ -10,7 +10,10 @@
   far to near. A :class:`ShellRenderer` rebuilds the skeleton only when the
   eye moves.
 * :mod:`~polygen.volume.render.view`, :mod:`~polygen.volume.render.transfer`:
-  the view and the transfer functions.
+  the view and the transfer functions, and the optical models both
+  renderers take (:data:`OPTICAL_MODELS`: ``"opacity"``, ours, the table's
+  opacity is that of a slab ``unit`` thick; ``"attenuation"``, VTK's, the
+  table's opacity per ``unit`` is the attenuation coefficient).
 """
 
 from polygen.volume.render.view import View, RenderError, view_around
