@@ -319,7 +319,7 @@ def test_opacity_correction_keeps_a_uniform_slab():
 
 
 def test_attenuation_model_on_a_uniform_slab():
-    """VTK's model: ``a / unit`` is the attenuation coefficient, so a slab of length L lets ``exp(-a L / unit)`` through.
+    """VTK's model: ``a / unit`` is the attenuation coefficient; a slab L long lets ``exp(-a L / unit)`` through.
 
     Ours (``"opacity"``) lets ``(1 - a) ** (L / unit)`` through: the same table is denser.
     """
