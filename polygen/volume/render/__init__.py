@@ -10,13 +10,16 @@
   far to near. A :class:`ShellRenderer` rebuilds the skeleton only when the
   eye moves.
 * :mod:`~polygen.volume.render.view`, :mod:`~polygen.volume.render.transfer`:
-  the view and the transfer functions.
+  the view and the transfer functions, and the optical models both
+  renderers take (:data:`OPTICAL_MODELS`: ``"opacity"``, ours, the table's
+  opacity is that of a slab ``unit`` thick; ``"attenuation"``, VTK's, the
+  table's opacity per ``unit`` is the attenuation coefficient).
 """
 
 from polygen.volume.render.view import View, RenderError, view_around
 from polygen.volume.render.raycast import RayCaster, RenderResult, boundary_triangles, raycast
-from polygen.volume.render.shells import ShellRenderer, Shells, eye_distance, psnr
-from polygen.volume.render.transfer import Lighting, TransferFunction
+from polygen.volume.render.shells import ShellRenderer, Shells, eye_distance, foreground, psnr
+from polygen.volume.render.transfer import OPTICAL_MODELS, Lighting, TransferFunction
 
 __all__ = [
     "RenderError",
@@ -32,4 +35,6 @@ __all__ = [
     "Shells",
     "ShellRenderer",
     "psnr",
+    "foreground",
+    "OPTICAL_MODELS",
 ]

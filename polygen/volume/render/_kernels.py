@@ -303,10 +303,14 @@ def _lut(xs, ys, x):
 
 
 @njit
-def _classify(knots, rgb, alpha, s, gx, gy, gz, lx, ly, lz, emission, energy, shade, out):
+def _classify(knots, rgb, alpha, tau, s, gx, gy, gz, lx, ly, lz, emission, energy, shade, out):
     """Colour ``c`` (7.2) into ``out[:3]`` and opacity ``a`` into ``out[3]`` of one sample.
 
-    ``alpha`` is already corrected for the sample spacing.
+    ``tau == 0``: ``alpha`` holds each knot's opacity already corrected for
+    the sample spacing, interpolated as it is. ``tau > 0`` (the attenuation
+    model): ``alpha`` holds the table's opacities, read as attenuation
+    coefficients per unit length, and the sample's opacity is
+    ``1 - exp(-alpha(s) * tau)``, ``tau = step / unit``.
     """
     n = knots.shape[0]
     i = _lut(knots, alpha, s)
@@ -316,6 +320,8 @@ def _classify(knots, rgb, alpha, s, gx, gy, gz, lx, ly, lz, emission, energy, sh
         f = (s - knots[i]) / (knots[i + 1] - knots[i])
     j = i + 1 if i + 1 < n else i
     a = alpha[i] + f * (alpha[j] - alpha[i])
+    if tau > 0.0:
+        a = 1.0 - np.exp(-a * tau)
     out[3] = a
     if shade:
         g = np.sqrt(gx * gx + gy * gy + gz * gz)
@@ -347,10 +353,43 @@ def _next_entry(pts, btris, bcell, items, lo, hi, o, d, t_min, tri):
 
 
 @njit(parallel=True)
+def sample_bounds(pts, btris, offsets, items, origins, dirs, start_cell, step, cap):
+    """An upper bound ``cap[p]`` on the samples of pixel ``p``'s ray, without walking cells.
+
+    The samples ``k * step`` lie between the nearest and the farthest
+    boundary crossing of the ray (from the eye when it starts inside), so
+    ``floor(t_far / step) - ceil(t_near / step) + 1`` plus two for round-off
+    bounds them; a ray through holes gets more room than it uses.
+    """
+    npix = origins.shape[0]
+    for p in prange(npix):
+        o = origins[p]
+        d = dirs[p]
+        t_near = 0.0 if start_cell[p] >= 0 else np.inf
+        t_far = -np.inf
+        for q in range(offsets[p], offsets[p + 1]):
+            i = items[q]
+            t, u, v, dn = _ray_triangle(o, d, pts[btris[i, 0]], pts[btris[i, 1]], pts[btris[i, 2]])
+            if t >= 0.0:
+                t_near = min(t_near, t)
+                t_far = max(t_far, t)
+        if t_far < t_near:
+            cap[p] = 0
+        else:
+            cap[p] = int(np.floor(t_far / step)) - int(np.ceil(t_near / step)) + 3
+
+
+@njit(parallel=True)
 def cast(pts, cells, faces, is_hex, nb, values, grads, btris, bcell, offsets, items, origins, dirs, start_cell,
-         step, knots, rgb, alpha, emission, energy, light, headlight, shade, background, scale, max_steps,
-         image, length, entries, samples):
+         step, knots, rgb, alpha, tau, emission, energy, light, headlight, shade, background, scale, max_steps,
+         store_off, store, image, length, entries, samples):
     """Ray casting (7.8.1): walk every pixel's ray cell to cell and composite its samples.
+
+    With ``store_off (P+1,)`` non-empty, each sample's ``(S, Gx, Gy, Gz)``
+    also goes to row ``store_off[p] + k`` of ``store`` (``k`` counted from
+    the eye), so that :func:`composite_samples` can classify them again
+    without walking; a pixel with more samples than its room stores none
+    beyond it, and ``samples[p]`` then exceeds the room (the wrapper checks).
 
     Samples lie at ``t = k * step`` (``k >= 0``) along the unit ray, the
     distance from the eye (the equi-distance surfaces of (7.3) cross the
@@ -363,9 +402,11 @@ def cast(pts, cells, faces, is_hex, nb, values, grads, btris, bcell, offsets, it
     npix = origins.shape[0]
     nn = cells.shape[1]
     eps = EPS_REL * scale
+    keep = store_off.shape[0] > 0
     for p in prange(npix):
         o = origins[p]
         d = dirs[p]
+        room = store_off[p + 1] - store_off[p] if keep else 0
         tri = np.empty(3, np.int64)
         w = np.empty(8)
         dnd = np.empty((8, 3))
@@ -420,7 +461,13 @@ def cast(pts, cells, faces, is_hex, nb, values, grads, btris, bcell, offsets, it
                         gx += w[i] * grads[g, 0]
                         gy += w[i] * grads[g, 1]
                         gz += w[i] * grads[g, 2]
-                    _classify(knots, rgb, alpha, s, gx, gy, gz, lx, ly, lz, emission, energy, shade, cl)
+                    if keep and n_smp < room:
+                        row = store_off[p] + n_smp
+                        store[row, 0] = s
+                        store[row, 1] = gx
+                        store[row, 2] = gy
+                        store[row, 3] = gz
+                    _classify(knots, rgb, alpha, tau, s, gx, gy, gz, lx, ly, lz, emission, energy, shade, cl)
                     a = cl[3]
                     c_r += trans * a * cl[0]
                     c_g += trans * a * cl[1]
@@ -444,6 +491,39 @@ def cast(pts, cells, faces, is_hex, nb, values, grads, btris, bcell, offsets, it
         length[p] = total
         entries[p] = n_seg
         samples[p] = n_smp
+
+
+@njit(parallel=True)
+def composite_samples(store_off, samples, store, dirs, knots, rgb, alpha, tau, emission, energy, light, headlight,
+                      shade, background, image):
+    """(7.1) front to back over the kept samples of each pixel, as :func:`cast` composites them.
+
+    Same arithmetic in the same order, so the image equals the walk's bit for bit.
+    """
+    npix = dirs.shape[0]
+    for p in prange(npix):
+        cl = np.empty(4)
+        d = dirs[p]
+        if headlight:
+            lx, ly, lz = -d[0], -d[1], -d[2]
+        else:
+            lx, ly, lz = light[0], light[1], light[2]
+        c_r = 0.0
+        c_g = 0.0
+        c_b = 0.0
+        trans = 1.0
+        start = store_off[p]
+        for q in range(start, start + samples[p]):
+            _classify(knots, rgb, alpha, tau, store[q, 0], store[q, 1], store[q, 2], store[q, 3], lx, ly, lz,
+                      emission, energy, shade, cl)
+            a = cl[3]
+            c_r += trans * a * cl[0]
+            c_g += trans * a * cl[1]
+            c_b += trans * a * cl[2]
+            trans *= 1.0 - a
+        image[p, 0] = c_r + trans * background[0]
+        image[p, 1] = c_g + trans * background[1]
+        image[p, 2] = c_b + trans * background[2]
 
 
 # ------------------------------------------------------------------ equi-distance surfaces
@@ -482,7 +562,7 @@ def fill_fragments(pts, tris, tri_shell, vs, vg, offsets, items, origins, dirs, 
 
 
 @njit(parallel=True)
-def composite_fragments(frag_off, frag_n, frag_sg, dirs, knots, rgb, alpha, emission, energy, light, headlight,
+def composite_fragments(frag_off, frag_n, frag_sg, dirs, knots, rgb, alpha, tau, emission, energy, light, headlight,
                         shade, background, image):
     """(7.1) back to front over each pixel's fragments: ``C_t = C_{t-1}(1 - a) + c a``, ``C_0`` the background."""
     npix = frag_off.shape[0] - 1
@@ -498,7 +578,7 @@ def composite_fragments(frag_off, frag_n, frag_sg, dirs, knots, rgb, alpha, emis
         c_b = background[2]
         start = frag_off[p]
         for q in range(start + frag_n[p] - 1, start - 1, -1):  # far to near
-            _classify(knots, rgb, alpha, frag_sg[q, 0], frag_sg[q, 1], frag_sg[q, 2], frag_sg[q, 3], lx, ly, lz,
+            _classify(knots, rgb, alpha, tau, frag_sg[q, 0], frag_sg[q, 1], frag_sg[q, 2], frag_sg[q, 3], lx, ly, lz,
                       emission, energy, shade, cl)
             a = cl[3]
             c_r = c_r * (1.0 - a) + cl[0] * a

@@ -30,11 +30,11 @@ from polygen import _jit
 from polygen.volume import methods as _methods
 from polygen.volume.render import _kernels as _k
 from polygen.volume.render.raycast import RenderResult
-from polygen.volume.render.transfer import Lighting, check_tf
+from polygen.volume.render.transfer import Lighting, check_optical_model, check_tf
 from polygen.volume.render.view import RenderError, check_background, check_step, check_view
 from polygen.volume.surface import node_gradients
 
-__all__ = ["eye_distance", "psnr", "Shells", "ShellRenderer", "render_shells_pyvista"]
+__all__ = ["eye_distance", "psnr", "foreground", "Shells", "ShellRenderer", "render_shells_pyvista"]
 
 
 def eye_distance(vol, camera):
@@ -49,14 +49,42 @@ def eye_distance(vol, camera):
     return check_view(camera).distance(vol.points)
 
 
-def psnr(a, b, *, peak=1.0):
-    """Peak signal-to-noise ratio in dB of two images with values in [0, peak] (inf when equal)."""
+def psnr(a, b, *, peak=1.0, mask=None):
+    """Peak signal-to-noise ratio in dB of two images with values in [0, peak] (inf when equal).
+
+    Parameters
+    ----------
+    a, b : (H, W, 3) or (H, W) float
+    peak : float, keyword-only
+    mask : (H, W) bool, optional, keyword-only
+        The pixels to compare (all by default); e.g. :func:`foreground`.
+        Background both images agree on inflates the ratio, so a comparison
+        of renderers takes it over the pixels either covers.
+    """
     a = np.asarray(a, np.float64)
     b = np.asarray(b, np.float64)
     if a.shape != b.shape:
         raise RenderError(f"images differ in shape: {a.shape} and {b.shape}")
+    if mask is not None:
+        mask = np.asarray(mask, bool)
+        if mask.shape != a.shape[:2]:
+            raise RenderError(f"mask must have the images' shape {a.shape[:2]}; got {mask.shape}")
+        if not mask.any():
+            raise RenderError("the mask selects no pixel")
+        a, b = a[mask], b[mask]
     mse = float(np.mean((a - b) ** 2))
     return np.inf if mse == 0 else 10.0 * np.log10(peak * peak / mse)
+
+
+def foreground(*images, background=0.0):
+    """(H, W) bool: the pixels where any of ``images`` (each (H, W, 3)) is not the background colour."""
+    bg = check_background(background)
+    out = None
+    for img in images:
+        img = np.asarray(img, np.float64)
+        m = np.any(img != bg, axis=-1)
+        out = m if out is None else out | m
+    return out
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -279,7 +307,7 @@ class ShellRenderer:
             self.fragment_builds += 1
             return got
 
-    def render(self, tf, *, step, lighting=None, background=0.0, camera=None):
+    def render(self, tf, *, step, lighting=None, background=0.0, camera=None, optical_model="opacity"):
         """Draw the surfaces ``k * step`` far to near, translucent by ``tf`` (7.1, 7.2).
 
         Parameters
@@ -291,6 +319,8 @@ class ShellRenderer:
         background : float or (3,) float, keyword-only
         camera : View, optional, keyword-only
             A new view (:meth:`set_camera`).
+        optical_model : {"opacity", "attenuation"}, keyword-only
+            As :meth:`RayCaster.render <polygen.volume.render.RayCaster.render>`.
 
         Returns
         -------
@@ -299,6 +329,7 @@ class ShellRenderer:
             call), ``shells``, ``fragments``, ``composite``, ``total``.
         """
         tf, step = check_tf(tf), check_step(step)
+        alpha, tau = tf.sample_table(step, check_optical_model(optical_model))
         e, energy, light, head, shade = (lighting or Lighting()).arrays()
         bg = check_background(background)
         with self._lock:
@@ -312,8 +343,8 @@ class ShellRenderer:
             t3 = time.perf_counter()
             npix = dirs.shape[0]
             image = _jit.scratch((npix, 3))
-            _k.composite_fragments(frag_off, frag_n, frag_sg, dirs, tf.knots, tf.rgb, tf.corrected(step), e, energy,
-                                   light, head, shade, bg, image)
+            _k.composite_fragments(frag_off, frag_n, frag_sg, dirs, tf.knots, tf.rgb, alpha, tau, e, energy, light,
+                                   head, shade, bg, image)
             t4 = time.perf_counter()
             w, h = self.camera.size
             return RenderResult(image=image.reshape(h, w, 3), length=None, entries=None,

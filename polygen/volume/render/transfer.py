@@ -8,7 +8,32 @@ import numpy as np
 
 from polygen.volume.render.view import RenderError
 
-__all__ = ["TransferFunction", "Lighting", "check_tf"]
+__all__ = ["TransferFunction", "Lighting", "OPTICAL_MODELS", "check_tf", "check_optical_model"]
+
+#: What a table opacity ``a`` means along a ray, and so what a renderer integrates (``optical_model=``):
+#:
+#: ``"opacity"`` (polygen's default): ``a`` is the opacity of a slab ``unit`` thick, so the attenuation
+#: coefficient is ``tau = -ln(1 - a) / unit`` and a sample ``step`` apart gets ``1 - (1 - a) ** (step / unit)``
+#: (corrected at the knots, interpolated between them). A slab ``unit`` thick of constant ``a`` lets
+#: ``1 - a`` through whatever the spacing.
+#:
+#: ``"attenuation"`` (VTK's): ``a / unit`` *is* the attenuation coefficient, interpolated linearly in the
+#: scalar, and a sample gets ``1 - exp(-a(S) * step / unit)``: what VTK's unstructured-grid mappers
+#: integrate (``vtkUnstructuredGridPreIntegration`` and ``vtkUnstructuredGridPartialPreIntegration``
+#: divide the opacity table by ``ScalarOpacityUnitDistance`` and integrate emission and absorption
+#: exactly over each cell's segment). A slab ``unit`` thick of constant ``a`` lets ``exp(-a)`` through,
+#: more than ``1 - a``: the same table renders dimmer, most where ``a`` is large (0.9 per unit lets 0.41
+#: through, not 0.1).
+#:
+#: Both composite ``sum c_k a_k prod_{j<k} (1 - a_j)`` over the samples (7.1), colours not pre-multiplied.
+OPTICAL_MODELS = ("opacity", "attenuation")
+
+
+def check_optical_model(model):
+    """``model`` if it is one of :data:`OPTICAL_MODELS`; :class:`RenderError` otherwise."""
+    if model not in OPTICAL_MODELS:
+        raise RenderError(f"optical_model must be one of {OPTICAL_MODELS}; got {model!r}")
+    return model
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -22,12 +47,14 @@ class TransferFunction:
     rgb : (K, 3) float
         Reflectance (colour) at each knot, in [0, 1].
     opacity : (K,) float
-        Opacity at each knot, in [0, 1], of a sample that stands for a
-        stretch of ray ``unit`` long.
+        Opacity at each knot, in [0, 1], of a stretch of ray ``unit`` long
+        (the renderers' ``optical_model`` says how it is integrated:
+        :data:`OPTICAL_MODELS`).
     unit : float, keyword-only
-        The ray length the opacities are for. A sample spacing ``step``
-        gets ``1 - (1 - a) ** (step / unit)``, so an image does not darken
-        or brighten when the number of samples (or shells) changes.
+        The ray length the opacities are for. With the default optical
+        model a sample spacing ``step`` gets ``1 - (1 - a) ** (step / unit)``,
+        so an image does not darken or brighten when the number of samples
+        (or shells) changes.
 
     Raises
     ------
@@ -88,6 +115,16 @@ class TransferFunction:
             raise RenderError(f"step must be a length > 0; got {step!r}")
         with np.errstate(divide="ignore"):
             return 1.0 - (1.0 - self.opacity) ** (step / self.unit)
+
+    def sample_table(self, step, optical_model="opacity"):
+        """``(alpha (K,), tau)`` for the kernels: what each sample ``step`` apart gets (:data:`OPTICAL_MODELS`).
+
+        ``"opacity"``: the corrected opacities and ``tau = 0``; ``"attenuation"``: the table's
+        opacities (attenuation per ``unit``) and ``tau = step / unit``.
+        """
+        if check_optical_model(optical_model) == "opacity":
+            return np.ascontiguousarray(self.corrected(step)), 0.0
+        return np.ascontiguousarray(self.opacity), float(step) / self.unit
 
     def __call__(self, s):
         """``(rgb (..., 3), opacity (...))`` of the table at scalar values ``s``."""
