@@ -44,6 +44,22 @@ def test_reported_edge_centred_partitions():
         assert_same_as_single(vol, single, stitched)
 
 
+def test_reported_cli_edge_centred_partitions(tmp_path):
+    """The report's command: ``polygen isosurface grid.vtu --partitions 5 --method edge-centred``."""
+    import json
+
+    from polygen.cli import main
+
+    vol = _issue_volume()
+    path = tmp_path / "grid.vtu"
+    vol.to_pyvista().save(path)
+    rc = main(["isosurface", str(path), "--partitions", "5", "--method", "edge-centred", "--values", "20",
+               "--json", str(tmp_path / "out.json"), "--no-files"])
+    assert rc == 0
+    out = json.loads((tmp_path / "out.json").read_text())
+    assert out["triangles"] == [vol.isosurface(v, method="scan").n_triangles for v in out["values"]]
+
+
 def test_walk_merges_the_vertex_of_a_non_manifold_edge():
     """Two blocks touching along one edge only: the walk sees one side, the merge gives one vertex."""
     keep = np.zeros((2, 2, 1), bool)
