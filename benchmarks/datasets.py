@@ -5,7 +5,7 @@ The builds go into a fresh temporary cache directory, so nothing cached
 before is reused (numba's own compile cache is, as in normal use). Writes
 ``benchmarks/results/datasets.json`` and ``benchmarks/results/datasets.md``.
 
-Targets (issue 2): all of data 1-5 built in < 3 minutes; each loaded from
+Targets: all of data 1-5 built in < 3 minutes; each loaded from
 the cache in < 2 s. The script reports; it does not fail on a missed target.
 """
 

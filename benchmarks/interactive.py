@@ -1,4 +1,4 @@
-"""Interactive isosurfaces (issue 20): polygen against the strongest VTK configuration.
+"""Interactive isosurfaces: polygen against the strongest VTK configuration.
 
 Per data set (field ``fem``; data4 and 2M by default, 10M when named and
 cached):
@@ -397,7 +397,7 @@ def first_lines(r):
 
 
 def report(rows, load_before, load_after):
-    lines = ["# Interactive isosurfaces: polygen vs the strongest VTK configuration (issue 20)", ""]
+    lines = ["# Interactive isosurfaces: polygen vs the strongest VTK configuration", ""]
     for r in rows:
         lines += [f"## {r['data']} ({r['cells']:,} cells, {r['nodes']:,} nodes, field {r.get('field', FIELD)!r})", ""]
         if "load_before" in r:
@@ -422,7 +422,7 @@ def report(rows, load_before, load_after):
         "(inside the first update) is not in the sweep times (build_s in the JSON)",
         f"- polygen: mean normals on; '{methods.DEFAULT}' = the prepared default method (the 200 values too), "
         "'edge-centred-table' = the cell-edge-centred construction with the edge table (the default before "
-        "issue 20's active-cell scan), 'edge-centred' = the paper's variant without stored edges, "
+        "the active-cell scan), 'edge-centred' = the paper's variant without stored edges, "
         "'unprepared-scan' = what vol.isosurface answers before the preparation is ready",
         "- peak RSS: each side in its own subprocess (VmHWM); polygen's includes the numba runtime and "
         "its warm-up on data1 and data4, and its background preparation",

@@ -4,9 +4,9 @@ Run ``python benchmarks/mesh2d.py`` from the repository root; writes
 ``benchmarks/results/mesh2d.json`` and ``benchmarks/results/mesh2d.md``.
 The first (warm-up) run compiles or loads the numba kernels and is timed
 separately; the reported times are the best of ``--repeat`` warm runs.
-Target from issue 7: a bubble mesh of 10k nodes in < 10 s.
+Target: a bubble mesh of 10k nodes in < 10 s.
 
-Issue 15 (chapter 4) adds two tables, written to ``benchmarks/results/mesh2d_graded.{json,md}``
+Chapter 4 adds two tables, written to ``benchmarks/results/mesh2d_graded.{json,md}``
 (``--graded-only`` runs just these):
 
 * initial placements on graded size grids of ratio 8 (33 x 33 GridSize on the unit
@@ -175,7 +175,7 @@ def graded_main():
         "shortest edge; packed = (s + t) / (1 + s) from the vertex sizes (appendix); bounds "
         "2t/(1+t) <= packed <= (1+t)/2",
     ]
-    write_results("mesh2d_graded", rows, cols, title="mesh2d: initial placements on graded size grids (issue 15)",
+    write_results("mesh2d_graded", rows, cols, title="mesh2d: initial placements on graded size grids",
                   notes=notes)
     text = (Path(__file__).parent / "results" / "mesh2d_graded.md").read_text()
     lines = ["", "## Theorem 4.1: ramps of ratio 8, increasing gradient", "",

@@ -1,4 +1,4 @@
-"""One isosurface by one thread or two: the edge-centred construction, serial against parallel (issue 20).
+"""One isosurface by one thread or two: the edge-centred construction, serial against parallel.
 
 For data 4 and the 2M volume (field ``fem``), twenty isovalues
 ``linspace(min, max, 22)[1:-1]``, the ``edge-centred-table`` method
@@ -9,7 +9,7 @@ contested vertices claimed by compare-and-swap, see ``EdgeCentredTable``), and
 ``threads=2`` with numba limited to one thread ("2 on 1 core": the parallel
 algorithm's total work, one thread after the other), ``threads=1`` by the
 generic serial kernel with stage 3 in separate passes ("1 generic": the
-serial path before issue 20's specialised tetrahedron kernel, which builds the
+serial path before the specialised tetrahedron kernel, which builds the
 same arrays), ``threads=2`` by the generic parallel kernel with stage 3 in
 separate parallel passes ("2 generic": the parallel path before the
 specialised parallel flood ``construct_tet_parallel``), and the default
@@ -144,7 +144,7 @@ def main(names):
              "cpu_sum_ms: CPU time of the calling thread per extract (time.thread_time), median per value, summed: "
              "all the work for 1 thread and for '2 on 1 core' (the parallel algorithm's total work, free of the "
              "machine's load), the main thread's share for 2 threads",
-             "before issue 20's compare-and-swap construction (the three-pass path: propagate with claims, number, "
+             "before the compare-and-swap construction (the three-pass path: propagate with claims, number, "
              "write), 2M on a quiet machine: threads=1 median 1.73 / max 39.8 / sum 191.6 ms, threads=2 2.13 / 46.6 / "
              "221.9, 2 on 1 core 3.00 / 80.3 / 377.5 (twice the serial work)",
              "before the specialised parallel flood (threads=2 by the generic kernel, positions and normals in "

@@ -1,4 +1,4 @@
-"""Partitioned volumes on Dask (issue 21): preparation, query and bytes against the single-volume path.
+"""Partitioned volumes on Dask: preparation, query and bytes against the single-volume path.
 
 One volume (default: the 2M data set, field ``fem``) split into 2, 4 and 8
 partitions (Morton ranges of cells) on a ``LocalCluster`` of two worker

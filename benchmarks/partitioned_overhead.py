@@ -1,4 +1,4 @@
-"""Where a partitioned sweep's overhead goes (issue 21): each stage's CPU seconds, and the Dask timeline.
+"""Where a partitioned sweep's overhead goes: each stage's CPU seconds, and the Dask timeline.
 
 The single volume's 20-value sweep against the same values split into 2
 partitions, on a machine of 2 cores shared with other work -- so stages are

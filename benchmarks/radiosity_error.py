@@ -1,6 +1,6 @@
 """Benchmark: image error against element count, uniform meshes vs adaptive subdivision.
 
-The yardstick of chapters 3 and 4 (issue 13, part 6): for the Cornell box
+The yardstick of chapters 3 and 4: for the Cornell box
 and the room of the thesis's Fig. 2.8 (`scenes.small_shadows_room`), a
 reference image from a much finer mesh, then the relative RMS image error
 (:func:`polygen.radiosity.error.image_error`) of

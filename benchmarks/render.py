@@ -17,7 +17,7 @@ faces for the view (as if the view were new each frame); VTK's includes
 reading the image back.
 
 Part 2, equi-distance surfaces against ray casting, same view and sample
-spacing: PSNR (issue 16 asks >= 35 dB); ``T_prepare`` is the renderer's
+spacing: PSNR (35 dB asked, fixed before measuring); ``T_prepare`` is the renderer's
 construction for the first eye (node gradients, distance, extrema,
 skeleton, incidence tables), ``T_shells`` and ``T_fragments`` the first
 frame's surfaces and their crossings with the rays. Then, for a fixed eye,

@@ -97,7 +97,7 @@ def main(names):
              + ("met" if met else "not met"),
              "per-run figures in the JSON"]
     write_results("beside_threads_ab", rows, columns,
-                  title="The records thread's numba threads during the preparation (issue 20)", notes=notes)
+                  title="The records thread's numba threads during the preparation", notes=notes)
 
 
 if __name__ == "__main__":

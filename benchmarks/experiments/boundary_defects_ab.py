@@ -1,4 +1,4 @@
-"""The boundary check (:func:`polygen.volume.homology.boundary_defects`) before and after its kernel (issue 20).
+"""The boundary check (:func:`polygen.volume.homology.boundary_defects`) before and after its kernel.
 
 ``sort``: the implementation before, copied here (a lexsort of every
 boundary-face edge, ``np.unique`` of corner keys, a numba union-find over

@@ -1,4 +1,4 @@
-"""Where the combination's extra image error sits (issue 15, diagnosis).
+"""Where the combination's extra image error sits (diagnosis).
 
 One pair of meshes of similar element counts on the scene of Fig. 4.8, with the settings of
 ``benchmarks/intensity_mesh.py``:
@@ -204,7 +204,7 @@ def main():
     write_results("combination_error_zones", rows + [dict(table="elements", **c) for c in counts],
                   list(rows[0].keys()) + ["table", "mesh", "elements"]
                   + [f"within {b:g} of a line" for b in BANDS] + ["area within 0.85"],
-                  title="Where the combination's extra image error sits (issue 15)",
+                  title="Where the combination's extra image error sits",
                   notes=notes)
     (RESULTS / "combination_error_zones.json").write_text(json.dumps(
         {"machine": machine(), "errors": err, "zones": rows, "elements": counts,

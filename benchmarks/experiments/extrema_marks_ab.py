@@ -1,4 +1,4 @@
-"""The extrema's marks (Fig. 6.5's first loop, ``T_pe`` in the thinning) before and after (issue 20).
+"""The extrema's marks (Fig. 6.5's first loop, ``T_pe`` in the thinning) before and after.
 
 ``before``: the cell loop as it was (a test per node for each of the four
 marks), copied here; ``after``: the package's ``_mark_cells`` (a cell with

@@ -1,4 +1,4 @@
-"""Does the numbering of nodes and cells matter to the edge-centred construction and its preparation? (issue 20)
+"""Does the numbering of nodes and cells matter to the edge-centred construction and its preparation?
 
 The 2M volume (field ``fem``) as loaded -- the data sets' cache stores
 every volume with nodes and cells renumbered along a Morton curve
@@ -166,7 +166,7 @@ def main(names):
              "prep_s: the edge-centred-table preparation (topology, thinning, edge records), wall, one run",
              "load: 1-minute load average at the end of the timed loop (2 cores shared with other jobs)"]
     return write_results("locality", rows, COLUMNS,
-                         title="Node and cell numbering against construction speed (issue 20)", notes=notes)
+                         title="Node and cell numbering against construction speed", notes=notes)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""OpenMP's idle threads: spinning (libgomp's default) against sleeping soon (issue 20's preparation).
+"""OpenMP's idle threads: spinning (libgomp's default) against sleeping soon, during the preparation.
 
 numba's ``omp`` threading layer is GNU libgomp. After each parallel region
 its idle threads spin (``GOMP_SPINCOUNT``, 300,000 by default) before they
@@ -151,7 +151,7 @@ def main():
              "sum and max (threads=2 and auto) <= 5 % slower",
              f"load average before {tuple(round(x, 2) for x in load0)}, after {tuple(round(x, 2) for x in load1)}",
              "per-round figures in the JSON"]
-    write_results("omp_wait_ab", rows, columns, title="OpenMP idle threads: spin or sleep (issue 20)", notes=notes)
+    write_results("omp_wait_ab", rows, columns, title="OpenMP idle threads: spin or sleep", notes=notes)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""The edge-centred construction with and without its prefetch hints, and on huge pages (issue 20).
+"""The edge-centred construction with and without its prefetch hints, and on huge pages.
 
 The kernels of :mod:`polygen.volume._edge_centred_kernels` are chosen at
 import (``POLYGEN_PREFETCH=0`` selects the plain ones: no ``llvm.prefetch``

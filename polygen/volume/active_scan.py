@@ -1,4 +1,4 @@
-"""The active-cell scan: the crossed cells, stored in span-space order, scanned in parallel (ours, issue 20).
+"""The active-cell scan: the crossed cells, stored in span-space order, scanned in parallel (ours, beyond the thesis).
 
 Every construction of the thesis finds the crossed cells by a search
 (chapter 5's active-cell searches, chapter 6's extrema graph, chapter 7's

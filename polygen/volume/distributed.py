@@ -1,4 +1,4 @@
-"""Partitioned volumes on Dask: partitions prepared once on the workers and kept there (issue 21).
+"""Partitioned volumes on Dask: partitions prepared once on the workers and kept there.
 
 Each partition of a :class:`~polygen.volume.partitioned.PartitionedVolume`
 becomes a Dask **actor** (:class:`SharedMemoryPartition`, a

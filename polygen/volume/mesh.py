@@ -389,7 +389,7 @@ class UnstructuredVolume:
           starts the preparation in a background thread (its numba kernels
           release the GIL). Later calls use the prepared method as soon as
           it is there. With ``preparation = "now"`` the first call prepares
-          and then answers (the behaviour before issue 20); with
+          and then answers (the behaviour before the active-cell scan); with
           ``"never"`` every call scans.
         * ``prepare=True``: prepare now (or wait for the background
           preparation already running) and answer with the prepared method.

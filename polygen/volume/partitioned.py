@@ -1,4 +1,4 @@
-"""Partitioned volumes: one volume in pieces, isosurfaces across them stitched exactly (issue 21).
+"""Partitioned volumes: one volume in pieces, isosurfaces across them stitched exactly.
 
 Finite-element solvers that run on clusters write one piece per process (a
 ``.pvtu`` with its ``.vtu`` pieces, or one file per partition); pieces share

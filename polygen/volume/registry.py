@@ -36,7 +36,7 @@ METHODS: dict = {}
 SEED_SOURCES: dict = {}
 
 #: the method ``UnstructuredVolume.isosurface`` and the CLI use first: the fastest one measured
-#: (benchmarks/results/interactive.md, issue 20: the active-cell scan, the crossed cells as prefixes of
+#: (benchmarks/results/interactive.md: the active-cell scan, the crossed cells as prefixes of
 #: span-space rows scanned by every core, against the cell-edge-centred construction with the edge table
 #: (``edge-centred-table``, the fastest of the 2001 paper's four): on 2M a 20-value sweep in about 2/3 of
 #: its time, the largest surface in about 2/3, prepared in 0.6 s instead of 0.9 s with 2/3 of its memory)
