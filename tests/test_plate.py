@@ -310,9 +310,9 @@ def test_square_plate_centre(support):
 
 
 def test_factor_runs_on_one_blas_thread(monkeypatch):
-    # the factor's fronts are small: a threaded gemm on them only waits (18.5 s against 1.32 s
-    # on 200 x 200 on a loaded 2-core machine), so solve_plate pins BLAS to one thread around
-    # the factor, and gives the threads back after it
+    # the factor's fronts are small: a threaded gemm on them only waits (13.5 s against
+    # 0.54 s on 200 x 200 on a loaded 2-core machine, results/intensity_mesh_plate.json), so
+    # solve_plate pins BLAS to one thread around the factor, and gives the threads back after
     from threadpoolctl import threadpool_info
 
     from polygen.mesh2d import plate

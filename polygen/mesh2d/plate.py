@@ -27,11 +27,12 @@ same dissection's tree (:mod:`polygen.mesh2d._multifrontal`: one dense
 front per separator line, BLAS for the dense work).  The factor runs with
 BLAS pinned to one thread (threadpoolctl): its fronts are many and small,
 and a threaded ``gemm`` on each of them spends its time starting and
-waiting for threads; on a busy 2-core machine OpenBLAS's default two
-threads made the 200 x 200 factor 18.5 s against 1.32 s with one
-(interleaved, load 14).  Timings of the step, by phase and against
-SuperLU on the same matrix and order: ``benchmarks/intensity_mesh.py
---only plate`` (``benchmarks/results/intensity_mesh_plate.json``).
+waiting for threads: on a busy 2-core machine (load 12) OpenBLAS's
+default two threads made the 200 x 200 factor 13.5 s against 0.54 s with
+one, and the whole step took 1.04 s (0.51 s CPU).  These figures, the
+step by phase, and SuperLU on the same matrix and order (1.77 s) are in
+``benchmarks/results/intensity_mesh_plate.json`` (``benchmarks/intensity_mesh.py
+--only plate``), with the commit they were measured at.
 Degrees of freedom are numbered ``3 * (j * nx + i) + c`` for grid point
 ``(i, j)`` (``x = x0 + i dx``, ``y = y0 + j dy``) and component ``c`` in
 ``(w, w_x, w_y)``.
