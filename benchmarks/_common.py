@@ -22,8 +22,28 @@ def best_of(fn, repeat=3):
     return best, out
 
 
+def _git(*args):
+    import subprocess
+
+    try:
+        out = subprocess.run(["git", *args], cwd=Path(__file__).resolve().parent, capture_output=True,
+                             text=True, timeout=30, check=True)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out.stdout.strip()
+
+
 def machine():
-    return {"python": platform.python_version(), "machine": platform.machine(), "cpus": os.cpu_count()}
+    """Where and from what a result was made: the machine, the commit (``+dirty`` when tracked files
+    differ from it) and the date (UTC). Every results file records it, so that a figure can be traced
+    to the code that gave it."""
+    from datetime import datetime, timezone
+
+    commit = _git("rev-parse", "HEAD")
+    if commit is not None and _git("status", "--porcelain", "--untracked-files=no"):
+        commit += "+dirty"
+    return {"python": platform.python_version(), "machine": platform.machine(), "cpus": os.cpu_count(),
+            "commit": commit, "date": datetime.now(timezone.utc).isoformat(timespec="seconds")}
 
 
 def write_results(name, rows, columns, *, title, notes=()):

@@ -19,6 +19,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from _common import machine  # benchmarks/ is the script's directory
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -63,7 +64,8 @@ def main(argv=None):
 
     build_total = sum(r["build_s"] for r in rows)
     result = dict(
-        machine=dict(platform=platform.platform(), cpus=os.cpu_count(), python=platform.python_version()),
+        machine=dict(platform=platform.platform(), cpus=os.cpu_count(), python=platform.python_version(),
+                     **{k: v for k, v in machine().items() if k in ("commit", "date")}),
         note="the machine was shared with other jobs while this ran; timings are wall clock",
         build_total_s=round(build_total, 1),
         wall_total_s=round(total, 1),

@@ -3,7 +3,8 @@
 On the scene of Fig. 4.8 (`scenes.three_rectangles_box`):
 
 * the plate solve that fills a size grid (4.6-4.10) on a 200 x 200 grid:
-  the floor's size grid from the first mesh's node sizes (target < 2 s);
+  the floor's size grid from the first mesh's node sizes (target < 1 s on a busy 2-core
+  machine, BLAS pinned to one thread around the factor as ``solve_plate`` does);
 * the five phases of the two-pass loop (Table 4.2; target: all of it < 60 s);
 * element counts of Table 4.1: first mesh, conventional adaptive re-mesh
   from the same first solution, this method;
@@ -49,9 +50,10 @@ smallest angle) is recorded too.  Writes
 1.7 (Table 4.1's parameters, as the full run), then the floor's 200 x 200 size grid, best of
 3 (wall and CPU), and its phases one by one (IDW, element matrix, nested-dissection order,
 free-DOF CSC assembly with the held values' right-hand side, the fronts, the multifrontal
-Cholesky factor, solves), and SuperLU on the same matrix and order for comparison (the solver
-before, not part of the step);
-writes ``intensity_mesh_plate.json``.
+Cholesky factor with BLAS on one thread, as the step runs it, solves), and for comparison (not
+part of the step) the same factor with BLAS at its default threads and SuperLU on the same
+matrix and order (the solver before); writes ``intensity_mesh_plate.json``, with the commit
+and date it was made at.
 
 ``--only narrow`` (issue 15) runs only the combination with ``lines="narrow"`` (D0 lines, and
 D1 lines only where the penumbra they bound is narrower than the element the first pass's size
@@ -188,14 +190,15 @@ def plate_timing(result, n=200):
     The grid's nested-dissection order is cached per shape; each repetition starts without it.
     """
     xy, sizes, bounds = _floor_points(result)
-    wall = cpu = float("inf")
+    walls, cpus = [], []
     for _ in range(3):
         _plate._nested_dissection.cache_clear()
         t, c = time.perf_counter(), time.process_time()
         grid = element_size_grid(xy, sizes, bounds, grid=(n, n))
-        wall = min(wall, time.perf_counter() - t)
-        cpu = min(cpu, time.process_time() - c)
-    return wall, cpu, int((~grid.assigned).sum())
+        walls.append(time.perf_counter() - t)
+        cpus.append(time.process_time() - c)
+    plate_timing.walls = walls  # every repetition, for the results file
+    return min(walls), min(cpus), int((~grid.assigned).sum())
 
 
 def _floor_points(result):
@@ -238,8 +241,12 @@ def plate_phases(result, n=200):
                                lambda: _plate._free_system(ke, nx, ny, new, o, u))
         bp, bd, stack = clock("fronts (symbolic)",
                               lambda: _mf.symbolic(ip, ix, sn_ptr, parent))
-        lp, lf, _ = clock("Cholesky factor (multifrontal)",
-                          lambda: _mf.factor(ip, ix, d, sn_ptr, parent, bp, bd, stack))
+        with _plate._one_blas_thread():  # as solve_plate runs it
+            lp, lf, _ = clock("Cholesky factor (multifrontal)",
+                              lambda: _mf.factor(ip, ix, d, sn_ptr, parent, bp, bd, stack))
+        # the same factor with BLAS at its default threads, for comparison (not in the step)
+        clock(f"reference: factor, BLAS default threads ({_blas_threads()})",
+              lambda: _mf.factor(ip, ix, d, sn_ptr, parent, bp, bd, stack))
         clock("triangular solves", lambda: _mf.solve(sn_ptr, bp, bd, lp, lf, rhs))
         # the solver before it, on the same matrix and order, for comparison (not in the step)
         k = sp.csc_matrix((d, ix, ip), shape=(len(o), len(o)))
@@ -247,6 +254,14 @@ def plate_phases(result, n=200):
             k, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True}))
         clock("reference: SuperLU solves", lambda: lu.solve(rhs))
     return best
+
+
+def _blas_threads():
+    """The BLAS libraries' thread counts outside any limit, e.g. ``openblas 2, openblas 2``."""
+    from threadpoolctl import threadpool_info
+
+    return ", ".join(f"{i['internal_api']} {i['num_threads']}" for i in threadpool_info()
+                     if i["user_api"] == "blas")
 
 
 def plate_only(sc, solve, args):
@@ -277,6 +292,7 @@ def plate_only(sc, solve, args):
         (RESULTS / "intensity_mesh_plate.json").write_text(json.dumps(
             {"machine": machine(), "load_average": load, "grid": [n, n],
              "plate_grid_points": nfree, "seconds": wall, "cpu_seconds": cpu,
+             "seconds_each": plate_timing.walls, "blas_threads": _blas_threads(),
              "loop_size_grids": {"polygons": len(grids), "step": si / 4, "seconds": loop_wall,
                                  "cpu_seconds": loop_cpu},
              "phases": {k: {"seconds": w, "cpu_seconds": c} for k, (w, c) in phases.items()}},

@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from _common import machine  # noqa: E402  (benchmarks/ is the script's directory)
 from polygen.radiosity import scenes
 from polygen.radiosity.mesh import bubble_element_mesher, bubble_mesher, mesh_scene
 from polygen.radiosity.formfactor import VISIBILITY_SAMPLES
@@ -122,6 +123,7 @@ def main(argv=None):
             "cpu_count": os.cpu_count(),
             "load_average_at_end": [round(x, 2) for x in load] if load else None,
             "note": "shared with other engineers' jobs while measured",
+            **{k: v for k, v in machine().items() if k in ("commit", "date")},
         },
         "target": "converged (unshot < 1 % of emitted) in < 60 s",
         "thesis_reference": "Table 3.1 T_rs: 156.63 s (6090 elements), 289.02 s (17150 elements),"

@@ -206,6 +206,14 @@ assert np.abs(ratio - 1).max() < 0.01 and np.abs(ratio_c - 1).max() < 0.01
 # unshot energy; the images below are drawn by our Gouraud z-buffer after 1, 10 and 100 shots
 # and at convergence (unshot < 1 % of the emitted energy), all with the same exposure. The
 # first shot is the light: direct illumination only.
+#
+# That the pictures brighten is true by construction (a shot only adds light). What 2.2.2
+# claims is more: each shot brings the picture closer to **the solution of the whole system**.
+# We check it against a solution that owes nothing to the shooting: Gauss–Seidel (2.3) on the
+# full (elements × patches) matrix of the same form factors. After 1, 10, 100 shots and at
+# convergence the area-weighted error against it must fall strictly, and no element may exceed
+# it (shooting sums the light of a convergent series of non-negative terms, so every partial
+# solution lies below the whole), up to what Gauss–Seidel's stopping rule leaves.
 
 # %%
 cornell = scenes.cornell_box()
@@ -225,10 +233,28 @@ plot_radiosity.show_images(images, [f"{len(r.shots)} shot{'s' * (len(r.shots) > 
 plt.show()
 plot_radiosity.plot_convergence({"Cornell box, default form factors": final.history})
 plt.show()
+# the whole system, solved without shooting: Gauss-Seidel on the (elements x patches) matrix
+GS_TOL = 1e-10
+t0 = time.perf_counter()
+fmat_c = form_factor_matrix(cmesh)
+whole = gauss_seidel(cmesh, fmat=fmat_c, tol=GS_TOL)
+# Gauss-Seidel stops when a sweep changes no element by more than GS_TOL; with the system's
+# contraction factor k = max rho * max row sum of F < 1 what is left is at most GS_TOL k / (1 - k)
+k_gs = cmesh.element_reflectance.max() * fmat_c.sum(axis=1).max()
+gs_slack = GS_TOL * k_gs / (1 - k_gs)
+weighted = lambda b: (cmesh.element_area[:, None] * b).sum()   # noqa: E731
+gap = [weighted(np.abs(whole.radiosity - r.radiosity)) / weighted(whole.radiosity) for r in runs]
+above = [float((r.radiosity - whole.radiosity).max()) for r in runs]
+print(f"Gauss-Seidel on the whole system: {whole.stats['n_sweeps']} sweeps, "
+      f"{time.perf_counter() - t0:.1f} s with its matrix")
+print(f"{'shots':>6s} {'unshot':>8s} {'error against it':>17s} {'largest excess':>15s}")
+for r, g, a in zip(runs, gap, above):
+    print(f"{len(r.shots):6d} {r.history[-1]:8.2%} {g:17.4f} {a:15.2e}")
 h = final.history
 assert final.converged and h[-1] <= 0.01
 assert np.all(np.diff(h) <= 1e-12)                      # unshot energy never grows
-assert np.all(np.diff([r.radiosity.sum() for r in runs]) > 0)   # pictures only brighten
+assert whole.converged and all(b < a for a, b in zip(gap, gap[1:]))   # closer shot by shot
+assert max(above) <= gs_slack                            # never above the whole solution
 
 # %% [markdown]
 # ### A coarse hemicube makes patches wrongly bright or dark (2.2.1)
@@ -266,7 +292,17 @@ assert np.sum(np.abs(dev[8]) > 0.1) > np.sum(np.abs(dev[100]) > 0.1)
 #   `numpy.linalg.solve` of (2.3) on the same form factors;
 # * **Gauss–Seidel** (2.3) against progressive refinement on a room with two floating
 #   rectangles;
-# * **energy balance**: in a closed scene everything emitted is eventually absorbed.
+# * **energy balance**: in a closed scene everything emitted is eventually absorbed. The
+#   shooting's own account of it (absorbed + unshot = emitted) is bookkeeping: with the
+#   hemicube, whose columns are normalised, it holds by construction. So we check it on
+#   solutions that owe nothing to that account. In a closed scene of **one reflectance** ρ
+#   every bounce keeps ρ of the light, so the light leaving all surfaces sums to
+#   Σ A B = Σ A E / (1 − ρ) (a closed form, whatever the geometry): the cube with only its
+#   ceiling emitting, meshed by the bubble mesh, solved by Gauss–Seidel on the full matrix of
+#   the default factors and by progressive refinement (its unshot power U adds ρU/(1 − ρ)
+#   still to come). In the closed box with three rectangles (an emitter that reflects
+#   nothing, occluders) we compare the power absorbed, Σ A (1 − ρ) H from the Gauss–Seidel
+#   solution, with the power emitted. The tolerance is the furnace test's 1 % above.
 
 # %%
 furnace = mesh_scene(scenes.furnace_box(), 0.4, mesher=bubble_mesher)
@@ -280,19 +316,31 @@ room = mesh_scene(scenes.two_rectangles_room(), 3.0, element_levels=1)
 fr = form_factor_matrix(room, form_factors="hemicube", resolution=64)
 gs = gauss_seidel(room, fmat=fr, tol=1e-12)
 pr = progressive_refinement(room, form_factors="hemicube", resolution=64, tol=1e-7)
+# energy: the cube (rho = 0.5 everywhere, the ceiling emitting) and the closed box with occluders
+lit = mesh_scene(scenes.unit_cube(), 0.25, element_levels=1, mesher=bubble_mesher)
+gs_lit = gauss_seidel(lit, tol=1e-12)
+pr_lit = progressive_refinement(lit, tol=1e-6)
+RHO = 0.5
+power_e = (lit.element_area * lit.element_emission[:, 0]).sum()
+leaving = lambda r: (lit.element_area * r.radiosity[:, 0]).sum()   # noqa: E731
 closed = mesh_scene(scenes.three_rectangles_box(), 2.5, element_levels=1)
-rb = progressive_refinement(closed, form_factors="hemicube", resolution=64, tol=1e-4)
+gs_closed = gauss_seidel(closed, tol=1e-12)
 rows = [
     ("furnace: max |B - 2| / 2", 0.0, np.abs(rf.radiosity / 2 - 1).max()),
     ("cube: max |B_PR - B_solve| / max B", 0.0, np.abs(rc.radiosity[:, 0] - direct).max() / direct.max()),
     ("room: max |B_PR - B_GS| / max B", 0.0, np.abs(pr.radiosity - gs.radiosity).max() / gs.radiosity.max()),
-    ("closed box: absorbed / emitted", 1.0, (rb.absorbed_power(closed) / rb.emitted_power).min()),
+    ("lit cube, GS: (1 - rho) sum A B / sum A E", 1.0, (1 - RHO) * leaving(gs_lit) / power_e),
+    ("lit cube, PR: same + rho U / sum A E", 1.0,
+     ((1 - RHO) * leaving(pr_lit) + RHO * pr_lit.unshot_power(lit)[0]) / power_e),
+    ("closed box, GS: absorbed / emitted", 1.0,
+     max(gs_closed.absorbed_power(closed) / gs_closed.emitted_power, key=lambda x: abs(x - 1))),
 ]
-print(f"{'check':40s} {'expected':>9s} {'ours':>12s}")
+print(f"lit cube: {lit.n_elements} elements; closed box: {closed.n_elements} elements")
+print(f"{'check':44s} {'expected':>9s} {'ours':>12s}")
 for name, want, got in rows:
-    print(f"{name:40s} {want:9.4f} {got:12.3e}")
+    print(f"{name:44s} {want:9.4f} {got:12.6g}")
 assert rows[0][2] < 1e-3 and rows[1][2] < 1e-8 and rows[2][2] < 1e-4
-assert abs(rows[3][2] - 1) < 2e-4
+assert all(abs(got - 1) < 0.01 for _, _, got in rows[3:])   # the furnace test's tolerance
 
 # %% [markdown]
 # ## T-vertices (Def. 2.5, Fig. 2.3 (c)(d))
@@ -472,7 +520,11 @@ assert qual["bubble + bubble"][1].mean() > qual["lattice + split"][1].mean()
 # does not say how the neighbours are split. We use Rivara's **longest-edge bisection**: a
 # marked element is bisected twice (a quarter of its area, like a 1 → 4 split) and each
 # neighbour along its own longest edge until the mesh conforms, which never lets an angle fall
-# below half the first mesh's smallest (Rosenberg & Stenger). The red–green closure (1 → 4,
+# below half the first mesh's smallest (Rosenberg & Stenger). So issue 13's floor of 20° after
+# five levels holds only from a first mesh of 40° or more: the default Cornell meshes start at
+# 12.7° (lattice, patch 160), 17.6° (lattice 100, bubble 80; the floor's gap in front of the
+# short block) and keep half of that (`test_adaptive_refine_cornell_keeps_half_the_start_angle`);
+# below we assert the bound from the first mesh's angle. The red–green closure (1 → 4,
 # neighbours 1 → 2) that we used before bisects earlier green triangles again at every round:
 # on a bubble mesh its smallest angle fell from 37° to 1.5° in five rounds.
 #

@@ -285,10 +285,21 @@ plt.show()
 #   (q 0.828 / 0.828 / 0.774 = 2(a + b − c)/c, the best with their corners alone; test):
 #   mean 0.888. A *uniform* bubble mesh of the walls' size (3.3) has 0.861.
 #
-# At this notebook's default `size_initial` 2.4 (the same ratios) the mean q is 0.930 with
-# the improvement, at the threshold (0.9299 with a first solution to 5 % unshot), 0.906
-# without; the smallest angle 32.6° / 28.1°. So q ≥ 0.93 is asserted at Table 4.1's size
-# (`POLYGEN_FULL=1`), the smallest angle at both:
+# At this notebook's default `size_initial` 2.4 (the same ratios) the claim **does not hold**:
+# the mean q is 0.9299 with the improvement (0.906 without), below 0.93; the smallest angle
+# is 32.6° (28.1°). The reason is the coarseness above, measured polygon by polygon below: at
+# this size the light (2 × 2), the tilted (2.5 × 2.5) and the upright (3 × 2) rectangle are
+# about one patch size across and get 2, 4 and 4 patches, all of them right triangles of the
+# rectangle's own shape (its halves, or the halves cut again from the right angle), split
+# 1 → 4 into similar elements: every one of their 40 elements has q = 2(a + b − c)/c of its
+# rectangle's sides a, b and diagonal c (0.828, 0.828, 0.774), far below 0.93, and a
+# bubble mesh with so few bubbles has nothing better to offer. The ceiling, a channel around
+# the light, comes next (0.912). So the default run asserts what
+# it measures, on quantities that do not drift with the solution: the smallest angle ≥ 25°,
+# every element of those three polygons at its rectangle's closed form, and the improvement
+# raising the mean q. The claim itself, q ≥ 0.93
+# at Table 4.1's parameters (measured 0.946), is asserted when `POLYGEN_FULL=1` and by the
+# slow test `test_graded_mesh_quality` (about two minutes here).
 
 # %%
 plain = intensity_bubble_mesh(scene, size_initial=SIZE_INITIAL, size_min=SIZE_MIN,
@@ -302,9 +313,29 @@ for name, m in (("first mesh", run.first_mesh), ("adaptive re-mesh", run.adaptiv
     print(f"{name:24s} {m.n_elements:5d} elements: mean q {q.mean():.4f}, "
           f"smallest angle {ang.min():.1f} deg, {100 * np.mean(ang < 25):.1f} % below 25 deg")
 ang, q = quality["this method (improve=3)"]
+second = run.second_mesh
+by_polygon = []
+for k, poly in enumerate(scene.polygons):
+    sel = second.element_polygon == k
+    by_polygon.append({"polygon": poly.name, "patches": len(np.unique(second.element_patch[sel])),
+                       "elements": int(sel.sum()), "mean q": round(float(q[sel].mean()), 4)})
+print(table(by_polygon, ["polygon", "patches", "elements", "mean q"]))
 # issue 15: smallest angle >= 25 deg on the second mesh; mean q >= 0.93 at Table 4.1's size
 assert ang.min() >= 25.0
-assert q.mean() >= 0.93 or not FULL
+if FULL:
+    assert q.mean() >= 0.93
+else:
+    # at 2.4 the three small rectangles are a few patches of their own right triangle: every
+    # element at the closed form 2 (a + b - c) / c of its rectangle (sides from the scene)
+    for name in ("light", "rect_tilted", "rect_upright"):
+        k = next(j for j, p in enumerate(scene.polygons) if p.name == name)
+        v = scene.polygons[k].vertices
+        a, b = np.linalg.norm(v[1] - v[0]), np.linalg.norm(v[2] - v[1])
+        assert len(v) == 4 and abs(np.dot(v[1] - v[0], v[2] - v[1])) < 1e-9 * a * b   # a rectangle
+        c = np.hypot(a, b)
+        sel = second.element_polygon == k
+        np.testing.assert_allclose(q[sel], 2 * (a + b - c) / c, rtol=1e-9, err_msg=name)
+    assert q.mean() > quality["this method, no improve"][1].mean()   # improve keeps better rounds
 
 # %% [markdown]
 # ## Theorem 4.1 — the sharper the size variation, the skinnier the triangles

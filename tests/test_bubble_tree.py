@@ -321,20 +321,37 @@ def test_graded_mesh_quality(field, init, edge_init, neighbours):
 # Theorem 4.1: the sharper the size variation, the skinnier the triangles
 # ---------------------------------------------------------------------------
 
+def packed_triangle(r):
+    """The vertices of three mutually touching bubbles of diameters r (A at 0, B on the x axis), built
+    from the distances alone: |P_i - P_j| = (r_i + r_j) / 2 (2.11), C by intersecting two circles."""
+    ab, ac, bc = 0.5 * (r[0] + r[1]), 0.5 * (r[0] + r[2]), 0.5 * (r[1] + r[2])
+    x = (ac * ac - bc * bc + ab * ab) / (2.0 * ab)
+    return np.array([[0.0, 0.0], [ab, 0.0], [x, math.sqrt(max(ac * ac - x * x, 0.0))]])
+
+
+def packed_ratio_measured(r):
+    return edge_length_ratio(packed_triangle(r), np.array([[0, 1, 2]]))[0]
+
+
 @settings(max_examples=300, deadline=None)
 @given(st.floats(0.01, 10.0), st.floats(1.0, 20.0), st.floats(0.0, 1.0))
 def test_theorem_41_closed_form(ra, t, u):
-    # appendix: r_a < r_b = s r_a < r_c = t r_a packed at AB = (r_a + r_b)/2 ...;
-    # BC / AB = (s + t) / (1 + s), increasing in t, within [2t/(1+t), (1+t)/2]
+    # the appendix's ratio (s + t) / (1 + s) and its bounds against a triangle actually packed:
+    # three touching bubbles placed from their distances, longest over shortest edge measured
+    # from the coordinates (which edge is longest is not assumed)
     s = 1.0 + u * (t - 1.0)
     r = np.array([ra, s * ra, t * ra])
-    want = (s + t) / (1.0 + s)
-    assert math.isclose(packed_edge_ratio(r[None])[0], want, rel_tol=1e-12)
-    assert math.isclose(packed_edge_ratio(r[None, ::-1])[0], want, rel_tol=1e-12)  # any order
+    measured = packed_ratio_measured(r)
+    assert math.isclose(packed_edge_ratio(r[None])[0], measured, rel_tol=1e-9)
+    assert math.isclose(packed_edge_ratio(r[None, ::-1])[0], measured, rel_tol=1e-9)  # any order
     lo, hi = packed_edge_ratio_bounds(np.array([t]))
-    assert lo[0] * (1 - 1e-12) <= want <= hi[0] * (1 + 1e-12)
-    t2 = t * 1.1
-    assert (s + t2) / (1.0 + s) > want
+    assert lo[0] * (1 - 1e-9) <= measured <= hi[0] * (1 + 1e-9)
+    # the bounds are attained: s = t (two large bubbles) and s = 1 (two small ones)
+    assert math.isclose(packed_ratio_measured(np.array([ra, t * ra, t * ra])), lo[0], rel_tol=1e-9)
+    assert math.isclose(packed_ratio_measured(np.array([ra, ra, t * ra])), hi[0], rel_tol=1e-9)
+    # the theorem: a larger size ratio (the middle bubble kept) gives a skinnier packed triangle
+    if t > 1.0 + 1e-6:
+        assert packed_ratio_measured(np.array([ra, s * ra, 1.1 * t * ra])) > measured
 
 
 def ramp_size(slope, s_lo=0.02, ratio=8.0):
@@ -351,21 +368,27 @@ def ramp_size(slope, s_lo=0.02, ratio=8.0):
 SLOPES = (0.15, 0.25, 0.4, 0.6, 1.0, 1.6)
 
 
-def test_theorem_41_on_meshes():
+@pytest.mark.parametrize("seed", [0, pytest.param(1, marks=pytest.mark.slow),
+                                  pytest.param(2, marks=pytest.mark.slow)])
+def test_theorem_41_on_meshes(seed):
     # a family of size grids of the same ratio (8) and increasing gradient: the
     # median edge-length ratio of the triangles in the ramp rises with the gradient,
-    # and triangle by triangle the ratio rises with the vertex size ratio t
+    # at every step of the family (the theorem's "the sharper, the skinnier"), and
+    # triangle by triangle the ratio rises with the vertex size ratio t (Spearman,
+    # significant at 0.1 %; both fixed before measuring: seed 0 measured medians
+    # 1.121 < 1.156 < 1.194 < 1.267 < 1.380 < 1.630, rho 0.49)
     dom = validate_domain(SQUARE)
     medians, ts, ratios = [], [], []
     for slope in SLOPES:
         size, width = ramp_size(slope)
         grid = GridSize.from_function(size, (0, 0, 1, 1), (65, 65))
-        bm = bubble_mesh(dom, (), grid, seed=0)
+        bm = bubble_mesh(dom, (), grid, seed=seed)
         r = grid(bm.nodes)[bm.triangles]
         ramp = r.max(axis=1) > r.min(axis=1) * (1 + 1e-9)  # triangles meeting the ramp
         er = edge_length_ratio(bm.nodes, bm.triangles)[ramp]
         medians.append(np.median(er))
         ts.append(vertex_size_ratio(r[ramp]))
         ratios.append(er)
-    assert spearmanr(SLOPES, medians).statistic > 0, (SLOPES, medians)
-    assert spearmanr(np.concatenate(ts), np.concatenate(ratios)).statistic > 0
+    assert np.all(np.diff(medians) > 0), (SLOPES, medians)
+    per_triangle = spearmanr(np.concatenate(ts), np.concatenate(ratios))
+    assert per_triangle.statistic > 0 and per_triangle.pvalue < 1e-3, per_triangle

@@ -798,16 +798,41 @@ def test_dask_bad_piece_is_named(client, tmp_path):
         dask_prepare(PartitionedVolume.from_pvtu(tmp_path / "t.pvtu"), client=client)
 
 
-def test_worker_killed_during_query(data3):
-    """A worker killed mid-query: the surfaces come back complete (partitions prepared again) or an error."""
+def test_worker_killed_during_query(data3, tmp_path):
+    """A worker killed while it extracts its partition's part of a query: the query still returns every
+    surface, complete, because the lost partitions are prepared again on the worker left (RETRIES = 1).
+
+    The victim worker's partitions hold every query call they get (``hold_queries_here``: a file made on
+    entry, then a wait), and the test kills the worker only once that file exists: the kill lands inside the
+    query, never before it and never after the victim's part came back."""
     from polygen.volume import distributed as pd
+
+    def hold_queries_here(flag):
+        # runs on the victim (defined here so that it travels by value): every partition call that
+        # extracts surfaces marks the file ``flag`` on entry, then waits for the kill
+        from polygen.volume import distributed as pd
+
+        cls = pd.SharedMemoryPartition
+        for name in ("find_shared", "extract_many"):
+            original = getattr(cls, name)
+
+            def held(self, *args, _original=original, _name=name, **kwargs):
+                with open(flag, "a") as f:
+                    f.write(f"{_name}\n")
+                time.sleep(600)  # never returns before the kill; the test fails on its own timeout first
+                return _original(self, *args, **kwargs)
+
+            setattr(cls, name, held)
+        return os.getpid()
 
     c = _cluster_client()
     try:
         values = isovalues(data3.scalars(), 60)
         prepared = dask_prepare(PartitionedVolume.split(data3, 4), client=c)
         victim = prepared.placement[0]
-        pid = c.run(os.getpid)[victim]
+        victim_parts = [i for i, w in enumerate(prepared.placement) if w == victim]
+        flag = tmp_path / "victim-entered-query"
+        pid = c.run(hold_queries_here, str(flag), workers=[victim])[victim]
         result = {}
 
         def query():
@@ -818,27 +843,27 @@ def test_worker_killed_during_query(data3):
 
         t = threading.Thread(target=query)
         t.start()
-        time.sleep(0.3)  # usually mid-query; if the victim has sent its part already, the next query finds it lost
+        deadline = time.monotonic() + 60
+        while not flag.exists() and t.is_alive() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert flag.exists(), "the victim never entered the query"
+        assert t.is_alive() and not result  # the query waits on the held partition
         os.kill(pid, signal.SIGKILL)
         t.join(120)
         assert not t.is_alive()
         # the pieces came through shared memory: every block the query handed out is gone, the killed
         # worker's included (written or not)
         assert prepared.transport == "shared-memory" and _left_blocks(prepared) == []
-        print("outcome:", "error" if "error" in result else f"complete, {prepared.reprepared} prepared again")
-        if "error" in result:  # a clear error, naming the partition lost
-            assert "partition" in str(result["error"]) and "no surface" in str(result["error"])
-        else:
-            surfaces = result["surfaces"]
-            assert len(surfaces) == len(values)
-            for v, s in zip(values, surfaces):
-                assert_same_as_single(data3, data3.isosurface(v), s)
-        # the next query works on what is left; by its end the lost partitions were prepared again
-        # (during the first query, or -- when the victim had already sent its part back -- now)
+        assert "error" not in result, result.get("error")
+        # prepared again during this query: the victim's partitions (and only those were lost)
+        assert prepared.reprepared == len(victim_parts) and victim not in prepared.placement
+        surfaces = result["surfaces"]
+        assert len(surfaces) == len(values)
+        for v, s in zip(values, surfaces):
+            assert_same_as_single(data3, data3.isosurface(v), s)
+        # the next query works on what is left
         assert_same_as_single(data3, data3.isosurface(values[7]), prepared.extract(values[7]))
-        assert prepared.reprepared >= 1 and victim not in prepared.placement
-        assert pd.RETRIES >= 1
-
+        assert prepared.reprepared == len(victim_parts) and pd.RETRIES >= 1
     finally:
         c.close()
         c.cluster.close()

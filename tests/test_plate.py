@@ -307,3 +307,32 @@ def test_square_plate_centre(support):
     for bad in (3, 0, 2.0):
         with pytest.raises(PlateError, match="even int"):
             square_plate_centre(support, bad)
+
+
+def test_factor_runs_on_one_blas_thread(monkeypatch):
+    # the factor's fronts are small: a threaded gemm on them only waits (13.5 s against
+    # 0.54 s on 200 x 200 on a loaded 2-core machine, results/intensity_mesh_plate.json), so
+    # solve_plate pins BLAS to one thread around the factor, and gives the threads back after
+    from threadpoolctl import threadpool_info
+
+    from polygen.mesh2d import plate
+
+    def blas_threads():
+        return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+    before = blas_threads()
+    assert before  # numpy and scipy bring their BLAS
+    seen = []
+    factor = plate._mf.factor
+
+    def spy(*args):
+        seen.append(blas_threads())
+        return factor(*args)
+
+    monkeypatch.setattr(plate._mf, "factor", spy)
+    ny, nx = 9, 11
+    held = np.array([0, nx - 1, nx * ny - 1, nx * (ny - 1)])
+    u = solve_plate((ny, nx), (0.5, 0.4), fixed_dofs=3 * held, fixed_values=[1.0, 2.0, 3.0, 4.0])
+    assert np.all(np.isfinite(u))
+    assert seen == [[1] * len(before)]
+    assert blas_threads() == before

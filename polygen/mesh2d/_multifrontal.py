@@ -2,9 +2,10 @@
 
 The plate solve of chapter 4 (:mod:`polygen.mesh2d.plate`) factors one
 symmetric positive definite matrix per polygon: a grid's stiffness, ordered
-by nested dissection.  SuperLU, a general LU, spent 70 % of the plate step on
-it (1.69 of 2.45 s on 200 x 200 points): LU does twice the work of Cholesky,
-and its supernodes do not follow the dissection.  Here the caller's own
+by nested dissection.  SuperLU, a general LU, took 1.77 s to factor it on
+200 x 200 points where this factor takes 0.54 s (same matrix and order, same
+run, ``benchmarks/results/intensity_mesh_plate.json``): LU does twice the
+work of Cholesky, and its supernodes do not follow the dissection.  Here the caller's own
 dissection tree is the factor's tree, so every separator is one dense front:
 
 * each supernode ``k`` owns the unknowns ``sn_ptr[k]:sn_ptr[k + 1]`` (the
@@ -21,7 +22,10 @@ dissection tree is the factor's tree, so every separator is one dense front:
 The dense work calls LAPACK and BLAS through numba's ``np.linalg`` and
 ``np.dot``: the pivot block by ``potrf``, ``L21^T`` by a blocked triangular
 solve whose bulk is ``gemm`` (numba has no ``trsm``), the update by one
-``gemm``.  The triangular solves of :func:`solve` are numba loops over the
+``gemm``.  The fronts are many and small, so the caller runs :func:`factor`
+with BLAS on one thread (:func:`polygen.mesh2d.plate._one_blas_thread`): a
+threaded ``gemm`` on them made the same factor 13.5 s on a loaded 2-core
+machine.  The triangular solves of :func:`solve` are numba loops over the
 factor (its size, not its cube).
 
 This is the textbook multifrontal method (Duff & Reid 1983; Liu, "The

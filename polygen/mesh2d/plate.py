@@ -24,10 +24,15 @@ assembly; :func:`solve_plate` writes the free DOFs' block straight into CSC
 (a numba kernel over the 3 x 3 grid points around each DOF) in a
 nested-dissection order of the grid, and factors it by Cholesky along that
 same dissection's tree (:mod:`polygen.mesh2d._multifrontal`: one dense
-front per separator line, BLAS for the dense work).  On 200 x 200 points
-that factor took 0.70 s where SuperLU took 1.89 s on the same matrix and
-order in the same run (a slow 2-core VM; ``benchmarks/intensity_mesh.py
---only plate``).
+front per separator line, BLAS for the dense work).  The factor runs with
+BLAS pinned to one thread (threadpoolctl): its fronts are many and small,
+and a threaded ``gemm`` on each of them spends its time starting and
+waiting for threads: on a busy 2-core machine (load 12) OpenBLAS's
+default two threads made the 200 x 200 factor 13.5 s against 0.54 s with
+one, and the whole step took 1.04 s (0.51 s CPU).  These figures, the
+step by phase, and SuperLU on the same matrix and order (1.77 s) are in
+``benchmarks/results/intensity_mesh_plate.json`` (``benchmarks/intensity_mesh.py
+--only plate``), with the commit they were measured at.
 Degrees of freedom are numbered ``3 * (j * nx + i) + c`` for grid point
 ``(i, j)`` (``x = x0 + i dx``, ``y = y0 + j dy``) and component ``c`` in
 ``(w, w_x, w_y)``.
@@ -494,6 +499,22 @@ def _free_order(nx, ny, free, leaf=4):
     return dofs[keep], counts[ptr], parent
 
 
+@lru_cache(maxsize=1)
+def _blas_controller():
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()  # finds the loaded BLAS libraries once (numpy's, scipy's)
+
+
+def _one_blas_thread():
+    """A context in which BLAS runs on one thread: the factor's fronts are too small to share.
+
+    The gemm of a front of a few hundred rows is over before threads pay for themselves, and
+    on a loaded machine a threaded gemm waits for a core that another process holds.
+    """
+    return _blas_controller().limit(limits=1, user_api="blas")
+
+
 def _spd_solve(indptr, indices, data, sn_ptr, parent, rhs):
     """Solve the free block by Cholesky along the dissection's tree (:mod:`._multifrontal`).
 
@@ -501,7 +522,8 @@ def _spd_solve(indptr, indices, data, sn_ptr, parent, rhs):
     the fill stays O(n log n) and the flops O(n^1.5), with BLAS doing the dense work.
     """
     bnd_ptr, bnd, stack = _mf.symbolic(indptr, indices, sn_ptr, parent)
-    l_ptr, lf, bad = _mf.factor(indptr, indices, data, sn_ptr, parent, bnd_ptr, bnd, stack)
+    with _one_blas_thread():
+        l_ptr, lf, bad = _mf.factor(indptr, indices, data, sn_ptr, parent, bnd_ptr, bnd, stack)
     if bad >= 0:
         raise PlateError("the held DOFs do not pin the plate down (the stiffness of the free "
                          "DOFs is not positive definite)")
