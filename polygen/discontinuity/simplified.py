@@ -69,6 +69,13 @@ class SimplifiedDiscontinuity:
     counters: dict
     timings: dict
 
+    def illumination(self, points, **kwargs):
+        """Each point's state per light, and its visible fractions when asked:
+        :func:`polygen.discontinuity.illumination.illumination` of this phase."""
+        from polygen.discontinuity.illumination import illumination
+
+        return illumination(self, points, **kwargs)
+
     def region_sizes(self, size, penumbra_size):
         """Per polygon the ``patch_size`` for :func:`~polygen.radiosity.mesh_scene`.
 
