@@ -24,7 +24,7 @@ from polygen.discontinuity import _geometry as geo
 from polygen.discontinuity.complex import BRIGHT, PENUMBRA, UMBRA, UNPROCESSED
 from polygen.discontinuity.shadow import ShadowError, scene_lights
 
-__all__ = ["illumination", "light_fraction"]
+__all__ = ["illumination", "light_fraction", "visible_part"]
 
 
 def _locate_polygons(scene, points, tol):
@@ -89,56 +89,78 @@ def light_fraction(scene, light_index, points, polygons, *, sides=None):
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     polygons = np.asarray(polygons, dtype=np.int64).reshape(-1)
     sides = np.ones(len(points), np.int64) if sides is None else np.asarray(sides).reshape(-1)
-    nL, dL = L.normal, float(L.normal @ L.origin)
-    pieces = [(k, pc.vertices) for k, p in enumerate(scene.polygons) if k != lpoly
-              for pc in p.convex_pieces()]
+    pieces = _pieces(scene, lpoly)
     out = np.full(len(points), np.nan)
     for i, (x, r, s) in enumerate(zip(points, polygons, sides)):
-        R = scene.polygons[r]
-        n_r = s * R.normal
-        d_r = float(n_r @ x)
-        lit = geo.clip_polygon_3d(L.vertices, -n_r, -d_r)  # the light in front of the face
-        if len(lit) < 3:
+        lit2, hidden = visible_part(scene, lpoly, x, int(r), s * scene.polygons[r].normal, pieces=pieces)
+        if lit2 is None:
             continue
-        lit2 = shapely.Polygon(L.to_2d(lit))
-        if lit2.area <= 0.0:
-            continue
-        hx = float(nL @ x) - dL
-        if hx <= 0.0:
-            continue
-        # the pyramid from x over the lit light: only occluder parts inside it can hide anything,
-        # and parts outside would project to far-away points (a wall beside x: to infinity)
-        c = lit.mean(axis=0)
-        sides_ = []
-        for a, b in zip(lit, np.roll(lit, -1, axis=0)):
-            nv = np.cross(a - x, b - x)
-            if nv @ (c - x) > 0:
-                nv = -nv
-            sides_.append((nv, float(nv @ x)))
-        shadows = []
-        for k, O in pieces:
-            if k == r:
-                continue
-            O = geo.clip_polygon_3d(O, -nL, -dL)                      # in front of the light
-            if len(O) >= 3:
-                O = geo.clip_polygon_3d(O, nL, dL + hx * (1.0 - 1e-12))  # nearer the light than x
-            for nv, dv in sides_:
-                if len(O) < 3:
-                    break
-                O = geo.clip_polygon_3d(O, nv, dv)
-            if len(O) < 3:
-                continue
-            h = O @ nL - dL
-            q = x + (O - x) * (hx / (hx - h))[:, None]
-            sh = shapely.Polygon(L.to_2d(q))
-            if sh.is_valid and sh.area > 0.0:
-                shadows.append(sh)
-        if not shadows:
-            out[i] = 1.0
-            continue
-        hidden = shapely.union_all(shadows).intersection(lit2).area
-        out[i] = min(max(1.0 - hidden / lit2.area, 0.0), 1.0)
+        out[i] = min(max(1.0 - (hidden.area if hidden is not None else 0.0) / lit2.area, 0.0), 1.0)
     return out
+
+
+def _pieces(scene, lpoly):
+    return [(k, pc.vertices) for k, p in enumerate(scene.polygons) if k != lpoly for pc in p.convex_pieces()]
+
+
+def visible_part(scene, lpoly, x, receiver, normal, *, pieces=None):
+    """The part of an emitting polygon in front of a point's face, and the part of it hidden.
+
+    Every other polygon's convex pieces are clipped to the pyramid from ``x``
+    over the light (only parts inside it can hide anything; parts outside
+    would project to far-away points) and projected from ``x`` onto the
+    light's plane.
+
+    Returns
+    -------
+    lit : shapely Polygon or None
+        The light in front of the face, in the light's (u, v) frame; None if
+        none of it is (or ``x`` is not in front of the light).
+    hidden : shapely geometry or None
+        The union of the projections inside ``lit``; None if nothing hides it.
+    """
+    import shapely
+
+    L = scene.polygons[lpoly]
+    nL, dL = L.normal, float(L.normal @ L.origin)
+    if pieces is None:
+        pieces = _pieces(scene, lpoly)
+    d_r = float(normal @ x)
+    lit = geo.clip_polygon_3d(L.vertices, -normal, -d_r)  # the light in front of the face
+    if len(lit) < 3:
+        return None, None
+    lit2 = shapely.Polygon(L.to_2d(lit))
+    hx = float(nL @ x) - dL
+    if lit2.area <= 0.0 or hx <= 0.0:
+        return None, None
+    c = lit.mean(axis=0)
+    planes = []
+    for a, b in zip(lit, np.roll(lit, -1, axis=0)):
+        nv = np.cross(a - x, b - x)
+        if nv @ (c - x) > 0:
+            nv = -nv
+        planes.append((nv, float(nv @ x)))
+    shadows = []
+    for k, O in pieces:
+        if k == receiver:
+            continue
+        O = geo.clip_polygon_3d(O, -nL, -dL)                      # in front of the light
+        if len(O) >= 3:
+            O = geo.clip_polygon_3d(O, nL, dL + hx * (1.0 - 1e-12))  # nearer the light than x
+        for nv, dv in planes:
+            if len(O) < 3:
+                break
+            O = geo.clip_polygon_3d(O, nv, dv)
+        if len(O) < 3:
+            continue
+        h = O @ nL - dL
+        q = x + (O - x) * (hx / (hx - h))[:, None]
+        sh = shapely.Polygon(L.to_2d(q))
+        if sh.is_valid and sh.area > 0.0:
+            shadows.append(sh)
+    if not shadows:
+        return lit2, None
+    return lit2, shapely.union_all(shadows).intersection(lit2)
 
 
 def illumination(scene, points, *, polygons=None, sides=None, fraction=False, discontinuity=None,

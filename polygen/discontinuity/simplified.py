@@ -103,7 +103,7 @@ class SimplifiedDiscontinuity:
 
 
 def simplified_discontinuity(scene, *, solids=True, tol=1e-9, use_index=True, margin=0.05,
-                             check=False):
+                             check=False, state_boundaries_only=False):
     """Shadow polyhedra, receiver complexes and illumination states for a whole scene.
 
     Parameters
@@ -124,6 +124,11 @@ def simplified_discontinuity(scene, *, solids=True, tol=1e-9, use_index=True, ma
         Passed to :func:`~polygen.discontinuity.shadow.scene_sections`.
     check : bool, keyword-only
         Verify every complex after each loop update (slow; for tests).
+    state_boundaries_only : bool, keyword-only
+        Hand the mesh model only the edges between regions of different
+        states (:func:`~polygen.discontinuity.states.discontinuity_segments`);
+        the regions keep their states, and a region's penumbra size reaches
+        the mesh model through its point as before.
 
     Returns
     -------
@@ -147,7 +152,7 @@ def simplified_discontinuity(scene, *, solids=True, tol=1e-9, use_index=True, ma
         for k, v in cx.counters.items():
             counters[k] = counters.get(k, 0) + v
         t0 = time.perf_counter()
-        segments[r] = discontinuity_segments(cx)
+        segments[r] = discontinuity_segments(cx, state_boundaries_only=state_boundaries_only)
         pts = region_points(cx)
         pen = np.any(cx.face_states() == PENUMBRA, axis=1)
         pen_pts[r], other_pts[r] = pts[pen], pts[~pen]
