@@ -60,9 +60,9 @@ from polygen.discontinuity.states import (
     region_points,
     region_size,
 )
-from polygen.discontinuity.simplified import SimplifiedDiscontinuity, simplified_discontinuity
+from polygen.discontinuity.simplified import SimplifiedDiscontinuity, illumination, simplified_discontinuity
 from polygen.discontinuity.combined import combined_bubble_mesh
-from polygen.discontinuity.illumination import illumination, light_fraction
+from polygen.discontinuity.illumination import light_fraction
 from polygen.discontinuity.meshing import (
     DiscontinuityRecord,
     MeshingError,

@@ -1,6 +1,7 @@
 """Which lights a point sees: the illumination state (3.3.5) of any point on a receiver.
 
-:func:`illumination` answers the first question a reader asks of the
+:func:`point_states` (public as :func:`polygen.discontinuity.illumination`, which takes a
+scene or its phase) answers the first question a reader asks of the
 discontinuity phase -- is this point in umbra, penumbra or light, for each
 light? -- without the receiver complex's internals: each point is placed on
 its polygon, in the polygon's (u, v) frame, and located among the faces of
@@ -24,7 +25,7 @@ from polygen.discontinuity import _geometry as geo
 from polygen.discontinuity.complex import BRIGHT, PENUMBRA, UMBRA, UNPROCESSED
 from polygen.discontinuity.shadow import ShadowError, scene_lights
 
-__all__ = ["illumination", "light_fraction", "visible_part"]
+__all__ = ["point_states", "light_fraction", "visible_part"]
 
 
 def _locate_polygons(scene, points, tol):
@@ -163,15 +164,14 @@ def visible_part(scene, lpoly, x, receiver, normal, *, pieces=None):
     return lit2, shapely.union_all(shadows).intersection(lit2)
 
 
-def illumination(scene, points, *, polygons=None, sides=None, fraction=False, discontinuity=None,
-                 tol=1e-9):
+def point_states(sd, points, *, polygons=None, sides=None, fraction=False, tol=1e-9):
     """The illumination state of points on receivers, per light (umbra, penumbra or bright).
 
     Parameters
     ----------
-    scene : Scene or SimplifiedDiscontinuity
-        A scene (its discontinuity phase is computed) or its phase,
-        :func:`~polygen.discontinuity.simplified_discontinuity`.
+    sd : SimplifiedDiscontinuity
+        A scene's discontinuity phase (:func:`~polygen.discontinuity.simplified_discontinuity`;
+        :func:`~polygen.discontinuity.simplified.illumination` takes a scene).
     points : (N, 3) float64
         Points on the scene's polygons.
     polygons : (N,) int64, keyword-only, optional
@@ -182,8 +182,6 @@ def illumination(scene, points, *, polygons=None, sides=None, fraction=False, di
         +1 (default) the front face, -1 the back face of a two-sided polygon.
     fraction : bool, keyword-only
         Also return the visible fraction of each light.
-    discontinuity : SimplifiedDiscontinuity, keyword-only, optional
-        The scene's phase when ``scene`` is a Scene and it is already computed.
     tol : float, keyword-only
         Relative tolerance (to the scene's size) of placing points on polygons.
 
@@ -208,14 +206,7 @@ def illumination(scene, points, *, polygons=None, sides=None, fraction=False, di
     """
     import shapely
 
-    from polygen.discontinuity.simplified import SimplifiedDiscontinuity, simplified_discontinuity
-
-    if isinstance(scene, SimplifiedDiscontinuity):
-        sd, scene = scene, scene.scene
-    else:
-        sd = discontinuity if discontinuity is not None else simplified_discontinuity(scene, tol=tol)
-        if sd.scene is not scene:
-            raise ShadowError("discontinuity must be simplified_discontinuity(scene) of this scene")
+    scene = sd.scene
     pts = np.asarray(points, dtype=np.float64)
     if pts.ndim != 2 or pts.shape[1] != 3:
         raise ShadowError(f"points must be (N, 3), got {pts.shape}")

@@ -25,10 +25,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from polygen.discontinuity.shadow import scene_lights, scene_sections
+from polygen.discontinuity.illumination import point_states
+from polygen.discontinuity.shadow import ShadowError, scene_lights, scene_sections
 from polygen.discontinuity.states import PENUMBRA, discontinuity_segments, receiver_complex, region_points
 
-__all__ = ["SimplifiedDiscontinuity", "simplified_discontinuity"]
+__all__ = ["SimplifiedDiscontinuity", "illumination", "simplified_discontinuity"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,10 +72,8 @@ class SimplifiedDiscontinuity:
 
     def illumination(self, points, **kwargs):
         """Each point's state per light, and its visible fractions when asked:
-        :func:`polygen.discontinuity.illumination.illumination` of this phase."""
-        from polygen.discontinuity.illumination import illumination
-
-        return illumination(self, points, **kwargs)
+        :func:`illumination` of this phase."""
+        return point_states(self, points, **kwargs)
 
     def region_sizes(self, size, penumbra_size):
         """Per polygon the ``patch_size`` for :func:`~polygen.radiosity.mesh_scene`.
@@ -162,3 +161,33 @@ def simplified_discontinuity(scene, *, solids=True, tol=1e-9, use_index=True, ma
         counters["regions"] = counters.get("regions", 0) + len(pts)
     counters["receivers"] = len(complexes)
     return SimplifiedDiscontinuity(scene, complexes, segments, pen_pts, other_pts, counters, timings)
+
+
+def illumination(scene, points, *, discontinuity=None, polygons=None, sides=None, fraction=False, tol=1e-9):
+    """The illumination state of points on receivers, per light (umbra, penumbra or bright).
+
+    Parameters
+    ----------
+    scene : Scene or SimplifiedDiscontinuity
+        A scene (its discontinuity phase is computed, or ``discontinuity``
+        used) or the phase itself.
+    points : (N, 3) float64
+    discontinuity : SimplifiedDiscontinuity, keyword-only, optional
+    polygons, sides, fraction, tol : keyword-only
+        See :func:`~polygen.discontinuity.illumination.point_states`.
+
+    Returns
+    -------
+    states : (N, n_lights) int8
+        ``UMBRA`` 3, ``PENUMBRA`` 2, ``BRIGHT`` 1; 0 where the light lies
+        behind the point's face or the point is on no polygon.
+    fractions : (N, n_lights) float64
+        With ``fraction=True``: the visible part of each light (1 bright, 0 umbra).
+    """
+    if isinstance(scene, SimplifiedDiscontinuity):
+        sd = scene
+    else:
+        sd = discontinuity if discontinuity is not None else simplified_discontinuity(scene, tol=tol)
+        if sd.scene is not scene:
+            raise ShadowError("discontinuity must be simplified_discontinuity(scene) of this scene")
+    return point_states(sd, points, polygons=polygons, sides=sides, fraction=fraction, tol=tol)
