@@ -157,3 +157,36 @@ def test_conventional_mesh_of_the_chair():
     c = m.discontinuity.counters
     assert c["critical_segments"] > 500 and c["discontinuity_edges"] > 0
     assert m.n_elements > mesh_scene(sc, 3.3).n_elements
+
+
+def test_state_boundaries_only_drops_exactly_the_equal_state_edges():
+    """Issue 41, item 2: with every sphere face its own occluder most floor edges part two faces of
+    one state; ``state_boundaries_only`` leaves those out and keeps every edge between states."""
+    from polygen.discontinuity import simplified_discontinuity
+    from polygen.discontinuity.states import discontinuity_segments
+
+    sc = scenes.sphere_scene(n_lat=6, n_lon=8)
+    sd = simplified_discontinuity(sc, solids=False)
+    k = [i for i, p in enumerate(sc.polygons) if p.name == "room_y0"][0]
+    cx = sd.complexes[k]
+    every = discontinuity_segments(cx, min_length=0.0)
+    kept = discontinuity_segments(cx, min_length=0.0, state_boundaries_only=True)
+    assert 0 < len(kept) < len(every)
+    # each kept segment has different states on its two sides, each dropped one the same
+    faces = [shapely.Polygon(*cx.face_rings(f)) for f in cx.alive_faces]
+    st = cx.face_states()
+    tree = shapely.STRtree(faces)
+
+    def sides_differ(seg):
+        mid, d = seg.mean(axis=0), seg[1] - seg[0]
+        nrm = np.array([-d[1], d[0]]) / np.hypot(*d) * 1e-6 * cx.extent
+        out = []
+        for p in (mid + nrm, mid - nrm):
+            hit = [i for i in tree.query(shapely.Point(p)) if faces[i].contains(shapely.Point(p))]
+            out.append(tuple(st[hit[0]]) if hit else None)
+        return out[0] != out[1]
+
+    kept_set = {tuple(np.round(s, 9).ravel()) for s in kept.ends}
+    differ = np.array([sides_differ(s) for s in every.ends])
+    is_kept = np.array([tuple(np.round(s, 9).ravel()) in kept_set for s in every.ends])
+    assert np.array_equal(differ, is_kept)

@@ -1,12 +1,21 @@
 """Shadow polyhedra (thesis 3.3.1) and their sections, against independent constructions and ray casting."""
 
+import warnings
+
 import numpy as np
 import pytest
 import shapely
 from scipy.spatial import ConvexHull
 
 from naive import visible_fraction
-from polygen.discontinuity import ShadowError, scene_sections, shadow_polyhedron, shadow_sections
+from polygen.discontinuity import (
+    ShadowError,
+    ShadowWarning,
+    scene_sections,
+    shadow_polyhedron,
+    shadow_sections,
+    simplified_discontinuity,
+)
 from polygen.discontinuity.shadow import scene_lights
 from polygen.radiosity import scenes
 from polygen.radiosity.scene import AreaLight, ParallelLight, PointLight, Polygon, Scene, SceneError
@@ -451,3 +460,51 @@ def test_light_across_the_receivers_plane_is_clipped():
     assert len(secs) == 1 and sh.counters["rebuilt"] >= 1
     seen = _check_against_rays(sc, sh, [2], np.random.default_rng(2), lambda r: 10_000)
     assert seen["penumbra"] > 100 and seen["bright"] > 100
+
+
+# -- bad input through the scene driver (issue 41, item 5) ----------------------------------------
+def _floor_and_plate():
+    floor = Polygon([[0, 0, 0], [10, 0, 0], [10, 0, 10], [0, 0, 10]][::-1], name="floor")
+    plate = Polygon([[4, 3, 4], [6, 3, 4], [6, 3, 6], [4, 3, 6]], name="plate", two_sided=True)
+    return floor, plate
+
+
+def test_concave_emitting_polygon_is_refused_naming_it():
+    floor, plate = _floor_and_plate()
+    # an L-shaped emitter facing down: Scene accepts it (only AreaLight insists on convexity)
+    ell = Polygon([[3, 8, 3], [3, 8, 7], [4, 8, 7], [4, 8, 4], [7, 8, 4], [7, 8, 3]][::-1],
+                  emission=5.0, name="ell_lamp")
+    assert ell.is_emitter and not ell.is_convex and ell.normal[1] < 0
+    sc = Scene([floor, plate, ell])
+    with pytest.raises(ShadowError, match=r"ell_lamp .*convex"):
+        scene_sections(sc)
+    with pytest.raises(ShadowError, match="ell_lamp"):
+        simplified_discontinuity(sc)
+    # the same ring as an array reaching shadow_polyhedron directly is refused too
+    with pytest.raises(ShadowError, match="convex"):
+        shadow_polyhedron(ell.vertices, plate)
+    # its convex pieces as separate lights are fine
+    pieces = [Polygon(pc.vertices, emission=5.0, name=f"ell_{i}") for i, pc in enumerate(ell.convex_pieces())]
+    sh = scene_sections(Scene([floor, plate] + pieces))
+    assert {s.light for s in sh.of(0)} == set(range(len(pieces)))
+
+
+def test_light_facing_away_from_every_receiver_warns_naming_it():
+    floor, plate = _floor_and_plate()
+    up = Polygon([[4, 8, 4], [4, 8, 6], [6, 8, 6], [6, 8, 4]], emission=5.0, name="up_lamp")
+    assert up.normal[1] > 0  # faces the (absent) ceiling: nothing is in front of it
+    with pytest.warns(ShadowWarning, match="up_lamp"):
+        sh = scene_sections(Scene([floor, plate, up]))
+    assert sh.n_sections == 0
+    # below the floor and a one-sided plate facing up (the two-sided plate's underside would be lit)
+    plate = Polygon(plate.vertices[::-1], name="plate_up")
+    assert plate.normal[1] > 0 and not plate.two_sided
+    with pytest.warns(ShadowWarning, match="low_lamp"):
+        scene_sections(Scene([floor, plate], [PointLight([5.0, -1.0, 5.0], 1.0, name="low_lamp")]))
+    with pytest.warns(ShadowWarning, match="sun"):
+        scene_sections(Scene([floor, plate], [ParallelLight([0.0, 1.0, 0.0], 1.0, name="sun")]))
+    # a light that faces a receiver but has no occluder: no warning, no sections
+    down = Polygon([[4, 8, 4], [4, 8, 6], [6, 8, 6], [6, 8, 4]][::-1], emission=5.0, name="down_lamp")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert scene_sections(Scene([floor, down])).n_sections == 0

@@ -14,6 +14,8 @@
   :mod:`~polygen.discontinuity.states` -- illumination states (3.3.5) and
   the output to the mesh model (3.3.6);
   :mod:`~polygen.discontinuity.simplified` -- the whole method on a scene;
+  :mod:`~polygen.discontinuity.illumination` -- each point's state per light
+  (and its visible fraction), the phase's answer for any point;
   :mod:`~polygen.discontinuity.meshing` -- lines, regions, patches and elements
   (3.3.6) by the simplified or the conventional method;
   :mod:`~polygen.discontinuity.combined` -- chapter 8's future work: these
@@ -38,6 +40,7 @@ from polygen.discontinuity.shadow import (
     SceneShadows,
     ShadowError,
     ShadowPolyhedra,
+    ShadowWarning,
     ShadowSection,
     polyhedron_section,
     scene_lights,
@@ -57,8 +60,9 @@ from polygen.discontinuity.states import (
     region_points,
     region_size,
 )
-from polygen.discontinuity.simplified import SimplifiedDiscontinuity, simplified_discontinuity
+from polygen.discontinuity.simplified import SimplifiedDiscontinuity, illumination, simplified_discontinuity
 from polygen.discontinuity.combined import combined_bubble_mesh
+from polygen.discontinuity.illumination import light_fraction
 from polygen.discontinuity.meshing import (
     DiscontinuityRecord,
     MeshingError,
@@ -80,6 +84,7 @@ __all__ = [
     "SceneShadows",
     "ShadowError",
     "ShadowPolyhedra",
+    "ShadowWarning",
     "ShadowSection",
     "SimplifiedDiscontinuity",
     "UMBRA",
@@ -95,6 +100,8 @@ __all__ = [
     "critical_surfaces",
     "discontinuity_mesh",
     "element_states",
+    "illumination",
+    "light_fraction",
     "discontinuity_segments",
     "polyhedron_section",
     "receiver_complex",

@@ -15,6 +15,10 @@ import numpy as np
 from polygen.radiosity.scene import ParallelLight, PointLight, Polygon
 
 
+class ShadowWarning(UserWarning):
+    """A scene the discontinuity phase can do nothing with (a light that lights no receiver)."""
+
+
 class ShadowError(ValueError):
     """A light or occluder that shadow polyhedra cannot be built from (names the polygon)."""
 
@@ -115,7 +119,23 @@ def _light_arrays(light):
     if v.ndim != 2 or v.shape[1] != 3 or len(v) < 3:
         raise ShadowError(f"light: expected a light object, a point (3,) or a convex polygon "
                           f"(m>=3, 3), got shape {v.shape}")
+    if not convex_ring_3d(v):
+        raise ShadowError("area light: an area light must be convex (split it into convex "
+                          "lights, one per piece of Polygon.convex_pieces())")
     return "area", v.copy(), None, "area light"
+
+
+def convex_ring_3d(v, tol=1e-9):
+    """Whether a planar ring (m, 3) is convex: every turn the same way about its Newell normal
+    (collinear vertices allowed, ``tol`` relative to the ring's size squared)."""
+    v = np.asarray(v, dtype=np.float64)
+    nrm = np.zeros(3)
+    for a, b in zip(v, np.roll(v, -1, axis=0)):
+        nrm += np.cross(a, b)
+    e = np.roll(v, -1, axis=0) - v
+    turn = np.cross(e, np.roll(e, -1, axis=0)) @ nrm
+    scale = float(np.ptp(v, axis=0).max()) ** 2 * float(np.linalg.norm(nrm))
+    return bool(np.all(turn >= -tol * scale))
 
 
 def _empty_pair(kind, S, O, cap):

@@ -16,17 +16,19 @@ in the receiver's own (u, v) frame (:meth:`Polygon.to_2d`, the frame of
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from polygen.discontinuity import _geometry as geo
-from polygen.discontinuity._polyhedra import (Polyhedron, ShadowError, ShadowPolyhedra, _cap_and_tol,
-                                              _empty_pair, _light_arrays)
+from polygen.discontinuity._polyhedra import (Polyhedron, ShadowError, ShadowPolyhedra, ShadowWarning,
+                                              _cap_and_tol, _empty_pair, _light_arrays)
 from polygen.radiosity.scene import PointLight, Polygon
 
 __all__ = [
     "ShadowError",
+    "ShadowWarning",
     "Polyhedron",
     "ShadowPolyhedra",
     "shadow_polyhedron",
@@ -505,6 +507,24 @@ def _side_of(points, n, d, tol):
     return bool(np.any(s > tol)), bool(np.any(s < -tol))
 
 
+def _lights_face(kind, light, R, atol):
+    """Whether a light lights some face of polygon R: R has a point strictly in front of an area
+    light, and the light a point strictly in front of that face (either face if two-sided)."""
+    if kind == "area" and not np.any(R.vertices @ light.normal > float(light.normal @ light.origin) + atol):
+        return False
+    for side in ((1, -1) if R.two_sided else (1,)):
+        n_r, d_r = side * R.normal, side * float(R.normal @ R.origin)
+        if kind == "area":
+            ok = np.any(light.vertices @ n_r > d_r + atol)
+        elif kind == "point":
+            ok = float(n_r @ light.position) > d_r + atol
+        else:
+            ok = float(n_r @ light.direction) < -1e-12
+        if ok:
+            return True
+    return False
+
+
 def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9):
     """Shadow polyhedra of every (light, occluder) pair and their sections on every receiver.
 
@@ -568,7 +588,14 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
     ------
     ShadowError
         A declared solid that is not a closed convex solid (naming it), a
-        light meeting a solid.
+        light meeting a solid, a concave emitting polygon (naming it: an area
+        light must be convex, as :class:`~polygen.radiosity.AreaLight` requires).
+
+    Warns
+    -----
+    ShadowWarning
+        A light that faces away from every receiver (naming it): no polygon
+        has a face it lights, so it casts nothing and lights nothing.
     """
     import shapely
 
@@ -596,6 +623,20 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
     cnt["solids"] = len(groups)
     solid_vertices = [np.vstack([polys[k].vertices for k in g]) for g in groups]
     t_sdw += time.perf_counter() - t0
+    lights = scene_lights(scene)
+    for kind, light, lpoly in lights:
+        # an emitting Polygon passes Scene's checks (only AreaLight insists on convexity), and a
+        # concave one would reach the gift-wrapping as an array and fail there, or silently
+        if kind == "area" and not light.is_convex:
+            raise ShadowError(f"{light.name} (polygon {lpoly}): an area light must be a convex "
+                              "polygon; split it into convex emitting polygons "
+                              "(Polygon.convex_pieces())")
+    for li, (kind, light, lpoly) in enumerate(lights):
+        if not any(_lights_face(kind, light, p, atol) for k, p in enumerate(polys) if k != lpoly):
+            name = getattr(light, "name", None) or f"{kind} light {li}"
+            warnings.warn(f"{name}: faces away from every receiver (no polygon has a face it "
+                          "lights): it casts no shadow and lights nothing", ShadowWarning,
+                          stacklevel=2)
     pieces = [[pc.vertices for pc in p.convex_pieces()] for p in polys]
     rboxes = np.array([[p.vertices.min(axis=0) - atol, p.vertices.max(axis=0) + atol]
                        for p in polys])
@@ -616,7 +657,7 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
         cnt["polyhedra"] += 1
         return sp
 
-    for li, (kind, light, lpoly) in enumerate(scene_lights(scene)):
+    for li, (kind, light, lpoly) in enumerate(lights):
         # the light as build() takes it, and its front half-space (area lights only)
         if kind == "area":
             L = light.vertices

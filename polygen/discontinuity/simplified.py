@@ -25,10 +25,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from polygen.discontinuity.shadow import scene_lights, scene_sections
+from polygen.discontinuity.illumination import point_states
+from polygen.discontinuity.shadow import ShadowError, scene_lights, scene_sections
 from polygen.discontinuity.states import PENUMBRA, discontinuity_segments, receiver_complex, region_points
 
-__all__ = ["SimplifiedDiscontinuity", "simplified_discontinuity"]
+__all__ = ["SimplifiedDiscontinuity", "illumination", "simplified_discontinuity"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,6 +70,11 @@ class SimplifiedDiscontinuity:
     counters: dict
     timings: dict
 
+    def illumination(self, points, **kwargs):
+        """Each point's state per light, and its visible fractions when asked:
+        :func:`illumination` of this phase."""
+        return point_states(self, points, **kwargs)
+
     def region_sizes(self, size, penumbra_size):
         """Per polygon the ``patch_size`` for :func:`~polygen.radiosity.mesh_scene`.
 
@@ -96,7 +102,7 @@ class SimplifiedDiscontinuity:
 
 
 def simplified_discontinuity(scene, *, solids=True, tol=1e-9, use_index=True, margin=0.05,
-                             check=False):
+                             check=False, state_boundaries_only=False):
     """Shadow polyhedra, receiver complexes and illumination states for a whole scene.
 
     Parameters
@@ -117,6 +123,11 @@ def simplified_discontinuity(scene, *, solids=True, tol=1e-9, use_index=True, ma
         Passed to :func:`~polygen.discontinuity.shadow.scene_sections`.
     check : bool, keyword-only
         Verify every complex after each loop update (slow; for tests).
+    state_boundaries_only : bool, keyword-only
+        Hand the mesh model only the edges between regions of different
+        states (:func:`~polygen.discontinuity.states.discontinuity_segments`);
+        the regions keep their states, and a region's penumbra size reaches
+        the mesh model through its point as before.
 
     Returns
     -------
@@ -140,7 +151,7 @@ def simplified_discontinuity(scene, *, solids=True, tol=1e-9, use_index=True, ma
         for k, v in cx.counters.items():
             counters[k] = counters.get(k, 0) + v
         t0 = time.perf_counter()
-        segments[r] = discontinuity_segments(cx)
+        segments[r] = discontinuity_segments(cx, state_boundaries_only=state_boundaries_only)
         pts = region_points(cx)
         pen = np.any(cx.face_states() == PENUMBRA, axis=1)
         pen_pts[r], other_pts[r] = pts[pen], pts[~pen]
@@ -150,3 +161,33 @@ def simplified_discontinuity(scene, *, solids=True, tol=1e-9, use_index=True, ma
         counters["regions"] = counters.get("regions", 0) + len(pts)
     counters["receivers"] = len(complexes)
     return SimplifiedDiscontinuity(scene, complexes, segments, pen_pts, other_pts, counters, timings)
+
+
+def illumination(scene, points, *, discontinuity=None, polygons=None, sides=None, fraction=False, tol=1e-9):
+    """The illumination state of points on receivers, per light (umbra, penumbra or bright).
+
+    Parameters
+    ----------
+    scene : Scene or SimplifiedDiscontinuity
+        A scene (its discontinuity phase is computed, or ``discontinuity``
+        used) or the phase itself.
+    points : (N, 3) float64
+    discontinuity : SimplifiedDiscontinuity, keyword-only, optional
+    polygons, sides, fraction, tol : keyword-only
+        See :func:`~polygen.discontinuity.illumination.point_states`.
+
+    Returns
+    -------
+    states : (N, n_lights) int8
+        ``UMBRA`` 3, ``PENUMBRA`` 2, ``BRIGHT`` 1; 0 where the light lies
+        behind the point's face or the point is on no polygon.
+    fractions : (N, n_lights) float64
+        With ``fraction=True``: the visible part of each light (1 bright, 0 umbra).
+    """
+    if isinstance(scene, SimplifiedDiscontinuity):
+        sd = scene
+    else:
+        sd = discontinuity if discontinuity is not None else simplified_discontinuity(scene, tol=tol)
+        if sd.scene is not scene:
+            raise ShadowError("discontinuity must be simplified_discontinuity(scene) of this scene")
+    return point_states(sd, points, polygons=polygons, sides=sides, fraction=fraction, tol=tol)

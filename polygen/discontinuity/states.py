@@ -283,7 +283,7 @@ def receiver_complex(outer, holes=(), sections=(), *, n_lights=None, tol=1e-9, c
     return cx
 
 
-def discontinuity_segments(cx, *, min_length=None):
+def discontinuity_segments(cx, *, min_length=None, state_boundaries_only=False):
     """The complex's discontinuity edges as :class:`~polygen.radiosity.layout.Segments`.
 
     Parameters
@@ -294,6 +294,12 @@ def discontinuity_segments(cx, *, min_length=None):
         own tolerance (:data:`polygen.radiosity.layout.LAYOUT_TOL` times the
         polygon's extent), below which it rejects a segment and merges its
         end points anyway, so leaving it out changes nothing there.
+    state_boundaries_only : bool, keyword-only
+        Only edges between faces whose states differ for some light (the
+        boundaries 3.3 names: bright/penumbra, penumbra/umbra, bright/umbra);
+        an edge with the same states on both sides -- two occluders' umbrae
+        or penumbrae overlapping, as the 180 faces of a sphere taken one by
+        one make by the thousand -- is left out.
 
     Returns
     -------
@@ -310,7 +316,15 @@ def discontinuity_segments(cx, *, min_length=None):
     ev = cx.ev[:cx.ne]
     xy = cx.vertices
     d = xy[ev[:, 1]] - xy[ev[:, 0]]
-    sel = np.flatnonzero((k != BOUNDARY) & (np.hypot(d[:, 0], d[:, 1]) > min_length))
+    keep = (k != BOUNDARY) & (np.hypot(d[:, 0], d[:, 1]) > min_length)
+    if state_boundaries_only:
+        lp = cx.edge_loops
+        lf = np.asarray(cx.loop_face, dtype=np.int64)
+        both = (lp >= 0).all(axis=1)
+        f = np.where(lp >= 0, lf[np.maximum(lp, 0)], -1)
+        same = both & np.all(cx.face_state[f[:, 0]] == cx.face_state[f[:, 1]], axis=1)
+        keep &= ~same
+    sel = np.flatnonzero(keep)
     ends = xy[ev[sel]].reshape(-1, 2, 2)
     return Segments(ends, ["D0" if k[e] == D0 else "D1" for e in sel])
 

@@ -1,0 +1,56 @@
+"""``node_radiosity``: each area light's direct part at the node (issue 41)."""
+
+import numpy as np
+import pytest
+
+from polygen.discontinuity.node_values import light_direct, node_radiosity
+from polygen.radiosity import mesh_scene, progressive_refinement
+from polygen.radiosity.formfactor import point_polygon_form_factor
+from polygen.radiosity.scene import Polygon, Scene
+
+
+def _scene(occluder=True):
+    floor = Polygon([[0, 0, 0], [6, 0, 0], [6, 0, 6], [0, 0, 6]][::-1], reflectance=0.5, name="floor")
+    light = Polygon([[2.5, 5, 2.5], [3.5, 5, 2.5], [3.5, 5, 3.5], [2.5, 5, 3.5]], emission=10.0,
+                    reflectance=0.0, name="light")
+    polys = [floor, light]
+    if occluder:
+        polys.append(Polygon([[2.2, 2, 2.0], [3.4, 2, 2.0], [3.4, 2, 3.1], [2.2, 2, 3.1]], reflectance=0.0,
+                             name="plate", two_sided=True))
+    return Scene(polys)
+
+
+def test_unoccluded_nodes_get_lamberts_formula():
+    sc = _scene(occluder=False)
+    m = mesh_scene(sc, 1.5, element_levels=1)
+    n_light = int(np.sum(m.patch_polygon == 1))
+    res = progressive_refinement(m, max_shots=n_light, ambient=False, visibility_samples=2)
+    nodes = node_radiosity(m, res)
+    on = np.unique(m.elements[m.element_polygon == 0])
+    want = 0.5 * 10.0 * point_polygon_form_factor(m.nodes[on], np.tile([0.0, 1.0, 0.0], (len(on), 1)), sc.polygons[1])
+    # the floor's elements hold only the light's shot, so (2.8)'s part is zero there
+    assert np.allclose(nodes[on], want[:, None], rtol=1e-9, atol=1e-12)
+
+
+def test_partly_hidden_light_exactly_against_many_rays():
+    sc = _scene()
+    rng = np.random.default_rng(3)
+    x = np.c_[rng.uniform(0, 6, 600), np.zeros(600), rng.uniform(0, 6, 600)]
+    n = np.tile([0.0, 1.0, 0.0], (600, 1))
+    poly = np.zeros(600, np.int64)
+    exact = light_direct(sc, 1, x, n, poly, samples=8, exact=True)[:, 0]
+    rays = light_direct(sc, 1, x, n, poly, samples=48, exact=False)[:, 0]
+    free = 10.0 * point_polygon_form_factor(x, n, sc.polygons[1])
+    part = (exact > 1e-9 * free) & (exact < free * (1 - 1e-9))
+    assert part.sum() > 50
+    # a 48 x 48 grid against a shadow bounded by straight edges: within 1/20 of the unoccluded value
+    assert np.all(np.abs(exact - rays) <= 0.05 * free)
+    # fully seen and fully hidden points agree exactly
+    assert np.allclose(exact[~part], np.where(rays[~part] > 0.5 * free[~part], free[~part], 0.0), rtol=1e-9)
+
+
+def test_light_direct_refuses_a_non_emitter():
+    from polygen.discontinuity import ShadowError
+
+    with pytest.raises(ShadowError, match="floor"):
+        light_direct(_scene(), 0, np.zeros((1, 3)), np.array([[0.0, 1, 0]]), [0])
