@@ -66,6 +66,20 @@ sc34 = scenes.figure_3_4_scene()
 plot_dm.light_slider(sc34, dx_max=3.0, step=0.5);
 """
 
+ISOSURFACE_SLIDER = """\
+import ipywidgets
+import numpy as np
+import pyvista as pv
+from polygen.plotting import volume as plot_volume
+from polygen.volume import UnstructuredVolume
+
+vol = UnstructuredVolume.from_pyvista(pv.ImageData(dimensions=(10, 10, 10)).triangulate())
+vol.add_field("r", np.linalg.norm(vol.points - 4.5, axis=1))
+ipywidgets.interact(plot_volume.show_isosurface, vol=ipywidgets.fixed(vol), field=ipywidgets.fixed(None),
+                    method=ipywidgets.fixed("scan"),
+                    value=ipywidgets.FloatSlider(value=3.0, min=0.0, max=8.0, step=0.05, continuous_update=False));
+"""
+
 TRANSFER_FUNCTION = """\
 import ipywidgets
 from polygen.plotting import render as plot_render
@@ -128,6 +142,7 @@ def server(tmp_path_factory):
     env = dict(os.environ, JUPYTER_CONFIG_DIR=str(home / "config"), JUPYTER_RUNTIME_DIR=str(home / "runtime"),
                JUPYTERLAB_SETTINGS_DIR=str(home / "settings"), JUPYTERLAB_WORKSPACES_DIR=str(home / "workspaces"),
                PYTHONPATH=os.pathsep.join(p for p in (os.getcwd(), os.environ.get("PYTHONPATH")) if p))
+    env.pop("MPLBACKEND", None)  # conftest's Agg would hide every figure; a user's kernel draws inline
     cmd = [sys.executable, "-m", "jupyterlab", "--no-browser", "--ServerApp.ip=127.0.0.1",
            f"--ServerApp.port={port}", "--ServerApp.port_retries=0", f"--IdentityProvider.token={token}",
            f"--ServerApp.root_dir={root}", "--LabApp.news_url=", "--LabApp.check_for_updates_class="
@@ -193,7 +208,14 @@ class Notebook:
         (server["root"] / f"{name}.ipynb").write_text(json.dumps(nb))
         self.server, self.name = server, name
         self.page = browser.new_page(viewport={"width": 1280, "height": 1000})
-        self.page.set_default_timeout(START_S * 1000)
+        self.page.set_default_timeout(float(os.environ.get("DBG_TIMEOUT", START_S)) * 1000)
+        try:
+            self._run(server, name)
+        except Exception:
+            self.page.screenshot(path=server["root"] / f"{name}-failed.png")
+            raise
+
+    def _run(self, server, name):
         # a workspace of its own, reset: JupyterLab would otherwise restore the previous test's tabs
         self.page.goto(f"{server['base']}/lab/workspaces/{name}/tree/{name}.ipynb?reset&token={server['token']}")
         self.page.locator(".jp-Notebook .jp-Cell .cm-content").first.click()
@@ -321,3 +343,30 @@ def test_transfer_function_editor_redraws_in_jupyterlab(notebook, monkeypatch):
         expected = min(1.0, expected + 0.05 * steps)
         assert high == pytest.approx(expected)
         nb.shows(reference(high), what=f"opacity_high = {high}")
+
+
+def test_isosurface_slider_redraws_in_jupyterlab(notebook, monkeypatch):
+    """Notebook 05's ``interact(show_isosurface, ...)``: a new pyvista plotter per move."""
+    import IPython.display
+    import pyvista as pv
+
+    from polygen.plotting import volume as plot_volume
+    from polygen.volume import UnstructuredVolume
+
+    vol = UnstructuredVolume.from_pyvista(pv.ImageData(dimensions=(10, 10, 10)).triangulate())
+    vol.add_field("r", np.linalg.norm(vol.points - 4.5, axis=1))
+    shown = []
+    monkeypatch.setattr(IPython.display, "display", lambda obj: shown.append(obj.data))
+
+    def reference(value):
+        plot_volume.show_isosurface(vol, value, method="scan")
+        return _png(shown.pop())
+
+    nb = notebook("isosurface", ISOSURFACE_SLIDER)
+    nb.shows(reference(3.0), what="the first picture")
+    expected = 3.0
+    for steps in (1, 40):
+        value = float(nb.move(0, steps))
+        expected = min(8.0, expected + 0.05 * steps)
+        assert value == pytest.approx(expected)
+        nb.shows(reference(value), what=f"C = {value}")
