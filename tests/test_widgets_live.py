@@ -70,9 +70,10 @@ ISOSURFACE_SLIDER = """\
 import ipywidgets
 import numpy as np
 import pyvista as pv
-from polygen.plotting import volume as plot_volume
+from polygen.plotting import setup_notebook, volume as plot_volume
 from polygen.volume import UnstructuredVolume
 
+setup_notebook()  # as notebook 05 does: the window size of every figure
 vol = UnstructuredVolume.from_pyvista(pv.ImageData(dimensions=(10, 10, 10)).triangulate())
 vol.add_field("r", np.linalg.norm(vol.points - 4.5, axis=1))
 ipywidgets.interact(plot_volume.show_isosurface, vol=ipywidgets.fixed(vol), field=ipywidgets.fixed(None),
@@ -350,9 +351,11 @@ def test_isosurface_slider_redraws_in_jupyterlab(notebook, monkeypatch):
     import IPython.display
     import pyvista as pv
 
+    from polygen.plotting import setup_notebook
     from polygen.plotting import volume as plot_volume
     from polygen.volume import UnstructuredVolume
 
+    setup_notebook()
     vol = UnstructuredVolume.from_pyvista(pv.ImageData(dimensions=(10, 10, 10)).triangulate())
     vol.add_field("r", np.linalg.norm(vol.points - 4.5, axis=1))
     shown = []
