@@ -217,8 +217,15 @@ class Notebook:
             raise
 
     def _run(self, server, name):
+        from playwright.sync_api import TimeoutError as PlaywrightTimeout
+
         # a workspace of its own, reset: JupyterLab would otherwise restore the previous test's tabs
         self.page.goto(f"{server['base']}/lab/workspaces/{name}/tree/{name}.ipynb?reset&token={server['token']}")
+        self.page.locator(".jp-Notebook .jp-Cell .cm-content").first.wait_for()
+        try:  # JupyterLab sometimes asks which kernel to start (seen on a loaded machine): the preferred one
+            self.page.locator(".jp-Dialog .jp-mod-accept").click(timeout=5000)
+        except PlaywrightTimeout:
+            pass
         self.page.locator(".jp-Notebook .jp-Cell .cm-content").first.click()
         self.page.wait_for_selector(".jp-Notebook-ExecutionIndicator[data-status='idle']")
         self.page.keyboard.press("Shift+Enter")
@@ -248,6 +255,8 @@ class Notebook:
             time.sleep(0.25)
         img = _decode(self.src())
         black = float(np.mean(img.sum(axis=2) < 30))
+        for tag, pic in (("page", img), ("reference", reference)):  # kept beside the notebook, to look at
+            Image.fromarray(pic.astype(np.uint8)).save(self.server["root"] / f"{self.name}-{tag}.png")
         pytest.fail(f"{what}: the page's picture reached {best:.1f} dB against the plain-process reference "
                     f"(need {PSNR_MIN} dB); {100 * black:.0f} % of its pixels are black")
 
