@@ -9,6 +9,13 @@ ipywidgets itself, and a notebook executed without a front end (nbval, the
 book) keeps the PNG of the first state in the output, which
 ``docs/execute_notebooks.py`` places beside the widget as its static fallback.
 
+The drawing runs on one render thread (``polygen.plotting._render_thread``)
+that makes the off-screen plotter and alone uses its OpenGL context: JupyterLab
+4.6 sends widget messages over a kernel subshell, whose thread runs the
+callbacks, and a context used from another thread than its own draws black
+(issue 46). Any thread may call :meth:`IsosurfaceExplorer.update`; calls are
+not meant to overlap (a kernel runs one widget message at a time per subshell).
+
 Like the plotting modules, nothing in the algorithm packages imports this
 one; pyvista, ipywidgets and PIL are imported inside the functions.
 """
@@ -18,6 +25,7 @@ from __future__ import annotations
 import base64
 import io
 import time
+import weakref
 
 import numpy as np
 
@@ -65,7 +73,11 @@ class IsosurfaceExplorer:
             raise VolumeError(f"steps must be at least 2; got {steps!r}")
         self._steps = int(steps)
         self._window_size = tuple(int(x) for x in window_size)
-        self._plotter = None
+        # [pyvista.Plotter or None], made, drawn and closed on the render thread only; a box so that
+        # the finalizer closes it there without holding the explorer
+        self._plotter_box = [None]
+        self._closer = weakref.finalize(self, _close_plotter, self._plotter_box)
+        self._closer.atexit = False  # at exit the render thread is gone; the process frees the context
         self.surface = None
         self.extract_s = self.render_s = 0.0
         self.png = b""
@@ -152,17 +164,24 @@ class IsosurfaceExplorer:
 
     # ---------------------------------------------------------------- drawing
     def _render(self, iso):
+        from polygen.plotting import _render_thread
+
+        # the plotter and its OpenGL context live on the one render thread: a widget's callback
+        # may run on another thread than the cell's (a kernel subshell), where the context is not current
+        return _render_thread.call(self._draw, iso)
+
+    def _draw(self, iso):
         from PIL import Image
 
         from polygen.plotting import setup_notebook
         from polygen.plotting._common import _plotter, boundary_surface
 
-        if self._plotter is None:
+        p = self._plotter_box[0]
+        if p is None:
             setup_notebook()
-            self._plotter = _plotter(window_size=self._window_size)
-            self._plotter.add_mesh(boundary_surface(self.vol), color="lightgray", opacity=0.15, name="outline")
-            self._plotter.view_isometric()
-        p = self._plotter
+            p = self._plotter_box[0] = _plotter(window_size=self._window_size)
+            p.add_mesh(boundary_surface(self.vol), color="lightgray", opacity=0.15, name="outline")
+            p.view_isometric()
         if iso.is_empty:
             p.remove_actor("surface")
         else:
@@ -176,15 +195,30 @@ class IsosurfaceExplorer:
 
     def close(self):
         """Free the off-screen renderer and close the widgets."""
-        if self._plotter is not None:
-            self._plotter.close()
-            self._plotter = None
+        self._closer.detach()
+        _close_plotter(self._plotter_box, wait=True)
         for child in (self._field, self._method, self._slider, self._counters, self._picture):
             child.close()
         self.widget.close()
 
     def _repr_mimebundle_(self, **kwargs):
         return self.widget._repr_mimebundle_(**kwargs)
+
+
+def _close_plotter(box, *, wait=False):
+    """Close the plotter in ``box`` on the render thread (the thread whose OpenGL context it holds)."""
+    from polygen.plotting import _render_thread
+
+    def close():
+        if box[0] is not None:
+            box[0].close()
+            box[0] = None
+
+    if box[0] is not None:
+        if wait:
+            _render_thread.call(close)
+        else:
+            _render_thread.call_soon(close)
 
 
 def isosurface_explorer(vol, *, field=None, method=None, value=None, window_size=(640, 420), steps=200):

@@ -94,3 +94,32 @@ def test_bad_arguments(vol):
         isosurface_explorer(vol, field="nope")
     with pytest.raises(VolumeError, match="unknown isosurface method 'nope'"):
         isosurface_explorer(vol, method="nope")
+
+
+def test_redraw_from_another_thread(vol, explorer):
+    """A widget callback may run on a kernel subshell's thread (issue 46): the picture must not turn black.
+
+    Before the render thread, a plotter made by the cell and drawn from another thread read back
+    a black frame (VTK: "Error setting 'vertexMC' in shader VAO").
+    """
+    import threading
+
+    from polygen.plotting import _render_thread
+
+    explorer.update(value=2.5)
+    here = explorer.png
+    pictures, threads = [], []
+
+    def callback():
+        for v in (2.0, 2.5):
+            explorer.update(value=v)
+            pictures.append(explorer.png)
+            threads.append(threading.get_ident())
+
+    t = threading.Thread(target=callback, name="subshell-like")
+    t.start()
+    t.join(timeout=120)
+    assert not t.is_alive() and len(pictures) == 2
+    assert _gold(_image(pictures[0])) > 100
+    assert pictures[1] == here  # the same value draws the same picture from either thread
+    assert _render_thread.ident() not in (threads[0], threading.get_ident())

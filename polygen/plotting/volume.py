@@ -8,6 +8,8 @@ the functions. 3D functions return a ``pyvista.Plotter``, 2D ones a
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
 
 from polygen.plotting._common import _plotter, boundary_surface
@@ -232,13 +234,30 @@ def show_isosurface(vol, value, *, field=None, method="scan"):
     """Extract ``S = value`` and show it in the volume's outline (the slider of Fig. 5.5).
 
     Meant for ``ipywidgets.interact(show_isosurface, vol=fixed(vol), value=FloatSlider(...))``.
+    The picture is drawn on the widgets' render thread (a slider's callback may run on a kernel
+    subshell's thread, issue 46) and shown as a PNG from the caller's thread, where the widget's
+    output is captured.
     """
+    from IPython.display import Image, display
+
+    from polygen.plotting import _render_thread
     from polygen.volume.isosurface import extract
 
     iso = extract(vol, value, field=field, method=method)
-    p = plot_isosurfaces(vol, [iso], [value])
-    p.add_text(f"C = {value:.4g}: {iso.n_triangles} triangles, {iso.cells_intersected} cells", font_size=9)
-    p.show()
+
+    def draw():
+        from PIL import Image as PILImage
+
+        p = plot_isosurfaces(vol, [iso], [value])
+        try:
+            p.add_text(f"C = {value:.4g}: {iso.n_triangles} triangles, {iso.cells_intersected} cells", font_size=9)
+            buf = io.BytesIO()
+            PILImage.fromarray(np.asarray(p.screenshot(return_img=True))).save(buf, format="PNG")
+            return buf.getvalue()
+        finally:
+            p.close()
+
+    display(Image(data=_render_thread.call(draw)))
     return iso
 
 
