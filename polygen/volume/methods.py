@@ -25,6 +25,7 @@ construction of the 2001 paper. Each registers itself where it is defined
 from __future__ import annotations
 
 import abc
+import contextlib
 import dataclasses
 import functools
 import threading
@@ -125,7 +126,8 @@ def _serialised(fn):
     @functools.wraps(fn)
     def guarded(self, *args, **kwargs):
         with self._lock:
-            self._check_field()
+            if not self._as_of:  # inside as_of_field the caller checked the field when its query began
+                self._check_field()
             return fn(self, *args, **kwargs)
 
     guarded._serialised = True
@@ -150,8 +152,14 @@ class IsosurfaceMethod(abc.ABC):
     read-only once added, so only ``vol.fields[name] = new`` or
     ``vol.add_field(name, new)`` can change one) and raises
     :class:`~polygen.volume.surface.IsoSurfaceError` if it was replaced,
-    instead of answering for the old values. A method prepared on an array
-    of values (``field=array``) answers for the values it was given.
+    instead of answering for the old values. A call that has begun answers
+    for the values it began with, whatever happens to the field meanwhile;
+    :meth:`UnstructuredVolume.isosurface` takes the field and its prepared
+    method together, so that its queries answer for the field as it was when
+    they began, never with this error. The preparation reads the field once:
+    a replacement during it cannot mix old and new values. A method prepared
+    on an array of values (``field=array``) answers for the values it was
+    given.
 
     Parameters
     ----------
@@ -188,9 +196,38 @@ class IsosurfaceMethod(abc.ABC):
             self._field_name = next(iter(fields)) if field is None else field
             self._field_values = fields.get(self._field_name)
         self.seed_cells_tested = 0
+        self._as_of = 0  # > 0 while as_of_field holds the lock: the field was checked when the query began
         t0 = time.perf_counter()
-        self._prepare(**params)
+        if self._field_values is not None:
+            # prepared on the array, not the name: every part of the preparation sees the same values even
+            # when the field is replaced meanwhile (they are the ones _check_field then compares)
+            self.field = self._field_values
+            try:
+                self._prepare(**params)
+            finally:
+                self.field = field
+        else:
+            self._prepare(**params)
         self.preprocess_s = time.perf_counter() - t0
+
+    @contextlib.contextmanager
+    def as_of_field(self, values):
+        """Hold the method for calls that answer for field ``values``, the array it was prepared on.
+
+        For :meth:`UnstructuredVolume.isosurface`, which finds the field and this method together:
+        the calls made inside answer for ``values`` even if the volume's field is replaced meanwhile
+        (a query answers for the field as it was when it began). Gives ``None`` (and holds nothing)
+        when the method was not prepared on ``values``.
+        """
+        with self._lock:
+            if self._field_values is None or self._field_values is not values:
+                yield None
+                return
+            self._as_of += 1
+            try:
+                yield self
+            finally:
+                self._as_of -= 1
 
     def _prepare(self, **params):
         """Build what the method needs once per volume (timed as preprocessing)."""

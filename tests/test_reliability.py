@@ -1,0 +1,134 @@
+"""Issue 43, items 2-8: reliability, third round.
+
+Each test is the issue's reproducer; the oracle is a volume built afresh
+(the full scan of its field) or the one clear error the issue asks for.
+"""
+
+import copy
+import pickle
+import threading
+
+import numpy as np
+import pytest
+
+import polygen.volume  # noqa: F401  (registers every method)
+from polygen.volume import registry
+from polygen.volume.isosurface import extract
+from polygen.volume.mesh import UnstructuredVolume, VolumeError
+from polygen.volume.surface import same_surface
+
+from tests.test_volume_safety import grid_tets, two_blobs
+
+
+def scan(vol, value, field=None):
+    return extract(vol, value, field=field, method="scan")
+
+
+@pytest.fixture(scope="module")
+def grid8():
+    points, cells = grid_tets(8)
+    return points, cells, two_blobs(points)
+
+
+# ------------------------------------------------------- item 2: the caller's arrays
+def test_orient_never_writes_the_callers_cells(grid8):
+    """orient=True reorders the volume's copy; the caller's cells keep every row."""
+    points, cells, f = grid8
+    flipped = cells.copy()
+    flipped[::3, [1, 2]] = flipped[::3, [2, 1]]  # every third tetrahedron inverted
+    before = flipped.copy()
+    vol = UnstructuredVolume(points, flipped, {"f": f}, orient=True)
+    assert np.array_equal(flipped, before)
+    assert not np.shares_memory(vol.cells, flipped) and not np.shares_memory(vol.points, points)
+
+
+def test_a_later_change_to_the_callers_points_cannot_reach_the_volume(grid8):
+    """Mirroring the caller's points after construction inverted every cell and made a solid cube
+    report a void; the volume keeps its own read-only copies."""
+    points, cells, f = grid8
+    p, c = points.copy(), cells.copy()
+    vol = UnstructuredVolume(p, c, {"f": f})
+    p[:, 0] *= -1.0
+    c[:, [1, 2]] = c[:, [2, 1]]
+    assert vol.n_voids == 0 and vol.n_boundary_groups == 1
+    assert same_surface(vol.isosurface(0.5, method="scan"), scan(UnstructuredVolume(points, cells, {"f": f}), 0.5))
+    for a in (vol.points, vol.cells):
+        assert not a.flags.writeable
+        with pytest.raises(ValueError):
+            a[0] = a[1]
+
+
+# ------------------------------------------------- item 3: a field replaced under readers
+STRESS_METHODS = [None, "active-scan", "edge-centred", "span-space", "scan", "unprepared-scan"]
+
+
+def test_field_replaced_while_four_threads_extract(grid8):
+    """4 threads at random: vol.isosurface (every path), vol.extract_many, replacing field "f" and
+    add_field of other names, on one volume. No call raises; every surface equals a fresh volume's
+    surface for one of the arrays "f" held (the one a query began with)."""
+    points, cells, f = grid8
+    arrays = [f, 1.0 - f, np.roll(f, 97)]
+    values = [0.25, 0.45, 0.65]
+    refs = {}
+    for k, a in enumerate(arrays):
+        fresh = UnstructuredVolume(points, cells, {"f": a})
+        for v in values:
+            refs[k, v] = scan(fresh, v)
+    vol = UnstructuredVolume(points, cells, {"f": arrays[0]})
+    errors, checked = [], [0]
+    start = threading.Barrier(4)
+
+    def one_of_the_fields(iso, v):
+        return any(same_surface(iso, refs[k, v], geometry=False) for k in range(len(arrays)))
+
+    def work(t):
+        rng = np.random.default_rng(t)
+        try:
+            start.wait()
+            for _ in range(60):
+                op = rng.integers(5)
+                if op == 0 or (op == 1 and t == 0):
+                    vol.fields["f"] = arrays[rng.integers(len(arrays))]
+                elif op == 1:
+                    vol.add_field(f"g{t}", arrays[rng.integers(len(arrays))])
+                elif op == 2:
+                    vs = list(rng.choice(values, 2))
+                    many = vol.extract_many(vs, field="f", method=STRESS_METHODS[1 + rng.integers(3)], threads=2)
+                    assert len(many) == 2
+                    # one call, one field: both surfaces are of the same array
+                    assert any(all(same_surface(iso, refs[k, v], geometry=False) for iso, v in zip(many, vs))
+                               for k in range(len(arrays)))
+                    checked[0] += 2
+                else:
+                    v = float(rng.choice(values))
+                    iso = vol.isosurface(v, field="f", method=STRESS_METHODS[rng.integers(len(STRESS_METHODS))])
+                    assert one_of_the_fields(iso, v)
+                    checked[0] += 1
+        except BaseException as exc:  # reported below, with the others
+            errors.append(exc)
+
+    threads = [threading.Thread(target=work, args=(t,)) for t in range(4)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join(timeout=600)  # a cold numba cache compiles here first
+    assert not any(th.is_alive() for th in threads)
+    vol.wait_prepared(timeout=60)
+    assert not errors, f"{len(errors)} errors, the first: {errors[0]!r}"
+    assert checked[0] > 50
+
+
+# ------------------------------------------------------------- item 5: duplicate cells
+@pytest.mark.parametrize("validate", [True, False])
+def test_duplicate_cells_are_refused_by_the_constructor(grid8, validate):
+    """A copy of a cell (in another node order) is refused at once, with or without validate, so that no
+    path (the default active-scan, scan or unprepared scan) returns doubled triangles."""
+    points, cells, f = grid8
+    dup = np.concatenate([cells, cells[[7, 300]][:, [1, 2, 3, 0]][:, [0, 2, 1, 3]]])
+    with pytest.raises(VolumeError, match=r"2 cells repeat the nodes of an earlier cell \(duplicate cells\), "
+                                          r"e\.g\. cells \[3072, 3073\]: cell 3072 has the nodes of cell 7"):
+        UnstructuredVolume(points, dup, {"f": f}, validate=validate)
+    hexes = np.arange(16).reshape(2, 8)
+    pts = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)[[0, 1, 3, 2, 4, 5, 7, 6]]
+    with pytest.raises(VolumeError, match="duplicate cells"):
+        UnstructuredVolume(pts, np.stack([hexes[0] % 8, hexes[0] % 8]), {"f": pts[:, 0]}, validate=validate)
