@@ -132,3 +132,44 @@ def test_duplicate_cells_are_refused_by_the_constructor(grid8, validate):
     pts = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)[[0, 1, 3, 2, 4, 5, 7, 6]]
     with pytest.raises(VolumeError, match="duplicate cells"):
         UnstructuredVolume(pts, np.stack([hexes[0] % 8, hexes[0] % 8]), {"f": pts[:, 0]}, validate=validate)
+
+
+# ------------------------------------------------------------ item 6: pickling and copying
+def _round_trips(obj):
+    return [pickle.loads(pickle.dumps(obj)), copy.deepcopy(obj)]
+
+
+def test_a_fresh_volume_and_its_first_surface_pickle_and_copy(grid8):
+    """The volume (with a background preparation running or done) and its first surface (a
+    PairKeyedIsoSurface) pickle and deep-copy; the copies answer as the original, and their arrays
+    stay read-only."""
+    points, cells, f = grid8
+    vol = UnstructuredVolume(points, cells, {"f": f})
+    first = vol.isosurface(0.5)
+    assert type(first).__name__ == "PairKeyedIsoSurface"
+    copies = _round_trips(vol) + _round_trips(first)  # the preparation may still run meanwhile
+    vol.wait_prepared(timeout=600)
+    copies += _round_trips(vol)
+    ref = scan(UnstructuredVolume(points, cells, {"f": f}), 0.5)
+    for c in copies:
+        v = c if isinstance(c, UnstructuredVolume) else c._volume
+        assert not (v.points.flags.writeable or v.cells.flags.writeable or v.fields["f"].flags.writeable)
+        iso = c.isosurface(0.5, prepare=True) if c is v else c
+        assert same_surface(iso, ref)  # vertex keys read (from the copy's edge table), positions, normals
+        v.fields["f"] = 1.0 - f  # the copy's locks work: replacing the field drops what was prepared on it
+        assert same_surface(v.isosurface(0.5), scan(UnstructuredVolume(points, cells, {"f": 1.0 - f}), 0.5))
+    assert same_surface(vol.isosurface(0.5), ref)  # the original is untouched
+
+
+@pytest.mark.parametrize("method", registry.method_names())
+def test_every_prepared_method_pickles_and_copies(grid8, method):
+    points, cells, f = grid8
+    vol = UnstructuredVolume(points, cells, {"f": f})
+    m = registry.get_method(method)(vol, field="f")
+    values = [0.3, 0.6]
+    before = m.extract_many(values)
+    for c in _round_trips(m):
+        assert c is not m and c.vol is not vol
+        for a, b in zip(c.extract_many(values), before):
+            assert same_surface(a, b)
+        assert same_surface(c.extract(0.45), m.extract(0.45))

@@ -523,6 +523,34 @@ class EdgeCentredTable:
             t.join()
         return getattr(t, "collapsed", 0)
 
+    def __copy__(self):
+        # a shallow copy shares the huge-page thread (copy() below); pickling and deepcopy drop it
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        return new
+
+    def __getstate__(self):
+        # the huge-page thread does not travel: the unpickled arrays are fresh, settle() then returns 0
+        state = self.__dict__.copy()
+        state["_settling"] = None
+        state.pop("_tet", None)  # flat views of the records and the state: made again at the next query
+        if self.rec is not None:  # views of the records: made again from the one records array on arrival
+            del state["nodes"], state["starts"]
+            if self.dyn is self.rec:  # (a copy keeps its state in its own array)
+                del state["dyn"]
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        if self.rec is not None:
+            # the kernels write stamps through dyn and read nodes and edge-list starts in the same records:
+            # pickled apart they would be three separate copies
+            ost = _k.record_layout(self.nn, self.ne)[2]
+            self.nodes = self.rec[:, _k.R_NODES:_k.R_NODES + self.nn]
+            self.starts = self.rec[:, ost:ost + self.ne]
+            if "dyn" not in state:
+                self.dyn = self.rec
+
     def copy(self):
         """A builder sharing the records and incidence tables, with its own stamps, states, slots and buffers.
 

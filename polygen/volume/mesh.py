@@ -120,6 +120,11 @@ class UnstructuredVolume:
     so neither a later change to the caller's arrays nor an assignment into
     ``vol.points`` can bypass the checks below or leave the topology and the
     prepared methods stale. ``orient=True`` reorders the nodes of the copy.
+
+    A volume pickles and deep-copies (for Dask and multiprocessing) with its
+    fields, the tables built so far and its prepared methods; locks and
+    background preparations are not carried (the copy makes fresh locks and
+    prepares again, when asked, what was still being prepared).
     validate : bool, keyword-only
         Check cell geometry (zero-volume and inverted cells). Shapes, index
         ranges and finiteness are always checked.
@@ -229,6 +234,24 @@ class UnstructuredVolume:
                 f"{repeated.size} degenerate cells repeat a node, e.g. cells {_examples(repeated)} "
                 f"(cell {repeated[0]} has nodes {self.cells[repeated[0]].tolist()})"
             )
+
+    def __getstate__(self):
+        # pickling and deepcopy (Dask, multiprocessing): locks and background threads do not travel; the
+        # copy makes fresh locks, and prepares again what was still being prepared here when it is asked
+        with self._iso_lock:
+            state = self.__dict__.copy()
+            state["_iso_methods"] = dict(self._iso_methods)
+        del state["_iso_lock"], state["_table_lock"]
+        state["_iso_pending"] = {}
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._iso_lock = threading.RLock()
+        self._table_lock = threading.Lock()
+        # an unpickled or deep-copied array is writable again: the volume's own arrays stay read-only
+        for a in (self.points, self.cells, *self.fields._data.values()):
+            a.setflags(write=False)
 
     def _check_duplicates(self):
         """No two cells with the same nodes (in any order), or a VolumeError naming them.

@@ -147,6 +147,10 @@ class IsosurfaceMethod(abc.ABC):
     ``extract`` and ``extract_many`` get the lock by themselves
     (``__init_subclass__``).
 
+    Pickling and copying: a prepared method pickles and deep-copies with its
+    volume (the copy is prepared on the copied field); its lock is not
+    carried but made afresh on arrival.
+
     Changed fields: a method prepared on a field *name* checks at every call
     that the volume still holds the array it was prepared on (fields are
     read-only once added, so only ``vol.fields[name] = new`` or
@@ -231,6 +235,18 @@ class IsosurfaceMethod(abc.ABC):
 
     def _prepare(self, **params):
         """Build what the method needs once per volume (timed as preprocessing)."""
+
+    def __getstate__(self):
+        # pickling and deepcopy: the lock does not travel (a fresh one is made on arrival)
+        with self._lock:
+            state = self.__dict__.copy()
+        del state["_lock"]
+        state["_as_of"] = 0
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._lock = threading.RLock()
 
     def _check_field(self):
         if self._field_values is not None and self.vol.fields.get(self._field_name) is not self._field_values:
@@ -391,8 +407,12 @@ class SeedsThenPropagate(IsosurfaceMethod):
 
 
 def _search_method(search_name, doc):
-    cls = type(search_name.title().replace("-", ""), (SeedsThenPropagate,),
-               {"name": search_name, "seeds": search_name, "description": doc})
+    cls_name = search_name.title().replace("-", "")
+    # a module attribute with the class's own name, so that pickle finds the class of a prepared method
+    cls = type(cls_name, (SeedsThenPropagate,),
+               {"name": search_name, "seeds": search_name, "description": doc, "__module__": __name__,
+                "__qualname__": cls_name})
+    globals()[cls_name] = cls
     return register(cls)
 
 
