@@ -14,8 +14,8 @@ import pytest
 import polygen.volume  # noqa: F401  (registers every method)
 from polygen.volume import registry
 from polygen.volume.isosurface import extract
-from polygen.volume.mesh import UnstructuredVolume, VolumeError
-from polygen.volume.surface import same_surface
+from polygen.volume.mesh import UnstructuredVolume, VolumeError, VolumeWarning
+from polygen.volume.surface import IsoSurfaceError, same_surface
 
 from tests.test_volume_safety import grid_tets, two_blobs
 
@@ -173,3 +173,82 @@ def test_every_prepared_method_pickles_and_copies(grid8, method):
         for a, b in zip(c.extract_many(values), before):
             assert same_surface(a, b)
         assert same_surface(c.extract(0.45), m.extract(0.45))
+
+
+# ------------------------------------------------ item 8: one clear message per bad input
+def test_vector_point_arrays_are_named_not_dropped_silently(grid8):
+    import meshio
+    import pyvista as pv
+
+    points, cells, f = grid8
+    mesh = meshio.Mesh(points, [("tetra", cells)], point_data={"f": f, "velocity": points * 2.0})
+    with pytest.warns(VolumeWarning, match=r"'velocity' \(3 components\) are not scalar.*add_field\('velocity_x'"):
+        vol = UnstructuredVolume.from_meshio(mesh)
+    assert list(vol.fields) == ["f"] and vol.dropped_point_data == {"velocity": "3 components"}
+    grid = pv.UnstructuredGrid({pv.CellType.TETRA: cells}, points)
+    grid.point_data["f"], grid.point_data["velocity"] = f, points * 2.0
+    with pytest.warns(VolumeWarning, match="'velocity' .3 components."):
+        UnstructuredVolume.from_pyvista(grid)
+
+
+def test_voxel_ordered_hexahedra_are_named():
+    g = np.arange(3, dtype=float)
+    x, y, z = np.meshgrid(g, g, g, indexing="ij")
+    pts = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+    i, j, k = (a.ravel() for a in np.meshgrid(*[np.arange(2)] * 3, indexing="ij"))
+    corner = lambda di, dj, dk: ((i + di) * 3 + j + dj) * 3 + k + dk  # noqa: E731
+    voxel = np.stack([corner(0, 0, 0), corner(1, 0, 0), corner(0, 1, 0), corner(1, 1, 0),
+                      corner(0, 0, 1), corner(1, 0, 1), corner(0, 1, 1), corner(1, 1, 1)], axis=1)
+    with pytest.raises(VolumeError, match=r"8 hexahedra are in voxel node order .*cells\[:, \[0, 1, 3, 2, 4, 5, 7, 6\]\]"):
+        UnstructuredVolume(pts, voxel, {"f": pts[:, 0]})
+    UnstructuredVolume(pts, voxel[:, [0, 1, 3, 2, 4, 5, 7, 6]], {"f": pts[:, 0]})  # the order it asks for
+
+
+def test_fields_as_a_bare_array(grid8):
+    points, cells, f = grid8
+    with pytest.raises(VolumeError, match=r"fields must be a dict of name -> \(N,\) values; got ndarray "
+                                          r"\(name it: fields=\{'f': values\}\)"):
+        UnstructuredVolume(points, cells, f)
+
+
+def test_from_meshio_and_from_pyvista_given_a_path():
+    for where in (UnstructuredVolume.from_meshio, UnstructuredVolume.from_pyvista):
+        with pytest.raises(VolumeError, match=r"takes .*; got the path 'x.vtu': UnstructuredVolume.read\(path\)"):
+            where("x.vtu")
+    with pytest.raises(VolumeError, match="from_meshio takes a meshio.Mesh; got dict"):
+        UnstructuredVolume.from_meshio({})
+
+
+@pytest.fixture(scope="module")
+def vol8(grid8):
+    points, cells, f = grid8
+    return UnstructuredVolume(points, cells, {"f": f})
+
+
+def test_unknown_method_is_a_volume_error(vol8):
+    with pytest.raises(VolumeError, match="unknown isosurface method 'nope'"):
+        vol8.isosurface(0.5, method="nope")
+    with pytest.raises(VolumeError, match="unknown isosurface method 'nope'"):
+        registry.get_method("nope")
+
+
+@pytest.mark.parametrize("value", ["0.5", True, np.bool_(False), b"0.5"])
+def test_a_string_or_bool_is_no_isovalue(vol8, value):
+    for method in (None, "scan", "edge-centred"):
+        with pytest.raises(IsoSurfaceError, match="value must be a number; got"):
+            vol8.isosurface(value, method=method)
+
+
+@pytest.mark.parametrize("method", registry.method_names())
+def test_extract_many_checks_values_and_threads_alike(vol8, method):
+    """One rule for every method: values a sequence of numbers, threads a whole number >= 1."""
+    m = registry.get_method(method)(vol8, field="f")
+    with pytest.raises(IsoSurfaceError, match=r"values must be a sequence of numbers; got float 0.5 "
+                                              r"\(extract\(value\) gives one surface\)"):
+        m.extract_many(0.5)
+    for threads in (0, -1, 1.5, "2", True):
+        with pytest.raises(IsoSurfaceError, match=r"threads must be a whole number >= 1 .*got "):
+            m.extract_many([0.4, 0.6], threads=threads)
+    assert len(m.extract_many(np.array([0.4, 0.6]), threads=1)) == 2
+    with pytest.raises(IsoSurfaceError, match="values must be a sequence"):
+        vol8.extract_many(0.5, method=method)

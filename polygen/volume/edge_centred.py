@@ -92,7 +92,9 @@ from polygen.volume.surface import (
     IsoSurface,
     IsoSurfaceError,
     check_normals,
+    check_threads,
     check_value,
+    check_values,
     drop_double_faces,
     drop_unreferenced,
     node_gradients,
@@ -107,19 +109,8 @@ _INT32_MAX = np.iinfo(np.int32).max
 
 
 def _check_threads(threads, auto=False):
-    """``threads`` as an int >= 1 (``None``: numba's thread count; with ``auto``, ``"auto"`` as it is), else
-    :class:`IsoSurfaceError`."""
-    if threads is None:
-        import numba
-
-        return numba.get_num_threads()
-    if auto and isinstance(threads, str) and threads == "auto":
-        return "auto"
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        also = ", 'auto'" if auto else ""
-        raise IsoSurfaceError(f"threads must be a whole number >= 1{also} (or None: numba's thread count); "
-                              f"got {threads!r}")
-    return int(threads)
+    """:func:`polygen.volume.surface.check_threads`: the one rule for ``threads``."""
+    return check_threads(threads, auto=auto)
 
 
 _OVERLAP_SAFE = []
@@ -1528,14 +1519,8 @@ class _EdgeCentredMethods(IsosurfaceMethod):
         IsoSurfaceError
             ``threads`` is not a whole number >= 1, or a value is not finite.
         """
-        import numba
-
-        if threads is None:
-            threads = numba.get_num_threads()
-        elif isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-            raise IsoSurfaceError(f"threads must be a whole number >= 1 (or None: numba's {numba.get_num_threads()}); "
-                                  f"got {threads!r}")
-        values = [check_value(v) for v in values]
+        threads = check_threads(threads)
+        values = check_values(values)
         threads = min(int(threads), len(values))
         if threads < 1:
             return []

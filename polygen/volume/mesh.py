@@ -94,6 +94,14 @@ def _owned(a, dtype):
     return out.copy() if np.may_share_memory(out, a) else out
 
 
+def _not_a_path(obj, where, what):
+    import os
+
+    if isinstance(obj, (str, bytes, os.PathLike)):
+        raise VolumeError(f"{where} takes {what}; got the path {str(obj)!r}: UnstructuredVolume.read(path) reads a "
+                          "file")
+
+
 def _examples(idx, n=5):
     idx = np.asarray(idx).ravel()
     head = ", ".join(str(int(i)) for i in idx[:n])
@@ -141,6 +149,9 @@ class UnstructuredVolume:
     """
 
     def __init__(self, points, cells, fields=None, *, validate=True, orient=False):
+        if fields is not None and not isinstance(fields, collections.abc.Mapping):
+            hint = " (name it: fields={'f': values})" if isinstance(fields, np.ndarray) else ""
+            raise VolumeError(f"fields must be a dict of name -> (N,) values; got {type(fields).__name__}{hint}")
         points = np.asarray(points)
         cells = np.asarray(cells)
         if points.ndim != 2 or points.shape[1] != 3:
@@ -366,6 +377,7 @@ class UnstructuredVolume:
             degenerate = np.flatnonzero(np.abs(vol) <= _DEGENERATE_RTOL * scale)
             inverted = np.flatnonzero(vol < -_DEGENERATE_RTOL * scale)
         if degenerate.size:
+            self._voxel_order(degenerate)
             raise VolumeError(
                 f"{degenerate.size} degenerate cells have zero volume, e.g. cells {_examples(degenerate)}"
             )
@@ -384,10 +396,30 @@ class UnstructuredVolume:
         if self.cell_type == "hexa":
             folded = np.flatnonzero(np.any(jac <= _DEGENERATE_RTOL * (longest**3)[:, None], axis=1))
             if folded.size:
+                self._voxel_order(folded)
                 raise VolumeError(
                     f"{folded.size} hexahedra are folded or degenerate at a corner (Jacobian <= 0), "
                     f"e.g. cells {_examples(folded)}"
                 )
+
+    def _voxel_order(self, bad):
+        """A VolumeError saying so when the hexahedra ``bad`` are valid in VTK_VOXEL node order.
+
+        A voxel numbers its corners 0-1-3-2 / 4-5-7-6 (x fastest, then y):
+        read as a VTK hexahedron its faces twist, with zero volume.
+        """
+        if self.cell_type != "hexa":
+            return
+        order = [0, 1, 3, 2, 4, 5, 7, 6]
+        cells = np.ascontiguousarray(self.cells[bad][:, order])
+        jac, vol, longest = _k.hex_jacobians(self.points, cells, HEX_CORNER_FRAMES)
+        scale = longest**3
+        if np.all(vol > _DEGENERATE_RTOL * scale) and np.all(jac > _DEGENERATE_RTOL * scale[:, None]):
+            raise VolumeError(
+                f"{bad.size} hexahedra are in voxel node order (VTK_VOXEL: corners 0-1-3-2 / 4-5-7-6), e.g. cells "
+                f"{_examples(bad)}, not the hexahedron order a volume takes (VTK_HEXAHEDRON: 0-1-2-3 around the "
+                "bottom face, 4-5-6-7 above); reorder them with cells[:, [0, 1, 3, 2, 4, 5, 7, 6]]"
+            )
 
     def remove_unreferenced_nodes(self) -> "UnstructuredVolume":
         """A copy without the nodes no cell uses."""
@@ -929,6 +961,7 @@ class UnstructuredVolume:
         Single-component point arrays become fields; others are skipped.
         ``cell_data`` and ``tetrahedralize`` as for :meth:`read`.
         """
+        _not_a_path(grid, "from_pyvista", "a pyvista data set")
         return cls._from_arrays(_io.pyvista_arrays(grid, cell_data=cell_data, tetrahedralize=tetrahedralize),
                                 validate=validate, orient=orient)
 
@@ -949,6 +982,9 @@ class UnstructuredVolume:
         ``hexahedron`` (or ``tetrahedralize``). ``cell_data`` and
         ``tetrahedralize`` as for :meth:`read`.
         """
+        _not_a_path(mesh, "from_meshio", "a meshio.Mesh")
+        if not (hasattr(mesh, "points") and hasattr(mesh, "cells") and hasattr(mesh, "point_data")):
+            raise VolumeError(f"from_meshio takes a meshio.Mesh; got {type(mesh).__name__}")
         return cls._from_arrays(_io.meshio_arrays(mesh, cell_data=cell_data, tetrahedralize=tetrahedralize),
                                 validate=validate, orient=orient)
 
@@ -958,6 +994,16 @@ class UnstructuredVolume:
         # what was not kept: a caller asking for one of these is told it is cell data
         vol.cell_data_names = arrays.cell_data_names
         vol.cell_data_converted = arrays.converted
+        #: point arrays that are no scalar field (vectors, tensors, text): name -> what they are
+        vol.dropped_point_data = dict(arrays.dropped)
+        # floating-point vectors and tensors are said; integer ones are tags (gmsh:dim_tags), text is no field
+        vectors = [(name, what) for name, what in arrays.dropped if what.endswith("components")]
+        if vectors:
+            said = ", ".join(f"{name!r} ({what})" for name, what in vectors)
+            first = vectors[0][0]
+            warnings.warn(f"point arrays {said} are not scalar and were not kept as fields (a field is one value "
+                          f"per node); take a component, e.g. vol.add_field('{first}_x', mesh.point_data['{first}']"
+                          "[:, 0])", VolumeWarning, stacklevel=3)
         return vol
 
     @classmethod

@@ -40,7 +40,9 @@ from polygen.volume.propagate import Propagator
 from polygen.volume.seeds.source import seed_source as _seed_source
 from polygen.volume.surface import IsoSurfaceError, same_surface
 from polygen.volume.surface import check_normals as _check_normals
+from polygen.volume.surface import check_threads as _check_threads
 from polygen.volume.surface import check_value as _check_value
+from polygen.volume.surface import check_values as _check_values
 
 __all__ = ["IsosurfaceMethod", "SeedsThenPropagate", "METHODS", "DEFAULT", "register", "get", "names", "default",
            "Sweep", "sweep"]
@@ -123,8 +125,16 @@ def sweep(method, values, *, reference=None, normals="mean"):
 def _serialised(fn):
     """``fn`` (an ``extract``) under the method's lock, after checking its field is still the volume's."""
 
+    many = fn.__name__ == "extract_many"
+
     @functools.wraps(fn)
     def guarded(self, *args, **kwargs):
+        if many:  # one rule for every method: the values a sequence of numbers, threads a whole number >= 1
+            if args:
+                args = (_check_values(args[0]), *args[1:])
+            elif "values" in kwargs:
+                kwargs["values"] = _check_values(kwargs["values"])
+            _check_threads(kwargs.get("threads"))
         with self._lock:
             if not self._as_of:  # inside as_of_field the caller checked the field when its query began
                 self._check_field()
