@@ -252,3 +252,107 @@ def test_extract_many_checks_values_and_threads_alike(vol8, method):
     assert len(m.extract_many(np.array([0.4, 0.6]), threads=1)) == 2
     with pytest.raises(IsoSurfaceError, match="values must be a sequence"):
         vol8.extract_many(0.5, method=method)
+
+
+# ------------------------------------------------------------ item 4: bounded resources
+def test_extract_many_keeps_no_more_builders_than_cores(vol8):
+    import os
+
+    def machine_cores():
+        return len(os.sched_getaffinity(0))
+
+    m = registry.get_method("edge-centred")(vol8, field="f")
+    values = list(np.linspace(0.2, 0.8, machine_cores() + 6))
+    many = m.extract_many(values, threads=64)
+    assert len(m._builders) <= machine_cores()
+    for a, v in zip(many, values):
+        assert same_surface(a, m.extract(v))
+
+
+_RSS_LIMIT = 1.5 * 2**30
+# each request in a fresh interpreter whose address space is capped at 4 GiB: code that allocates what it
+# cannot hold fails there at once (MemoryError) instead of swapping the machine
+_PRELUDE = """
+import resource, sys
+resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
+"""
+_EPILOGUE = """
+print("maxrss", resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)
+"""
+
+
+def _refused(code, error, *words, cli=False):
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=str(root), NUMBA_NUM_THREADS="2")
+    script = _PRELUDE + code + _EPILOGUE
+    res = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=600,
+                         cwd=root)
+    out = res.stdout + res.stderr
+    assert res.returncode == 0, out[-3000:]
+    assert "accepted" not in res.stdout, res.stdout
+    line = next(x for x in res.stdout.splitlines() if x.startswith("refused "))
+    assert line.startswith(f"refused {error}:"), line
+    for w in words:
+        assert w in line, line
+    assert "more than this machine's" in line, line
+    rss = int(res.stdout.split("maxrss")[-1])
+    assert rss < _RSS_LIMIT, rss
+
+
+def test_mesh_scene_refuses_a_mesh_larger_than_memory():
+    code = """
+from polygen.radiosity import mesh_scene
+from polygen.radiosity.mesh import MeshError
+from polygen.radiosity.scene import Polygon, Scene
+square = Scene([Polygon([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], name="square")])
+for size, levels in ((1e-4, 1), (0.25, 13)):
+    try:
+        mesh_scene(square, size, element_levels=levels)
+    except MeshError as e:
+        print("refused", type(e).__name__ + ":", e)
+    else:
+        print("accepted", size, levels)
+"""
+    _refused(code, "MeshError", "mesh_scene(patch_size=0.0001, element_levels=1)", "GiB")
+
+
+def test_gauss_seidel_refuses_a_form_factor_matrix_larger_than_memory():
+    code = """
+from polygen.radiosity import mesh_scene, gauss_seidel
+from polygen.radiosity.solve import SolverError
+from polygen.radiosity.scene import AreaLight, Polygon, Scene
+import numpy as np
+floor = Polygon([[0, 0, 0], [0, 0, 1], [1, 0, 1], [1, 0, 0]], name="floor")
+light = AreaLight(np.array([[0.4, 1, 0.4], [0.4, 1, 0.6], [0.6, 1, 0.6], [0.6, 1, 0.4]])[::-1], emission=1.0)
+mesh = mesh_scene(Scene([floor, light]), 0.007, element_levels=1)
+try:
+    gauss_seidel(mesh)
+except SolverError as e:
+    print("refused", type(e).__name__ + ":", e, mesh.n_elements, mesh.n_patches)
+"""
+    _refused(code, "SolverError", "form-factor matrix", "progressive_refinement")
+
+
+def test_cli_refuses_values_beyond_memory(tmp_path):
+    import meshio
+
+    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    meshio.Mesh(pts, [("tetra", np.array([[0, 1, 2, 3]]))], point_data={"f": pts.sum(axis=1)}).write(
+        tmp_path / "one.vtu")
+    code = f"""
+import contextlib, io
+from polygen.cli import main
+err = io.StringIO()
+with contextlib.redirect_stderr(err):
+    rc = main(["isosurface", {str(tmp_path / "one.vtu")!r}, "--values", "1000000000", "--no-files",
+               "--no-compare-vtk", "--method", "scan"])
+lines = err.getvalue().splitlines()
+assert rc == 2 and len(lines) == 1, (rc, lines)
+print("refused CLIError:", lines[0])
+"""
+    _refused(code, "CLIError", "polygen isosurface: --values 1000000000 needs about")

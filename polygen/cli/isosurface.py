@@ -301,8 +301,23 @@ def _check_outputs(args):
         writable(existing, f"--output {str(out)!r}")
 
 
+#: bytes each of --values N holds at least: the value, its surface kept for the files (an IsoSurface: its
+#: arrays' headers and counters, over 1 KiB even when empty) and its column of the table
+BYTES_PER_VALUE = 1024
+
+
+def _check_memory(args):
+    """``--values N`` that cannot fit in memory is refused before the volume is loaded (one line, exit 2)."""
+    from polygen._memory import check_fits
+    from polygen.cli import CLIError
+
+    if not args.value and args.values > 0:
+        check_fits(float(args.values) * BYTES_PER_VALUE, f"--values {args.values}", CLIError)
+
+
 def run(args):
     _check_outputs(args)
+    _check_memory(args)
     if _is_partitioned(args):
         return run_partitioned(args)
     os.environ.setdefault("VTK_SMP_BACKEND_IN_USE", "STDThread")

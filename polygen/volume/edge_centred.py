@@ -96,6 +96,7 @@ from polygen.volume.surface import (
     check_value,
     check_values,
     drop_double_faces,
+    machine_cores,
     drop_unreferenced,
     node_gradients,
     vertex_normals,
@@ -1506,7 +1507,11 @@ class _EdgeCentredMethods(IsosurfaceMethod):
         normals : {"mean", "gradient", None}, keyword-only
         threads : int, optional, keyword-only
             How many at a time, at least 1 (default, ``None``: numba's thread
-            count). Never more than ``len(values)`` are used.
+            count). Never more than ``len(values)`` nor the machine's cores
+            (:func:`~polygen.volume.surface.machine_cores`) are used: each
+            one keeps a builder (its stamps and query buffers, 24-48 bytes
+            per cell and more) that more threads than cores would only hold
+            without running it.
 
         Returns
         -------
@@ -1521,7 +1526,7 @@ class _EdgeCentredMethods(IsosurfaceMethod):
         """
         threads = check_threads(threads)
         values = check_values(values)
-        threads = min(int(threads), len(values))
+        threads = min(int(threads), len(values), machine_cores())
         if threads < 1:
             return []
         found = [self.source.query(v) for v in values]

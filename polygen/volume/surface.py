@@ -415,6 +415,16 @@ def check_values(values):
     return [check_value(v) for v in values]
 
 
+def machine_cores():
+    """The cores this process may run on (``os.sched_getaffinity``, else ``os.cpu_count()``)."""
+    import os
+
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
 def check_threads(threads, *, auto=False):
     """``threads`` as an int >= 1 (``None``: numba's thread count; with ``auto``, ``"auto"`` as it is), else
     :class:`IsoSurfaceError`: the one rule of every method's ``threads``."""
