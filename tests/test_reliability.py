@@ -356,3 +356,13 @@ assert rc == 2 and len(lines) == 1, (rc, lines)
 print("refused CLIError:", lines[0])
 """
     _refused(code, "CLIError", "polygen isosurface: --values 1000000000 needs about")
+
+
+def test_a_prepared_partitioned_volume_pickles_and_copies(grid8):
+    from polygen.volume.partitioned import PartitionedVolume
+
+    points, cells, f = grid8
+    prepared = PartitionedVolume.split(UnstructuredVolume(points, cells, {"f": f}), 2).prepare("f", None)
+    ref = prepared.extract(0.5)
+    for c in _round_trips(prepared):
+        assert same_surface(c.extract(0.5), ref)

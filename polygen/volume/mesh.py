@@ -493,7 +493,9 @@ class UnstructuredVolume:
 
         Replacing the field (``vol.fields[name] = new``) drops what was
         prepared on it (a background preparation of the old values is
-        discarded when it ends). Safe from several threads: each preparation
+        discarded when it ends). A query answers for the field as it was
+        when the query began, even if another thread replaces it meanwhile
+        (never with an error about the replacement). Safe from several threads: each preparation
         happens once, and a prepared method's lock lets one extraction run at
         a time (:class:`~polygen.volume.methods.IsosurfaceMethod`). Whichever
         path answers, the triangles, vertices and normals are the same; the
