@@ -129,3 +129,39 @@ def test_cell_data_asked_for_is_named(tmp_path):
     line = _assert_one_line(_polygen("isosurface", path, "--field", "sample_cell_scalars", cwd=tmp_path),
                             "'sample_cell_scalars' is cell data", "sample_point_scalars")
     assert "no field" not in line
+
+
+# ------------------------------------------- issue 43, item 7: outputs checked before the work
+@pytest.mark.parametrize("case", ["output under a file", "output is a file", "json into a missing folder",
+                                  "json is a folder", "read-only output"])
+def test_unwritable_outputs_are_refused_before_any_work(tmp_path, case):
+    """One line, exit status 2, and nothing on stdout: no volume loaded, no surface extracted, no VTK log."""
+    good = _write(tmp_path / "good.vtu", GOOD)
+    (tmp_path / "notes.txt").write_text("a file\n")
+    (tmp_path / "adir").mkdir()
+    locked = tmp_path / "locked"
+    locked.mkdir(mode=0o555)
+    if case == "read-only output" and os.access(locked, os.W_OK):  # root writes into mode 555 folders
+        pytest.skip("the tests run as root: a read-only folder is writable")
+    args, words = {
+        "output under a file": (["--output", tmp_path / "notes.txt" / "out"], ["--output", "notes.txt"]),
+        "output is a file": (["--output", tmp_path / "notes.txt"], ["--output", "not a folder"]),
+        "json into a missing folder": (["--no-files", "--json", tmp_path / "nope" / "t.json"],
+                                       ["--json", "does not exist"]),
+        "json is a folder": (["--no-files", "--json", tmp_path / "adir"], ["--json", "a folder"]),
+        "read-only output": (["--output", locked / "out"], ["--output", "cannot write"]),
+    }[case]
+    res = _polygen("isosurface", good, "--method", "scan", "--values", "2", "--no-compare-vtk", *args, cwd=tmp_path)
+    _assert_one_line(res, *words)
+
+
+def test_vtk_log_stays_off_the_terminal(tmp_path):
+    """A surface file VTK cannot open (a folder of its name is in the way): without --debug, one line
+    on stderr, none of VTK's error log."""
+    good = _write(tmp_path / "good.vtu", GOOD)
+    (tmp_path / "out" / "good.vtu-iso00.vtp").mkdir(parents=True)
+    res = _polygen("isosurface", good, "--method", "scan", "--value", "1.5", "--no-compare-vtk",
+                   "--output", tmp_path / "out", cwd=tmp_path)
+    lines = res.stderr.splitlines()
+    assert res.returncode == 2 and len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
+    assert lines[0].startswith("polygen isosurface: --output") and "in the way" in lines[0], lines[0]

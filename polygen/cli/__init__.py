@@ -10,7 +10,9 @@ Errors speak to people: a bad input (a file that is no volume mesh, an
 unknown field or method, inverted cells, ...) prints one line,
 ``polygen COMMAND: what is wrong``, on stderr and exits with status 2; any
 other failure prints one line and exits with status 1. ``--debug`` shows
-the Python traceback instead. A closed pipe (``polygen datasets | head``)
+the Python traceback instead, and VTK's own log, which otherwise never
+reaches the terminal. Files a command will write are checked before it
+starts its work. A closed pipe (``polygen datasets | head``)
 ends the command quietly.
 """
 
@@ -76,6 +78,16 @@ def _stdout_gone():
         pass
 
 
+def _quiet_vtk():
+    """VTK's error log (a writer's, a reader's) off the terminal: the command says what failed in one line."""
+    try:
+        from vtkmodules.vtkCommonCore import vtkLogger, vtkObject
+    except ImportError:  # pragma: no cover - pyvista brings VTK
+        return
+    vtkObject.GlobalWarningDisplayOff()
+    vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_OFF)
+
+
 def main(argv=None):
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -84,7 +96,8 @@ def main(argv=None):
         return EXIT_INPUT
     prog = f"polygen {args.command}"
     with warnings.catch_warnings():
-        if not args.debug:  # warnings in one line, as errors
+        if not args.debug:  # warnings in one line, as errors; VTK's log only with --debug
+            _quiet_vtk()
             warnings.showwarning = lambda message, *rest, **kw: print(f"{prog}: warning: {_one_line(message)}",
                                                                       file=sys.stderr)
         try:

@@ -251,7 +251,7 @@ def _partitioned_table(args, label, pvol, prepared, client, isovalues):
         out.mkdir(parents=True, exist_ok=True)
         for i, iso in enumerate(surfaces):
             if not iso.is_empty:
-                iso.to_pyvista().save(out / f"{Path(label).stem}-iso{i:02d}.vtp")
+                _save(iso, out / f"{Path(label).stem}-iso{i:02d}.vtp")
         print(f"wrote the surfaces to {out}/")
     return 0
 
@@ -261,7 +261,63 @@ def _field_range(prepared):
     return min(i["min"] for i in infos), max(i["max"] for i in infos)
 
 
+def _check_outputs(args):
+    """Before any work: ``--json`` and ``--output`` can be written, else a one-line :class:`CLIError`.
+
+    A file that cannot be written used to fail only after every extraction
+    (and VTK's error log); here nothing is created (``--output`` is made
+    when the surfaces are written), each folder is tried with a temporary
+    file that is removed at once.
+    """
+    import tempfile
+
+    from polygen.cli import CLIError
+
+    def writable(folder, what):
+        try:
+            with tempfile.TemporaryFile(dir=folder):
+                pass
+        except OSError as e:
+            raise CLIError(f"{what}: cannot write in {str(folder)!r} ({e.strerror or e})") from None
+
+    if args.json:
+        path = Path(args.json)
+        folder = path.parent
+        if path.is_dir():
+            raise CLIError(f"--json {str(path)!r} is a folder; give the name of a file")
+        if not folder.is_dir():
+            raise CLIError(f"--json {str(path)!r}: the folder {str(folder)!r} does not exist"
+                           + (" (it is a file)" if folder.exists() else ""))
+        writable(folder, f"--json {str(path)!r}")
+    if not args.no_files:
+        out = Path(args.output)
+        if out.exists() and not out.is_dir():
+            raise CLIError(f"--output {str(out)!r} is a file, not a folder")
+        existing = out
+        while not existing.exists() and existing != existing.parent:  # the folder it will be made in
+            existing = existing.parent
+        if not existing.is_dir():
+            raise CLIError(f"--output {str(out)!r}: {str(existing)!r} is a file, not a folder")
+        writable(existing, f"--output {str(out)!r}")
+
+
+#: bytes each of --values N holds at least: the value, its surface kept for the files (an IsoSurface: its
+#: arrays' headers and counters, over 1 KiB even when empty) and its column of the table
+BYTES_PER_VALUE = 1024
+
+
+def _check_memory(args):
+    """``--values N`` that cannot fit in memory is refused before the volume is loaded (one line, exit 2)."""
+    from polygen._memory import check_fits
+    from polygen.cli import CLIError
+
+    if not args.value and args.values > 0:
+        check_fits(float(args.values) * BYTES_PER_VALUE, f"--values {args.values}", CLIError)
+
+
 def run(args):
+    _check_outputs(args)
+    _check_memory(args)
     if _is_partitioned(args):
         return run_partitioned(args)
     os.environ.setdefault("VTK_SMP_BACKEND_IN_USE", "STDThread")
@@ -430,12 +486,24 @@ def _print_components(values, surfaces, method, most=10):
             print(f"{v:10.6g} no components (empty surface)")
 
 
+def _save(iso, path):
+    """Write a surface, or a one-line error: VTK's writer reports a failure only in its (silenced) log."""
+    from polygen.cli import CLIError
+
+    if path.is_dir():
+        raise CLIError(f"--output: a folder is in the way of the surface file {str(path)!r}")
+    path.unlink(missing_ok=True)  # so that a file from an earlier run cannot pass for this one
+    iso.to_pyvista().save(path)
+    if not path.is_file():
+        raise OSError(f"could not write the surface file {str(path)!r}")
+
+
 def _write_files(out, label, vol, surfaces, values, method):
     out.mkdir(parents=True, exist_ok=True)
     written = 0
     for i, iso in enumerate(surfaces):
         if not iso.is_empty:
-            iso.to_pyvista().save(out / f"{label}-iso{i:02d}.vtp")
+            _save(iso, out / f"{label}-iso{i:02d}.vtp")
             written += 1
     from polygen.plotting import setup_notebook
     from polygen.plotting.volume import plot_isosurface_grid

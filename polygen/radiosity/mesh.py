@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from polygen._memory import check_fits
 from polygen.radiosity import layout as lay
 from polygen.radiosity._errors import MeshError
 from polygen.radiosity.layout import RegionSize, _as_segments
@@ -682,6 +683,28 @@ def _check_size(spec, k, poly):
     return v
 
 
+#: bytes per element a RadiosityMesh holds at least: its three node ids and its patch (int64), and half a
+#: node (a triangle mesh has about M / 2 nodes: xyz float64 and node_site int64)
+_ELEMENT_BYTES = 48
+
+
+def _check_memory(scene, specs, patch_size, levels):
+    """Refuse (MeshError) a mesh whose elements cannot fit in memory, before meshing anything.
+
+    The estimate: a polygon of area A meshed at patch size h has about A / (sqrt(3)/4 h**2) patches
+    (triangles of edge h), each split into 4**levels elements of :data:`_ELEMENT_BYTES`; a size field
+    or a RegionSize counts one patch per polygon (a lower bound).
+    """
+    patches = 0.0
+    for poly, spec in zip(scene.polygons, specs):
+        h = spec if isinstance(spec, float) else None
+        patches += max(1.0, poly.area / (np.sqrt(3.0) / 4.0 * h * h)) if h else 1.0
+    what = f"patch_size={patch_size!r}, element_levels={levels}" if not callable(patch_size) else \
+        f"element_levels={levels}"
+    check_fits(patches * 4.0**levels * _ELEMENT_BYTES, f"mesh_scene({what}): about {patches * 4.0**levels:.3g} "
+               "elements", MeshError)
+
+
 def _segments_per_polygon(segments, scene):
 
     n = len(scene.polygons)
@@ -790,6 +813,7 @@ def mesh_scene(scene, patch_size, *, element_levels=1, mesher=lattice_delaunay_m
         raise MeshError(f"element_levels must be a non-negative integer, got {element_levels}")
     levels = int(element_levels)
     per = 4 ** levels
+    _check_memory(scene, specs, patch_size, levels)
     segs = _segments_per_polygon(segments, scene)
     method = _graph_method(mesher)
     if method is None:

@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from polygen._jit import njit
+from polygen._memory import check_fits
 from polygen.radiosity.formfactor import (
     VISIBILITY_SAMPLES,
     analytic_column,
@@ -445,6 +446,9 @@ def form_factor_matrix(mesh, *, form_factors="analytic", resolution=100,
     (M, P) float64
     """
     _check_mesh(mesh)
+    check_fits(8.0 * mesh.n_elements * mesh.n_patches,
+               f"the form-factor matrix of {mesh.n_elements} elements x {mesh.n_patches} patches (float64)",
+               lambda msg: SolverError(msg + "; progressive_refinement needs no matrix"))
     columns = FormFactorColumns(mesh, form_factors, resolution=resolution,
                                 visibility_samples=visibility_samples, parallel=parallel)
     out = np.empty((mesh.n_elements, mesh.n_patches))

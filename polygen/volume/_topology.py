@@ -243,6 +243,76 @@ def tet_cells_clearly_valid(points, cells, rtol, used):
 
 
 @njit(parallel=True)
+def _cell_hashes(cells, out):
+    """``out[c]``: a hash of cell ``c``'s node set, the same in any node order (a sum of mixed ids)."""
+    for c in prange(cells.shape[0]):
+        h = np.uint64(0)
+        for k in range(cells.shape[1]):
+            x = np.uint64(cells[c, k]) * np.uint64(0x9E3779B97F4A7C15)
+            x ^= x >> np.uint64(29)
+            x *= np.uint64(0xBF58476D1CE4E5B9)
+            x ^= x >> np.uint64(32)
+            h += x
+        out[c] = h
+
+
+@njit
+def _same_nodes(cells, a, b):
+    for i in range(cells.shape[1]):
+        found = False
+        for j in range(cells.shape[1]):
+            if cells[a, i] == cells[b, j]:
+                found = True
+                break
+        if not found:
+            return False
+    return True
+
+
+@njit
+def duplicate_cells(cells, hashes, slots, out):
+    """Pairs ``(earlier, later)`` of cells with the same node set, written to ``out`` (K, 2); their count.
+
+    The node ids must be in range and distinct in each cell (checked
+    before). ``hashes`` (M,) from :func:`_cell_hashes`; ``slots`` a
+    power-of-two open-addressing table (more slots than cells) of cell ids
+    + 1, zeroed here. One pass; at most ``out.shape[0]`` pairs are written,
+    the count goes on.
+    """
+    slots[:] = 0
+    mask = slots.shape[0] - 1
+    n = 0
+    for c in range(cells.shape[0]):
+        h = hashes[c]
+        i = np.int64(h & np.uint64(mask))
+        while True:
+            s = slots[i]
+            if s == 0:
+                slots[i] = c + 1
+                break
+            if hashes[s - 1] == h and _same_nodes(cells, s - 1, c):
+                if n < out.shape[0]:
+                    out[n, 0] = s - 1
+                    out[n, 1] = c
+                n += 1
+                break
+            i = (i + 1) & mask
+    return n
+
+
+def find_duplicate_cells(cells, limit=5):
+    """``(count, pairs)``: how many cells repeat the node set of an earlier cell, and up to ``limit``
+    ``(earlier, later)`` pairs of them."""
+    m = cells.shape[0]
+    hashes = empty(m, np.uint64)
+    _cell_hashes(cells, hashes)
+    slots = empty(1 << max(4, int(2 * m - 1).bit_length()), np.int32 if m < (1 << 31) - 1 else np.int64)
+    out = np.zeros((limit, 2), np.int64)
+    n = duplicate_cells(cells, hashes, slots, out)
+    return n, out[:min(n, limit)]
+
+
+@njit(parallel=True)
 def cell_ids_valid(cells, n, used):
     """How many cells have a node id outside ``0..n-1`` or a repeated node; marks ``used[node] = 1`` for the others.
 

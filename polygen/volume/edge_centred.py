@@ -92,8 +92,11 @@ from polygen.volume.surface import (
     IsoSurface,
     IsoSurfaceError,
     check_normals,
+    check_threads,
     check_value,
+    check_values,
     drop_double_faces,
+    machine_cores,
     drop_unreferenced,
     node_gradients,
     vertex_normals,
@@ -107,19 +110,8 @@ _INT32_MAX = np.iinfo(np.int32).max
 
 
 def _check_threads(threads, auto=False):
-    """``threads`` as an int >= 1 (``None``: numba's thread count; with ``auto``, ``"auto"`` as it is), else
-    :class:`IsoSurfaceError`."""
-    if threads is None:
-        import numba
-
-        return numba.get_num_threads()
-    if auto and isinstance(threads, str) and threads == "auto":
-        return "auto"
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        also = ", 'auto'" if auto else ""
-        raise IsoSurfaceError(f"threads must be a whole number >= 1{also} (or None: numba's thread count); "
-                              f"got {threads!r}")
-    return int(threads)
+    """:func:`polygen.volume.surface.check_threads`: the one rule for ``threads``."""
+    return check_threads(threads, auto=auto)
 
 
 _OVERLAP_SAFE = []
@@ -522,6 +514,34 @@ class EdgeCentredTable:
         if t is not None:
             t.join()
         return getattr(t, "collapsed", 0)
+
+    def __copy__(self):
+        # a shallow copy shares the huge-page thread (copy() below); pickling and deepcopy drop it
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        return new
+
+    def __getstate__(self):
+        # the huge-page thread does not travel: the unpickled arrays are fresh, settle() then returns 0
+        state = self.__dict__.copy()
+        state["_settling"] = None
+        state.pop("_tet", None)  # flat views of the records and the state: made again at the next query
+        if self.rec is not None:  # views of the records: made again from the one records array on arrival
+            del state["nodes"], state["starts"]
+            if self.dyn is self.rec:  # (a copy keeps its state in its own array)
+                del state["dyn"]
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        if self.rec is not None:
+            # the kernels write stamps through dyn and read nodes and edge-list starts in the same records:
+            # pickled apart they would be three separate copies
+            ost = _k.record_layout(self.nn, self.ne)[2]
+            self.nodes = self.rec[:, _k.R_NODES:_k.R_NODES + self.nn]
+            self.starts = self.rec[:, ost:ost + self.ne]
+            if "dyn" not in state:
+                self.dyn = self.rec
 
     def copy(self):
         """A builder sharing the records and incidence tables, with its own stamps, states, slots and buffers.
@@ -1487,7 +1507,11 @@ class _EdgeCentredMethods(IsosurfaceMethod):
         normals : {"mean", "gradient", None}, keyword-only
         threads : int, optional, keyword-only
             How many at a time, at least 1 (default, ``None``: numba's thread
-            count). Never more than ``len(values)`` are used.
+            count). Never more than ``len(values)`` nor the machine's cores
+            (:func:`~polygen.volume.surface.machine_cores`) are used: each
+            one keeps a builder (its stamps and query buffers, 24-48 bytes
+            per cell and more) that more threads than cores would only hold
+            without running it.
 
         Returns
         -------
@@ -1500,15 +1524,9 @@ class _EdgeCentredMethods(IsosurfaceMethod):
         IsoSurfaceError
             ``threads`` is not a whole number >= 1, or a value is not finite.
         """
-        import numba
-
-        if threads is None:
-            threads = numba.get_num_threads()
-        elif isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-            raise IsoSurfaceError(f"threads must be a whole number >= 1 (or None: numba's {numba.get_num_threads()}); "
-                                  f"got {threads!r}")
-        values = [check_value(v) for v in values]
-        threads = min(int(threads), len(values))
+        threads = check_threads(threads)
+        values = check_values(values)
+        threads = min(int(threads), len(values), machine_cores())
         if threads < 1:
             return []
         found = [self.source.query(v) for v in values]

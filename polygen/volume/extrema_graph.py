@@ -719,12 +719,12 @@ class ExtremaGraphLoopsMethod(ExtremaGraphMethod):
 def _graph_seed_source(vol, field=None, **params):
     """The seed interface of the extrema graph: build, then ``query(value) -> Seeds``."""
     graph = build_extrema_graph(vol, field, **params)
+    return graph, functools.partial(_graph_query, graph)  # not a closure: a prepared method pickles
 
-    def query(value):
-        found = graph.seeds(value)
-        return Seeds(found.value, found.cells, found.n_tested, found.t_graph + found.t_boundary, found)
 
-    return graph, query
+def _graph_query(graph, value):
+    found = graph.seeds(value)
+    return Seeds(found.value, found.cells, found.n_tested, found.t_graph + found.t_boundary, found)
 
 
 register_seed_source("extrema-graph", _graph_seed_source)

@@ -86,6 +86,8 @@ class VolumeArrays:
     fields: dict
     cell_data_names: tuple = ()
     converted: tuple = ()
+    #: ``(name, what)`` of the point arrays that are no scalar field (vectors, tensors, text)
+    dropped: tuple = ()
 
 
 def _check_options(cell_data, tetrahedralize):
@@ -172,12 +174,17 @@ def _finish(points, cells, point_data, cell_data, cell_data_mode):
     if points.ndim == 2 and points.shape[1] == 2:  # a planar file: z = 0 (then refused as flat cells)
         points = np.column_stack([points, np.zeros(len(points))])
     fields = {}
+    dropped = []
     for name, arr in point_data.items():
         arr = np.asarray(arr)
         if arr.ndim == 2 and arr.shape[1] == 1:
             arr = arr[:, 0]
         if arr.ndim == 1 and np.issubdtype(arr.dtype, np.number) and not np.issubdtype(arr.dtype, np.complexfloating):
             fields[str(name)] = arr
+        elif arr.ndim == 2 and np.issubdtype(arr.dtype, np.floating):
+            dropped.append((str(name), f"{arr.shape[1]} components"))
+        else:
+            dropped.append((str(name), f"shape {arr.shape[1:]}, dtype {arr.dtype}"))
     converted = []
     if cell_data_mode == "average":
         for name, arr in cell_data.items():
@@ -191,7 +198,7 @@ def _finish(points, cells, point_data, cell_data, cell_data_mode):
             fields[key] = cell_to_node(points, cells, arr)
             converted.append(key)
     return VolumeArrays(points, np.asarray(cells, dtype=np.int64), fields,
-                        tuple(str(k) for k in cell_data), tuple(converted))
+                        tuple(str(k) for k in cell_data), tuple(converted), tuple(dropped))
 
 
 def pyvista_arrays(grid, *, cell_data=None, tetrahedralize=False) -> VolumeArrays:

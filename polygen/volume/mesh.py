@@ -53,8 +53,9 @@ class _Fields(collections.abc.MutableMapping):
         self._owner.add_field(name, values)
 
     def __delitem__(self, name):
-        del self._data[name]
-        self._owner._forget_field(name)
+        with self._owner._iso_lock:  # the field and what was prepared on it go together
+            del self._data[name]
+            self._owner._forget_field(name)
 
     def __iter__(self):
         return iter(self._data)
@@ -87,6 +88,20 @@ def _nbytes(obj):
     return 0
 
 
+def _owned(a, dtype):
+    """A C-contiguous ``dtype`` array with the values of ``a`` that shares no memory with it."""
+    out = np.ascontiguousarray(a, dtype=dtype)
+    return out.copy() if np.may_share_memory(out, a) else out
+
+
+def _not_a_path(obj, where, what):
+    import os
+
+    if isinstance(obj, (str, bytes, os.PathLike)):
+        raise VolumeError(f"{where} takes {what}; got the path {str(obj)!r}: UnstructuredVolume.read(path) reads a "
+                          "file")
+
+
 def _examples(idx, n=5):
     idx = np.asarray(idx).ravel()
     head = ", ".join(str(int(i)) for i in idx[:n])
@@ -106,6 +121,18 @@ class UnstructuredVolume:
         Scalar fields on the nodes. The first one is the default. They are
         copied and kept read-only (:meth:`add_field`); ``vol.fields`` is a
         mapping whose assignment is :meth:`add_field`.
+
+    The volume never keeps or writes the caller's arrays: ``points``,
+    ``cells`` and every field are copied (converted to float64 / int64 /
+    float64), and the copies are read-only (``vol.points``, ``vol.cells``),
+    so neither a later change to the caller's arrays nor an assignment into
+    ``vol.points`` can bypass the checks below or leave the topology and the
+    prepared methods stale. ``orient=True`` reorders the nodes of the copy.
+
+    A volume pickles and deep-copies (for Dask and multiprocessing) with its
+    fields, the tables built so far and its prepared methods; locks and
+    background preparations are not carried (the copy makes fresh locks and
+    prepares again, when asked, what was still being prepared).
     validate : bool, keyword-only
         Check cell geometry (zero-volume and inverted cells). Shapes, index
         ranges and finiteness are always checked.
@@ -116,11 +143,15 @@ class UnstructuredVolume:
     ------
     VolumeError
         On wrong shapes, indices out of range, non-finite coordinates or
-        scalars, scalars whose range overflows float64, degenerate (zero-volume) or inverted cells, faces shared by
-        more than two cells.
+        scalars, scalars whose range overflows float64, degenerate (zero-volume) or inverted cells, duplicate
+        cells (two cells with the same nodes: always checked), faces shared by more than two cells (when
+        the face neighbours are first built).
     """
 
     def __init__(self, points, cells, fields=None, *, validate=True, orient=False):
+        if fields is not None and not isinstance(fields, collections.abc.Mapping):
+            hint = " (name it: fields={'f': values})" if isinstance(fields, np.ndarray) else ""
+            raise VolumeError(f"fields must be a dict of name -> (N,) values; got {type(fields).__name__}{hint}")
         points = np.asarray(points)
         cells = np.asarray(cells)
         if points.ndim != 2 or points.shape[1] != 3:
@@ -139,8 +170,10 @@ class UnstructuredVolume:
                 cells = cells.astype(np.int64)
             else:
                 raise VolumeError(f"cells must hold integer node ids; got dtype {cells.dtype}")
-        self.points = np.ascontiguousarray(points, dtype=np.float64)
-        self.cells = np.ascontiguousarray(cells, dtype=np.int64)
+        # the volume's own copies: the caller's arrays are never written (orient=True reorders our copy) and
+        # a later change to them cannot reach the checks or anything prepared from these (issue 43, item 2)
+        self.points = _owned(points, np.float64)
+        self.cells = _owned(cells, np.int64)
         n = self.points.shape[0]
         lo, hi = np.zeros(3), np.zeros(3)
         finite = bool(_k.points_range(self.points, lo, hi))  # the row-wise check below only when it fails
@@ -167,6 +200,7 @@ class UnstructuredVolume:
             clear = _k.cell_ids_valid(self.cells, n, used) == 0
         if not clear:
             self._check_cells(n)
+        self._check_duplicates()
         self.cell_type = _CELL_TYPES[self.cells.shape[1]]
         self.fields = _Fields(self)
         self._iso_methods = {}  # (field, method) -> a prepared IsosurfaceMethod, for isosurface()
@@ -182,6 +216,8 @@ class UnstructuredVolume:
             self.add_field(name, values)
         if (validate or orient) and not (fast_geometry and clear):
             self._check_geometry(orient)
+        self.points.setflags(write=False)
+        self.cells.setflags(write=False)
         if not clear:  # a cell the pass could not call valid passed the exact checks: count its nodes too
             used = np.bincount(self.cells.ravel(), minlength=n)
         self.unreferenced_nodes = np.flatnonzero(used == 0)
@@ -208,6 +244,41 @@ class UnstructuredVolume:
             raise VolumeError(
                 f"{repeated.size} degenerate cells repeat a node, e.g. cells {_examples(repeated)} "
                 f"(cell {repeated[0]} has nodes {self.cells[repeated[0]].tolist()})"
+            )
+
+    def __getstate__(self):
+        # pickling and deepcopy (Dask, multiprocessing): locks and background threads do not travel; the
+        # copy makes fresh locks, and prepares again what was still being prepared here when it is asked
+        with self._iso_lock:
+            state = self.__dict__.copy()
+            state["_iso_methods"] = dict(self._iso_methods)
+        del state["_iso_lock"], state["_table_lock"]
+        state["_iso_pending"] = {}
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._iso_lock = threading.RLock()
+        self._table_lock = threading.Lock()
+        # an unpickled or deep-copied array is writable again: the volume's own arrays stay read-only
+        for a in (self.points, self.cells, *self.fields._data.values()):
+            a.setflags(write=False)
+
+    def _check_duplicates(self):
+        """No two cells with the same nodes (in any order), or a VolumeError naming them.
+
+        Two copies of a cell share each of its faces, so an inner face of it
+        has three or more cells; even on the boundary every surface through
+        it comes out twice. Always checked (one hash pass over the cells), so
+        that every method and the unprepared scan refuse such a volume alike.
+        """
+        count, pairs = _k.find_duplicate_cells(self.cells)
+        if count:
+            a, b = (int(x) for x in pairs[0])
+            raise VolumeError(
+                f"{count} cells repeat the nodes of an earlier cell (duplicate cells), e.g. cells "
+                f"{_examples(pairs[:, 1])}: cell {b} has the nodes of cell {a} {sorted(self.cells[a].tolist())}; "
+                "a volume's face belongs to at most two cells"
             )
 
     # ------------------------------------------------------------------ basics
@@ -273,8 +344,9 @@ class UnstructuredVolume:
                 raise VolumeError(f"field {name!r} spans {lo:.6g} .. {hi:.6g}: its range times the coordinates "
                                   "overflows float64 in the crossing points (5.2); rescale the field")
         values.setflags(write=False)
-        self.fields._data[name] = values
-        self._forget_field(name)
+        with self._iso_lock:  # the new values and the end of what was prepared on the old ones, together
+            self.fields._data[name] = values
+            self._forget_field(name)
 
     def _forget_field(self, name):
         """Drop the methods :meth:`isosurface` prepared on field ``name`` (it changed or went)."""
@@ -305,6 +377,7 @@ class UnstructuredVolume:
             degenerate = np.flatnonzero(np.abs(vol) <= _DEGENERATE_RTOL * scale)
             inverted = np.flatnonzero(vol < -_DEGENERATE_RTOL * scale)
         if degenerate.size:
+            self._voxel_order(degenerate)
             raise VolumeError(
                 f"{degenerate.size} degenerate cells have zero volume, e.g. cells {_examples(degenerate)}"
             )
@@ -323,10 +396,30 @@ class UnstructuredVolume:
         if self.cell_type == "hexa":
             folded = np.flatnonzero(np.any(jac <= _DEGENERATE_RTOL * (longest**3)[:, None], axis=1))
             if folded.size:
+                self._voxel_order(folded)
                 raise VolumeError(
                     f"{folded.size} hexahedra are folded or degenerate at a corner (Jacobian <= 0), "
                     f"e.g. cells {_examples(folded)}"
                 )
+
+    def _voxel_order(self, bad):
+        """A VolumeError saying so when the hexahedra ``bad`` are valid in VTK_VOXEL node order.
+
+        A voxel numbers its corners 0-1-3-2 / 4-5-7-6 (x fastest, then y):
+        read as a VTK hexahedron its faces twist, with zero volume.
+        """
+        if self.cell_type != "hexa":
+            return
+        order = [0, 1, 3, 2, 4, 5, 7, 6]
+        cells = np.ascontiguousarray(self.cells[bad][:, order])
+        jac, vol, longest = _k.hex_jacobians(self.points, cells, HEX_CORNER_FRAMES)
+        scale = longest**3
+        if np.all(vol > _DEGENERATE_RTOL * scale) and np.all(jac > _DEGENERATE_RTOL * scale[:, None]):
+            raise VolumeError(
+                f"{bad.size} hexahedra are in voxel node order (VTK_VOXEL: corners 0-1-3-2 / 4-5-7-6), e.g. cells "
+                f"{_examples(bad)}, not the hexahedron order a volume takes (VTK_HEXAHEDRON: 0-1-2-3 around the "
+                "bottom face, 4-5-6-7 above); reorder them with cells[:, [0, 1, 3, 2, 4, 5, 7, 6]]"
+            )
 
     def remove_unreferenced_nodes(self) -> "UnstructuredVolume":
         """A copy without the nodes no cell uses."""
@@ -400,7 +493,9 @@ class UnstructuredVolume:
 
         Replacing the field (``vol.fields[name] = new``) drops what was
         prepared on it (a background preparation of the old values is
-        discarded when it ends). Safe from several threads: each preparation
+        discarded when it ends). A query answers for the field as it was
+        when the query began, even if another thread replaces it meanwhile
+        (never with an error about the replacement). Safe from several threads: each preparation
         happens once, and a prepared method's lock lets one extraction run at
         a time (:class:`~polygen.volume.methods.IsosurfaceMethod`). Whichever
         path answers, the triangles, vertices and normals are the same; the
@@ -428,7 +523,7 @@ class UnstructuredVolume:
         self.scalars(field)  # a clear error when the field is missing
         name = field if field is not None else next(iter(self.fields))
         if method is not None:
-            return self._prepared(name, method).extract(value, normals=normals)
+            return self._as_of(name, method, lambda m: m.extract(value, normals=normals))
         if prepare not in (None, True, False):
             raise VolumeError(f"prepare must be True, False or None; got {prepare!r}")
         policy = self.preparation if prepare is None else ("now" if prepare else "never")
@@ -436,19 +531,66 @@ class UnstructuredVolume:
             raise VolumeError(f"preparation must be one of {PREPARATION_POLICIES}; got {policy!r}")
         key = (name, _registry.DEFAULT_METHOD)
         with self._iso_lock:
+            values = self.fields._data.get(name)
             prepared = self._iso_methods.get(key)
         if prepared is not None:
-            return prepared.extract(value, normals=normals)  # serialised per method (IsosurfaceMethod's lock)
+            with prepared.as_of_field(values) as held:  # serialised per method (IsosurfaceMethod's lock)
+                if held is not None:
+                    return held.extract(value, normals=normals)
+            # the field was replaced since: the query begins again on the new one (below)
         if policy == "now":
             pending = self._iso_pending.get(key)
             if pending is not None:
                 pending.join()  # the background preparation is running: wait for it rather than build twice
-            return self._prepared(name, _registry.DEFAULT_METHOD).extract(value, normals=normals)
-        iso = self._prepared(name, "unprepared-scan").extract(value, normals=normals)
+            return self._as_of(name, _registry.DEFAULT_METHOD, lambda m: m.extract(value, normals=normals))
+        iso = self._as_of(name, "unprepared-scan", lambda m: m.extract(value, normals=normals))
         if policy == "background":
             with self._iso_lock:  # started after the answer, so that it does not compete with it for the cores
                 self._prepare_in_background(key)
         return iso
+
+    def extract_many(self, values, *, field=None, method=None, normals="mean", threads=None):
+        """The isosurfaces of several values, in their order, by one prepared method.
+
+        ``method`` (by default :data:`~polygen.volume.registry.DEFAULT_METHOD`) is prepared on
+        first use and kept, as for :meth:`isosurface` with a named method; its ``extract_many``
+        answers (the edge-centred method runs up to ``threads`` values at a time; the others take
+        ``threads`` and run one value after the other). Every surface is for the field as it was
+        when the call began.
+
+        Parameters
+        ----------
+        values : sequence of float
+        field, method, normals : as for :meth:`isosurface`, keyword-only
+        threads : int, optional, keyword-only
+
+        Returns
+        -------
+        list of IsoSurface
+        """
+        self.scalars(field)  # a clear error when the field is missing
+        name = field if field is not None else next(iter(self.fields))
+        method = _registry.DEFAULT_METHOD if method is None else method
+        return self._as_of(name, method, lambda m: m.extract_many(values, normals=normals, threads=threads))
+
+    def _as_of(self, name, method, call):
+        """``call(m)`` with ``m`` the method ``method`` prepared on field ``name`` as it is now.
+
+        The field and its prepared method are taken together under ``_iso_lock`` (``add_field``
+        replaces a field and drops what was prepared on it under the same lock); the call then
+        answers for those values even if the field is replaced while it runs (issue 43, item 3).
+        """
+        for _ in range(3):
+            with self._iso_lock:
+                values = self.fields._data.get(name)
+                if values is None:
+                    self.scalars(name)  # removed meanwhile: the missing field's VolumeError
+                prepared = self._prepared(name, method)
+            with prepared.as_of_field(values) as held:
+                if held is not None:
+                    return call(held)
+        # not reached: under the lock the cached method is always the one prepared on the field's values
+        raise RuntimeError(f"no method {method!r} prepared on the current field {name!r}")  # pragma: no cover
 
     def _prepared(self, name, method):
         """The method ``method`` prepared on field ``name``, prepared now if it is not yet."""
@@ -821,6 +963,7 @@ class UnstructuredVolume:
         Single-component point arrays become fields; others are skipped.
         ``cell_data`` and ``tetrahedralize`` as for :meth:`read`.
         """
+        _not_a_path(grid, "from_pyvista", "a pyvista data set")
         return cls._from_arrays(_io.pyvista_arrays(grid, cell_data=cell_data, tetrahedralize=tetrahedralize),
                                 validate=validate, orient=orient)
 
@@ -841,6 +984,9 @@ class UnstructuredVolume:
         ``hexahedron`` (or ``tetrahedralize``). ``cell_data`` and
         ``tetrahedralize`` as for :meth:`read`.
         """
+        _not_a_path(mesh, "from_meshio", "a meshio.Mesh")
+        if not (hasattr(mesh, "points") and hasattr(mesh, "cells") and hasattr(mesh, "point_data")):
+            raise VolumeError(f"from_meshio takes a meshio.Mesh; got {type(mesh).__name__}")
         return cls._from_arrays(_io.meshio_arrays(mesh, cell_data=cell_data, tetrahedralize=tetrahedralize),
                                 validate=validate, orient=orient)
 
@@ -850,6 +996,16 @@ class UnstructuredVolume:
         # what was not kept: a caller asking for one of these is told it is cell data
         vol.cell_data_names = arrays.cell_data_names
         vol.cell_data_converted = arrays.converted
+        #: point arrays that are no scalar field (vectors, tensors, text): name -> what they are
+        vol.dropped_point_data = dict(arrays.dropped)
+        # floating-point vectors and tensors are said; integer ones are tags (gmsh:dim_tags), text is no field
+        vectors = [(name, what) for name, what in arrays.dropped if what.endswith("components")]
+        if vectors:
+            said = ", ".join(f"{name!r} ({what})" for name, what in vectors)
+            first = vectors[0][0]
+            warnings.warn(f"point arrays {said} are not scalar and were not kept as fields (a field is one value "
+                          f"per node); take a component, e.g. vol.add_field('{first}_x', mesh.point_data['{first}']"
+                          "[:, 0])", VolumeWarning, stacklevel=3)
         return vol
 
     @classmethod

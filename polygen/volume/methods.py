@@ -25,6 +25,7 @@ construction of the 2001 paper. Each registers itself where it is defined
 from __future__ import annotations
 
 import abc
+import contextlib
 import dataclasses
 import functools
 import threading
@@ -39,7 +40,9 @@ from polygen.volume.propagate import Propagator
 from polygen.volume.seeds.source import seed_source as _seed_source
 from polygen.volume.surface import IsoSurfaceError, same_surface
 from polygen.volume.surface import check_normals as _check_normals
+from polygen.volume.surface import check_threads as _check_threads
 from polygen.volume.surface import check_value as _check_value
+from polygen.volume.surface import check_values as _check_values
 
 __all__ = ["IsosurfaceMethod", "SeedsThenPropagate", "METHODS", "DEFAULT", "register", "get", "names", "default",
            "Sweep", "sweep"]
@@ -122,10 +125,19 @@ def sweep(method, values, *, reference=None, normals="mean"):
 def _serialised(fn):
     """``fn`` (an ``extract``) under the method's lock, after checking its field is still the volume's."""
 
+    many = fn.__name__ == "extract_many"
+
     @functools.wraps(fn)
     def guarded(self, *args, **kwargs):
+        if many:  # one rule for every method: the values a sequence of numbers, threads a whole number >= 1
+            if args:
+                args = (_check_values(args[0]), *args[1:])
+            elif "values" in kwargs:
+                kwargs["values"] = _check_values(kwargs["values"])
+            _check_threads(kwargs.get("threads"))
         with self._lock:
-            self._check_field()
+            if not self._as_of:  # inside as_of_field the caller checked the field when its query began
+                self._check_field()
             return fn(self, *args, **kwargs)
 
     guarded._serialised = True
@@ -145,13 +157,23 @@ class IsosurfaceMethod(abc.ABC):
     ``extract`` and ``extract_many`` get the lock by themselves
     (``__init_subclass__``).
 
+    Pickling and copying: a prepared method pickles and deep-copies with its
+    volume (the copy is prepared on the copied field); its lock is not
+    carried but made afresh on arrival.
+
     Changed fields: a method prepared on a field *name* checks at every call
     that the volume still holds the array it was prepared on (fields are
     read-only once added, so only ``vol.fields[name] = new`` or
     ``vol.add_field(name, new)`` can change one) and raises
     :class:`~polygen.volume.surface.IsoSurfaceError` if it was replaced,
-    instead of answering for the old values. A method prepared on an array
-    of values (``field=array``) answers for the values it was given.
+    instead of answering for the old values. A call that has begun answers
+    for the values it began with, whatever happens to the field meanwhile;
+    :meth:`UnstructuredVolume.isosurface` takes the field and its prepared
+    method together, so that its queries answer for the field as it was when
+    they began, never with this error. The preparation reads the field once:
+    a replacement during it cannot mix old and new values. A method prepared
+    on an array of values (``field=array``) answers for the values it was
+    given.
 
     Parameters
     ----------
@@ -188,12 +210,53 @@ class IsosurfaceMethod(abc.ABC):
             self._field_name = next(iter(fields)) if field is None else field
             self._field_values = fields.get(self._field_name)
         self.seed_cells_tested = 0
+        self._as_of = 0  # > 0 while as_of_field holds the lock: the field was checked when the query began
         t0 = time.perf_counter()
-        self._prepare(**params)
+        if self._field_values is not None:
+            # prepared on the array, not the name: every part of the preparation sees the same values even
+            # when the field is replaced meanwhile (they are the ones _check_field then compares)
+            self.field = self._field_values
+            try:
+                self._prepare(**params)
+            finally:
+                self.field = field
+        else:
+            self._prepare(**params)
         self.preprocess_s = time.perf_counter() - t0
+
+    @contextlib.contextmanager
+    def as_of_field(self, values):
+        """Hold the method for calls that answer for field ``values``, the array it was prepared on.
+
+        For :meth:`UnstructuredVolume.isosurface`, which finds the field and this method together:
+        the calls made inside answer for ``values`` even if the volume's field is replaced meanwhile
+        (a query answers for the field as it was when it began). Gives ``None`` (and holds nothing)
+        when the method was not prepared on ``values``.
+        """
+        with self._lock:
+            if self._field_values is None or self._field_values is not values:
+                yield None
+                return
+            self._as_of += 1
+            try:
+                yield self
+            finally:
+                self._as_of -= 1
 
     def _prepare(self, **params):
         """Build what the method needs once per volume (timed as preprocessing)."""
+
+    def __getstate__(self):
+        # pickling and deepcopy: the lock does not travel (a fresh one is made on arrival)
+        with self._lock:
+            state = self.__dict__.copy()
+        del state["_lock"]
+        state["_as_of"] = 0
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._lock = threading.RLock()
 
     def _check_field(self):
         if self._field_values is not None and self.vol.fields.get(self._field_name) is not self._field_values:
@@ -354,8 +417,12 @@ class SeedsThenPropagate(IsosurfaceMethod):
 
 
 def _search_method(search_name, doc):
-    cls = type(search_name.title().replace("-", ""), (SeedsThenPropagate,),
-               {"name": search_name, "seeds": search_name, "description": doc})
+    cls_name = search_name.title().replace("-", "")
+    # a module attribute with the class's own name, so that pickle finds the class of a prepared method
+    cls = type(cls_name, (SeedsThenPropagate,),
+               {"name": search_name, "seeds": search_name, "description": doc, "__module__": __name__,
+                "__qualname__": cls_name})
+    globals()[cls_name] = cls
     return register(cls)
 
 

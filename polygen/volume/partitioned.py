@@ -217,6 +217,16 @@ class PreparedPartition:
             "max": float(self.vol.fields[self.field].max()), "preprocess_s": time.perf_counter() - t0,
         }
 
+    def __getstate__(self):
+        # pickling and deepcopy (a PartitionedMethod held by a Dask or multiprocessing user): the lock stays
+        state = self.__dict__.copy()
+        del state["_lock"]
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
+
     def get_info(self):
         """:attr:`info` (a method: what a Dask actor can be asked)."""
         return self.info

@@ -17,6 +17,8 @@ importing the methods (which import the mesh's layer and above).
 
 from __future__ import annotations
 
+from polygen.volume.errors import VolumeError
+
 __all__ = [
     "METHODS",
     "SEED_SOURCES",
@@ -57,11 +59,12 @@ def register_method(cls):
 
 
 def get_method(name):
-    """The method class registered as ``name``; ``ValueError`` naming the known ones otherwise."""
+    """The method class registered as ``name``; :class:`VolumeError` (a ``ValueError``) naming the known ones
+    otherwise."""
     try:
         return METHODS[name]
     except (KeyError, TypeError):
-        raise ValueError(f"unknown isosurface method {name!r}; the methods are {list(METHODS)}") from None
+        raise VolumeError(f"unknown isosurface method {name!r}; the methods are {list(METHODS)}") from None
 
 
 def method_names():

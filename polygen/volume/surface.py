@@ -392,6 +392,9 @@ def volume_arrays(vol, field):
 
 
 def check_value(value):
+    """``value`` as a finite float, else :class:`IsoSurfaceError`; a string or a bool is no number here."""
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        raise IsoSurfaceError(f"value must be a number; got {type(value).__name__} {value!r}")
     try:
         value = float(value)
     except (TypeError, ValueError):
@@ -399,6 +402,43 @@ def check_value(value):
     if not np.isfinite(value):
         raise IsoSurfaceError(f"value must be finite; got {value}")
     return value
+
+
+def check_values(values):
+    """``values`` (a sequence of numbers, as ``extract_many`` takes) as a list of floats, else
+    :class:`IsoSurfaceError` (a single number is refused with a pointer to ``extract``)."""
+    if isinstance(values, (str, bytes)) or np.ndim(values) == 0:
+        raise IsoSurfaceError(f"values must be a sequence of numbers; got {type(values).__name__} {values!r} "
+                              "(extract(value) gives one surface)")
+    if np.ndim(values) != 1:
+        raise IsoSurfaceError(f"values must be a flat sequence of numbers; got shape {np.shape(values)}")
+    return [check_value(v) for v in values]
+
+
+def machine_cores():
+    """The cores this process may run on (``os.sched_getaffinity``, else ``os.cpu_count()``)."""
+    import os
+
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def check_threads(threads, *, auto=False):
+    """``threads`` as an int >= 1 (``None``: numba's thread count; with ``auto``, ``"auto"`` as it is), else
+    :class:`IsoSurfaceError`: the one rule of every method's ``threads``."""
+    if threads is None:
+        import numba
+
+        return numba.get_num_threads()
+    if auto and isinstance(threads, str) and threads == "auto":
+        return "auto"
+    if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        also = ", 'auto'" if auto else ""
+        raise IsoSurfaceError(f"threads must be a whole number >= 1{also} (or None: numba's thread count); "
+                              f"got {threads!r}")
+    return int(threads)
 
 
 def check_normals(normals):

@@ -66,6 +66,7 @@ The method is registered as ``thinning`` in :mod:`polygen.volume.methods`::
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
 import threading
 import time
@@ -825,12 +826,12 @@ class ThinningMethod(SeedsThenPropagate):
 def _thinning_seed_source(vol, field=None, **params):
     """The seed interface of volume thinning: build the skeleton, then ``query(value) -> Seeds``."""
     sk = thin_volume(vol, field, **params)
+    return sk, functools.partial(_skeleton_query, sk)  # not a closure: a prepared method pickles
 
-    def query(value):
-        found = sk.seeds(value)
-        return Seeds(found.value, found.cells, found.n_tested, found.t_search, found)
 
-    return sk, query
+def _skeleton_query(sk, value):
+    found = sk.seeds(value)
+    return Seeds(found.value, found.cells, found.n_tested, found.t_search, found)
 
 
 register_seed_source("thinning", _thinning_seed_source)

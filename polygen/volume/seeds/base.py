@@ -31,6 +31,7 @@ Table 6.5 up to cells that only touch ``C``.
 """
 
 import abc
+import functools
 import time
 from dataclasses import dataclass
 from typing import ClassVar
@@ -150,6 +151,13 @@ class QueryResult:
     n_hits: int
 
 
+def _active_query(structure, value):
+    """``query(value) -> Seeds`` of an :class:`ActiveCellSearch` (:meth:`ActiveCellSearch.seed_source`)."""
+    t0 = time.perf_counter()
+    found = structure.query(value)
+    return Seeds(found.value, found.cells, found.n_tested, time.perf_counter() - t0, found)
+
+
 class ActiveCellSearch(abc.ABC):
     """A structure over per-cell intervals that finds the cells an isosurface may cross.
 
@@ -249,13 +257,8 @@ class ActiveCellSearch(abc.ABC):
         _, cells, s, _ = volume_arrays(vol, field)
         cmin, cmax = cell_ranges(cells, s)
         structure = cls.build(cmin, cmax, **params)
-
-        def query(value):
-            t0 = time.perf_counter()
-            found = structure.query(value)
-            return Seeds(found.value, found.cells, found.n_tested, time.perf_counter() - t0, found)
-
-        return structure, query
+        # a partial of a module function, not a closure: a prepared method holding it pickles
+        return structure, functools.partial(_active_query, structure)
 
     def active(self, value) -> np.ndarray:
         """Exactly the cells with ``cmin <= value <= cmax``, sorted.
