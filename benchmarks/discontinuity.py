@@ -1,4 +1,4 @@
-"""Benchmark of discontinuity meshing end to end (chapter 3, issue 14).
+"""Benchmark of discontinuity meshing end to end (chapter 3).
 
 Run ``python benchmarks/discontinuity.py`` from the repository root; writes
 ``benchmarks/results/discontinuity.json`` and ``.md``.  Parts:
@@ -18,11 +18,11 @@ Run ``python benchmarks/discontinuity.py`` from the repository root; writes
 * **paired** -- Table 3.1's pairing: the simplified DM mesh (coarse size outside penumbra,
   F inside) against the uniform mesh at the same F, each image's error split into the
   pixels showing a penumbra region and the rest (where the DM's error lies);
-* **exact** (one scene per process, ``--scenes``; then **exact_merge**) -- issue 41: the pairings
+* **exact** (one scene per process, ``--scenes``; then **exact_merge**) -- the pairings
   (and F = 0.5 for DM) against a reference whose direct light is exact at every pixel, with the
   DM's and the uniform meshes' node values by (2.8) and with the direct light at the nodes
   (:func:`polygen.discontinuity.node_values.node_radiosity`), and the old reference's own error;
-* **across** -- issue 41: direct light only, exact at pixels and nodes: the DM's penumbra error
+* **across** -- direct light only, exact at pixels and nodes: the DM's penumbra error
   against F and against ``element_levels`` (what refines across a narrow penumbra band);
 * **table** -- Table 3.1 (N_f1, N_f2, N_d, N_p, N_e1, N_e2, T_d, T_m,
   T_rs) on examples 1 and 2 beside the thesis's, from the middle point of
@@ -41,7 +41,7 @@ The solves are progressive refinement to ``--tol`` unshot with
 on which patches of each mesh have shot, and it dominated the penumbra pixels'
 error -- the DM's penumbra error rose 0.031 -> 0.042 as F fell 1.6 -> 0.75 on
 the room at tol 0.1 and falls 0.025 -> 0.021 at 0.01, while 4 x 4 or 8 x 8
-visibility rays instead of 2 x 2 moved it by < 0.003 (issue 14).  Each
+visibility rays instead of 2 x 2 moved it by < 0.003.  Each
 curve and pairing records the solve it was run with (``solve``).
 """
 
@@ -71,10 +71,10 @@ SETUPS = {name: dict(uniform=[3.3, 2.5, 1.8], coarse=3.3, penumbra=[1.6, 1.1, 0.
 SETUPS["sphere_scene"]["penumbra"] = [1.6, 0.75]  # two DM points (chosen when its meshes were 22.5k+)
 # the sphere is Fig. 3.19's 12 x 15 faces (180 polygons). With every face its own occluder it put 5137
 # lines on the floor, so every DM mesh had 22.5-23.4k elements whatever the penumbra size; as one convex
-# solid (issue 14, the default) it puts 33 there. The per-face 3.3/1.6 mesh (22,560 elements, 5640 patches) took
+# solid (the default) it puts 33 there. The per-face 3.3/1.6 mesh (22,560 elements, 5640 patches) took
 # 302 s (load 2) for one solve to 1 % unshot with the linear occluder scan, and the curves ran on a 6 x 8
 # stand-in; with the rays' BVH and the kept columns of patches that shoot again (4459 shots of 1470
-# patches) the same solve is ~2x + ~3x faster (issue 14; numbers in discontinuity.md)
+# patches) the same solve is ~2x + ~3x faster (numbers in discontinuity.md)
 SCENE_KW = {}
 THESIS_31 = {"two_rectangles_room": dict(N_f1=8, N_f2=20, N_d=40, N_p=486, N_e1=3485, N_e2=6090,
                                          T_d=0.12, T_m=1.77, T_rs=156.63),
@@ -179,7 +179,7 @@ def paired_part(names, image, solve, log):
     return out
 
 
-#: the ``exact`` part (issue 41): DM penumbra sizes (Table 3.1's pairings and one finer) and the
+#: the ``exact`` part: DM penumbra sizes (Table 3.1's pairings and one finer) and the
 #: uniform sizes paired with them
 EXACT_DM = [1.6, 1.1, 0.75, 0.5]
 EXACT_UNIFORM = {"two_rectangles_room": [1.6, 1.1, 0.75], "chair_scene": [1.6, 1.1, 0.75],
@@ -234,7 +234,7 @@ def exact_reference(name, sc, cam, solve, log, *, fine, rest, samples=8):
 
 
 def exact_part(name, image, solve, log):
-    """Issue 41: Table 3.1's pairings measured against a reference whose direct light is exact at every
+    """Table 3.1's pairings measured against a reference whose direct light is exact at every
     pixel, with the DM mesh's nodes carrying the direct light at the node
     (:func:`polygen.discontinuity.node_values.node_radiosity`) beside (2.8)'s means, the uniform meshes
     both ways, and the old reference's own error."""
@@ -288,7 +288,7 @@ def exact_part(name, image, solve, log):
 
 
 def across_part(name, image, log, *, sizes=(1.6, 0.75), levels=(1, 2, 3)):
-    """Issue 41: where the DM's remaining penumbra error lies. Direct light only (no solve): the
+    """Where the DM's remaining penumbra error lies. Direct light only (no solve): the
     reference exact at every pixel, the DM mesh's nodes exact (``light_direct``), the penumbra
     pixels of the 3.3/1.6 DM mesh; F against ``element_levels`` (each element split 4**levels
     ways, which alone refines across a penumbra band narrower than F)."""
@@ -503,7 +503,7 @@ def speed_part(log):
     for n_lat, n_lon in SPHERES:
         sc = scenes.sphere_scene(n_lat=n_lat, n_lon=n_lon)
         # every face its own occluder (the thesis's method: the receiver tests grow with the
-        # polygon count), and the sphere as one convex solid (issue 14)
+        # polygon count), and the sphere as one convex solid
         best = {}
         for solids in (False, True):
             simplified_discontinuity(sc, solids=solids)  # warm
@@ -748,7 +748,7 @@ def _markdown(out):
                     f"{r['uniform_penumbra_share']:.2f}) | {r['error_ratio']:.2f} | "
                     f"{r['dm_penumbra_pixels']:.3f} |")
     if out.get("exact"):
-        lines += ["", "## Issue 41: Table 3.1's pairings against an exact-direct reference", "",
+        lines += ["", "## Table 3.1's pairings against an exact-direct reference", "",
                   "Penumbra-pixel RMS error (relative to the reference's RMS over all pixels) of simplified DM "
                   "(coarse 3.3, penumbra F) and of the uniform mesh at F, against the reference whose area "
                   "light's direct part is exact at every pixel's surface point (the rest by (2.8) from the "
@@ -781,7 +781,7 @@ def _markdown(out):
             def pen(e, i, k):
                 return e["rows"][i][k]["error_penumbra"]
             lines += [
-                "**Diagnosis (issue 41).** (1) *The reference's own penumbra error* explains the reversed "
+                "**Diagnosis.** (1) *The reference's own penumbra error* explains the reversed "
                 "comparison: the old reference (a uniform 0.6 mesh displayed by (2.8)) is off by "
                 f"{c['old_reference_vs_exact']['error_penumbra']:.3f} (chair), "
                 f"{sp['old_reference_vs_exact']['error_penumbra']:.3f} (sphere) and "
@@ -802,7 +802,7 @@ def _markdown(out):
                 + " ".join(f"{r['dm_node']['error_penumbra']:.4f}" for r in sp["rows"]) + ", room "
                 + " ".join(f"{r['dm_node']['error_penumbra']:.4f}" for r in rm["rows"]) + " (F = "
                 + ", ".join(f"{r['fine']:g}" for r in rm["rows"]) + "). (3) *Visibility samples per element*: "
-                "4 x 4 or 8 x 8 rays moved the DM's penumbra error by < 0.003 (issue 14), and the node values "
+                "4 x 4 or 8 x 8 rays moved the DM's penumbra error by < 0.003, and the node values "
                 "use the light's exact visible part. (4) *Slivers / narrow bands*: under the 0.2 lights the "
                 "penumbra is a band narrower than every F, one element across whatever F (the chair's DM mesh "
                 f"grows only {c['rows'][0]['dm_elements']} -> {c['rows'][-1]['dm_elements']} elements from F = "
@@ -847,7 +847,7 @@ def _markdown(out):
                   f"{r['column_index_wall_ms']:.1f} ms wall / {r['column_index_cpu_ms']:.1f} ms CPU, the linear "
                   f"occluder scan it replaced {r['column_linear_wall_ms']:.1f} / {r['column_linear_cpu_ms']:.1f} ms "
                   f"({r['column_linear_cpu_ms'] / r['column_index_cpu_ms']:.1f}x CPU; same columns bit for bit). "
-                  "Before both changes that solve took 302 s at load 2 (issue 14)."
+                  "Before both changes that solve took 302 s at load 2."
                   + ("" if r.get("solids") else " (Measured with every sphere face its own occluder, "
                      "before the sphere was cast as one convex solid.)")]
     if out.get("rays_speed"):

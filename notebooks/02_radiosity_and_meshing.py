@@ -520,7 +520,7 @@ assert qual["bubble + bubble"][1].mean() > qual["lattice + split"][1].mean()
 # does not say how the neighbours are split. We use Rivara's **longest-edge bisection**: a
 # marked element is bisected twice (a quarter of its area, like a 1 → 4 split) and each
 # neighbour along its own longest edge until the mesh conforms, which never lets an angle fall
-# below half the first mesh's smallest (Rosenberg & Stenger). So issue 13's floor of 20° after
+# below half the first mesh's smallest (Rosenberg & Stenger). So a floor of 20° after
 # five levels holds only from a first mesh of 40° or more: the default Cornell meshes start at
 # 12.7° (lattice, patch 160), 17.6° (lattice 100, bubble 80; the floor's gap in front of the
 # short block) and keep half of that (`test_adaptive_refine_cornell_keeps_half_the_start_angle`);

@@ -472,7 +472,7 @@ for name, (sc, sd, m, _) in examples.items():
 # it got 5137, every simplified DM mesh had 22.5–23.4k elements whatever the penumbra size (3.3/1.6:
 # 22,560 elements, 5640 patches, 5184 of them on the floor), and the per-face umbra was too small:
 # of 10⁴ floor points, 428 hidden from the whole light by the sphere lay in no face's umbra. The
-# history below is of those per-face meshes: until issue 14's rerun the curves used a 6 × 8
+# history below is of those per-face meshes: until the sphere became one occluder the curves used a 6 × 8
 # stand-in, because one solve of the 3.3/1.6 mesh to 1 % unshot (4459 shots) took 302 s at load 2.
 # Profiled over its shots, 84 % of a form-factor column went to the visibility rays (47k rays a
 # column, 38 crossing tests each on average against the 49 candidate occluders of their
@@ -562,7 +562,7 @@ for name, rows in paired.items():
 # against the uniform 0.024 → 0.008, 0.038–0.039 on the chair against 0.035 → 0.009), so no
 # penumbra-only refinement reaches the uniform error with 60 % of its elements.
 #
-# On the 12 × 15 sphere (curves above), one occluder since issue 14, the simplified DM points
+# On the 12 × 15 sphere (curves above), now one occluder, the simplified DM points
 # (3.3/1.6: 2160 elements, error 0.0291; 3.3/0.75: 2608, 0.0290) are below every uniform point's
 # error (0.0592, 0.0516, 0.0376 with 1920, 2056, 2920 elements): reaching each takes 1.13, 1.05
 # and 0.74 of the uniform mesh's elements — better than the per-face meshes' 11.8, 11.0 and 7.7,
@@ -581,7 +581,7 @@ for name, rows in paired.items():
 # reason: the penumbra pixels (1 % of the image under the 0.2 light) carry 0.02–0.03 of the
 # uniform mesh's squared error.
 #
-# **Why the DM's penumbra error did not fall with F** (history before issue 41, whose section below
+# **Why the DM's penumbra error did not fall with F** (history: the section below
 # finds the cause in the reference and in (2.8) at the lines; last run, solves to 10 % unshot: room
 # 0.031 → 0.042 as F = 1.6 → 0.75, uniform 0.029 → 0.014). Measured on the room:
 # * *not the visibility rays*: 4 × 4 or 8 × 8 rays per element–patch pair instead of 2 × 2 move
@@ -605,7 +605,7 @@ for name, rows in paired.items():
 #   (0.083) stays.
 
 # %% [markdown]
-# ## Issue 41: the chapter's premise, measured true
+# ## The chapter's premise, measured true
 #
 # A mesh whose element edges lie on the discontinuity lines should interpolate a shadow better
 # than one whose edges cross them at the same size. The `paired` table above said the opposite
@@ -630,7 +630,7 @@ for name, rows in paired.items():
 #    rays find it partly hidden), keeping (2.8) for the reflected light: chair 0.024, 0.021,
 #    0.025, 0.020; sphere 0.031, 0.031, 0.031, 0.031; room 0.0075, 0.0051, 0.0056, 0.0049.
 # 3. **Visibility samples per element**: not it — 4 × 4 or 8 × 8 rays moved the DM's penumbra
-#    error by < 0.003 (issue 14), and the node values use the visible part exactly.
+#    error by < 0.003 (above), and the node values use the visible part exactly.
 # 4. **Slivers, the coarse umbra and bright elements next to the penumbra**: the coarse elements
 #    act only through (2.8)'s means at the line's nodes (item 2). Under the 0.2 lights the
 #    penumbra is a band narrower than every F, one element across whatever F (the chair's DM mesh

@@ -71,8 +71,8 @@ pv = plotting.setup_notebook()
 IMAGE = 256 if FULL else 128          # pixels per side
 SAMPLES = 100                         # samples (and surfaces) per volume diagonal
 TET, HEX = "data4", ("hexa2" if FULL else "hexa1")
-PSNR_MIN = 35.0                       # dB: the agreement issue 16 asks of the two methods
-PSNR_VTK_MIN = 35.0                   # dB over the foreground, ours (VTK's optical model) against VTK (issue 42)
+PSNR_MIN = 35.0                       # dB: the agreement asked of the two methods, fixed before measuring
+PSNR_VTK_MIN = 35.0                   # dB over the foreground, ours (VTK's optical model) against VTK, fixed before measuring
 # cameras: view_around(points, eye=...) looks at the middle of the volume's box from `eye`
 # (in diagonals) and returns the diagonal too; transfer functions: a colour ramp over the FEM
 # field with the opacity rising from 0 to 0.9 per a twentieth of the diagonal

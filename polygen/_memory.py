@@ -2,7 +2,7 @@
 
 A request whose arrays cannot fit in this machine's physical memory (``os.sysconf``: page size times
 physical pages) is refused before anything is allocated, by the wrapper that would allocate it, with
-an error naming the parameter, the estimate and the limit (issue 43, item 4). The estimates are lower
+an error naming the parameter, the estimate and the limit. The estimates are lower
 bounds of what the request holds at once (its largest arrays), so a refusal is never a false alarm.
 """
 

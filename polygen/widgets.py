@@ -12,8 +12,7 @@ book) keeps the PNG of the first state in the output, which
 The drawing runs on one render thread (``polygen.plotting._render_thread``)
 that makes the off-screen plotter and alone uses its OpenGL context: JupyterLab
 4.6 sends widget messages over a kernel subshell, whose thread runs the
-callbacks, and a context used from another thread than its own draws black
-(issue 46). Any thread may call :meth:`IsosurfaceExplorer.update`; calls are
+callbacks, and a context used from another thread than its own draws black. Any thread may call :meth:`IsosurfaceExplorer.update`; calls are
 not meant to overlap (a kernel runs one widget message at a time per subshell).
 
 Like the plotting modules, nothing in the algorithm packages imports this

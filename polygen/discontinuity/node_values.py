@@ -9,7 +9,7 @@ starts too dark on the bright side and too bright inside, by an amount set
 by the elements' values across the line and not by their size.  Under a
 small light the penumbra is a band narrower than any element, one element
 across, and both of its lines' nodes get such means: the error does not
-fall as the elements shrink (issue 41's measurement, in
+fall as the elements shrink (the measurement in
 ``benchmarks/results/discontinuity.md``).
 
 :func:`node_radiosity` keeps (2.8) for what varies smoothly -- the light

@@ -1,4 +1,4 @@
-"""One long-lived thread for the widgets' off-screen OpenGL work (issue 46).
+"""One long-lived thread for the widgets' off-screen OpenGL work.
 
 An OpenGL context is current on the thread that made it. JupyterLab 4.6 sends
 widget messages over a kernel subshell, and ipykernel 7 runs a widget's

@@ -235,7 +235,7 @@ def show_isosurface(vol, value, *, field=None, method="scan"):
 
     Meant for ``ipywidgets.interact(show_isosurface, vol=fixed(vol), value=FloatSlider(...))``.
     The picture is drawn on the widgets' render thread (a slider's callback may run on a kernel
-    subshell's thread, issue 46) and shown as a PNG from the caller's thread, where the widget's
+    subshell's thread) and shown as a PNG from the caller's thread, where the widget's
     output is captured.
     """
     from IPython.display import Image, display

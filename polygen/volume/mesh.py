@@ -171,7 +171,7 @@ class UnstructuredVolume:
             else:
                 raise VolumeError(f"cells must hold integer node ids; got dtype {cells.dtype}")
         # the volume's own copies: the caller's arrays are never written (orient=True reorders our copy) and
-        # a later change to them cannot reach the checks or anything prepared from these (issue 43, item 2)
+        # a later change to them cannot reach the checks or anything prepared from these
         self.points = _owned(points, np.float64)
         self.cells = _owned(cells, np.int64)
         n = self.points.shape[0]
@@ -578,7 +578,7 @@ class UnstructuredVolume:
 
         The field and its prepared method are taken together under ``_iso_lock`` (``add_field``
         replaces a field and drops what was prepared on it under the same lock); the call then
-        answers for those values even if the field is replaced while it runs (issue 43, item 3).
+        answers for those values even if the field is replaced while it runs.
         """
         for _ in range(3):
             with self._iso_lock:
