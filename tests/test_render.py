@@ -589,3 +589,23 @@ def test_bad_input():
         psnr(img, img, mask=np.ones((3, 4), bool))
     with pytest.raises(RenderError, match="no pixel"):
         psnr(img, img, mask=np.zeros((4, 4), bool))
+
+
+@pytest.mark.parametrize("keep", [False, True])
+def test_renderers_pickle_and_copy(keep):
+    """A renderer a user holds pickles and deep-copies (Dask, multiprocessing): the copy draws the same image."""
+    import copy
+    import pickle
+
+    vol = datasets.load("hollow_cube")
+    cam, step = _view(vol, 16)
+    s = vol.scalars()
+    tf = TransferFunction.ramp(s.min(), s.max(), opacity=(0.05, 0.4), unit=step * 4)
+    rc = RayCaster(vol, keep_samples=keep)
+    image = rc.render(cam, tf, step=step).image
+    for other in (pickle.loads(pickle.dumps(rc)), copy.deepcopy(rc)):
+        np.testing.assert_array_equal(other.render(cam, tf, step=step).image, image)
+    sr = ShellRenderer(vol, cam)
+    shells = sr.render(tf, step=step).image
+    for other in (pickle.loads(pickle.dumps(sr)), copy.deepcopy(sr)):
+        np.testing.assert_array_equal(other.render(tf, step=step).image, shells)

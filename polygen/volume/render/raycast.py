@@ -128,6 +128,17 @@ class RayCaster:
         self.sample_builds = 0
         self.preprocess_s = time.perf_counter() - t0
 
+    def __getstate__(self):
+        # pickling and deepcopy (Dask, multiprocessing): the lock does not travel, the copy makes its own
+        with self._lock:
+            state = self.__dict__.copy()
+        del state["_lock"]
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
+
     @staticmethod
     def _key(camera):
         return (camera.eye, camera.target, camera.up, camera.fov, camera.height, camera.size)

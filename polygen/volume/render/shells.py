@@ -193,6 +193,17 @@ class ShellRenderer:
         self.camera = None
         self.set_camera(camera)
 
+    def __getstate__(self):
+        # pickling and deepcopy (Dask, multiprocessing): the lock does not travel, the copy makes its own
+        with self._lock:
+            state = self.__dict__.copy()
+        del state["_lock"]
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._lock = threading.RLock()
+
     # ------------------------------------------------------------------ the eye
     @staticmethod
     def _eye_key(camera):
