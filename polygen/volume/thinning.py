@@ -819,8 +819,9 @@ class ThinningMethod(SeedsThenPropagate):
     description = "Itoh's volume thinning: a genus-keeping skeleton of cells, no boundary lists (chapter 7)"
     seeds = "thinning"
 
-    def _prepare(self, prick_voids=True, record=False, n_buckets=None, parallel=None):
-        super()._prepare(prick_voids=prick_voids, record=record, n_buckets=n_buckets, parallel=parallel)
+    def _prepare(self, prick_voids=True, record=False, n_buckets=None, parallel=None, edge_table_aside=True):
+        super()._prepare(prick_voids=prick_voids, record=record, n_buckets=n_buckets, parallel=parallel,
+                         edge_table_aside=edge_table_aside)
 
     @property
     def skeleton(self):
