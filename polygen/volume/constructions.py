@@ -82,15 +82,18 @@ def prepare_construction(label, vol, field="fem"):
     return m
 
 
-def make_builder(label, vol, field="fem"):
+def make_builder(label, vol, field="fem", *, labels=False):
     """The construction ``label``'s builder alone (what :func:`builder_of` gives), on ``vol``.
 
     A :class:`~polygen.volume.propagate.Propagator` or an edge-centred
     builder with the parameters of :func:`prepare_construction`'s; the
-    table's runs one thread (``threads=1``), as in the notebook.
+    table's runs one thread (``threads=1``), as in the notebook. With
+    ``labels`` a construction of :data:`NO_STORED_EDGES` labels its vertices
+    by the volume's edge ids (the registered methods' default), which makes
+    the volume build its edge table.
     """
     name, params, search = CONSTRUCTIONS[label]
-    keys = {"vertex_keys": "node-pairs"} if label in NO_STORED_EDGES else {}
+    keys = {"vertex_keys": "node-pairs"} if label in NO_STORED_EDGES and not labels else {}
     if search is not None:
         return Propagator(vol, field, vertex_search=search, **keys)
     if name == "edge-centred":
@@ -243,7 +246,7 @@ def _reachable_arrays(obj, vol, depth=4):
     return out
 
 
-def construction_memory(label, vol, value, seeds, *, field="fem", rss=False):
+def construction_memory(label, vol, value, seeds, *, field="fem", rss=False, labels=False):
     """What construction ``label`` holds after its preparation and one extract on ``vol``, in bytes.
 
     The experiment (the same for every construction): ``vol`` is a freshly
@@ -272,6 +275,9 @@ def construction_memory(label, vol, value, seeds, *, field="fem", rss=False):
         the preparation and after the extract (``rss``: the difference; the
         kernels should have run once in the process before, so that their
         compilation or loading is not in it).
+    labels : bool, keyword-only
+        :func:`make_builder`'s: ``hash`` and ``walk-*`` labelling their
+        vertices by edge id.
 
     Returns
     -------
@@ -284,7 +290,7 @@ def construction_memory(label, vol, value, seeds, *, field="fem", rss=False):
     before = _volume_tables(vol)
     old = {k for got in before.values() for k in got}
     r0 = rss_bytes() if rss else None
-    builder = make_builder(label, vol, field)
+    builder = make_builder(label, vol, field, labels=labels)
     iso = builder.extract(value, seeds)
     if hasattr(builder, "settle"):
         builder.settle()
