@@ -189,12 +189,12 @@ print(plotting.table(rows1, list(rows1[0])))
 # far below the paper's own ratio of t1 times (0.09 / 8.30 and 0.57 / 42.23).
 #
 # **The total: the headline does not hold here.** The paper's thinning cut the total from
-# 12.86 s to 4.29 s and from 49.62 s to 7.60 s. In the benchmark (CPU time, data 1–5 and 2M)
-# thinning's total is 0.93–1.17 of the scan's on the large volumes and 2.0–2.5 times it on
-# data 1 and 2: at best even, reversed on the small ones (the printout gives this run's
-# totals). The reason is t2, not t1: in the paper the scan and the propagation took about the
-# same t2 (3.80 s and 3.45 s; 6.25 s and 5.88 s), so thinning's savings in t1 went straight to
-# the total. Here the propagation's t2 is 4.4–5.4 times the scan's. The scan builds the
+# 12.86 s to 4.29 s and from 49.62 s to 7.60 s. In the benchmark (CPU time, data 1–3, rerun
+# after the hash propagation got records of its own instead of the volume's cell records)
+# thinning's total is 1.08–1.60 of the scan's, nearest even on the largest (the printout gives
+# this run's totals). The reason is t2, not t1: in the paper the scan and the propagation took
+# about the same t2 (3.80 s and 3.45 s; 6.25 s and 5.88 s), so thinning's savings in t1 went
+# straight to the total. Here the propagation's t2 is 3.3–3.7 times the scan's. The scan builds the
 # polygons of the cells t1 found in cell order, reading the vertex ids from an array indexed
 # by the stored edge id; the propagation walks the mesh in breadth-first order, *tests* every
 # face neighbour of every crossed cell in t2 (the tested cells that are not crossed are work
@@ -328,13 +328,14 @@ for name, mm in memo.items():
 #
 # The paper's reason for not storing edges is memory; the last columns say what each costs here.
 #
-# In the benchmark (data 1–5 and 2M, CPU time, `benchmarks/results/fast_construction.md`) the
-# paper's speed-up is the removal of the search: `walk` takes 0.44–0.56 of `hash`'s t2, better
-# than the paper's 0.68–0.74. Storing the edges does little for a search (`array` / `hash`
-# 0.81–0.98: a stamped hash keyed by node pairs costs about what an array read at the edge id
-# costs, once neither is cleared in the timed step) but much for the edge-centred loop
-# (`table` / `walk` 0.51–0.67: reading the cells round an edge from a list instead of walking
-# to them), for 2.2–2.3 times the memory. That is why `edge-centred-table` is the fastest of the
+# In the benchmark (data 1–3, CPU time, `benchmarks/results/fast_construction.md`, rerun with
+# the memory counted from the arrays held) the paper's speed-up is the removal of the search:
+# `walk` takes 0.58–0.72 of `hash`'s t2, against the paper's 0.68–0.74. Storing the edges does
+# little for a search (`array` / `hash` 0.75–1.01: a stamped hash keyed by node pairs costs about
+# what an array read at the edge id costs, once neither is cleared in the timed step) but much
+# for the edge-centred loop (`table` / `walk` 0.68–0.74: reading the cells round an edge from a
+# list instead of walking to them), for 1.7 times the memory (the edge table the volume builds
+# for it included). That is why `edge-centred-table` is the fastest of the
 # four, and `edge-centred` is the paper's method as the paper states it. (`vol.isosurface` used
 # `edge-centred-table` by default until it got a construction that walks nothing at all: the
 # section "Beyond the paper" below.)
@@ -403,14 +404,15 @@ print(plotting.table(rows_h, list(rows_h[0])))
 assert all(r["look-ups hash"] > 0 and r["look-ups walk / table"] == "0 / 0" for r in rows_h)
 
 # %% [markdown]
-# ## The benchmark: data 1–5, 2M and 10M, and VTK
+# ## The benchmark
 #
 # `benchmarks/fast_construction.py` runs the same comparison on all five volumes, the
 # 2-million-cell one and the 10-million-cell one (its analytic field `gaussians`: no FEM
-# solve at that size), with `vtkContourFilter` beside (results committed in
-# `benchmarks/results/fast_construction.md`; polygen's times there are CPU seconds on one
-# thread, since the machine is shared, VTK's wall seconds on two). They are shown here as
-# recorded, for reading; nothing above rests on them, and no assert reads them.
+# solve at that size), with `vtkContourFilter` beside. The results committed in
+# `benchmarks/results/fast_construction.md` are its rerun on data 1–3 without VTK (the sizes
+# that finish in minutes on the shared machine), after the memory count was made honest;
+# polygen's times there are CPU seconds on one thread. They are shown here as recorded, for
+# reading; nothing above rests on them, and no assert reads them.
 
 # %%
 RESULTS = Path(polygen.__file__).resolve().parents[1] / "benchmarks" / "results" / "fast_construction.json"
