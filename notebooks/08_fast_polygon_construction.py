@@ -392,7 +392,8 @@ for name in HEX_DATA:
     got = {}
     for label in ("hash", "walk", "table"):
         m = prepare_construction(CONSTRUCTIONS[label], v)
-        got[label] = ([m.extract(x) for x in values], [dict(m.stats) for x in values])
+        got[label] = ([edge_keyed(CONSTRUCTIONS[label], m.extract(x), v) for x in values],
+                      [dict(m.stats) for x in values])
     (old, _), (new, st), (tab, _) = got["hash"], got["walk"], got["table"]
     assert all(same_surface(a_, b_) and same_surface(a_, c_) and same_surface(a_, d_)
                for a_, b_, c_, d_ in zip(ref, old, new, tab))
