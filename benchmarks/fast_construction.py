@@ -23,9 +23,17 @@ everywhere:
   an edge -> cells index (``edge-centred-table``);
   (c) and (d) in the paper's FIFO order and in LIFO. For each: t1/t2/t3,
   the vertex look-ups *counted by the kernels* (and hash probes), the cells
-  visited by for-loop (3), and the memory it needs beyond the cells, nodes
-  and field (``memory_bytes()`` of the builder: bytes of the arrays it
-  holds, by name);
+  visited by for-loop (3); hash and walk key their vertices by node pairs
+  (no edge table anywhere; relabelled by edge id only to compare with the
+  scan, after the clocks);
+* **memory**, a separate experiment, the same for every construction
+  (:func:`polygen.volume.constructions.construction_memory`): on a freshly
+  loaded volume with its face neighbours built (every construction and seed
+  source reads them), the builder alone is prepared and extracts the middle
+  value from the thinning skeleton's seeds; counted are the arrays the
+  builder holds and the tables it made the volume build (each buffer once),
+  cross-checked against the process's resident memory; hash and walk also
+  with their vertices labelled by edge id (the registered methods' default);
 * **against VTK**: ``vtkContourFilter`` (merged points, normals on) with and
   without ``vtkSpanSpace`` (``VTK_SMP_BACKEND_IN_USE=STDThread`` on the two
   cores);
@@ -62,7 +70,14 @@ import numpy as np  # noqa: E402
 
 from _common import RESULTS, machine  # noqa: E402
 from polygen.volume import datasets, isovalues  # noqa: E402
-from polygen.volume.constructions import CONSTRUCTIONS, builder_of, prepare_construction  # noqa: E402
+from polygen.volume.constructions import (  # noqa: E402
+    CONSTRUCTIONS,
+    builder_of,
+    construction_memory,
+    edge_keyed,
+    prepare_construction,
+)
+from polygen.volume.seeds.source import seed_source  # noqa: E402
 from polygen.volume.surface import same_surface  # noqa: E402
 
 DATA = ["data1", "data2", "data3", "data4", "data5", "2M", "10M"]
@@ -194,11 +209,10 @@ def run_one(name, with_vtk):
         if label == "scan":
             ref = isos
         else:
-            r["same_as_scan"] = all(same_surface(a, b, geometry=False) for a, b in zip(ref, isos))
+            r["same_as_scan"] = all(same_surface(a, edge_keyed(label, b, vol), geometry=False)
+                                    for a, b in zip(ref, isos))
             b = builder_of(m)
             per_stats = stats
-            r["memory"] = b.memory_bytes()
-            r["memory_total"] = int(sum(r["memory"].values()) - r["memory"].get("label_edge_list", 0))
             r["seed_source"] = m.source.name
             r["seed_preprocess_s"] = m.source.preprocess_s
             r["seed_search_s"] = float(sum(st.get("T_search", st.get("T_mg", 0.0)) for st in per_stats))
@@ -211,7 +225,7 @@ def run_one(name, with_vtk):
                         m.extract(v)
                         probes += b.stats["probes"]
                         grows += b.stats["hash_grows"]
-                        t_label += b.stats["t_label"]
+                        t_label += b.stats.get("t_label", 0.0)
                 r.update(probes=probes, hash_grows=grows, t_label=t_label)
                 r["skeleton_cells"] = m.skeleton.n_cells
             else:
@@ -223,12 +237,18 @@ def run_one(name, with_vtk):
                     r["walk_steps"] = int(sum(st["walk_steps"] for st in per_stats))
                     r["probes"] = int(sum(st["probes"] for st in per_stats))
                     r["t_label"] = float(sum(st["t_label"] for st in per_stats))
+                else:
+                    r["slot_reads"] = int(sum(st["slot_reads"] for st in per_stats))
         res[label] = r
         print(f"{name:6s} {label:11s} pre {m.preprocess_s:7.3f} s  query {q:7.3f} s  t1 {t1:.4f} t2 {t2:.4f} "
               f"t3 {t3:.4f}  {r['triangles']} triangles  lookups {r['vertex_lookups']}  "
-              f"memory {r.get('memory_total', 0) / 1e6:.1f} MB  same {r.get('same_as_scan')}", file=sys.stderr)
+              f"same {r.get('same_as_scan')}", file=sys.stderr)
         del m, isos
         gc.collect()
+    row["memory"] = memory_experiment(name, field, values[len(values) // 2])
+    for label in CONSTRUCTIONS:
+        res[label]["memory"] = row["memory"][label]["by_array"]
+        res[label]["memory_total"] = row["memory"][label]["total"]
     ref_t = res["scan"]["per_value_triangles"]
     if with_vtk:
         vt = vtk_times(vol, field, values, rep)
@@ -242,6 +262,32 @@ def run_one(name, with_vtk):
     del vol, ref
     gc.collect()
     return row
+
+
+#: the memory experiment's rows: (row name, construction, labels by edge id)
+MEMORY_ROWS = [(k, k, False) for k in CONSTRUCTIONS] + [("hash + edge-id labels", "hash", True),
+                                                          ("walk-fifo + edge-id labels", "walk-fifo", True)]
+
+
+def memory_experiment(name, field, value):
+    """:func:`construction_memory` of every construction (and hash and walk labelling by edge id) on a fresh copy
+    of ``name``, from the thinning skeleton's seeds for ``value`` (thinned on another copy, no edge table aside),
+    with the resident memory read around each (the kernels ran before, in :func:`warm_up` and the sweeps)."""
+    ref = datasets.load(name, field=field)
+    seeds = seed_source(ref, field, "thinning", edge_table_aside=False).query(value).cells
+    del ref
+    gc.collect()
+    out = {}
+    for row, label, labels in MEMORY_ROWS:
+        vol = datasets.load(name, field=field)
+        out[row] = construction_memory(label, vol, value, seeds, field=field, rss=True, labels=labels)
+        r = out[row]
+        print(f"{name:6s} memory {row:28s} {r['total'] / r['cells']:7.1f} B/cell (builder {r['builder'] / r['cells']:.1f}"
+              f", volume {sum(r['volume'].values()) / r['cells']:.1f}); RSS {r['rss'] / r['total']:.3f} of it",
+              file=sys.stderr)
+        del vol
+        gc.collect()
+    return out
 
 
 def mb(x):
@@ -275,19 +321,31 @@ def markdown(rows):
               "vertex id in an array indexed by the stored edge id; (c) walk: the paper's edge-centred "
               "construction, no stored edges; (d) table: edge-centred with the edge table and edge -> cells "
               "index. t2 = polygon construction (the paper's t_p); look-ups as counted by the kernels; memory = "
-              "bytes of the arrays each holds beyond points, cells and field (MB; the propagations' face "
-              "neighbours and node copies are those columns of the volume's shared cell records).", "",
+              "the memory experiment's total (MB: the arrays the builder holds and the tables it made the "
+              "volume build, after preparation and one extract; next section).", "",
               "| data | cells | construction | t1 | t2 | t3 | total | labels by edge id | vertex look-ups | "
               "hash probes | cells visited by for-loop (3) | walk steps | memory MB | memory by array (MB) | "
               "same as scan |", "|" + "---|" * 15]
     for r in rows:
         for label in CONSTRUCTIONS:
             x = r["methods"][label]
-            mem = ", ".join(f"{k} {mb(v)}" for k, v in x["memory"].items() if k != "label_edge_list")
+            mem = ", ".join(f"{k} {mb(v)}" for k, v in x["memory"].items())
             lines.append(f"| {r['data']} | {r['cells']} | {label} | {x['t1']:.4f} | {x['t2']:.4f} | {x['t3']:.4f} | "
                          f"{x['query_s']:.4f} | {x.get('t_label', 0.0):.4f} | {x['vertex_lookups']} | "
                          f"{x.get('probes', 0)} | {x.get('visits', '-')} | {x.get('walk_steps', '-')} | "
                          f"{mb(x['memory_total'])} | {mem} | {x['same_as_scan']} |")
+    lines += ["", "## Memory per construction (bytes per cell)", "",
+              "Measured from the arrays: on a freshly loaded volume with its face neighbours built, the builder "
+              "alone is prepared and extracts the middle value from the skeleton's seeds; counted are the arrays "
+              "it holds (builder) and the tables it made the volume build (volume), each buffer once; RSS = the "
+              "process's resident memory after minus before, as a share of the count.", "",
+              "| data | cells | construction | builder | volume tables built | total | total MB | RSS / total |",
+              "|" + "---|" * 8]
+    for r in rows:
+        for row, x in r["memory"].items():
+            vt = ", ".join(f"{k} {v / x['cells']:.1f}" for k, v in x["volume"].items()) or "none"
+            lines.append(f"| {r['data']} | {r['cells']} | {row} | {x['builder'] / x['cells']:.1f} | {vt} | "
+                         f"{x['total'] / x['cells']:.1f} | {mb(x['total'])} | {x['rss'] / x['total']:.3f} |")
     lines += ["", "## What each comparison isolates (t2, FIFO for the edge-centred ones)", "",
               "| data | cells | removing the search, edges stored: table / array | removing the search, no edges: "
               "walk / hash | storing edges, search kept: array / hash | storing edges, no search: table / walk | "
@@ -345,16 +403,17 @@ def markdown(rows):
     lines += ["", "## Notes", "",
               "- t1 / t2 / t3 as in Table 1 of the paper: find the intersected cells (the skeleton search plus the "
               "seed tests) / build the triangle topology / vertex positions and normals; total = CPU time of the "
-              "20 calls, Python included (for hash and walk it includes naming the vertices by the volume's edge "
-              "ids after t3, the `labels` column, which the IsoSurface convention needs and the construction "
-              "does not)",
+              "20 calls, Python included (hash and walk key their vertices by node pairs: no labelling by edge "
+              "id in the clocks, `labels` 0)",
               "- vertex look-ups: counted in the kernels; hash: one search per polygon vertex per cell (probes: "
-              "slots inspected); array: one read of the vertex-id array per polygon vertex per cell; walk and "
-              "table: none counted because they make none (a searching variant of the walk counts them: "
-              "tests/test_edge_centred.py::test_lookup_counter_is_live)",
-              "- memory: from `memory_bytes()` of each builder, after the sweep (buffers at their grown sizes); "
-              "the volume's own points, cells and field are not counted; the labelling's edge list is not "
-              "counted for hash and walk (it serves the output convention, not the construction)",
+              "slots inspected); array: one read of the vertex-id array per polygon vertex per cell; walk: none "
+              "(a searching variant counts them: tests/test_edge_centred.py::test_lookup_counter_is_live); "
+              "table: no read by a key, its kernels count their slot reads instead (one per triangle corner: "
+              "tests/test_constructions.py::test_the_table_kernels_count_their_slot_reads)",
+              "- memory: the memory experiment (`construction_memory`), after preparation and one extract; "
+              "the volume's own points, cells and field and its face neighbours are not counted; everything "
+              "else the construction holds or made the volume build is, the edge table of a labelling by edge "
+              "id included (the `+ edge-id labels` rows)",
               "- one thread for every polygen kernel (NUMBA_NUM_THREADS=1; the scan too); vtk: vtkContourFilter, "
               "merged points, ComputeNormalsOn, VTK_SMP_BACKEND_IN_USE=STDThread (both cores); vtk+spanspace adds "
               "SetScalarTree(vtkSpanSpace())",
@@ -363,7 +422,7 @@ def markdown(rows):
                  "not in this run: building it did not finish within 29 minutes of wall time here (1 min 43 s "
                  "of CPU, the machine at a load of about 14), past the 10 minutes allowed for it"),
               "- a 2-core machine shared with other jobs: the load average before/after each volume is listed; "
-              "times are indicative, counts and bytes are exact",
+              "times are indicative, counts and bytes are exact (the memory does not depend on the load)",
               f"- machine: {machine()}"]
     return "\n".join(lines) + "\n"
 

@@ -240,7 +240,7 @@ def test_the_owner_column_against_each_edges_first_cell(block):
 
 def _parts_last_first(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
                       chunk, block, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, cuts,
-                      side_t, n_side, n_parts):
+                      side_t, n_side, n_parts, ev_reads):
     """fused_pass's parts one after the other, the last first, with ``ev`` spoiled before: a part that used a
     vertex another part (or a block it has not done) makes would read -1."""
     from polygen.volume import _active_scan_kernels as _k
@@ -249,7 +249,7 @@ def _parts_last_first(tab, nn, ne, s, value, points, local_edges, tri_table, tri
     for q in reversed(range(n_parts)):
         n_side[q] = _k._fused_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask,
                                    ranges, roff, chunk, block, cuts[q], cuts[q + 1], st, v_off, t_off, ev, nvid,
-                                   pos, keys, exact_cells, tris, tri_cell, acc, side_t)
+                                   pos, keys, exact_cells, tris, tri_cell, acc, side_t, ev_reads[q:q + 1])
 
 
 @pytest.mark.parametrize("normals", ["mean", "gradient", None])

@@ -198,3 +198,42 @@ def test_isovalues():
             isovalues(s, bad)
     with pytest.raises(IsoSurfaceError, match="finite"):
         isovalues([1.0, np.nan], 3)
+
+
+@pytest.mark.parametrize("tets", [True, False])
+def test_hash_propagation_stores_no_edges(tets):
+    """The paper's baseline keeps no edge table: preparing and extracting with the hash search (node-pair keys)
+    leaves a fresh volume without its edge table and without the cell records (which hold the edge ids);
+    the surface is the scan's once relabelled by edge id."""
+    vol = grid_volume((9, 8, 7), spacing=(0.3, 0.5, 0.7), tets=tets, jitter=0.15 if tets else 0.0, seed=3)
+    s = np.random.default_rng(5).random(vol.n_points)
+    prop = Propagator(vol, s, vertex_keys="node-pairs")
+    iso = prop.extract(0.5, np.arange(vol.n_cells))
+    assert "_edge_table" not in vol.__dict__ and "cell_records" not in vol.__dict__
+    assert set(prop.memory_bytes()) == {"records", "visited", "vertex_table", "buffers"}
+    assert prop.memory_bytes()["records"] == prop.rec.nbytes == vol.n_cells * (vol.cells.shape[1]
+                                                                               + vol.face_neighbors.shape[1]) * 4
+    # the default labels the vertices by edge id: that builds the edge table, and the count says so
+    labelled = Propagator(vol, s)
+    ref = labelled.extract(0.5, np.arange(vol.n_cells))
+    assert "_edge_table" in vol.__dict__
+    mem = labelled.memory_bytes()
+    assert mem["label_edge_list"] == vol.edges.nbytes and mem["label_cell_edges"] == vol.cell_edges.nbytes
+    assert_same_surface(extract(vol, 0.5, field=s), ref, lookups=True)
+    relabelled = dataclasses.replace(iso, vertex_keys=labelled._labels(iso.vertex_keys))
+    assert_same_surface(ref, relabelled, lookups=True)
+    with pytest.raises(IsoSurfaceError, match="node-pairs"):
+        Propagator(vol, s, vertex_search="array", vertex_keys="node-pairs")
+    with pytest.raises(IsoSurfaceError, match="vertex_keys"):
+        Propagator(vol, s, vertex_keys="pairs")
+
+
+def test_lookups_are_one_per_vertex_of_each_cell_built():
+    """``vertex_lookups`` counts the searches the kernel makes, one per distinct polygon vertex of every cell
+    it builds: counted again here from the triangles and the cells they were made in, for both searches."""
+    vol = grid_volume((9, 8, 7), spacing=(0.3, 0.5, 0.7), tets=True, jitter=0.15, seed=4)
+    s = np.random.default_rng(6).random(vol.n_points)
+    for search in ("hash", "array"):
+        iso = Propagator(vol, s, vertex_search=search).extract(0.45, np.arange(vol.n_cells))
+        per_cell = sum(np.unique(iso.triangles[iso.triangle_cells == c]).size for c in np.unique(iso.triangle_cells))
+        assert iso.vertex_lookups == per_cell > 0

@@ -473,10 +473,12 @@ def _triangle_range(tab, nn, ne, s, value, tri_table, tri_count, local_edges, ra
     it. A triangle whose vertices may not be made yet -- the block is not whole, or a corner's owner is in
     an earlier block further back than ``lag`` -- keeps its corners' edge ids and goes onto the side list
     (:func:`side_normals` looks them up once every vertex is made), and so does one whose corners are not
-    all this part's. Returns ``(t, n_side)`` after them."""
+    all this part's. Returns ``(t, n_side, reads)`` after them: ``reads`` counts the vertex ids read at an
+    edge id (``ev[edge]``), one per triangle corner on an edge read here."""
     cell_col = nn + ne + 1
     own_col = nn + ne
     mean = acc.shape[0] > 0
+    reads = 0
     for i in range(i0, i1):
         while p >= ranges[r, 1]:
             r += 1
@@ -514,6 +516,7 @@ def _triangle_range(tab, nn, ne, s, value, tri_table, tri_count, local_edges, ra
                 i0_ = ev[e0]
                 i1_ = ev[e1]
                 i2_ = ev[e2]
+                reads += 3  # the look-ups of the corners' vertex ids by edge id
                 if mean and not (v0 <= min(i0_, i1_, i2_) and max(i0_, i1_, i2_) < v1):
                     if fused:
                         tris[t, 0] = e0
@@ -551,17 +554,18 @@ def _triangle_range(tab, nn, ne, s, value, tri_table, tri_count, local_edges, ra
                     w = codes[j, m]
                     if w < ne:
                         tris[t, m] = ev[tab[p, nn + w]]
+                        reads += 1
                     else:
                         tris[t, m] = nvid[tab[p, w - ne]] & 0xFFFFFFFF
                 tri_cell[t] = c
                 t += 1
         p += 1
-    return t, n_side
+    return t, n_side, reads
 
 
 @njit(inline="always")
 def _triangle_part_body(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
-                        k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side):
+                        k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side, reads):
     """Pass 3 over chunks ``k0 .. k1`` (:func:`_triangle_range`, not fused; ids from ``t_off[k0]``);
     returns the side list's end."""
     n_act = roff[roff.shape[0] - 1]
@@ -571,27 +575,30 @@ def _triangle_part_body(tab, nn, ne, s, value, tri_table, tri_count, case_mask, 
         vals = np.empty(nn, np.float64)
         codes = np.empty((_m.MAX_TRIANGLES, 3), np.int64)
         r, p = _walk_start(ranges, roff, i0)
-        _, n_side = _triangle_range(tab, nn, ne, s, value, tri_table, tri_count, local_edges, ranges, i0, i1, r, p,
+        _, n_side, got = _triangle_range(tab, nn, ne, s, value, tri_table, tri_count, local_edges, ranges, i0, i1, r, p,
                                     st, t_off[k0], ev, nvid, tris, tri_cell, pos, acc, v0, v1, False, True, 0,
                                     side_t, n_side, vals, codes)
+        reads[0] += got
     return n_side
 
 
 @njit(cache=_KCACHE)
 def _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, k0, k1,
-                   st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side):
+                   st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side, reads):
     """Pass 3 (:func:`_triangle_part_body`) on tetrahedra or hexahedra (see :func:`_count_part`)."""
     if nn == 4:
         return _triangle_part_body(tab, 4, 6, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff,
                                    chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t,
-                                   n_side)
+                                   n_side, reads)
     return _triangle_part_body(tab, 8, 12, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff,
-                               chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side)
+                               chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side,
+                               reads)
 
 
 @njit(inline="always")
 def _fused_part_body(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
-                     block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, side_t):
+                     block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, side_t,
+                     reads):
     """Passes 2 and 3 over chunks ``k0 .. k1``, block by block: a block's vertices, then its triangles
     (:func:`_triangle_range`, fused), while the block's rows of ``ev``, ``pos`` and ``acc`` are still in
     the core's cache. An edge's owner is its first cell, in the same block or an earlier one, so a block
@@ -628,9 +635,10 @@ def _fused_part_body(tab, nn, ne, s, value, points, local_edges, tri_table, tri_
             done = blk if roff[rs] >= i_beg else blk + 1
         v, x = _vertex_range(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges,
                              i, g_end, r, p, st, v, x, ev, pos, keys, exact_cells, acc, vals, codes)
-        t, n_side = _triangle_range(tab, nn, ne, s, value, tri_table, tri_count, local_edges, ranges, i, g_end, r,
+        t, n_side, got = _triangle_range(tab, nn, ne, s, value, tri_table, tri_count, local_edges, ranges, i, g_end, r,
                                     p, st, t, ev, nvid, tris, tri_cell, pos, acc, v0, v1, True, whole, blk - done,
                                     side_t, n_side, vals, codes)
+        reads[0] += got
         i = g_end
         if i < i_end:
             r = re + 1
@@ -640,15 +648,15 @@ def _fused_part_body(tab, nn, ne, s, value, points, local_edges, tri_table, tri_
 
 @njit(cache=_KCACHE)
 def _fused_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
-                block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, side_t):
+                block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, side_t, reads):
     """Passes 2 and 3 (:func:`_fused_part_body`) on tetrahedra or hexahedra (see :func:`_count_part`)."""
     if nn == 4:
         return _fused_part_body(tab, 4, 6, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges,
                                 roff, chunk, block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris,
-                                tri_cell, acc, side_t)
+                                tri_cell, acc, side_t, reads)
     return _fused_part_body(tab, 8, 12, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
                             chunk, block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell,
-                            acc, side_t)
+                            acc, side_t, reads)
 
 
 @njit(inline="always")
@@ -720,37 +728,39 @@ def part_cuts(off, n_parts):
 
 @njit(parallel=True, cache=_KCACHE)
 def triangle_pass(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, st,
-                  t_off, ev, nvid, tris, tri_cell, pos, acc, cuts, v_off, side_t, n_side, n_parts):
+                  t_off, ev, nvid, tris, tri_cell, pos, acc, cuts, v_off, side_t, n_side, n_parts, ev_reads):
     """:func:`_triangle_part` by ``n_parts`` threads, part ``q`` (chunks ``cuts[q] .. cuts[q + 1]``) adding
     the normals of its triangles whose corners its chunks made (``v_off``) into ``acc``, the others' ids
-    onto its side list (``side_t`` from ``t_off[cuts[q]]`` on; its length into ``n_side[q]``)."""
+    onto its side list (``side_t`` from ``t_off[cuts[q]]`` on; its length into ``n_side[q]``); ``ev_reads[q]``
+    counts part ``q``'s reads of a vertex id at an edge id (``ev[edge]``), one per triangle corner on an edge."""
     for q in prange(n_parts):
         k0, k1 = cuts[q], cuts[q + 1]
         t0 = t_off[k0]
         n_side[q] = _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff,
                                    chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v_off[k0],
-                                   v_off[k1], side_t, t0) - t0
+                                   v_off[k1], side_t, t0, ev_reads[q:q + 1]) - t0
 
 
 @njit(parallel=True, cache=_KCACHE)
 def fused_pass(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk, block,
-               st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, cuts, side_t, n_side, n_parts):
+               st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, cuts, side_t, n_side, n_parts,
+               ev_reads):
     """:func:`_fused_part` by ``n_parts`` threads (no node at the value), part ``q`` chunks ``cuts[q] ..
     cuts[q + 1]``, its side list's length into ``n_side[q]`` (see :func:`triangle_pass`); then
     :func:`side_normals`."""
     for q in prange(n_parts):
         n_side[q] = _fused_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges,
                                 roff, chunk, block, cuts[q], cuts[q + 1], st, v_off, t_off, ev, nvid, pos, keys,
-                                exact_cells, tris, tri_cell, acc, side_t)
+                                exact_cells, tris, tri_cell, acc, side_t, ev_reads[q:q + 1])
 
 
 @njit(parallel=True, cache=_KCACHE)
-def side_normals(tris, ev, side_t, cuts, t_off, v_off, n_side, pos, acc, side_n, lookup):
+def side_normals(tris, ev, side_t, cuts, t_off, v_off, n_side, pos, acc, side_n, lookup, ev_reads):
     """Each part's side list (``side_t`` from ``t_off[cuts[q]]``, ``n_side[q]`` long), by its own thread:
     with ``lookup`` (:func:`fused_pass`) the triangles' corners from edge ids to vertex ids (``ev``); with
     ``acc`` (V, 3) (rows: the mean normals) each triangle's normal into ``side_n`` (the parts' lists one
     after the other) and into the part's own rows of ``acc`` (ids ``v_off[cuts[q]] .. v_off[cuts[q + 1]]``);
-    :func:`fold_normals` adds them into the other parts' rows."""
+    :func:`fold_normals` adds them into the other parts' rows. ``ev_reads[q]`` counts the ``ev`` reads."""
     n_parts = n_side.shape[0]
     mean = acc.shape[0] > 0
     for q in prange(n_parts):
@@ -766,6 +776,7 @@ def side_normals(tris, ev, side_t, cuts, t_off, v_off, n_side, pos, acc, side_n,
                 tris[t, 0] = ev[tris[t, 0]]
                 tris[t, 1] = ev[tris[t, 1]]
                 tris[t, 2] = ev[tris[t, 2]]
+                ev_reads[q] += 3
             if mean:
                 nx, ny, nz = _m.triangle_normal(pos, tris[t, 0], tris[t, 1], tris[t, 2])
                 side_n[k, 0] = nx

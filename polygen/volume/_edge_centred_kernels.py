@@ -82,7 +82,9 @@ OK, FULL_QUEUE, FULL_TRIANGLES, FULL_VERTICES, NEED_NODE_CELLS = 0, 1, 2, 3, 4
 #: :func:`_flood` stopped after its budget of cells (a test interleaves two threads' work this way)
 PAUSED = 5
 #: counters written by :func:`construct` (indices into ``counters``)
-C_POPS, C_VISITS, C_TOUCHED, C_CONSTRUCTED, C_NODE_TESTS, C_NODE_VERTICES, C_LOOKUPS = 0, 1, 2, 3, 4, 5, 6
+#: ``C_SLOT_READS``: reads of a registered vertex id from a cell's slot as its triangles are written, one
+#: per triangle corner (these kernels read no vertex by a key: a vertex is only ever read from its slot)
+C_POPS, C_VISITS, C_TOUCHED, C_CONSTRUCTED, C_NODE_TESTS, C_NODE_VERTICES, C_SLOT_READS = 0, 1, 2, 3, 4, 5, 6
 N_COUNTERS = 7
 #: how far ahead in a FIFO the next cells' records are fetched
 LOOKAHEAD = 16
@@ -469,7 +471,7 @@ def construct(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
     touched = 0
     node_tests = 0
     node_vertices = 0
-    lookups = 0  # vertex look-ups: this kernel has none to count (a vertex is only ever read from its slot)
+    slot_reads = 0  # triangle corners read from their cell's vertex slots
     while head < tail:  # for-loop (1): cells taken from the FIFO
         if lifo:
             tail -= 1
@@ -607,12 +609,14 @@ def construct(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
             for t in range(k):
                 for jj in range(3):
                     tris[n_t, jj] = dyn[c, ds + _slot(st, tri_table[case, 3 * t + jj], nn)]
+                    slot_reads += 1
                 tri_cell[n_t] = c
                 n_t += 1
         else:
             for t in range(k):
                 for jj in range(3):
                     tris[n_t, jj] = dyn[c, ds + _slot(st, codes[t, jj], nn)]
+                    slot_reads += 1
                 tri_cell[n_t] = c
                 n_t += 1
     counters[C_POPS] = pops
@@ -621,7 +625,7 @@ def construct(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_c
     counters[C_CONSTRUCTED] = n_p
     counters[C_NODE_TESTS] = node_tests
     counters[C_NODE_VERTICES] = node_vertices
-    counters[C_LOOKUPS] = lookups
+    counters[C_SLOT_READS] = slot_reads
     return OK, n_p, n_t, n_v, node_vertices > 0
 
 
@@ -719,6 +723,7 @@ def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
     pops = 0
     visits = 0
     touched = 0
+    slot_reads = 0  # triangle corners read from their cell's vertex slots
     node_tests = 0
     node_vertices = 0
     while tail > 0:  # for-loop (1): the newest cell first
@@ -896,6 +901,7 @@ def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
                 i0 = dyn[db + ds + _POPCOUNT[m & ((1 << codes[t, 0]) - 1)]]
                 i1 = dyn[db + ds + _POPCOUNT[m & ((1 << codes[t, 1]) - 1)]]
                 i2 = dyn[db + ds + _POPCOUNT[m & ((1 << codes[t, 2]) - 1)]]
+            slot_reads += 3  # the three corners just read
             tris[_u(n_t) * 3 + 0] = i0
             tris[_u(n_t) * 3 + 1] = i1
             tris[_u(n_t) * 3 + 2] = i2
@@ -929,7 +935,7 @@ def construct_tet(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tr
     counters[C_CONSTRUCTED] = n_p
     counters[C_NODE_TESTS] = node_tests
     counters[C_NODE_VERTICES] = node_vertices
-    counters[C_LOOKUPS] = 0
+    counters[C_SLOT_READS] = slot_reads
     return OK, n_p, n_t, n_v, node_vertices > 0
 
 

@@ -36,7 +36,12 @@ The three passes:
    normals, adds its triangles' normals into one array of sums shared by the
    threads: a thread writes only the rows of the vertices its own chunks made,
    and a triangle with a corner made by another thread's chunks goes on a side
-   list, whose normals are added afterwards in a fixed order.
+   list, whose normals are added afterwards in a fixed order. Each read of a
+   corner's vertex id at its edge id (``ev[edge]``) is the read the array
+   propagation counts as a vertex look-up, and is counted as one
+   (``vertex_lookups``, ``stats["lookups"]``): one per triangle corner on an
+   edge, plus a second for the corners of a triangle that went to a side
+   list after its ids were read (several threads only).
 
 On a volume in blocks, passes 2 and 3 go **block by block**: each thread makes
 a block's vertices, then its triangles, while the block's rows of ``ev``, the
@@ -297,13 +302,14 @@ class ActiveScan:
         tri_cell = _jit.output_empty(n_t, np.int64)
         cuts = _k.part_cuts(off[0], n_parts)
         n_side = np.zeros(n_parts, np.int64)
+        ev_reads = np.zeros(n_parts, np.int64)  # vertex ids read at an edge id (ev[edge]), per part
         # block by block (vertices then triangles) where no node is at the value and the parts hold whole blocks
         by_block = n_x == 0 and (n_parts == 1 or self.table.shape[0] > self.block) and self.FUSED
         side_t = sc.buffer("side", n_t if sums or by_block else 0, np.int64)
         if n_ch and by_block:
             _k.fused_pass(tab, nn, ne, s, value, self.points, self.local_edges, self.tri_table, self.tri_count,
                           self.case_mask, ranges, roff, chunk, self.block, st, off[1], off[0], sc.ev, sc.nvid, pos,
-                          keys, exact_cells, tri, tri_cell, acc, cuts, side_t, n_side, n_parts)
+                          keys, exact_cells, tri, tri_cell, acc, cuts, side_t, n_side, n_parts, ev_reads)
         elif n_ch:
             args = (tab, nn, ne, s, value, self.points, self.local_edges, self.tri_table, self.tri_count,
                     self.case_mask, ranges, roff, chunk, st, off[1], off[2], sc.ev, pos, keys, exact_cells, acc)
@@ -315,11 +321,11 @@ class ActiveScan:
         if n_ch and not by_block:
             args = (tab, nn, ne, s, value, self.tri_table, self.tri_count, self.case_mask, self.local_edges, ranges,
                     roff, chunk, st, off[0], sc.ev, sc.nvid, tri, tri_cell, pos, acc, cuts, off[1], side_t, n_side)
-            _k.triangle_pass(*args, n_parts)
+            _k.triangle_pass(*args, n_parts, ev_reads)
         side_n = _NO_SUMS
         if n_ch and (sums or by_block):  # the side lists: their corners (by_block), their normals (sums)
             side_n = sc.buffer("side_normals", 3 * int(n_side.sum()) if sums else 0, np.float64).reshape(-1, 3)
-            _k.side_normals(tri, sc.ev, side_t, cuts, off[0], off[1], n_side, pos, acc, side_n, by_block)
+            _k.side_normals(tri, sc.ev, side_t, cuts, off[0], off[1], n_side, pos, acc, side_n, by_block, ev_reads)
         vertices, keys = pos[:n_v], keys[:n_v]
         if n_x:  # a face at C kept once, vertices of polygons collapsed onto nodes dropped (as every method)
             tri, tri_cell = drop_double_faces(keys, tri, tri_cell, self.n_edges)
@@ -341,10 +347,10 @@ class ActiveScan:
                              node_grad=node_grad, points=self.points, mean_kernel=mean_kernel, mean_done=mean_done)
         t3 = time.perf_counter() - t0
         stats = {"active": n_act, "crossed": n_crossed, "ranges": n_r, "chunks": n_ch, "node_cells": n_x,
-                 "threads": n_parts, "side": int(n_side.sum())}
+                 "threads": n_parts, "side": int(n_side.sum()), "lookups": int(ev_reads.sum())}
         return IsoSurface(
             value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell,
-            cells_tested=n_act, cells_intersected=n_crossed, vertex_lookups=0, t1=t1, t2=t2, t3=t3,
+            cells_tested=n_act, cells_intersected=n_crossed, vertex_lookups=int(ev_reads.sum()), t1=t1, t2=t2, t3=t3,
             method="active-scan",
         ), stats
 

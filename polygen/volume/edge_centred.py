@@ -48,9 +48,11 @@ wholly above ``C``).
 Registration is one store: a polygon keeps one vertex slot per local edge
 and per node of its cell. Visited cells carry a generation stamp, so a
 query starts in O(1), and all buffers are reused from query to query. The
-kernels count the vertex look-ups they make (``vertex_lookups``): none;
-``EdgeCentredWalk(..., search=True)`` is a deliberately searching variant
-that counts them.
+walk's kernel counts the vertex look-ups it makes (``vertex_lookups``):
+none; ``EdgeCentredWalk(..., search=True)`` is a deliberately searching
+variant that counts them. The table's kernels have no look-up to count
+(``vertex_lookups`` is 0 by construction); they count what they do read, a
+vertex id from a cell's slot per triangle corner (``stats["slot_reads"]``).
 
 The hexahedral version, which the paper names as future work, is the same
 loop: twelve local edges, eight nodes, marching-hexahedra polygons (with
@@ -386,8 +388,12 @@ class EdgeCentredTable:
         ``touched`` (cells for-loop (3) saw first in this query),
         ``constructed`` (polygons constructed), ``node_tests`` (cells around
         an exact-node vertex tested), ``node_vertices``, ``seeds_tested``,
-        ``seeds_crossed``, ``lookups`` (vertex look-ups counted by the
-        kernel: it makes none), ``restarts`` (queries redone after a buffer grew),
+        ``seeds_crossed``, ``lookups`` (reads of a vertex by a key, as the
+        hash and array propagations count them: the kernels have no such
+        read, so it is 0 by construction, not counted), ``slot_reads``
+        (serial queries: the vertex ids the kernel read from a cell's slots
+        when it wrote the triangles, one per triangle corner, counted by the
+        kernel), ``restarts`` (queries redone after a buffer grew),
         ``collapsed`` (the end-node pairs of the vertices registered for
         polygons that collapsed onto nodes at ``C`` and used by no triangle,
         a tuple, usually empty; a node's two ends are equal).
@@ -667,8 +673,9 @@ class EdgeCentredTable:
         Returns
         -------
         IsoSurface
-            ``method == "edge-centred-table"``; ``vertex_lookups`` as the
-            kernel counted them (it makes none);
+            ``method == "edge-centred-table"``; ``vertex_lookups`` 0 (no
+            read of a vertex by a key; ``stats["slot_reads"]`` counts the
+            slot reads);
             ``cells_tested`` counts the seeds tested and the cells whose
             case was computed by the construction; ``t1`` the seed tests,
             ``t2`` the construction (for-loops (1)-(3) with the triangle
@@ -746,7 +753,8 @@ class EdgeCentredTable:
             "node_vertices": int(counters[_k.C_NODE_VERTICES]),
             "seeds_tested": int(tested),
             "seeds_crossed": int(n_queued),
-            "lookups": int(counters[_k.C_LOOKUPS]),
+            "lookups": 0,  # keyed reads of a vertex: the kernels have none (a vertex is read from its slot)
+            "slot_reads": int(counters[_k.C_SLOT_READS]),
             "restarts": restarts,
             "collapsed": tuple(map(tuple, collapsed.tolist())),
             "threads": 1,
@@ -754,7 +762,7 @@ class EdgeCentredTable:
         return IsoSurface(
             value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell,
             cells_tested=int(tested + counters[_k.C_TOUCHED]),
-            cells_intersected=int(n_p), vertex_lookups=int(counters[_k.C_LOOKUPS]), t1=t1, t2=t2, t3=t3,
+            cells_intersected=int(n_p), vertex_lookups=0, t1=t1, t2=t2, t3=t3,
             method=self.method,
         )
 
@@ -1313,9 +1321,11 @@ class EdgeCentredWalk:
         not needed after preparation), ``buffers`` (queue, triangles,
         vertex keys and ends, the node walk's list, and the hash table of
         ``search``, at their current sizes). No edge table: the labelling
-        by edge id (``vertex_keys="edge-ids"``) uses the volume's edge list
-        after the construction, ``label_edge_list`` here once it has been
-        built.
+        by edge id (``vertex_keys="edge-ids"``) makes the volume build its
+        edge table at the first query; once it has, ``label_index`` (the
+        sorted edge codes), ``label_edge_list`` and ``label_cell_edges``
+        (the volume's edge list and the cells' edge ids built with it) are
+        here.
         """
         out = {
             "records": int(self.rec.nbytes),
@@ -1326,7 +1336,10 @@ class EdgeCentredWalk:
         if self.dyn is not self.rec:
             out["query_state"] = int(self.dyn.nbytes)
         if self._labels.nbytes:
-            out["label_edge_list"] = self._labels.nbytes
+            table = self.vol.__dict__.get("_edge_table")
+            out["label_index"] = self._labels.index_nbytes
+            out["label_edge_list"] = int(self.vol.edges.nbytes)
+            out["label_cell_edges"] = 0 if table is None or table[1] is None else int(table[1].nbytes)
         return out
 
 
@@ -1436,6 +1449,9 @@ class _EdgeCentredMethods(IsosurfaceMethod):
         ``"extrema-graph"``, ``"span-filter"``, ...
     order : {"fifo", "lifo"}
         Queue discipline of the builder.
+    vertex_keys : {"edge-ids", "node-pairs"}
+        ``edge-centred`` only: what the surface's vertex keys are
+        (:class:`EdgeCentredWalk`; ``"node-pairs"`` stores no edges at all).
     threads : int, "auto" or None
         Threads for one surface (``edge-centred-table`` only; default
         ``"auto"``: several for a large surface while no other program
@@ -1461,8 +1477,13 @@ class _EdgeCentredMethods(IsosurfaceMethod):
     construction = "edge-centred"
     builder_class = None
 
-    def _prepare(self, seeds="auto", order="lifo", threads="auto", layout=None, **params):
+    def _prepare(self, seeds="auto", order="lifo", threads="auto", layout=None, vertex_keys=None, **params):
         kw = {}
+        if vertex_keys is not None:  # the walk's (EdgeCentredWalk); the table's keys are its edge ids
+            if self.builder_class is not EdgeCentredWalk:
+                raise IsoSurfaceError(f"vertex_keys is the edge-centred method's (no stored edges); {self.name!r} "
+                                      f"keys its vertices by edge id; got vertex_keys={vertex_keys!r}")
+            kw["vertex_keys"] = vertex_keys
         if self.builder_class is EdgeCentredTable:
             kw["threads"] = threads
             if layout is not None:

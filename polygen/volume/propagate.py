@@ -58,10 +58,13 @@ from polygen.volume.surface import (
     volume_arrays,
 )
 
-__all__ = ["Propagator", "propagate", "VERTEX_SEARCHES", "pair_stage3", "EdgeLabels"]
+__all__ = ["Propagator", "propagate", "VERTEX_SEARCHES", "VERTEX_KEYS", "pair_stage3", "EdgeLabels"]
 
 #: the ways :class:`Propagator` finds a vertex again
 VERTEX_SEARCHES = ("hash", "array")
+#: what a hash propagation's ``vertex_keys`` are: the volume's edge ids (labelled after stage 3, which
+#: needs the volume's edge list) or the node pairs it searched by (no edge list anywhere)
+VERTEX_KEYS = ("edge-ids", "node-pairs")
 
 _EMPTY = -1
 _GOLDEN = np.uint64(11400714819323198485)  # 2**64 / golden ratio: Fibonacci hashing
@@ -230,6 +233,21 @@ def _propagate(rec, nn, nf, s, value, faces, n_edges, n_points, tri_table, tri_c
     return n_v, n_t, tail, tested, cand_tested, cand_crossed, queue, qcase, htable, keys, vend, tris, tri_cell
 
 
+def _node_records(cells, nbrs):
+    """(M, nn + nf) records: each cell's nodes, then its face neighbours (int32 while the ids fit).
+
+    The layout of :attr:`UnstructuredVolume.cell_records` without the edge
+    ids, so the same kernels read it (they read the edge ids only for the
+    array search).
+    """
+    m, nn = cells.shape
+    big = max(m, int(cells.max(initial=0)) + 1) > np.iinfo(np.int32).max
+    rec = _jit.empty((m, nn + nbrs.shape[1]), np.int64 if big else np.int32)
+    rec[:, :nn] = cells
+    rec[:, nn:] = nbrs
+    return rec
+
+
 def pair_stage3(vend, tri, points, s, value, normals, node_grad):
     """Stage 3 for vertices known by their edge's end nodes ``vend`` (V, 2) (a node twice for a node).
 
@@ -270,10 +288,18 @@ class EdgeLabels:
 
     @property
     def nbytes(self):
-        """Bytes of the edge list and of this index (0 before the first use)."""
+        """Bytes of the edge list and of this index (0 before the first use; the volume's ``cell_edges``,
+        built with the edge list, not included)."""
         if self._sorted is None:
             return 0
-        return int(self.vol.edges.nbytes + self._sorted[0].nbytes + self._sorted[1].nbytes)
+        return int(self.vol.edges.nbytes + self.index_nbytes)
+
+    @property
+    def index_nbytes(self):
+        """Bytes of this index alone: the sorted edge codes and their order (0 before the first use)."""
+        if self._sorted is None:
+            return 0
+        return int(self._sorted[0].nbytes + self._sorted[1].nbytes)
 
     def __call__(self, pair_keys):
         edges = self.vol.edges
@@ -318,6 +344,14 @@ class Propagator:
     hash_capacity : int, keyword-only
         Initial slots of the hash table (rounded up to a power of two;
         default: twice the larger of 1024 and 1/16 of the cells).
+    vertex_keys : {"edge-ids", "node-pairs"}, keyword-only
+        What the result's ``vertex_keys`` are (``"hash"`` only).
+        ``"edge-ids"`` (the :class:`~polygen.volume.surface.IsoSurface`
+        convention) labels the vertices by the volume's edge ids after
+        stage 3 (``stats["t_label"]``), which makes the volume build its edge
+        table at the first query; ``"node-pairs"`` keeps the keys the hash
+        searched by (``a * n_points + b``, ``a < b``; ``n_points**2 + node``)
+        and stores no edges at all: the paper's setting.
 
     Attributes
     ----------
@@ -332,15 +366,27 @@ class Propagator:
     >>> iso = prop.extract(0.5, seeds=[10, 99])  # doctest: +SKIP
     """
 
-    def __init__(self, vol, field=None, *, vertex_search="hash", hash_capacity=None):
+    def __init__(self, vol, field=None, *, vertex_search="hash", hash_capacity=None, vertex_keys="edge-ids"):
         if vertex_search not in VERTEX_SEARCHES:
             raise IsoSurfaceError(f"vertex_search must be one of {VERTEX_SEARCHES}; got {vertex_search!r}")
+        if vertex_keys not in VERTEX_KEYS:
+            raise IsoSurfaceError(f"vertex_keys must be one of {VERTEX_KEYS}; got {vertex_keys!r}")
+        if vertex_keys == "node-pairs" and vertex_search != "hash":
+            raise IsoSurfaceError("vertex_keys='node-pairs' is the hash search's: the array search keys its "
+                                  "vertices by the stored edge ids")
         self.vol = vol
         self.vertex_search = vertex_search
+        self.vertex_keys = vertex_keys
         self.points, self.cells, self.s, self.cell_type = volume_arrays(vol, field)
         self.table, self.count, self.local_edges, self.faces = _m.local_tables(self.cell_type)
-        self.rec = vol.cell_records  # nodes, face neighbours and edge ids of a cell side by side
-        self._nn, self._nf = self.cells.shape[1], vol.face_neighbors.shape[1]
+        nbrs = vol.face_neighbors
+        self._nn, self._nf = self.cells.shape[1], nbrs.shape[1]
+        if vertex_search == "hash":
+            # the paper's setting: no cell edges numbered or stored, so the records hold a cell's nodes and
+            # face neighbours only (the volume's cell_records would make it build its whole edge table)
+            self.rec = _node_records(self.cells, nbrs)
+        else:
+            self.rec = vol.cell_records  # nodes, face neighbours and edge ids of a cell side by side
         self.n_points = int(vol.n_points)
         self.visited = np.zeros(self.cells.shape[0], np.int32)
         self.generation = 0
@@ -383,31 +429,42 @@ class Propagator:
         return self._node_grad
 
     def memory_bytes(self):
-        """Bytes the propagation holds beyond the volume's points, cells and field, by array.
+        """Bytes of the arrays this propagation holds or made the volume build, beyond points, cells and field.
 
-        ``face_neighbors`` (read from the shared cell records), ``visited``
+        Found from the arrays themselves, by name: ``records`` (``"hash"``:
+        its own copy of each cell's nodes and face neighbours, 32 bytes per
+        tetrahedron; ``"array"``: the volume's ``cell_records``, which hold
+        the cells' edge ids too, 64 bytes per tetrahedron), ``visited``
         (stamps), ``vertex_table`` (the hash table, or the vertex-id array
-        and its stamps), ``edge_table`` (``"array"`` only: the stored edge
-        ids of the cells, and the edge list stage 3 reads), ``node_copies``
-        (the cell records' copy of the cells' nodes), ``buffers`` (queue,
-        keys, triangles at their current sizes), and for ``"hash"``
-        ``label_edge_list`` once the vertices have been labelled by edge id
-        (after the construction).
+        and its stamps), ``buffers`` (queue, keys, vertex ends, triangles at
+        their current sizes), ``node_gradients`` once built; ``"array"``
+        also ``edge_list`` and ``cell_edges`` (the volume's edge table, from
+        which the records were built); ``"hash"`` with
+        ``vertex_keys="edge-ids"``, once a query labelled its vertices:
+        ``label_index`` (the sorted edge codes) and the volume's edge table
+        the labelling made it build (``label_edge_list``,
+        ``label_cell_edges``). The volume's ``face_neighbors`` (read to make
+        the records) are not counted: every construction and the seed
+        sources read them.
         """
-        m = self.cells.shape[0]
-        isz = self.rec.dtype.itemsize
         out = {
-            "face_neighbors": m * self._nf * isz,
-            "node_copies": m * self._nn * isz,
+            "records": int(self.rec.nbytes),
             "visited": int(self.visited.nbytes),
             "vertex_table": int(self._htable.nbytes + self._vtable.nbytes),
             "buffers": int(sum(a.nbytes for a in (self._queue, self._qcase, self._keys, self._vend, self._tris,
                                                    self._tri_cell))),
         }
+        if self._node_grad is not None:
+            out["node_gradients"] = int(self._node_grad.nbytes)
+        table = self.vol.__dict__.get("_edge_table")
+        cell_edges = 0 if table is None or table[1] is None else int(table[1].nbytes)
         if self.vertex_search == "array":
-            out["edge_table"] = int(m * self.local_edges.shape[0] * isz + self.edges.nbytes)
+            out["edge_list"] = int(self.edges.nbytes)
+            out["cell_edges"] = cell_edges
         elif self._labels.nbytes:
-            out["label_edge_list"] = self._labels.nbytes
+            out["label_index"] = self._labels.index_nbytes
+            out["label_edge_list"] = int(self.vol.edges.nbytes)
+            out["label_cell_edges"] = cell_edges
         return out
 
     def _seeds(self, seeds):
@@ -500,9 +557,10 @@ class Propagator:
         t0 = time.perf_counter()
         vertices, nrm = pair_stage3(self._vend[:n_v], tri, self.points, self.s, value, normals, node_grad)
         t3 = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        keys = self._labels(keys)
-        self.stats["t_label"] = time.perf_counter() - t0
+        if self.vertex_keys == "edge-ids":
+            t0 = time.perf_counter()
+            keys = self._labels(keys)
+            self.stats["t_label"] = time.perf_counter() - t0
         return IsoSurface(
             value=value, vertices=vertices, triangles=tri, normals=nrm, vertex_keys=keys, triangle_cells=tri_cell,
             cells_tested=int(tested_seeds + tested), cells_intersected=int(n_cells),

@@ -415,7 +415,8 @@ def _marked_cells(vol, ext, defects=None):
     return np.unique(np.concatenate([marked, extra])) if extra.size else marked
 
 
-def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=None, parallel=None):
+def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=None, parallel=None,
+                edge_table_aside=True):
     """Thin ``vol`` to a skeleton joining its extrema that keeps its genus (thesis 7.4-7.5).
 
     Parameters
@@ -441,6 +442,11 @@ def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=No
         layer after another, for Figs 7.18-7.21); ``False``: the serial FIFO; ``True``: always (a
         record then lists half 0's removals, then half 1's, then the serial FIFO's: a valid serial
         order, every test replayable on the state it names).
+    edge_table_aside : bool, keyword-only
+        On a large volume, build the volume's edge table in a second thread meanwhile, for the
+        constructions that read it next (:func:`_edge_table_aside`). False for a construction that
+        stores no edges (the hash propagation and the edge walk of the 2001 paper): the volume then
+        holds no edge table after the thinning.
 
     Returns
     -------
@@ -459,7 +465,7 @@ def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=No
     t0 = time.perf_counter()
     vol.node_cells  # first: face neighbours and edges are matched through it
     face_nb = vol.face_neighbors  # int32 while the cell ids fit; the kernels read it as it is
-    aside = _edge_table_aside(vol)
+    aside = _edge_table_aside(vol) if edge_table_aside else None
     try:
         return _thin(vol, cells, s, face_nb, t0, prick_voids, record, n_buckets, bool(parallel))
     finally:
@@ -814,8 +820,9 @@ class ThinningMethod(SeedsThenPropagate):
     description = "Itoh's volume thinning: a genus-keeping skeleton of cells, no boundary lists (chapter 7)"
     seeds = "thinning"
 
-    def _prepare(self, prick_voids=True, record=False, n_buckets=None, parallel=None):
-        super()._prepare(prick_voids=prick_voids, record=record, n_buckets=n_buckets, parallel=parallel)
+    def _prepare(self, prick_voids=True, record=False, n_buckets=None, parallel=None, edge_table_aside=True):
+        super()._prepare(prick_voids=prick_voids, record=record, n_buckets=n_buckets, parallel=parallel,
+                         edge_table_aside=edge_table_aside)
 
     @property
     def skeleton(self):
