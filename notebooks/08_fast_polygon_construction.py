@@ -443,7 +443,7 @@ if len(rows_b) >= 2:
     plt.show()
 
 # %% [markdown]
-# ## Beyond the paper: a construction that walks nothing (issue 20)
+# ## Beyond the paper: a construction that walks nothing
 #
 # The edge-centred loop removes the vertex search. What is left of its cost on today's
 # processors is the walk itself: a chain of dependent loads (a cell's record, the cells round
