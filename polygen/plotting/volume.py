@@ -410,9 +410,9 @@ def plot_span_space(cmin, cmax, value, span_space, lattice, *, kd_depth=5, max_p
         Each cell's smallest and largest node value.
     value : float
         The isovalue C: the active cells are the quadrant S_min <= C <= S_max.
-    span_space : SpanSpace
+    span_space : polygen.volume.seeds.span_space.SpanSpace
         Built over ``cmin, cmax``; its split keys are drawn to ``kd_depth`` levels (panel b).
-    lattice : IssueLattice
+    lattice : polygen.volume.seeds.issue_lattice.IssueLattice
         Built over ``cmin, cmax``; its class boundaries are drawn (panel c).
     max_points : int
         Points drawn (a seeded random subset when there are more cells).

@@ -111,17 +111,6 @@ def _examples(idx, n=5):
 class UnstructuredVolume:
     """A tetrahedral-only or hexahedral-only volume with node scalars.
 
-    Parameters
-    ----------
-    points : (N, 3) float64
-        Node coordinates.
-    cells : (M, 4) or (M, 8) int64
-        Node ids of each cell in VTK order (``VTK_TETRA`` or ``VTK_HEXAHEDRON``).
-    fields : dict of str -> (N,) float64, optional
-        Scalar fields on the nodes. The first one is the default. They are
-        copied and kept read-only (:meth:`add_field`); ``vol.fields`` is a
-        mapping whose assignment is :meth:`add_field`.
-
     The volume never keeps or writes the caller's arrays: ``points``,
     ``cells`` and every field are copied (converted to float64 / int64 /
     float64), and the copies are read-only (``vol.points``, ``vol.cells``),
@@ -133,6 +122,17 @@ class UnstructuredVolume:
     fields, the tables built so far and its prepared methods; locks and
     background preparations are not carried (the copy makes fresh locks and
     prepares again, when asked, what was still being prepared).
+
+    Parameters
+    ----------
+    points : (N, 3) float64
+        Node coordinates.
+    cells : (M, 4) or (M, 8) int64
+        Node ids of each cell in VTK order (``VTK_TETRA`` or ``VTK_HEXAHEDRON``).
+    fields : dict of str -> (N,) float64, optional
+        Scalar fields on the nodes. The first one is the default. They are
+        copied and kept read-only (:meth:`add_field`); ``vol.fields`` is a
+        mapping whose assignment is :meth:`add_field`.
     validate : bool, keyword-only
         Check cell geometry (zero-volume and inverted cells). Shapes, index
         ranges and finiteness are always checked.
