@@ -44,6 +44,7 @@ smallest angle) is recorded too.  Writes
     python benchmarks/intensity_mesh.py --only narrow
     python benchmarks/intensity_mesh.py --only single
     python benchmarks/intensity_mesh.py --only equal
+    python benchmarks/intensity_mesh.py --only matched --scene box|room [--sizes 2.4] [--seeds 0 1 2]
     python benchmarks/intensity_mesh.py --calibrate
 
 ``--only plate`` runs only the plate row: the first mesh and radiosity at ``size_initial``
@@ -111,6 +112,40 @@ below both parents' errors at their matched counts.  The claim "the combination 
 parents at equal element count" holds only if that verdict holds at *every* point where both
 parents were matched (and at least one was).  Writes ``intensity_mesh_equal.json`` and ``.md``
 (after each point, so a partial run leaves its finished points).
+
+``--only matched`` (issue 42) adds the plainest rival and the seeds to ``--only equal``;
+protocol fixed and committed before any of its errors was computed:
+
+* **scenes**: ``--scene box``, the scene of Fig. 4.8 (``three_rectangles_box``, where the
+  lines variants "all", "narrow", "single" were chosen), and ``--scene room``, chapter 3's
+  room of Fig. 3.15 (``two_rectangles_room``), used to choose nothing in this chapter;
+* **counts**: the single-lines combination (``lines="single"``, width cap, the defaults) at
+  ``size_initial`` 2.4 and 1.7, ``size_min`` ``2.2 / 1.7 size_initial``, ``size_max``
+  ``size_initial / 2``, ``improve=3`` (``--only equal``'s 856- and 1576-element points on the
+  box at seed 0); its second mesh's count at each seed is that seed's target;
+* **seeds**: 0, 1, 2, the bubble mesher's seed, the same for all four curves at a point;
+* **the four curves**, each matched to the target within 2 % by bisection on element counts
+  only (no solve, no error; :func:`~polygen.radiosity.intensity.match_element_count`, at
+  most 16 midpoints, else *not matched*): the **uniform bubble mesh** (``mesh_scene`` at one
+  patch size, the loop's first-mesh mesher, patch size bisected on ``[size_initial / 2, 4
+  size_initial]``); **this method** (``size_min`` bisected on ``(size_initial, 3
+  size_initial]`` from its own uniform first pass at the same ``size_initial`` and seed, as
+  ``--only equal``); **simplified DM** (``region_sizes(s, s / 2)`` along the lines, ``s``
+  bisected on ``[1, 8]``, as ``--only equal``); **the combination** (the target itself);
+* **measure**: ``--only equal``'s yardstick: relative RMS over the covered pixels of a 160^2
+  Gouraud image (the camera of this script) against a uniform mesh of the same scene at patch
+  size 1.1, 16 elements per patch (19328 elements on the box); progressive refinement, tol
+  0.01, ambient;
+* **reported**: per scene and count, each curve's mean ± sample standard deviation over the
+  seeds where all four were matched, and the paired relative margins (same seed) of this
+  method and of the combination over the uniform mesh, and of the combination over each
+  parent, with the same spread.  **Reading, fixed now**: *a beats b* at a (scene, count) only
+  if a's error is below b's at every seed; a mean margin smaller than its own standard
+  deviation is reported as *within the spread*, not as a win.
+
+Writes ``intensity_mesh_matched_<scene>.json`` (after each point, so a partial run keeps its
+finished points, and a rerun skips them) and the table of both, ``intensity_mesh_matched.json``
+and ``.md`` (``--only matched-table`` rewrites it from the per-scene files).
 
 ``--calibrate`` (issue 15) anchors Table 4.1's second mesh to the thesis by a rule fixed
 before any quality or error was measured at its result: the thesis's second mesh keeps
@@ -334,7 +369,12 @@ def main(argv=None):
                     help="only the loop from a finer first mesh and its adaptive re-mesh")
     ap.add_argument("--calibrate", action="store_true",
                     help="only the bisection of Table 4.1's size_min on the thesis's ratio")
-    ap.add_argument("--only", choices=["plate", "narrow", "single", "equal"],
+    ap.add_argument("--scene", choices=["box", "room"], default="box",
+                    help="--only matched: the scene")
+    ap.add_argument("--sizes", type=float, nargs="+", help="--only matched: size_initial values")
+    ap.add_argument("--seeds", type=int, nargs="+", help="--only matched: seeds")
+    ap.add_argument("--only", choices=["plate", "narrow", "single", "equal", "matched",
+                                       "matched-table"],
                     help="only this row (plate: the 200 x 200 size grid, by phase; narrow: "
                          "the combination with lines='narrow' against the parents' curves; "
                          "single: the same with lines='single'; equal: both parents bisected to "
@@ -355,6 +395,10 @@ def main(argv=None):
         return single_only(sc, cam, solve, args)
     if args.only == "equal":
         return equal_only(sc, cam, solve, args)
+    if args.only == "matched":
+        return matched_only(args.scene, cam, solve, args)
+    if args.only == "matched-table":
+        return write_matched_table(args)
     sizes = [4.0] if args.quick else [2.4, 1.7]
     main_size = 4.0 if args.quick else 1.7
     SWEEP = (2.0, 1.5)   # size_min / size_initial besides Table 4.1's (2.0: the earlier setting)
@@ -833,6 +877,219 @@ def _write_equal(rows, extra, ref_mesh, args):
          "match_tolerance": EQUAL_TOL, "bisection_steps": EQUAL_STEPS,
          "reference_elements": ref_mesh.n_elements, "rows": rows, "details": extra,
          "verdict": verdict, "load_average": load}, indent=2) + "\n")
+
+
+#: --only matched: the scenes, by name (Fig. 4.8's box, and chapter 3's room: not used to choose
+#: the lines variant).
+MATCHED_SCENES = {"box": scenes.three_rectangles_box, "room": scenes.two_rectangles_room}
+#: --only matched: the combination's size_initial (size_min SIZE_MIN_RATIO of it) per count.
+MATCHED_SIZES = (2.4, 1.7)
+#: --only matched: the bubble mesher's seeds.
+MATCHED_SEEDS = (0, 1, 2)
+
+
+def uniform_mesh(sc, s, seed):
+    """A uniform bubble mesh at patch size ``s`` (the loop's first-mesh mesher, seeded)."""
+    from polygen.radiosity.intensity import _seeded
+
+    return mesh_scene(sc, s, mesher=bubble_mesher if seed == 0 else _seeded(seed))
+
+
+def matched_only(name, cam, solve, args):
+    """The four curves at the combination's element count, per seed (issue 42).
+
+    Protocol (module docstring, ``--only matched``, fixed before measuring): on scene
+    ``name``, for each ``size_initial`` and seed the single-lines combination's second mesh
+    sets the target count; the uniform bubble mesh's patch size, this method's ``size_min``
+    and simplified DM's ``s`` are bisected on counts only to within 2 % of it (same seed);
+    each matched mesh is solved and measured against the scene's reference.
+    """
+    from polygen.radiosity.intensity import _seeded
+
+    sc = MATCHED_SCENES[name]()
+    sd = simplified_discontinuity(sc)
+    ref_mesh, reference = reference_image(sc, cam, solve, args.quick)
+    path = RESULTS / f"intensity_mesh_matched_{name}.json"
+    done = json.loads(path.read_text())["points"] if path.exists() and not args.quick else []
+    sizes = (4.0,) if args.quick else tuple(args.sizes or MATCHED_SIZES)
+    seeds = (0,) if args.quick else tuple(args.seeds or MATCHED_SEEDS)
+    for si in sizes:
+        for seed in seeds:
+            if any(p["size_initial"] == si and p["seed"] == seed for p in done):
+                continue
+            t0 = time.perf_counter()
+            mesher = bubble_mesher if seed == 0 else _seeded(seed)
+            q = combined_bubble_mesh(sc, size_initial=si, size_min=SIZE_MIN_RATIO * si,
+                                     size_max=si / 2, solve=solve, discontinuity=sd,
+                                     improve=IMPROVE, lines="single", seed=seed)
+            target = q.second_mesh.n_elements
+            pt = {"scene": name, "size_initial": si, "seed": seed, "target": target,
+                  "reference_elements": ref_mesh.n_elements, "curves": {}}
+
+            def record(curve, mesh, radiosity, x=None, trail=None):
+                err = image_error(shade(mesh, radiosity, cam), reference)
+                pt["curves"][curve] = {"elements": mesh.n_elements, "error": err,
+                                       "parameter": x, "bisection": trail}
+                print(f"  {name} {si:g} seed {seed} {curve:16s} {mesh.n_elements:6d} "
+                      f"elements  error {err:.5f}", flush=True)
+
+            record("combination", q.second_mesh, q.second_radiosity)
+            # uniform bubble mesh: patch size bisected (larger size, fewer elements)
+            s_u, n_u, tr = bisect_count(lambda x: uniform_mesh(sc, x, seed).n_elements,
+                                        0.5 * si, 4.0 * si, target)
+            if s_u is not None:
+                m = uniform_mesh(sc, s_u, seed)
+                record("uniform", m, progressive_refinement(m, **solve).display_radiosity(m),
+                       s_u, tr)
+            # this method: size_min bisected from its own uniform first pass (same seed)
+            base = intensity_bubble_mesh(sc, size_initial=si, size_min=SIZE_MIN_RATIO * si,
+                                         size_max=si / 2, solve=solve, improve=IMPROVE,
+                                         seed=seed)
+            bp = base.parameters
+
+            def ours_count(size_min):
+                sz = size_function(base.variation, size_min=size_min, size_max=bp["size_max"])
+                grids = polygon_size_grids(base.first_mesh, sz, grid=bp["grid"], nu=bp["nu"])
+                return mesh_scene(sc, grids, element_levels=bp["element_levels"],
+                                  mesher=_seeded(seed, improve=IMPROVE)).n_elements
+
+            smin, n_o, tr = bisect_count(ours_count, si, 3 * si, target)
+            if smin is not None:
+                r = intensity_bubble_mesh(sc, size_initial=si, size_min=smin, size_max=si / 2,
+                                          solve=solve, first=base, improve=IMPROVE, seed=seed)
+                record("this method", r.second_mesh, r.second_radiosity, smin, tr)
+
+            def dm_mesh(s):
+                return mesh_scene(sc, sd.region_sizes(s, s / 2), segments=sd.segments,
+                                  mesher=mesher)
+
+            s_dm, n_dm, tr = bisect_count(lambda x: dm_mesh(x).n_elements, 1.0, 8.0, target)
+            if s_dm is not None:
+                m = dm_mesh(s_dm)
+                record("simplified DM", m,
+                       progressive_refinement(m, **solve).display_radiosity(m), s_dm, tr)
+            pt["seconds"] = round(time.perf_counter() - t0, 1)
+            done.append(pt)
+            if args.quick:
+                continue
+            path.write_text(json.dumps({"machine": machine(), "image": args.image,
+                                        "tol": args.tol, "match_tolerance": EQUAL_TOL,
+                                        "points": done}, indent=2) + "\n")
+            write_matched_table(args)
+    return done
+
+
+MATCHED_CURVES = ("uniform", "this method", "simplified DM", "combination")
+
+
+def _spread(x):
+    x = np.asarray(x, dtype=np.float64)
+    return {"n": int(len(x)), "mean": float(x.mean()) if len(x) else None,
+            "std": float(x.std(ddof=1)) if len(x) > 1 else None,
+            "min": float(x.min()) if len(x) else None,
+            "max": float(x.max()) if len(x) else None, "values": x.tolist()}
+
+
+#: --only matched: the paired margins reported, (a, b): (a - b) / b at the same seed.
+MATCHED_PAIRS = (("this method", "uniform"), ("combination", "uniform"),
+                 ("combination", "this method"), ("combination", "simplified DM"))
+
+
+def matched_summary(points, *, each=False):
+    """Per (scene, size_initial): each curve's errors over seeds, and the paired margins.
+
+    ``each=False`` (the protocol): only seeds at which all four curves were matched count.
+    ``each=True`` (added after the run, when the uniform mesh and simplified DM could not be
+    matched at some seeds: their counts jump in steps wider than 2 %): each curve over the
+    seeds where it was matched, each margin over the seeds where both of its pair were.
+    """
+    out = []
+    keys = sorted({(p["scene"], p["size_initial"]) for p in points}, key=lambda k: (k[0], -k[1]))
+    for scene, si in keys:
+        pts = [p for p in points if (p["scene"], p["size_initial"]) == (scene, si)]
+        if not each:
+            pts = [p for p in pts if all(c in p["curves"] for c in MATCHED_CURVES)]
+            if not pts:
+                continue
+        row = {"scene": scene, "size_initial": si, "seeds": [p["seed"] for p in pts],
+               "elements": [p["target"] for p in pts]}
+        for c in MATCHED_CURVES:
+            row[c] = _spread([p["curves"][c]["error"] for p in pts if c in p["curves"]])
+            row[c]["seeds"] = [p["seed"] for p in pts if c in p["curves"]]
+        for a, b in MATCHED_PAIRS:
+            both = [p for p in pts if a in p["curves"] and b in p["curves"]]
+            d = _spread([(p["curves"][a]["error"] - p["curves"][b]["error"])
+                         / p["curves"][b]["error"] for p in both])
+            d["all below"] = bool(both) and d["max"] < 0
+            d["all above"] = bool(both) and d["min"] > 0
+            row[f"{a} vs {b}"] = d
+        out.append(row)
+    return out
+
+
+def write_matched_table(args):
+    points = []
+    for path in sorted(RESULTS.glob("intensity_mesh_matched_*.json")):
+        points += json.loads(path.read_text())["points"]
+    rows, summaries = [], {}
+
+    def cell(v, pct=False):
+        if not v["n"]:
+            return "not matched"
+        k, f = (100, "{:+.1f} %") if pct else (1, "{:.4f}")
+        sd = "" if v["std"] is None else (" ± " + ("{:.1f}" if pct else "{:.4f}").format(
+            k * v["std"]))
+        return f.format(k * v["mean"]) + sd + f" (n={v['n']})"
+
+    for each, how in ((False, "all four matched (protocol)"),
+                      (True, "each its own matched seeds (added after the run)")):
+        summaries[how] = matched_summary(points, each=each)
+        for s in summaries[how]:
+            row = {"seeds counted": how, "scene": s["scene"], "size_initial": s["size_initial"],
+                   "seeds": " ".join(map(str, s["seeds"])),
+                   "elements": " / ".join(map(str, s["elements"]))}
+            for c in MATCHED_CURVES:
+                row[c] = cell(s[c])
+            for a, b in MATCHED_PAIRS:
+                v = s[f"{a} vs {b}"]
+                row[f"{a} vs {b}"] = cell(v, pct=True) + (
+                    "" if not v["n"] else " every seed below" if v["all below"] else
+                    " every seed above" if v["all above"] else " mixed")
+            rows.append(row)
+    per_seed = []
+    for p in sorted(points, key=lambda p: (p["scene"], -p["size_initial"], p["seed"])):
+        row = {"seeds counted": "per seed", "scene": p["scene"],
+               "size_initial": p["size_initial"], "seeds": str(p["seed"]),
+               "elements": str(p["target"])}
+        for c in MATCHED_CURVES:
+            v = p["curves"].get(c)
+            row[c] = "not matched" if v is None else f"{v['error']:.5f} ({v['elements']})"
+        per_seed.append(row)
+    rows += per_seed
+    write_results("intensity_mesh_matched", rows,
+                  ["seeds counted", "scene", "size_initial", "seeds", "elements",
+                   *MATCHED_CURVES, *(f"{a} vs {b}" for a, b in MATCHED_PAIRS)],
+                  title="The four curves at the combination's element count, over seeds "
+                        "(issue 42), measured",
+                  notes=[" ".join(matched_only.__doc__.split("\n\n")[1].split()),
+                         "scenes: box = three_rectangles_box (Fig. 4.8, where the lines variant "
+                         "was chosen); room = two_rectangles_room (chapter 3's Fig. 3.15, not "
+                         "used to choose it)",
+                         "curve cells: relative RMS image error, mean ± sample std over the "
+                         "seeds counted (n); elements: the combination's count per seed (a "
+                         "matched curve within 2 %); per-seed rows: error (elements); 'not "
+                         "matched': no bisection midpoint within 2 % in 16 (a uniform mesh's "
+                         "and simplified DM's counts jump in steps wider than that)",
+                         "margin cells: (a - b) / b per seed, same seed on both sides, mean ± "
+                         "sample std; negative: a has the lower error",
+                         f"error: relative RMS over the covered pixels of a {args.image}^2 "
+                         "Gouraud image against a uniform mesh of patch size 1.1, 16 elements "
+                         "per patch, of the same scene (as intensity_mesh_equal.md); camera "
+                         "of intensity_mesh.md for both (the two rooms share their box)",
+                         f"load average at the end: {os.getloadavg()[0]:.1f} on "
+                         f"{os.cpu_count()} CPUs"])
+    (RESULTS / "intensity_mesh_matched.json").write_text(json.dumps(
+        {"machine": machine(), "summaries": summaries, "points": points}, indent=2) + "\n")
 
 
 def p_less(row, name):
