@@ -56,13 +56,13 @@ part of the step) the same factor with BLAS at its default threads and SuperLU o
 matrix and order (the solver before); writes ``intensity_mesh_plate.json``, with the commit
 and date it was made at.
 
-``--only narrow`` (issue 15) runs only the combination with ``lines="narrow"`` (D0 lines, and
+``--only narrow`` runs only the combination with ``lines="narrow"`` (D0 lines, and
 D1 lines only where the penumbra they bound is narrower than the element the first pass's size
 grid asks there; criterion fixed before measuring), with and without the width cap, at the
 combination's settings, and compares it with both parents' curves of the last full run (and
 of ``--fine-first``) by ``error_at_elements``; writes ``intensity_mesh_narrow.json`` and ``.md``.
 
-``--only single`` (issue 15, after ``benchmarks/experiments/combination_error_zones.py``: at 2808
+``--only single`` (after ``benchmarks/experiments/combination_error_zones.py``: at 2808
 elements the narrow-lines combination has 43 % of its squared image error as extra error
 against this method's 3088-element mesh *away* from the lines, where its elements are as coarse
 as this method's at 1.7, while 51 % of its elements lie within 0.85 of a line with a quarter of
@@ -84,7 +84,7 @@ notebook 04 compares; simplified DM) interpolated in log-log at its element coun
 that lies inside both curves' ranges (and there is at least one such point).  Writes
 ``intensity_mesh_single.json`` and ``.md``.
 
-``--only equal`` (issue 15) measures both parents at the combination's own element counts
+``--only equal`` measures both parents at the combination's own element counts
 instead of interpolating their curves; protocol fixed and committed before any of its errors was
 computed.  For each point of the single-lines combination (``--only single``'s four, recomputed
 here, deterministic: 1576 and 1216 elements first, then 856 and 728; 856 from its own first
@@ -113,7 +113,7 @@ parents at equal element count" holds only if that verdict holds at *every* poin
 parents were matched (and at least one was).  Writes ``intensity_mesh_equal.json`` and ``.md``
 (after each point, so a partial run leaves its finished points).
 
-``--only matched`` (issue 42) adds the plainest rival and the seeds to ``--only equal``;
+``--only matched`` adds the plainest rival and the seeds to ``--only equal``;
 protocol fixed and committed before any of its errors was computed:
 
 * **scenes**: ``--scene box``, the scene of Fig. 4.8 (``three_rectangles_box``, where the
@@ -147,7 +147,7 @@ Writes ``intensity_mesh_matched_<scene>.json`` (after each point, so a partial r
 finished points, and a rerun skips them) and the table of both, ``intensity_mesh_matched.json``
 and ``.md`` (``--only matched-table`` rewrites it from the per-scene files).
 
-``--calibrate`` (issue 15) anchors Table 4.1's second mesh to the thesis by a rule fixed
+``--calibrate`` anchors Table 4.1's second mesh to the thesis by a rule fixed
 before any quality or error was measured at its result: the thesis's second mesh keeps
 1396 / 1976 = 70.6 % of its first mesh's elements, so ``size_min`` (``size_initial`` 1.7,
 ``size_max`` 0.85, ``improve=3`` as the tests' fixture, the first mesh and solution computed
@@ -156,7 +156,7 @@ second / first element ratio is above the thesis's moves the lower end up, else 
 down; the bracket's midpoint rounded to 0.05 is Table 4.1's ``size_min``.  Only element
 counts are looked at.  Writes ``intensity_mesh_calibrate.json`` and ``.md``.
 
-``--fine-first`` (issue 15, the thesis's intent read from Requirement 4.1: *the first
+``--fine-first`` (the thesis's intent read from Requirement 4.1: *the first
 mesh fine*, so that small shadows are found, then coarsened where the intensity varies
 little; Table 4.1's second mesh keeps 71 % of the first's elements) runs only: the loop
 from a finer first mesh, ``size_initial`` 1.2, with ``size_min`` 1.25 ``size_initial``
@@ -573,7 +573,7 @@ def main(argv=None):
 
 
 def narrow_only(sc, cam, solve, args):
-    """The combination with ``lines="narrow"`` (issue 15), with and without the width cap.
+    """The combination with ``lines="narrow"``, with and without the width cap.
 
     The criterion, fixed before measuring: D0 lines always; D1 lines only on the stretches
     where the penumbra they bound is narrower than the element the first pass's size grid
@@ -625,7 +625,7 @@ def narrow_only(sc, cam, solve, args):
     write_results("intensity_mesh_narrow", rows,
                   ["table", "mesh", "first_elements", "elements", "rms_error", "this method",
                    "this method, fine first too", "simplified DM", "lines", "pieces_kept", "mean_q", "min_angle", "seconds"],
-                  title="The combination with lines='narrow' (issue 15) against both parents",
+                  title="The combination with lines='narrow' against both parents",
                   notes=[" ".join(narrow_only.__doc__.split("\n\n")[1].split()),
                          "lines: merged lines of the first mesh; pieces_kept: D0 lines and "
                          "kept D1 pieces (step: the finest element) of the second mesh",
@@ -653,7 +653,7 @@ def parent_curves():
 
 
 def single_only(sc, cam, solve, args):
-    """The combination with ``lines="single"`` (issue 15), width cap on.
+    """The combination with ``lines="single"``, width cap on.
 
     Defined before measuring its error (module docstring, ``--only single``): ``"narrow"``'s
     lines, then of two kept lines closer than the largest element only the longer
@@ -713,7 +713,7 @@ def single_only(sc, cam, solve, args):
                   ["table", "mesh", "first_elements", "elements", "rms_error", "this method",
                    "this method, fine first too", "simplified DM", "lines", "pieces_kept",
                    "mean_q", "min_angle", "seconds"],
-                  title="The combination with lines='single' (issue 15) against both parents",
+                  title="The combination with lines='single' against both parents",
                   notes=[" ".join(single_only.__doc__.split("\n\n")[1].split()),
                          "lines: merged lines of the first mesh; pieces_kept: D0 lines and "
                          "kept D1 stretches of the second mesh",
@@ -749,7 +749,7 @@ def bisect_count(count, lo, hi, target, *, tol=EQUAL_TOL, steps=EQUAL_STEPS):
 
 
 def equal_only(sc, cam, solve, args):
-    """Both parents bisected to the single-lines combination's element counts (issue 15).
+    """Both parents bisected to the single-lines combination's element counts.
 
     Protocol (module docstring, ``--only equal``, fixed before measuring): for each
     combination point, this method's ``size_min`` (from its uniform first pass at the same
@@ -857,7 +857,7 @@ def _write_equal(rows, extra, ref_mesh, args):
                    "DM s", "DM elements", "DM error", "both matched", "below both",
                    "seconds"],
                   title="The single-lines combination against both parents at equal element "
-                        "count (issue 15), measured",
+                        "count, measured",
                   notes=[" ".join(equal_only.__doc__.split("\n\n")[1].split()),
                          f"bisection: this method's size_min on (size_initial, 3 size_initial], "
                          f"simplified DM's s on [1, 8]; stop within {EQUAL_TOL:.0%} of the "
@@ -896,7 +896,7 @@ def uniform_mesh(sc, s, seed):
 
 
 def matched_only(name, cam, solve, args):
-    """The four curves at the combination's element count, per seed (issue 42).
+    """The four curves at the combination's element count, per seed.
 
     Protocol (module docstring, ``--only matched``, fixed before measuring): on scene
     ``name``, for each ``size_initial`` and seed the single-lines combination's second mesh
@@ -1069,8 +1069,7 @@ def write_matched_table(args):
     write_results("intensity_mesh_matched", rows,
                   ["seeds counted", "scene", "size_initial", "seeds", "elements",
                    *MATCHED_CURVES, *(f"{a} vs {b}" for a, b in MATCHED_PAIRS)],
-                  title="The four curves at the combination's element count, over seeds "
-                        "(issue 42), measured",
+                  title="The four curves at the combination's element count, over seeds, measured",
                   notes=[" ".join(matched_only.__doc__.split("\n\n")[1].split()),
                          "scenes: box = three_rectangles_box (Fig. 4.8, where the lines variant "
                          "was chosen); room = two_rectangles_room (chapter 3's Fig. 3.15, not "

@@ -263,7 +263,7 @@ plt.show()
 # %% [markdown]
 # ## Mesh quality of the second mesh
 #
-# Issue 15 asks for a mean radius ratio q ≥ 0.93 and a smallest angle ≥ 25° on the second
+# We ask for a mean radius ratio q ≥ 0.93 and a smallest angle ≥ 25° on the second
 # mesh (the thesis says only that the smooth size function gives little distortion, 4.5).
 # Each element is measured in its polygon's plane from its own face. At Table 4.1's
 # parameters (`size_initial` 1.7, `size_min` 2.2, improvement on; `test_graded_mesh_quality`,
@@ -320,7 +320,7 @@ for k, poly in enumerate(scene.polygons):
     by_polygon.append({"polygon": poly.name, "patches": len(np.unique(second.element_patch[sel])),
                        "elements": int(sel.sum()), "mean q": round(float(q[sel].mean()), 4)})
 print(table(by_polygon, ["polygon", "patches", "elements", "mean q"]))
-# issue 15: smallest angle >= 25 deg on the second mesh; mean q >= 0.93 at Table 4.1's size
+# smallest angle >= 25 deg on the second mesh; mean q >= 0.93 at Table 4.1's size
 assert ang.min() >= 25.0
 if FULL:
     assert q.mean() >= 0.93
@@ -446,7 +446,7 @@ plt.show()
 # `tests/test_intensity_mesh.py`): the triangles left below it sit where a node that the
 # neighbouring polygon puts on a shared edge falls next to a line's end on that edge.
 #
-# The second mesh keeps fewer lines (`lines="single"`, the default since issue 15's
+# The second mesh keeps fewer lines (`lines="single"`, the default since the
 # measurement below): the D0 lines; the stretches of D1 lines along a penumbra narrower than
 # the element the first pass's size grid asks there (a wider penumbra is a smooth ramp that
 # the size grid resolves; `narrow_lines`); and of two kept lines closer than the largest
@@ -603,7 +603,7 @@ plt.show()
 #   run (about 4 minutes) and asserts the claim at all four points
 #   (`polygen.radiosity.intensity.match_element_count` does the bisection).
 # * **Against the plainest rival, a uniform bubble mesh at the same count, over three seeds,
-#   on two scenes (issue 42): on the box of Fig. 4.8 the uniform mesh wins; on chapter 3's
+#   on two scenes: on the box of Fig. 4.8 the uniform mesh wins; on chapter 3's
 #   room this method beats it, and the combination beats both parents on the box only.** Protocol, committed before any of its
 #   errors was computed (`--only matched`): the single-lines combination at `size_initial`
 #   2.4 sets the count at each seed (0, 1, 2, the bubble mesher's seed, the same for all four
