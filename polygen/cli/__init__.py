@@ -17,6 +17,7 @@ ends the command quietly.
 """
 
 import argparse
+import contextlib
 import importlib
 import os
 import sys
@@ -78,14 +79,26 @@ def _stdout_gone():
         pass
 
 
-def _quiet_vtk():
-    """VTK's error log (a writer's, a reader's) off the terminal: the command says what failed in one line."""
+@contextlib.contextmanager
+def _quiet_vtk(quiet):
+    """VTK's error log (a writer's, a reader's) off the terminal while the command runs: it says what failed
+    in one line. VTK's settings are process-wide, so they are put back after (``main`` called from Python,
+    e.g. by the tests, must not change how VTK reports errors to later work in the process)."""
     try:
         from vtkmodules.vtkCommonCore import vtkLogger, vtkObject
     except ImportError:  # pragma: no cover - pyvista brings VTK
+        quiet = False
+    if not quiet:
+        yield
         return
+    display, verbosity = vtkObject.GetGlobalWarningDisplay(), vtkLogger.GetStderrVerbosity()
     vtkObject.GlobalWarningDisplayOff()
     vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_OFF)
+    try:
+        yield
+    finally:
+        vtkObject.SetGlobalWarningDisplay(display)
+        vtkLogger.SetStderrVerbosity(verbosity)
 
 
 def main(argv=None):
@@ -95,9 +108,8 @@ def main(argv=None):
         parser.print_help()
         return EXIT_INPUT
     prog = f"polygen {args.command}"
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), _quiet_vtk(not args.debug):
         if not args.debug:  # warnings in one line, as errors; VTK's log only with --debug
-            _quiet_vtk()
             warnings.showwarning = lambda message, *rest, **kw: print(f"{prog}: warning: {_one_line(message)}",
                                                                       file=sys.stderr)
         try:
