@@ -91,7 +91,8 @@ def _quiet_vtk(quiet):
     if not quiet:
         yield
         return
-    display, verbosity = vtkObject.GetGlobalWarningDisplay(), vtkLogger.GetStderrVerbosity()
+    # (vtkLogger has no getter for the stderr sink alone: the cutoff over its sinks is that one by default)
+    display, verbosity = vtkObject.GetGlobalWarningDisplay(), vtkLogger.GetCurrentVerbosityCutoff()
     vtkObject.GlobalWarningDisplayOff()
     vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_OFF)
     try:

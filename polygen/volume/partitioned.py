@@ -199,11 +199,16 @@ class PreparedPartition:
             # in one order whatever the machine's load (threads="auto" may build a surface by two threads,
             # whose vertex order varies from run to run)
             params.setdefault("threads", 1)
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(record=True) as caught:
             # a Morton range of cells may touch its neighbour along an edge or a node only; thinning
             # warns that its theorems (7.4-7.6) need a manifold boundary: the seam seeds make up for it
-            warnings.simplefilter("ignore", ThinningWarning)
+            # there, and set_layout says so again where the boundary is not a manifold away from the seams
+            warnings.simplefilter("always", ThinningWarning)
             self.method = _registry.get_method(method)(self.vol, field=self.field, **params)
+        for w in caught:
+            if not issubclass(w.category, ThinningWarning):
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        self._thinning_warned = any(issubclass(w.category, ThinningWarning) for w in caught)
         self._propagator = None
         self._lock = threading.Lock()
         self.seam_cells = np.zeros(0, np.int64)
@@ -259,6 +264,18 @@ class PreparedPartition:
         last = (int(self.cell_ids.max()) if self.cell_ids.size else 0) if self.cell_ids is not None \
             else self.cell_offset + vol.n_cells - 1
         self._cells32 = last < 2**31  # global cell ids travel as int32 when they fit
+        if self._thinning_warned:
+            from polygen.volume.homology import boundary_defects
+
+            edges, nodes = boundary_defects(vol)
+            own = np.unique(np.concatenate([edges.ravel(), nodes]))
+            own = own[~self._shared_node[own]]
+            if own.size:  # not the seam's doing: the seam seeds do not reach there
+                warnings.warn(ThinningWarning(
+                    f"piece {self.name!r}: the volume's boundary is not a 2-manifold away from the partitions' "
+                    f"seams (e.g. global nodes {self.global_ids[own[:4]].tolist()}): Thms 7.4-7.6 do not hold "
+                    "there, and the method may miss parts of an isosurface; use a scan-based method "
+                    "('active-scan', 'scan') for this volume"), stacklevel=2)
         return True
 
     def _seam_seeds(self, value, iso):
