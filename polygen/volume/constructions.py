@@ -224,28 +224,6 @@ def _volume_tables(vol):
     return out
 
 
-def _reachable_arrays(obj, vol, depth=4):
-    """``{id(root): root}``: the buffers of the numpy arrays reachable from ``obj`` (through its attributes,
-    dicts, lists and tuples, ``depth`` levels), not entering ``vol``."""
-    seen, out, stack = {id(vol)}, {}, [(obj, depth)]
-    while stack:
-        x, d = stack.pop()
-        if isinstance(x, np.ndarray):
-            r = _root(x)
-            out[id(r)] = r
-            continue
-        if d == 0 or id(x) in seen or isinstance(x, (str, bytes, int, float, type)):
-            continue
-        seen.add(id(x))
-        if isinstance(x, dict):
-            stack += [(y, d - 1) for y in x.values()]
-        elif isinstance(x, (list, tuple, set)):
-            stack += [(y, d - 1) for y in x]
-        elif hasattr(x, "__dict__"):
-            stack += [(y, d - 1) for y in vars(x).values()]
-    return out
-
-
 def construction_memory(label, vol, value, seeds, *, field="fem", rss=False, labels=False):
     """What construction ``label`` holds after its preparation and one extract on ``vol``, in bytes.
 
@@ -303,7 +281,7 @@ def construction_memory(label, vol, value, seeds, *, field="fem", rss=False, lab
         if new:
             volume[name] = int(sum(a.nbytes for a in new.values()))
             vol_new.update(new)
-    held = _reachable_arrays(builder, vol)
+    held = methods.reachable_buffers(builder, vol)
     base = {id(_root(a)) for a in (vol.points, vol.cells, *(vol.scalars(n) for n in vol.fields))}
     own = {k: a for k, a in held.items() if k not in old and k not in vol_new and k not in base}
     builder_bytes = int(sum(a.nbytes for a in own.values()))

@@ -289,10 +289,33 @@ class IsosurfaceMethod(abc.ABC):
         return f"{type(self).__name__}({self.vol!r}, preprocess_s={self.preprocess_s:.3g})"
 
 
-def _array_root(a):
+def _base(a):
     while isinstance(a.base, np.ndarray):
         a = a.base
-    return id(a)
+    return a
+
+
+def reachable_buffers(obj, vol, depth=4):
+    """``{id(root): root}``: the buffers of the numpy arrays reachable from ``obj`` (through its attributes,
+    dicts, lists, tuples and sets, ``depth`` levels), not entering ``vol``. The one walk behind
+    :meth:`IsosurfaceMethod.memory_bytes` and :func:`polygen.volume.constructions.construction_memory`."""
+    seen, out, stack = {id(vol)}, {}, [(obj, depth)]
+    while stack:
+        x, d = stack.pop()
+        if isinstance(x, np.ndarray):
+            r = _base(x)
+            out[id(r)] = r
+            continue
+        if d == 0 or id(x) in seen or isinstance(x, (str, bytes, int, float, type)):
+            continue
+        seen.add(id(x))
+        if isinstance(x, dict):
+            stack += [(y, d - 1) for y in x.values()]
+        elif isinstance(x, (list, tuple, set)):
+            stack += [(y, d - 1) for y in x]
+        elif hasattr(x, "__dict__"):
+            stack += [(y, d - 1) for y in vars(x).values()]
+    return out
 
 
 def _held_bytes(obj, vol, depth=4):
@@ -300,44 +323,18 @@ def _held_bytes(obj, vol, depth=4):
     skip = set()
     for a in [getattr(vol, "points", None), getattr(vol, "cells", None)] + list(getattr(vol, "fields", {}).values()):
         if isinstance(a, np.ndarray):
-            skip.add(_array_root(a))
+            skip.add(id(_base(a)))
 
     def vol_arrays(x, d):
         if isinstance(x, np.ndarray):
-            skip.add(_array_root(x))
+            skip.add(id(_base(x)))
         elif isinstance(x, (tuple, list)) and d:
             for y in x:
                 vol_arrays(y, d - 1)
 
     for x in getattr(vol, "__dict__", {}).values():
         vol_arrays(x, 2)
-    seen, total = set(), 0
-    stack = [(obj, depth)]
-    visited = {id(vol)}
-    while stack:
-        x, d = stack.pop()
-        if isinstance(x, np.ndarray):
-            root = _array_root(x)
-            if root not in skip and root not in seen:
-                seen.add(root)
-                total += x.nbytes if x.base is None else _base(x).nbytes
-            continue
-        if d == 0 or id(x) in visited or isinstance(x, (str, bytes, int, float, type)):
-            continue
-        visited.add(id(x))
-        if isinstance(x, dict):
-            stack += [(y, d - 1) for y in x.values()]
-        elif isinstance(x, (list, tuple, set)):
-            stack += [(y, d - 1) for y in x]
-        elif hasattr(x, "__dict__"):
-            stack += [(y, d - 1) for y in vars(x).values()]
-    return int(total)
-
-
-def _base(a):
-    while isinstance(a.base, np.ndarray):
-        a = a.base
-    return a
+    return int(sum(r.nbytes for k, r in reachable_buffers(obj, vol, depth).items() if k not in skip))
 
 
 @register
