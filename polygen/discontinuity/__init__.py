@@ -4,6 +4,9 @@
   3.2-3.4: the umbra by the smallest-angle planes, the penumbra by
   gift-wrapping) and their sections on receivers (:class:`ShadowSection`),
   for a whole scene by :func:`scene_sections`;
+* :mod:`~polygen.discontinuity.concave` -- concave occluders, exact: the
+  umbra of a whole planar polygon under an area light (its convex pieces'
+  umbrae miss what the whole hides but no piece does);
 * :mod:`~polygen.discontinuity.solids` -- closed convex solids (the sphere)
   as one occluder: their polyhedra from the silhouette;
 * :mod:`~polygen.discontinuity.scene_index` -- the bounding-volume
@@ -28,6 +31,7 @@
 
 from polygen.discontinuity.bsp import BSPRegions, bsp_split
 from polygen.discontinuity.complex import ComplexError, ReceiverComplex
+from polygen.discontinuity.concave import umbra_pieces, umbra_region
 from polygen.discontinuity.conventional import (
     CriticalSegments,
     conventional_bsp,
@@ -89,6 +93,8 @@ __all__ = [
     "SimplifiedDiscontinuity",
     "UMBRA",
     "UNPROCESSED",
+    "umbra_pieces",
+    "umbra_region",
     "bsp_split",
     "check_solid",
     "clip_solid",

@@ -162,7 +162,8 @@ def conventional_segments(scene, receiver_index, *, shadows=None):
     if any(s.solid >= 0 for s in shadows.of(r)):
         raise ShadowError("conventional_segments: the conventional method takes every polygon as "
                           "its own occluder; pass scene_sections(scene, solids=False)")
-    pairs = sorted({(s.light, s.occluder, s.piece) for s in shadows.of(r)})
+    # piece -1: a concave occluder's exact umbra, no pair of its own (its pieces give the pairs)
+    pairs = sorted({(s.light, s.occluder, s.piece) for s in shadows.of(r) if s.piece >= 0})
     segs, kinds, sources, gens = [], [], [], []
     n_surf = n_reach = 0
     for li, k, j in pairs:
