@@ -63,6 +63,7 @@ from polygen.discontinuity.states import (
     receiver_complex,
     region_points,
     region_size,
+    state_areas,
 )
 from polygen.discontinuity.simplified import SimplifiedDiscontinuity, illumination, simplified_discontinuity
 from polygen.discontinuity.combined import combined_bubble_mesh
@@ -120,5 +121,6 @@ __all__ = [
     "shadow_polyhedron",
     "solid_shadow_polyhedron",
     "shadow_sections",
+    "state_areas",
     "simplified_discontinuity",
 ]

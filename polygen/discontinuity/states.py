@@ -41,7 +41,7 @@ from polygen.discontinuity.loops import rebuild_loops
 from polygen.discontinuity.walk import clean_ring, insert_section
 
 __all__ = ["UNPROCESSED", "BRIGHT", "PENUMBRA", "UMBRA", "receiver_complex", "discontinuity_segments",
-           "region_points", "region_size", "update_states", "SectionRecord"]
+           "region_points", "region_size", "state_areas", "update_states", "SectionRecord"]
 
 
 @dataclass(frozen=True)
@@ -332,6 +332,27 @@ def discontinuity_segments(cx, *, min_length=None, state_boundaries_only=False):
 def region_points(cx):
     """(F, 2) float64: a point inside each alive face (receiver frame), in ``alive_faces`` order."""
     return cx.interior_points()
+
+
+def state_areas(cx):
+    """The area of the receiver in each state, per light column.
+
+    Returns
+    -------
+    (n_lights, 4) float64
+        ``[light, state]``: the summed area of the faces in ``state``
+        (``UNPROCESSED``, ``BRIGHT``, ``PENUMBRA``, ``UMBRA``) for that
+        column of the state table.
+    """
+    import shapely
+
+    st = cx.face_states()
+    out = np.zeros((st.shape[1], 4))
+    for i, f in enumerate(cx.alive_faces):
+        outer, holes = cx.face_rings(f)
+        a = shapely.Polygon(outer, holes).area
+        out[np.arange(st.shape[1]), st[i]] += a
+    return out
 
 
 def region_size(cx, size, penumbra_size):
