@@ -37,7 +37,10 @@ from polygen.discontinuity.conventional import (
     conventional_bsp,
     conventional_segments,
     critical_surfaces,
+    ev_ve_planes,
+    plane_roles,
     section_segments,
+    unique_planes,
 )
 from polygen.discontinuity.shadow import (
     Polyhedron,
@@ -106,6 +109,9 @@ __all__ = [
     "convex_solids",
     "critical_surfaces",
     "discontinuity_mesh",
+    "ev_ve_planes",
+    "plane_roles",
+    "unique_planes",
     "element_states",
     "illumination",
     "light_fraction",
