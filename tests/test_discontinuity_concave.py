@@ -172,3 +172,23 @@ def test_concave_bad_mode():
         scene_sections(sc, concave="triangles")
     with pytest.raises(ValueError, match="shape"):
         concave_occluder_scene("Z")
+
+
+def test_umbra_region_bad_input():
+    from polygen.radiosity.scene import Polygon, SceneError
+
+    sc = concave_occluder_scene("L")
+    floor, occ, light = sc.polygons
+    box = np.array([[-4.0, -4.0], [4.0, 4.0]])
+    with pytest.raises(ShadowError, match="Polygon"):
+        umbra_region(light.vertices, occ.vertices, floor, box)
+    with pytest.raises(ShadowError, match="convex polygon"):
+        umbra_region(light.vertices[:2], occ, floor, box)
+    across = light.vertices + [0.0, -2.5, 0.0] + np.array([[0, 0, 0], [0, 0, 0], [0, 1, 0], [0, 1, 0.0]])
+    with pytest.raises(ShadowError, match="both sides"):
+        umbra_region(across, occ, floor, box)
+    # a self-intersecting or non-planar occluder never gets here: Polygon refuses it, naming it
+    with pytest.raises(SceneError, match="bow"):
+        Polygon([[0, 1, 0], [1, 1, 1], [1, 1, 0], [0, 1, 1]], name="bow")
+    with pytest.raises(SceneError, match="warped"):
+        Polygon([[0, 1, 0], [1, 1, 0], [1, 1.5, 1], [0, 1, 1]], name="warped")

@@ -158,25 +158,45 @@ def umbra_region(light, occluder, receiver, box, *, clip=(), tol=1e-9):
     Returns
     -------
     shapely geometry
-        Polygon or MultiPolygon (possibly empty) in the receiver's frame.
+        Polygon or MultiPolygon (possibly empty) in the receiver's frame;
+        empty when a light vertex lies in the occluder's plane.
+
+    Raises
+    ------
+    ShadowError
+        An occluder that is not a :class:`~polygen.radiosity.scene.Polygon`
+        (a self-intersecting or non-planar ring is refused by that class,
+        naming it), a light that is not a convex polygon, or one on both
+        sides of the occluder's plane.
     """
     import shapely
 
     from polygen.mesh2d.pslg import convex_partition
 
-    L = np.asarray(light, dtype=np.float64).reshape(-1, 3)
+    from polygen.discontinuity._polyhedra import ShadowError, convex_ring_3d
+    from polygen.radiosity.scene import Polygon
+
+    if not isinstance(occluder, Polygon):
+        raise ShadowError(f"occluder: expected a Polygon (planar, simple: its constructor checks), "
+                          f"got {type(occluder).__name__}")
+    L = np.asarray(light, dtype=np.float64)
+    if L.ndim != 2 or L.shape[1] != 3 or len(L) < 3 or not convex_ring_3d(L):
+        raise ShadowError(f"light: expected a convex polygon (m>=3, 3), got shape {L.shape}")
     ext2 = occluder.exterior_2d
     far = 10.0 * float(np.ptp(ext2, axis=0).max())
+    side = L @ occluder.normal - float(occluder.normal @ occluder.origin)
+    if np.any(np.abs(side) <= tol * far):
+        # a light vertex in the occluder's plane is never hidden (as shadow_polyhedron's umbra)
+        return shapely.Polygon()
+    if side.min() < 0.0 < side.max():
+        raise ShadowError(f"light: lies on both sides of the plane of {occluder.name}; split it "
+                          "by that plane first")
     G = shapely.Polygon(ext2, occluder.holes_2d)
     for n, d in clip:
         h = _half_plane(occluder, np.asarray(n, dtype=np.float64), float(d), far)
         if h is not None:
             G = G.intersection(h)
     s0 = L.mean(axis=0)
-    n_o = occluder.normal
-    d_o = float(n_o @ occluder.origin)
-    if abs(float(n_o @ s0) - d_o) <= tol * far:  # the light in the occluder's plane hides nothing
-        return shapely.Polygon()
     region = []
     for comp in getattr(G, "geoms", [G]):
         if comp.geom_type != "Polygon" or comp.area <= (tol * far) ** 2:

@@ -479,7 +479,8 @@ class SceneShadows:
         clipped by a receiver's plane), ``receiver_tests``
         (receiver-polyhedron pairs tested against the polyhedron's faces),
         ``candidates`` (pairs the index returned, all pairs without it), ``node_tests`` (index
-        nodes visited), ``sections``.
+        nodes visited), ``sections``, ``concave_umbrae`` (the umbra-only sections of
+        concave occluders' exact umbrae, ``piece == -1``; among ``sections``).
     timings : dict of str -> float
         Seconds: ``t_sdw`` (shadow polyhedra), ``t_isr`` (index queries,
         receiver tests and sections), as Table 3.2's phases.

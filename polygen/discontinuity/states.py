@@ -19,7 +19,9 @@ region inside *any* occluder's umbra is umbra; inside some penumbra and no
 umbra it is penumbra.  Two occluders whose penumbrae overlap can hide the
 whole light together where neither hides it alone: that region is umbra
 in truth, and this rule calls it penumbra (the thesis's simplification;
-it errs on the side of finer meshing).
+it errs on the side of finer meshing).  One concave polygon is one occluder, not the
+convex pieces it is split into: under an area light its umbra is the whole polygon's
+(:mod:`~polygen.discontinuity.concave`, walked in as convex umbra-only sections), exact.
 
 :func:`receiver_complex` runs the whole per-receiver phase and
 :func:`discontinuity_segments` / :func:`region_size` hand the result to
