@@ -1,4 +1,5 @@
-"""Concave occluders, exact (issue 41, item 3): states against brute force on an L, a U and a tilted U.
+"""Concave occluders, exact (issue 41, item 3): states against brute force on an L, a U, a tilted U
+and a frame (a square with a hole).
 
 Two references, both independent of the receiver complex:
 
@@ -37,8 +38,8 @@ from polygen.radiosity.scenes import concave_occluder_scene
 
 N_POINTS = 10_000
 BAND = 1e-6
-OCCLUDERS = [("L", 0.0), ("U", 0.0), ("U", 35.0)]
-OCC_IDS = ["L", "U", "U_tilted"]
+OCCLUDERS = [("L", 0.0), ("U", 0.0), ("U", 35.0), ("frame", 0.0)]
+OCC_IDS = ["L", "U", "U_tilted", "frame"]
 
 
 def _floor_points(sc, n, seed):

@@ -401,7 +401,9 @@ CONCAVE_OUTLINES = {
     "L": [[-1.0, -1.0], [1.0, -1.0], [1.0, -0.2], [-0.2, -0.2], [-0.2, 1.0], [-1.0, 1.0]],
     "U": [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [0.4, 1.0], [0.4, -0.3], [-0.4, -0.3], [-0.4, 1.0],
           [-1.0, 1.0]],
+    "frame": [[-1.2, -1.2], [1.2, -1.2], [1.2, 1.2], [-1.2, 1.2]],
 }
+CONCAVE_HOLES = {"frame": [[[-0.3, -0.3], [0.4, -0.3], [0.4, 0.3], [-0.3, 0.3]]]}
 
 
 def concave_occluder_scene(shape="L", *, light="area", tilt=0.0, height=1.0, light_size=0.5,
@@ -410,7 +412,8 @@ def concave_occluder_scene(shape="L", *, light="area", tilt=0.0, height=1.0, lig
 
     A 6 x 6 floor (y = 0, facing up, centred on the origin); a two-sided
     occluder ``shape`` ("L": a 2 x 2 square less a 1.2 x 1.2 corner; "U": a
-    2 x 2 square less a 0.8 x 1.3 notch) centred at ``height``, turned by
+    2 x 2 square less a 0.8 x 1.3 notch; "frame": a 2.4 x 2.4 square with a
+    0.7 x 0.6 hole) centred at ``height``, turned by
     ``tilt`` degrees about the x axis out of the floor's plane; a light
     above it, off its centre (at (0.3, 3, 0.2)): ``"area"`` a square of
     side ``light_size`` facing down, ``"point"`` a point light there,
@@ -423,9 +426,13 @@ def concave_occluder_scene(shape="L", *, light="area", tilt=0.0, height=1.0, lig
     floor = Polygon([[-3.0, 0.0, -3.0], [-3.0, 0.0, 3.0], [3.0, 0.0, 3.0], [3.0, 0.0, -3.0]],
                     reflectance=reflectance, name="floor")
     t = np.deg2rad(tilt)
-    ab = np.asarray(CONCAVE_OUTLINES[shape])
-    occ = np.stack([ab[:, 0], height + ab[:, 1] * np.sin(t), ab[:, 1] * np.cos(t)], axis=1)
-    polys = [floor, Polygon(occ, reflectance=reflectance, name=f"{shape}_occluder", two_sided=True)]
+    def lift(ab):
+        ab = np.asarray(ab, dtype=np.float64)
+        return np.stack([ab[:, 0], height + ab[:, 1] * np.sin(t), ab[:, 1] * np.cos(t)], axis=1)
+
+    occ = Polygon(lift(CONCAVE_OUTLINES[shape]), [lift(h) for h in CONCAVE_HOLES.get(shape, [])],
+                  reflectance=reflectance, name=f"{shape}_occluder", two_sided=True)
+    polys = [floor, occ]
     centre = np.array([0.3, 3.0, 0.2])
     lights = []
     if light == "area":
