@@ -82,7 +82,8 @@ def test_concave_states_exact(shape, tilt, light):
         sc.polygons[0].normal, pts.shape), samples=8, skip=(0,))
     size = float(np.linalg.norm(np.ptp(sc.bounds, axis=0)))
     floor = sc.polygons[0]
-    off = ((st == UMBRA) & (rays != 0)) | ((st == BRIGHT) & (rays != 1)) | ((rays > 0) & (rays < 1) & (st != PENUMBRA))
+    off = (((st == UMBRA) & (rays != 0)) | ((st == BRIGHT) & (rays != 1))
+           | ((rays > 0) & (rays < 1) & (st != PENUMBRA)))
     if off.any():
         i = np.flatnonzero(off)
         near = occluder_states_near(scene_lights(sc)[0][1], sc.polygons[1], pts[i],
