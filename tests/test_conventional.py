@@ -155,3 +155,24 @@ def test_critical_surfaces_of_a_point_light_are_the_volume_sides():
     assert [k for k, *_ in w] == ["EV"] * 3
     w = critical_surfaces(np.array([[0.0, 3, 0], [1, 3, 0], [1, 3, 1], [0, 3, 1]]), O, reach=10.0)
     assert len(w) == 2 * 4 * 3
+
+
+def test_ev_ve_planes_classify_the_polyhedra_sides():
+    """The brute-force EV/VE planes (notebook 03's check of Figs 3.6, 3.7): the penumbra's sides
+    are exactly the separating ones, the umbra's sides support light and occluder."""
+    from polygen.discontinuity import ev_ve_planes, plane_roles, shadow_polyhedron, unique_planes
+    from polygen.discontinuity.shadow import scene_lights
+
+    sc = scenes.figure_3_4_scene()
+    k = [i for i, p in enumerate(sc.polygons) if p.name.startswith("occluder_a")][0]
+    ph = shadow_polyhedron(scene_lights(sc)[0][1], sc.polygons[k], bounds=sc.bounds)
+    S, O = ph.light_vertices, ph.occluder_vertices
+    planes, role = ev_ve_planes(S, O)
+    assert len(planes) == 2 * 4 * 4 and set(np.unique(role)) <= {-1, 0, 1}
+    sep = planes[role == 1]
+    wrapped = unique_planes(ph.penumbra.planes[1:])
+    assert len(wrapped) == len(sep) == 8
+    assert all(np.abs(sep - w).max(axis=1).min() < 1e-7 for w in wrapped)
+    assert np.all(plane_roles(S, O, ph.umbra.planes[1:]) == 0)
+    # a plane and its flip are one plane
+    assert len(unique_planes(np.vstack([planes, -planes]))) == len(planes)

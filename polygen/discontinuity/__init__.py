@@ -4,6 +4,9 @@
   3.2-3.4: the umbra by the smallest-angle planes, the penumbra by
   gift-wrapping) and their sections on receivers (:class:`ShadowSection`),
   for a whole scene by :func:`scene_sections`;
+* :mod:`~polygen.discontinuity.concave` -- concave occluders, exact: the
+  umbra of a whole planar polygon under an area light (its convex pieces'
+  umbrae miss what the whole hides but no piece does);
 * :mod:`~polygen.discontinuity.solids` -- closed convex solids (the sphere)
   as one occluder: their polyhedra from the silhouette;
 * :mod:`~polygen.discontinuity.scene_index` -- the bounding-volume
@@ -28,12 +31,16 @@
 
 from polygen.discontinuity.bsp import BSPRegions, bsp_split
 from polygen.discontinuity.complex import ComplexError, ReceiverComplex
+from polygen.discontinuity.concave import umbra_pieces, umbra_region
 from polygen.discontinuity.conventional import (
     CriticalSegments,
     conventional_bsp,
     conventional_segments,
     critical_surfaces,
+    ev_ve_planes,
+    plane_roles,
     section_segments,
+    unique_planes,
 )
 from polygen.discontinuity.shadow import (
     Polyhedron,
@@ -59,6 +66,7 @@ from polygen.discontinuity.states import (
     receiver_complex,
     region_points,
     region_size,
+    state_areas,
 )
 from polygen.discontinuity.simplified import SimplifiedDiscontinuity, illumination, simplified_discontinuity
 from polygen.discontinuity.combined import combined_bubble_mesh
@@ -89,6 +97,8 @@ __all__ = [
     "SimplifiedDiscontinuity",
     "UMBRA",
     "UNPROCESSED",
+    "umbra_pieces",
+    "umbra_region",
     "bsp_split",
     "check_solid",
     "clip_solid",
@@ -99,6 +109,9 @@ __all__ = [
     "convex_solids",
     "critical_surfaces",
     "discontinuity_mesh",
+    "ev_ve_planes",
+    "plane_roles",
+    "unique_planes",
     "element_states",
     "illumination",
     "light_fraction",
@@ -114,5 +127,6 @@ __all__ = [
     "shadow_polyhedron",
     "solid_shadow_polyhedron",
     "shadow_sections",
+    "state_areas",
     "simplified_discontinuity",
 ]

@@ -22,7 +22,7 @@ from polygen.discontinuity.bsp import BSPRegions, bsp_split
 from polygen.discontinuity.shadow import ShadowError, scene_lights, scene_sections
 
 __all__ = ["critical_surfaces", "CriticalSegments", "conventional_segments", "conventional_bsp",
-           "section_segments"]
+           "section_segments", "ev_ve_planes", "plane_roles", "unique_planes"]
 
 
 def critical_surfaces(light_vertices, occluder_vertices, *, reach):
@@ -65,6 +65,66 @@ def critical_surfaces(light_vertices, occluder_vertices, *, reach):
                 out.append(("VE", np.array([O[i], far(O[i], s0), far(O[i], s1)]),
                             (k, (k + 1) % m), (i,)))
     return out
+
+
+def ev_ve_planes(light_vertices, occluder_vertices, *, tol=1e-9):
+    """Every EV and VE plane of a convex light and a convex occluder, each classified by brute force.
+
+    The check of the gift-wrapping (Fig. 3.7) and of the umbra's planes (Fig. 3.6) from
+    scratch: a side of the penumbra polyhedron *separates* light and occluder (each on one
+    side of it), a side of the umbra polyhedron *supports* both (both on one side).
+
+    Parameters
+    ----------
+    light_vertices : (m, 3) float64
+    occluder_vertices : (n, 3) float64
+    tol : float, keyword-only
+        A vertex within ``tol`` of a plane is on it; planes equal within ``tol`` are one.
+
+    Returns
+    -------
+    planes : (P, 4) float64
+        The distinct planes through an edge of one and a vertex of the other (``2 m n``
+        before duplicates are merged), unit normals, the sign fixed by :func:`unique_planes`.
+    role : (P,) int8
+        :func:`plane_roles` of each plane: 1 separating, 0 supporting, -1 neither.
+    """
+    S = np.asarray(light_vertices, dtype=np.float64).reshape(-1, 3)
+    O = np.asarray(occluder_vertices, dtype=np.float64).reshape(-1, 3)
+    out = []
+    for A, B in ((O, S), (S, O)):  # EV (occluder edge, light vertex), then VE
+        for i in range(len(A)):
+            for b in B:
+                nv = np.cross(A[(i + 1) % len(A)] - A[i], b - A[i])
+                nv /= np.linalg.norm(nv)
+                out.append(np.r_[nv, nv @ A[i]])
+    planes = unique_planes(out, tol=tol)
+    return planes, plane_roles(S, O, planes, tol=tol)
+
+
+def plane_roles(light_vertices, occluder_vertices, planes, *, tol=1e-9):
+    """(P,) int8: per plane ``(n, d)``, 1 when light and occluder lie on opposite sides of it
+    (on it allowed), 0 when both lie on one side, -1 when either has vertices on both sides."""
+    S = np.asarray(light_vertices, dtype=np.float64).reshape(-1, 3)
+    O = np.asarray(occluder_vertices, dtype=np.float64).reshape(-1, 3)
+    P = np.asarray(planes, dtype=np.float64).reshape(-1, 4)
+    ds, do = S @ P[:, :3].T - P[:, 3], O @ P[:, :3].T - P[:, 3]
+    s_up, s_dn = (ds > tol).any(axis=0), (ds < -tol).any(axis=0)
+    o_up, o_dn = (do > tol).any(axis=0), (do < -tol).any(axis=0)
+    sep = (~s_dn & ~o_up) | (~s_up & ~o_dn)
+    sup = (~s_up & ~o_up) | (~s_dn & ~o_dn)
+    return np.where(sep, 1, np.where(sup, 0, -1)).astype(np.int8)
+
+
+def unique_planes(planes, *, tol=1e-9):
+    """(P, 4) float64: the distinct planes of rows ``(n, d)``, orientation dropped: each row's
+    sign makes its largest normal component positive; rows within ``tol`` are one."""
+    out = []
+    for pl in np.asarray(planes, dtype=np.float64).reshape(-1, 4):
+        pl = pl * np.sign(pl[np.argmax(np.abs(pl[:3]))])
+        if not any(np.allclose(pl, q, atol=tol) for q in out):
+            out.append(pl)
+    return np.asarray(out, dtype=np.float64).reshape(-1, 4)
 
 
 def _cut(wedge, n, d, tol):
@@ -162,7 +222,8 @@ def conventional_segments(scene, receiver_index, *, shadows=None):
     if any(s.solid >= 0 for s in shadows.of(r)):
         raise ShadowError("conventional_segments: the conventional method takes every polygon as "
                           "its own occluder; pass scene_sections(scene, solids=False)")
-    pairs = sorted({(s.light, s.occluder, s.piece) for s in shadows.of(r)})
+    # piece -1: a concave occluder's exact umbra, no pair of its own (its pieces give the pairs)
+    pairs = sorted({(s.light, s.occluder, s.piece) for s in shadows.of(r) if s.piece >= 0})
     segs, kinds, sources, gens = [], [], [], []
     n_surf = n_reach = 0
     for li, k, j in pairs:

@@ -191,7 +191,8 @@ def point_states(sd, points, *, polygons=None, sides=None, fraction=False, tol=1
         ``UMBRA`` (3), ``PENUMBRA`` (2) or ``BRIGHT`` (1) per point and light
         (:func:`~polygen.discontinuity.shadow.scene_lights` order), by the
         thesis's rule (umbra of some occluder: umbra; in some penumbra:
-        penumbra); ``UNPROCESSED`` (0) where the light lies wholly behind
+        penumbra; a concave occluder's umbra the whole polygon's with
+        ``simplified_discontinuity(..., concave="exact")``, the default); ``UNPROCESSED`` (0) where the light lies wholly behind
         the point's face or in its plane, and for points on no polygon.
     fractions : (N, n_lights) float64
         With ``fraction=True``: 1 bright, 0 umbra; in penumbra the visible

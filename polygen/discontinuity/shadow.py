@@ -409,7 +409,11 @@ class ShadowSection:
         face (a two-sided receiver).
     piece : int
         Which convex piece of the occluder (``Polygon.convex_pieces``); 0
-        for a convex occluder.
+        for a convex occluder.  -1: a convex piece of the exact umbra of a
+        concave occluder under an area light (``scene_sections(...,
+        concave="exact")``): ``penumbra`` is then empty (the occluder's
+        pieces give the penumbra sections, whose own umbrae are then
+        empty), ``polyhedra`` None and ``umbra_edges`` all -1.
     kind : str
         ``"area"`` (D1 boundaries), ``"point"`` or ``"parallel"`` (D0:
         umbra and penumbra are the same polygon).
@@ -475,7 +479,8 @@ class SceneShadows:
         clipped by a receiver's plane), ``receiver_tests``
         (receiver-polyhedron pairs tested against the polyhedron's faces),
         ``candidates`` (pairs the index returned, all pairs without it), ``node_tests`` (index
-        nodes visited), ``sections``.
+        nodes visited), ``sections``, ``concave_umbrae`` (the umbra-only sections of
+        concave occluders' exact umbrae, ``piece == -1``; among ``sections``).
     timings : dict of str -> float
         Seconds: ``t_sdw`` (shadow polyhedra), ``t_isr`` (index queries,
         receiver tests and sections), as Table 3.2's phases.
@@ -525,7 +530,7 @@ def _lights_face(kind, light, R, atol):
     return False
 
 
-def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9):
+def scene_sections(scene, *, solids=True, concave="exact", use_index=True, margin=0.05, tol=1e-9):
     """Shadow polyhedra of every (light, occluder) pair and their sections on every receiver.
 
     The driver of Fig. 3.5: for each light and each convex piece of each
@@ -547,6 +552,21 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
         the groups (polygon indices; each checked by
         :func:`~polygen.discontinuity.solids.check_solid`).  False: every
         polygon is its own occluder (3.3.1's rule, the thesis's method).
+    concave : {"exact", "pieces"}, keyword-only
+        How a concave (or holed) polygon occludes an area light.
+        ``"exact"`` (default): its convex pieces give the penumbra sections
+        (``piece >= 0``, with empty umbrae), and the umbra of the whole
+        polygon (:func:`~polygen.discontinuity.concave.umbra_region`: hidden
+        from all of the light by the polygon, though perhaps by no single
+        piece) is added as convex umbra-only sections, ``piece == -1``
+        (:func:`~polygen.discontinuity.concave.umbra_pieces`; each internal
+        diagonal of that partition is one more line, umbra on both sides).
+        ``"pieces"``: every convex piece with its own umbra (the thesis's
+        3.3.1, "concave ones pre-split"), which calls penumbra the points
+        hidden by the polygon but by no one piece (about a tenth of the
+        umbra of an L).  Point and parallel lights are the same either way
+        (the pieces' shadows' union is exact), and so are scenes without a
+        concave occluder.
     use_index : bool, keyword-only
         False tests every polyhedron against every receiver (the thesis's
         O(n^2) T_isr), for comparison.
@@ -587,7 +607,7 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
     Raises
     ------
     ShadowError
-        A declared solid that is not a closed convex solid (naming it), a
+        ``concave`` not "exact" or "pieces"; a declared solid that is not a closed convex solid (naming it), a
         light meeting a solid, a concave emitting polygon (naming it: an area
         light must be convex, as :class:`~polygen.radiosity.AreaLight` requires).
 
@@ -599,9 +619,12 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
     """
     import shapely
 
+    from polygen.discontinuity import concave as _concave
     from polygen.discontinuity import solids as _solids
     from polygen.discontinuity.scene_index import PolygonIndex
 
+    if concave not in ("exact", "pieces"):
+        raise ShadowError(f'concave: expected "exact" or "pieces", got {concave!r}')
     polys = scene.polygons
     lo, hi = scene.bounds
     diam = float(np.linalg.norm(hi - lo))
@@ -609,7 +632,7 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
     cap = np.stack([lo - 0.01 * diam, hi + 0.01 * diam])
     t_sdw = t_isr = 0.0
     cnt = dict(polyhedra=0, rebuilt=0, candidates=0, receiver_tests=0, node_tests=0, sections=0,
-               solids=0)
+               solids=0, concave_umbrae=0)
     t0 = time.perf_counter()  # finding the solids counts in T_sdw
     if solids is True:
         groups = tuple(_solids.convex_solids(scene, tol=tol))
@@ -638,6 +661,8 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
                           "lights): it casts no shadow and lights nothing", ShadowWarning,
                           stacklevel=2)
     pieces = [[pc.vertices for pc in p.convex_pieces()] for p in polys]
+    # polygons whose umbra under an area light is the whole polygon's, not its pieces'
+    exact = {k for k, p in enumerate(polys) if concave == "exact" and len(pieces[k]) > 1}
     rboxes = np.array([[p.vertices.min(axis=0) - atol, p.vertices.max(axis=0) + atol]
                        for p in polys])
     index = PolygonIndex(rboxes, points=[p.vertices for p in polys]) if use_index else None
@@ -666,7 +691,7 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
             L = light.position
         else:
             L = light
-        queries = []  # (polygon, piece, light part, occluder, polyhedra, solid)
+        queries = []  # (polygon, piece, light part, occluder, polyhedra, solid, part index)
         for g, V in enumerate(solid_vertices):
             if kind == "area":
                 V = _solids.clip_solid(V, -nL, -dL, tol=tol)  # in front of the light's plane
@@ -674,7 +699,7 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
                     continue
             sp = build(L, V, g)
             if not sp.penumbra.empty:
-                queries.append((groups[g][0], 0, L, V, sp, g))
+                queries.append((groups[g][0], 0, L, V, sp, g, 0))
         for k, p in enumerate(polys):
             if k == lpoly or k in solid_of:
                 continue
@@ -695,10 +720,10 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
                                  if _area(q, nL) > atol * diam]
                 else:
                     parts = [L]
-                for part in parts:
+                for pi, part in enumerate(parts):
                     sp = build(part, O)
                     if not sp.penumbra.empty:
-                        queries.append((k, j, part, O, sp, -1))
+                        queries.append((k, j, part, O, sp, -1, pi))
         t0, sdw0 = time.perf_counter(), t_sdw
         if use_index:
             before, before_items = index.node_tests, index.item_tests
@@ -712,8 +737,9 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
             pairs = np.array([(q, r) for q in range(len(queries)) for r in range(len(polys))],
                              dtype=np.int64).reshape(-1, 2)
         cnt["candidates"] += len(pairs)
+        whole = {}  # (polygon, light part, receiver, side) -> the light part there: exact umbrae to add
         for q, r in pairs:
-            k, j, part, O, sp, g = queries[q]
+            k, j, part, O, sp, g, pi = queries[q]
             if r == k or r == lpoly or (g >= 0 and solid_of.get(int(r)) == g):
                 continue  # a convex solid does not shadow its own faces
             R = polys[r]
@@ -761,6 +787,10 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
                 if shapes[r].intersection(shapely.Polygon(pen)).area <= tiny:
                     continue
                 umb = polyhedron_section(this.umbra, R, box, tol=tol) if kind == "area" else pen
+                if kind == "area" and k in exact:
+                    # the whole polygon's umbra comes below; a piece's would only add lines inside it
+                    whole.setdefault((int(k), pi, int(r), side), lit)
+                    umb = np.zeros((0, 2))
                 if len(umb) and shapes[r].intersection(shapely.Polygon(umb)).area <= tiny:
                     umb = np.zeros((0, 2))
                 pe = section_edge_planes(this.penumbra, R, pen, tol=tol)
@@ -771,6 +801,22 @@ def scene_sections(scene, *, solids=True, use_index=True, margin=0.05, tol=1e-9)
                     side=side, piece=int(j), kind=kind, umbra_edges=ue, penumbra_edges=pe,
                     polyhedra=this, solid=int(g)))
                 cnt["sections"] += 1
+        for (k, pi, r, side), lit in whole.items():
+            R = polys[r]
+            n_r, d_r = side * R.normal, side * float(R.normal @ R.origin)
+            region = _concave.umbra_region(lit, polys[k], R, boxes2[r], tol=tol,
+                                           clip=[(-nL, -dL), (-n_r, -d_r)])
+            tiny = 1e-12 * R.area
+            for umb in _concave.umbra_pieces(region.intersection(shapely.box(*boxes2[r].ravel())),
+                                             min_area=tiny, tol=tol):
+                if shapes[r].intersection(shapely.Polygon(umb)).area <= tiny:
+                    continue
+                out.setdefault(int(r), []).append(ShadowSection(
+                    light=li, occluder=int(k), receiver=int(r), umbra=umb, penumbra=np.zeros((0, 2)),
+                    side=side, piece=-1, kind="area", umbra_edges=np.full(len(umb), -1, np.int64),
+                    penumbra_edges=np.zeros(0, np.int64), polyhedra=None, solid=-1))
+                cnt["sections"] += 1
+                cnt["concave_umbrae"] += 1
         t_isr += time.perf_counter() - t0 - (t_sdw - sdw0)  # rebuilt polyhedra count in t_sdw
     return SceneShadows(sections=out, counters=cnt, timings=dict(t_sdw=t_sdw, t_isr=t_isr),
                         solids=groups)

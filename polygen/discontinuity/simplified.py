@@ -101,8 +101,8 @@ class SimplifiedDiscontinuity:
         return out
 
 
-def simplified_discontinuity(scene, *, solids=True, tol=1e-9, use_index=True, margin=0.05,
-                             check=False, state_boundaries_only=False):
+def simplified_discontinuity(scene, *, solids=True, concave="exact", tol=1e-9, use_index=True,
+                             margin=0.05, check=False, state_boundaries_only=False):
     """Shadow polyhedra, receiver complexes and illumination states for a whole scene.
 
     Parameters
@@ -113,6 +113,11 @@ def simplified_discontinuity(scene, *, solids=True, tol=1e-9, use_index=True, ma
         geometry; a sequence: declared polygon groups; False: every polygon
         its own occluder).  Passed to
         :func:`~polygen.discontinuity.shadow.scene_sections`.
+    concave : {"exact", "pieces"}, keyword-only
+        A concave occluder's umbra under an area light: the whole
+        polygon's (default, exact) or its convex pieces' (the thesis's
+        3.3.1, which calls penumbra what the whole hides but no piece
+        does).  Passed to :func:`~polygen.discontinuity.shadow.scene_sections`.
     tol : float, keyword-only
         Relative tolerance of the shadow polyhedra (to the scene's size) and
         of the receiver complexes (to each receiver's size).
@@ -133,7 +138,8 @@ def simplified_discontinuity(scene, *, solids=True, tol=1e-9, use_index=True, ma
     -------
     SimplifiedDiscontinuity
     """
-    sh = scene_sections(scene, solids=solids, use_index=use_index, margin=margin, tol=tol)
+    sh = scene_sections(scene, solids=solids, concave=concave, use_index=use_index, margin=margin,
+                        tol=tol)
     n_lights = len(scene_lights(scene))
     timings = dict(T_sdw=sh.timings["t_sdw"], T_isr=sh.timings["t_isr"], T_idd=0.0, T_lop=0.0,
                    T_lit=0.0, T_div=0.0, T_chk=0.0)
@@ -163,7 +169,8 @@ def simplified_discontinuity(scene, *, solids=True, tol=1e-9, use_index=True, ma
     return SimplifiedDiscontinuity(scene, complexes, segments, pen_pts, other_pts, counters, timings)
 
 
-def illumination(scene, points, *, discontinuity=None, polygons=None, sides=None, fraction=False, tol=1e-9):
+def illumination(scene, points, *, discontinuity=None, polygons=None, sides=None, fraction=False,
+                 concave="exact", tol=1e-9):
     """The illumination state of points on receivers, per light (umbra, penumbra or bright).
 
     Parameters
@@ -173,6 +180,10 @@ def illumination(scene, points, *, discontinuity=None, polygons=None, sides=None
         used) or the phase itself.
     points : (N, 3) float64
     discontinuity : SimplifiedDiscontinuity, keyword-only, optional
+    concave : {"exact", "pieces"}, keyword-only
+        When the phase is computed here: passed to
+        :func:`simplified_discontinuity` (a concave occluder's umbra exact, or
+        its convex pieces' as the thesis).
     polygons, sides, fraction, tol : keyword-only
         See :func:`~polygen.discontinuity.illumination.point_states`.
 
@@ -187,7 +198,8 @@ def illumination(scene, points, *, discontinuity=None, polygons=None, sides=None
     if isinstance(scene, SimplifiedDiscontinuity):
         sd = scene
     else:
-        sd = discontinuity if discontinuity is not None else simplified_discontinuity(scene, tol=tol)
+        sd = (discontinuity if discontinuity is not None
+              else simplified_discontinuity(scene, concave=concave, tol=tol))
         if sd.scene is not scene:
             raise ShadowError("discontinuity must be simplified_discontinuity(scene) of this scene")
     return point_states(sd, points, polygons=polygons, sides=sides, fraction=fraction, tol=tol)

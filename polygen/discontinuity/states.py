@@ -19,7 +19,9 @@ region inside *any* occluder's umbra is umbra; inside some penumbra and no
 umbra it is penumbra.  Two occluders whose penumbrae overlap can hide the
 whole light together where neither hides it alone: that region is umbra
 in truth, and this rule calls it penumbra (the thesis's simplification;
-it errs on the side of finer meshing).
+it errs on the side of finer meshing).  One concave polygon is one occluder, not the
+convex pieces it is split into: under an area light its umbra is the whole polygon's
+(:mod:`~polygen.discontinuity.concave`, walked in as convex umbra-only sections), exact.
 
 :func:`receiver_complex` runs the whole per-receiver phase and
 :func:`discontinuity_segments` / :func:`region_size` hand the result to
@@ -41,7 +43,7 @@ from polygen.discontinuity.loops import rebuild_loops
 from polygen.discontinuity.walk import clean_ring, insert_section
 
 __all__ = ["UNPROCESSED", "BRIGHT", "PENUMBRA", "UMBRA", "receiver_complex", "discontinuity_segments",
-           "region_points", "region_size", "update_states", "SectionRecord"]
+           "region_points", "region_size", "state_areas", "update_states", "SectionRecord"]
 
 
 @dataclass(frozen=True)
@@ -332,6 +334,27 @@ def discontinuity_segments(cx, *, min_length=None, state_boundaries_only=False):
 def region_points(cx):
     """(F, 2) float64: a point inside each alive face (receiver frame), in ``alive_faces`` order."""
     return cx.interior_points()
+
+
+def state_areas(cx):
+    """The area of the receiver in each state, per light column.
+
+    Returns
+    -------
+    (n_lights, 4) float64
+        ``[light, state]``: the summed area of the faces in ``state``
+        (``UNPROCESSED``, ``BRIGHT``, ``PENUMBRA``, ``UMBRA``) for that
+        column of the state table.
+    """
+    import shapely
+
+    st = cx.face_states()
+    out = np.zeros((st.shape[1], 4))
+    for i, f in enumerate(cx.alive_faces):
+        outer, holes = cx.face_rings(f)
+        a = shapely.Polygon(outer, holes).area
+        out[np.arange(st.shape[1]), st[i]] += a
+    return out
 
 
 def region_size(cx, size, penumbra_size):

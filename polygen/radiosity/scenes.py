@@ -25,6 +25,7 @@ __all__ = [
     "sphere_scene",
     "chair_scene",
     "figure_3_4_scene",
+    "concave_occluder_scene",
     "small_shadows_room",
     "small_shadows_depth",
     "CORNELL_WHITE",
@@ -394,3 +395,54 @@ def figure_3_4_scene(*, emission=10.0, reflectance=0.6, angle=30.0):
     for name, x in (("occluder_a", 3.8), ("occluder_b", 6.2)):
         polys += _two_sided(square + [x, 4.0, 5.0], reflectance=reflectance, name=name)
     return Scene(polys, name="figure_3_4_scene")
+
+
+CONCAVE_OUTLINES = {
+    "L": [[-1.0, -1.0], [1.0, -1.0], [1.0, -0.2], [-0.2, -0.2], [-0.2, 1.0], [-1.0, 1.0]],
+    "U": [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [0.4, 1.0], [0.4, -0.3], [-0.4, -0.3], [-0.4, 1.0],
+          [-1.0, 1.0]],
+    "frame": [[-1.2, -1.2], [1.2, -1.2], [1.2, 1.2], [-1.2, 1.2]],
+}
+CONCAVE_HOLES = {"frame": [[[-0.3, -0.3], [0.4, -0.3], [0.4, 0.3], [-0.3, 0.3]]]}
+
+
+def concave_occluder_scene(shape="L", *, light="area", tilt=0.0, height=1.0, light_size=0.5,
+                           emission=10.0, reflectance=0.6):
+    """One concave occluder over a floor, under one light (concave occluders, exact).
+
+    A 6 x 6 floor (y = 0, facing up, centred on the origin); a two-sided
+    occluder ``shape`` ("L": a 2 x 2 square less a 1.2 x 1.2 corner; "U": a
+    2 x 2 square less a 0.8 x 1.3 notch; "frame": a 2.4 x 2.4 square with a
+    0.7 x 0.6 hole) centred at ``height``, turned by
+    ``tilt`` degrees about the x axis out of the floor's plane; a light
+    above it, off its centre (at (0.3, 3, 0.2)): ``"area"`` a square of
+    side ``light_size`` facing down, ``"point"`` a point light there,
+    ``"parallel"`` a parallel light along (0.2, -1, 0.1).
+    """
+    from polygen.radiosity.scene import ParallelLight, PointLight
+
+    if shape not in CONCAVE_OUTLINES:
+        raise ValueError(f"shape: expected one of {sorted(CONCAVE_OUTLINES)}, got {shape!r}")
+    floor = Polygon([[-3.0, 0.0, -3.0], [-3.0, 0.0, 3.0], [3.0, 0.0, 3.0], [3.0, 0.0, -3.0]],
+                    reflectance=reflectance, name="floor")
+    t = np.deg2rad(tilt)
+    def lift(ab):
+        ab = np.asarray(ab, dtype=np.float64)
+        return np.stack([ab[:, 0], height + ab[:, 1] * np.sin(t), ab[:, 1] * np.cos(t)], axis=1)
+
+    occ = Polygon(lift(CONCAVE_OUTLINES[shape]), [lift(h) for h in CONCAVE_HOLES.get(shape, [])],
+                  reflectance=reflectance, name=f"{shape}_occluder", two_sided=True)
+    polys = [floor, occ]
+    centre = np.array([0.3, 3.0, 0.2])
+    lights = []
+    if light == "area":
+        h = 0.5 * light_size
+        sq = np.array([[-h, 0.0, -h], [h, 0.0, -h], [h, 0.0, h], [-h, 0.0, h]]) + centre
+        polys.append(AreaLight(_facing(sq, centre - [0.0, 1.0, 0.0]), emission=emission, name="light"))
+    elif light == "point":
+        lights.append(PointLight(centre, emission, name="lamp"))
+    elif light == "parallel":
+        lights.append(ParallelLight([0.2, -1.0, 0.1], emission, name="sun"))
+    else:
+        raise ValueError(f'light: expected "area", "point" or "parallel", got {light!r}')
+    return Scene(polys, lights, name=f"concave_{shape}_{light}")
