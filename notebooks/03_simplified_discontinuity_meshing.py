@@ -389,6 +389,19 @@ for ax, (name, (sc, sd, m, _)) in zip(axes, examples.items()):
 plt.show()
 
 # %% [markdown]
+# Fig. 3.15: example 1's discontinuity lines on the floor: the receiver complex that the mesh
+# above follows, its regions coloured by their darkest state.
+
+# %%
+sc1, sd1 = examples["two_rectangles_room"][:2]
+k1 = [i for i, p in enumerate(sc1.polygons) if p.name == "room_y0"][0]
+cx1 = sd1.complexes[k1]
+plot_dm.plot_complex(cx1, title=f"two_rectangles_room: floor, {len(cx1.edges)} edges, "
+                     f"{len(cx1.alive_faces)} regions")
+plt.show()
+assert len(cx1.alive_faces) > 1  # the floor is divided by the shadows of both rectangles
+
+# %% [markdown]
 # ### The chair: simplified DM against adaptive subdivision (Figs 3.20–3.23)
 #
 # Adaptive subdivision (Def. 2.6) starts from the coarse uniform mesh, solves, and refines
@@ -406,6 +419,19 @@ for _ in range(2):
 img_a = shade(m_a, progressive_refinement(m_a, **SOLVE).display_radiosity(m_a), cam)
 show_images([img_a, img_dm], [f"adaptive subdivision, {m_a.n_elements} elements",
                               f"simplified DM, {m_dm.n_elements} elements"], size=4.5)
+plt.show()
+
+# %% [markdown]
+# Figs 3.21 and 3.20 side by side: the chair's floor meshed by adaptive subdivision (refined
+# wherever neighbours differ, across the whole shadow) and by simplified DM (fine only in the
+# penumbra regions, with edges on the lines).
+
+# %%
+kc = [i for i, p in enumerate(sc.polygons) if p.name == "room_y0"][0]
+fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
+chair_meshes = {"adaptive subdivision (Fig. 3.21)": m_a, "simplified DM (Fig. 3.20)": m_dm}
+for ax, (label, mm) in zip(axes, chair_meshes.items()):
+    plot_polygon_mesh(mm, kc, ax=ax, title=f"{label}: {np.sum(mm.element_polygon == kc)} floor elements")
 plt.show()
 
 # %% [markdown]
