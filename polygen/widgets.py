@@ -114,8 +114,6 @@ class IsosurfaceExplorer:
             hi = lo + 1.0
         self._updating = True  # moving the bounds moves the value: no extraction meanwhile
         try:
-            # one message to the page: sent one by one, the new min reached the page with the old value
-            # still there, the page sent that value back, and it came after the new one (the field's median)
             with self._slider.hold_sync():
                 # the slider keeps min <= max at every assignment: widen first, then narrow
                 if lo > self._slider.max:
@@ -124,6 +122,13 @@ class IsosurfaceExplorer:
                     self._slider.min, self._slider.max = lo, hi
                 self._slider.step = (hi - lo) / self._steps
                 self._slider.value = min(max(value, lo), hi)
+                # hold_sync would send the held names in a set's order, random per process
+                self._slider._states_to_send.clear()
+            # One message, the range before the value. Sent one by one, the new min reached the page with
+            # the old value still there, which the page sent back after the new one. In one message the
+            # page applies the names in the message's order, and a value that comes before the new step
+            # is rounded onto the old field's grid and sent back (7.15 came back as 7.14471).
+            self._slider.send_state(["min", "max", "step", "value"])
         finally:
             self._updating = False
 
