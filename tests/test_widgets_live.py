@@ -11,9 +11,11 @@ the ``<img>`` the widget shows and compare it with the same view rendered in
 this (plain) process. The explorer is also picked another method and another
 field from its dropdowns, and is run in Notebook 7 (the ``notebook`` package,
 served by the same server under ``/notebooks/``) as well as in JupyterLab. The
-field change found a second fault: ipykernel 7 ran the dropdown's callback and
-the slider's on two threads at once, and the slider kept the old field's value
-(``tests/test_widgets.py`` checks the explorer's lock without a browser).
+change of field found two more faults, both fixed in the explorer and checked
+without a browser in ``tests/test_widgets.py``: ipykernel 7 ran the dropdown's
+callback and the slider's on two threads at once (the slider kept the old
+field's value), and the page, given the new range and value in a random order,
+rounded the value onto the old field's grid.
 
 Notebook 7 starts its application without lumino's ``bubblingKeydown`` (JupyterLab
 4 starts with it), so its shortcuts see a key before the focused widget does:
