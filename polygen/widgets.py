@@ -12,8 +12,14 @@ book) keeps the PNG of the first state in the output, which
 The drawing runs on one render thread (``polygen.plotting._render_thread``)
 that makes the off-screen plotter and alone uses its OpenGL context: JupyterLab
 4.6 sends widget messages over a kernel subshell, whose thread runs the
-callbacks, and a context used from another thread than its own draws black. Any thread may call :meth:`IsosurfaceExplorer.update`; calls are
-not meant to overlap (a kernel runs one widget message at a time per subshell).
+callbacks, and a context used from another thread than its own draws black.
+
+Any thread may call :meth:`IsosurfaceExplorer.update`, and calls may overlap:
+ipykernel 7 sends each widget's messages to the subshell that last published
+on that widget, so the slider's and a dropdown's callbacks can run at the same
+time on two threads (the kernel's main shell and a subshell). One lock per
+explorer makes each change -- new range, extraction, picture, counters -- run
+whole before the next begins.
 
 Like the plotting modules, nothing in the algorithm packages imports this
 one; pyvista, ipywidgets and PIL are imported inside the functions.
@@ -23,6 +29,7 @@ from __future__ import annotations
 
 import base64
 import io
+import threading
 import time
 import weakref
 
@@ -71,6 +78,9 @@ class IsosurfaceExplorer:
         if int(steps) < 2:
             raise VolumeError(f"steps must be at least 2; got {steps!r}")
         self._steps = int(steps)
+        # held by every change of state: two threads may deliver the widgets' messages at once (module doc);
+        # re-entrant because update(field=...) sets the dropdown, whose observer calls back on the same thread
+        self._lock = threading.RLock()
         self._window_size = tuple(int(x) for x in window_size)
         # [pyvista.Plotter or None], made, drawn and closed on the render thread only; a box so that
         # the finalizer closes it there without holding the explorer
@@ -104,21 +114,30 @@ class IsosurfaceExplorer:
             hi = lo + 1.0
         self._updating = True  # moving the bounds moves the value: no extraction meanwhile
         try:
-            # the slider keeps min <= max at every assignment: widen first, then narrow
-            if lo > self._slider.max:
-                self._slider.max, self._slider.min = hi, lo
-            else:
-                self._slider.min, self._slider.max = lo, hi
-            self._slider.step = (hi - lo) / self._steps
-            self._slider.value = min(max(value, lo), hi)
+            with self._slider.hold_sync():
+                # the slider keeps min <= max at every assignment: widen first, then narrow
+                if lo > self._slider.max:
+                    self._slider.max, self._slider.min = hi, lo
+                else:
+                    self._slider.min, self._slider.max = lo, hi
+                self._slider.step = (hi - lo) / self._steps
+                self._slider.value = min(max(value, lo), hi)
+                # hold_sync would send the held names in a set's order, random per process
+                self._slider._states_to_send.clear()
+            # One message, the range before the value. Sent one by one, the new min reached the page with
+            # the old value still there, which the page sent back after the new one. In one message the
+            # page applies the names in the message's order, and a value that comes before the new step
+            # is rounded onto the old field's grid and sent back (7.15 came back as 7.14471).
+            self._slider.send_state(["min", "max", "step", "value"])
         finally:
             self._updating = False
 
     def _field_changed(self, field):
-        s = self.vol.scalars(field)
-        self.field = field
-        self._set_range(s, float(np.median(s)))
-        self.update(value=self._slider.value)
+        with self._lock:
+            s = self.vol.scalars(field)
+            self.field = field
+            self._set_range(s, float(np.median(s)))
+            self.update(value=self._slider.value)
 
     def update(self, value=None, *, field=None, method=None):
         """Extract the surface for the current (or given) value, field and method, and draw it.
@@ -132,7 +151,15 @@ class IsosurfaceExplorer:
         Returns
         -------
         IsoSurface
+
+        Notes
+        -----
+        Thread-safe: a call from another thread waits until the one running has drawn its picture.
         """
+        with self._lock:
+            return self._update(value, field=field, method=method)
+
+    def _update(self, value, *, field, method):
         if getattr(self, "_updating", False):
             return self.surface
         if field is not None and field != self.field:

@@ -123,3 +123,49 @@ def test_redraw_from_another_thread(vol, explorer):
     assert _gold(_image(pictures[0])) > 100
     assert pictures[1] == here  # the same value draws the same picture from either thread
     assert _render_thread.ident() not in (threads[0], threading.get_ident())
+
+
+def test_updates_from_two_threads_run_one_after_the_other(vol, explorer):
+    """ipykernel 7 sends each widget's messages to the subshell that last published on it, so the field
+    dropdown's callback (the kernel's main shell) and the slider's (a subshell) can run at once.
+
+    Seen in a live JupyterLab: the field change drew the old field's value with the new field's surface, and
+    the counters disagreed with the picture. A slider move that comes while a field change draws must wait.
+    """
+    import threading
+
+    entered, release = threading.Event(), threading.Event()
+    render = explorer._render
+
+    def held_render(iso):  # the field change stops before drawing until the slider's move has been tried
+        if threading.current_thread().name == "main-shell-like":
+            entered.set()
+            release.wait(60)
+        return render(iso)
+
+    explorer._render = held_render
+    field_change = threading.Thread(target=lambda: explorer.update(field="x"), name="main-shell-like")
+    field_change.start()
+    assert entered.wait(60)
+    slider = threading.Thread(target=lambda: explorer.update(value=3.0), name="subshell-like")
+    slider.start()
+    slider.join(timeout=2.0)
+    waited = slider.is_alive()
+    release.set()
+    field_change.join(timeout=60)
+    slider.join(timeout=60)
+    assert waited, "the slider's update ran while the field change was drawing"
+    assert explorer.field == "x" and explorer.value == 3.0
+    assert same_surface(explorer.surface, extract(vol, 3.0, field="x", method="scan"))
+    assert "C = 3:" in explorer._counters.value
+
+
+def test_field_change_sends_the_new_range_in_one_message(explorer, monkeypatch):
+    """Sent one by one, the new minimum reached the page while it still held the old value, which the page
+    sent back after the new field's median: the slider ended on the old field's value. In one message, the
+    page applies the names in order, and a value before the new step is rounded onto the old grid."""
+    sent = []
+    monkeypatch.setattr(explorer._slider, "_send", lambda msg, buffers=None: sent.append(msg["state"]))
+    explorer._field.value = "x"
+    assert [list(s) for s in sent] == [["min", "max", "step", "value"]]
+    assert sent[0]["value"] == pytest.approx(float(np.median(explorer.vol.fields["x"])))

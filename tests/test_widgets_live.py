@@ -1,4 +1,4 @@
-"""The notebooks' widgets in a live JupyterLab, driven by headless Chromium (issue 46).
+"""The notebooks' widgets in a live JupyterLab and Notebook 7, driven by headless Chromium (issue 46).
 
 JupyterLab 4.6 sends widget messages over a kernel subshell, so ipykernel 7
 runs a widget's callbacks on the subshell's thread, not on the thread that ran
@@ -8,7 +8,20 @@ Jupyter server on a free loopback port (a token, a temporary notebook folder,
 always stopped at teardown), open a notebook in Chromium through Playwright,
 run it, move a slider by one step and then by 40, and after each move decode
 the ``<img>`` the widget shows and compare it with the same view rendered in
-this (plain) process.
+this (plain) process. The explorer is also picked another method and another
+field from its dropdowns, and is run in Notebook 7 (the ``notebook`` package,
+served by the same server under ``/notebooks/``) as well as in JupyterLab. The
+change of field found two more faults, both fixed in the explorer and checked
+without a browser in ``tests/test_widgets.py``: ipykernel 7 ran the dropdown's
+callback and the slider's on two threads at once (the slider kept the old
+field's value), and the page, given the new range and value in a random order,
+rounded the value onto the old field's grid.
+
+Notebook 7 starts its application without lumino's ``bubblingKeydown`` (JupyterLab
+4 starts with it), so its shortcuts see a key before the focused widget does:
+on a slider's handle, ArrowRight runs the notebook's command-mode shortcut
+(``notebook:move-cursor-heading-below-or-expand``) and never reaches the slider.
+A Notebook 7 user drags the handle with the mouse, and so does the test there.
 
 Threshold, fixed before any run: the page's picture must reach a PSNR of at
 least ``PSNR_MIN = 30`` dB against the reference, within ``WAIT_S`` seconds of
@@ -54,9 +67,11 @@ from polygen.widgets import isosurface_explorer
 
 vol = UnstructuredVolume.from_pyvista(pv.ImageData(dimensions=(12, 12, 12)).triangulate())
 vol.add_field("r", np.linalg.norm(vol.points - 5.5, axis=1))
+vol.add_field("x", vol.points[:, 0] + 0.3 * vol.points[:, 1])
 ex = isosurface_explorer(vol, window_size=(400, 300))
 ex
 """
+OTHER_METHOD = "interval-tree"  # the second method picked in the explorer: another seed source, quick to compile
 
 LIGHT_SLIDER = """\
 from polygen.plotting import discontinuity as plot_dm
@@ -198,16 +213,24 @@ def browser():
             b.close()
 
 
-class Notebook:
-    """One notebook of one cell, opened in JupyterLab and run."""
+UIS = {  # the front ends, by the URL that opens a notebook in each
+    # a workspace of its own, reset: JupyterLab would otherwise restore the previous test's tabs
+    "jupyterlab": "/lab/workspaces/{name}/tree/{name}.ipynb?reset&token={token}",
+    # Notebook 7 (the notebook package) on the same server: one notebook per browser tab, no workspace
+    "notebook7": "/notebooks/{name}.ipynb?token={token}",
+}
 
-    def __init__(self, server, browser, name, source):
+
+class Notebook:
+    """One notebook of one cell, opened in JupyterLab or Notebook 7 (``ui``, a key of ``UIS``) and run."""
+
+    def __init__(self, server, browser, name, source, ui="jupyterlab"):
         nb = {"cells": [{"cell_type": "code", "execution_count": None, "id": "c0", "metadata": {}, "outputs": [],
                          "source": source}],
               "metadata": {"kernelspec": {"name": "python3", "display_name": "Python 3", "language": "python"}},
               "nbformat": 4, "nbformat_minor": 5}
         (server["root"] / f"{name}.ipynb").write_text(json.dumps(nb))
-        self.server, self.name = server, name
+        self.server, self.name, self.ui = server, name, ui
         self.page = browser.new_page(viewport={"width": 1280, "height": 1000})
         self.page.set_default_timeout(float(os.environ.get("DBG_TIMEOUT", START_S)) * 1000)
         try:
@@ -219,8 +242,7 @@ class Notebook:
     def _run(self, server, name):
         from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
-        # a workspace of its own, reset: JupyterLab would otherwise restore the previous test's tabs
-        self.page.goto(f"{server['base']}/lab/workspaces/{name}/tree/{name}.ipynb?reset&token={server['token']}")
+        self.page.goto(server["base"] + UIS[self.ui].format(name=name, token=server["token"]))
         self.page.locator(".jp-Notebook .jp-Cell .cm-content").first.wait_for()
         try:  # JupyterLab sometimes asks which kernel to start (seen on a loaded machine): the preferred one
             self.page.locator(".jp-Dialog .jp-mod-accept").click(timeout=5000)
@@ -238,12 +260,40 @@ class Notebook:
         return self.page.locator(selector).first.inner_text()
 
     def move(self, slider, steps):
-        """Press the right arrow ``steps`` times on the ``slider``-th slider's handle; the readout it shows then."""
+        """Move the ``slider``-th slider ``steps`` steps to the right as a user would; the readout it shows then.
+
+        In JupyterLab: focus the handle and press the right arrow ``steps`` times. In Notebook 7, whose
+        shortcuts take the arrow keys first (the module's docstring): drag the handle with the mouse,
+        half a pixel at a time, until its value has changed ``steps`` times.
+        """
         handle = self.page.locator(".widget-slider .noUi-handle").nth(slider)
-        handle.focus()
-        for _ in range(steps):
-            handle.press("ArrowRight")
-        return self.page.locator(".widget-slider .widget-readout").nth(slider).inner_text()
+        readout = self.page.locator(".widget-slider .widget-readout").nth(slider)
+        if self.ui == "notebook7":
+            handle.scroll_into_view_if_needed()
+            box = handle.bounding_box()
+            track = self.page.locator(".widget-slider .noUi-target").nth(slider).bounding_box()
+            x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+            value, moved = handle.get_attribute("aria-valuetext"), 0
+            self.page.mouse.move(x, y)
+            self.page.mouse.down()
+            try:
+                while moved < steps and x < track["x"] + track["width"] + box["width"]:
+                    x += 0.5
+                    self.page.mouse.move(x, y)
+                    now = handle.get_attribute("aria-valuetext")
+                    moved, value = moved + (now != value), now
+            finally:
+                self.page.mouse.up()
+            assert moved == steps, f"dragging the handle moved the slider {moved} steps, not {steps}"
+        else:
+            handle.focus()
+            for _ in range(steps):
+                handle.press("ArrowRight")
+        return readout.inner_text()
+
+    def choose(self, dropdown, option):
+        """Pick ``option`` in the ``dropdown``-th dropdown (a ``<select>``), as a user does with the mouse."""
+        self.page.locator(".widget-dropdown select").nth(dropdown).select_option(option)
 
     def shows(self, reference, *, what):
         """Wait until the picture reaches PSNR_MIN against ``reference``; fail with the best PSNR seen."""
@@ -257,8 +307,9 @@ class Notebook:
         black = float(np.mean(img.sum(axis=2) < 30))
         for tag, pic in (("page", img), ("reference", reference)):  # kept beside the notebook, to look at
             Image.fromarray(pic.astype(np.uint8)).save(self.server["root"] / f"{self.name}-{tag}.png")
+        texts = self.page.locator(".widget-readout, .widget-html").all_inner_texts()  # what the page says it shows
         pytest.fail(f"{what}: the page's picture reached {best:.1f} dB against the plain-process reference "
-                    f"(need {PSNR_MIN} dB); {100 * black:.0f} % of its pixels are black")
+                    f"(need {PSNR_MIN} dB); {100 * black:.0f} % of its pixels are black; the widgets read {texts}")
 
     def close(self):
         """Close the page and shut the notebook's kernel down (the machine is shared)."""
@@ -276,8 +327,8 @@ class Notebook:
 def notebook(server, browser):
     opened = []
 
-    def open_(name, source):
-        opened.append(Notebook(server, browser, name, source))
+    def open_(name, source, ui="jupyterlab"):
+        opened.append(Notebook(server, browser, name, source, ui))
         return opened[-1]
 
     yield open_
@@ -286,34 +337,67 @@ def notebook(server, browser):
 
 
 # ---------------------------------------------------------------- the tests
-def test_explorer_redraws_in_jupyterlab(notebook):
+def _drawn(nb, *, method, near=None, tol=None):
+    """Wait until the explorer's counters show the slider's value (the readout's 4 digits), extracted by
+    ``method``, and within ``tol`` of ``near`` if given; that value as the counters print it (6 digits).
+
+    The page may move the value itself: it rounds a value the kernel sets (a field's median) onto its grid
+    of steps and sends that back; the readout shows it at once, so waiting for the counters to agree
+    with the readout waits for that redraw too.
+    """
+    deadline, seen, readout = time.monotonic() + WAIT_S, "", None
+    while time.monotonic() < deadline:
+        seen, readout = nb.text(".widget-html"), float(nb.text(".widget-slider .widget-readout"))
+        m = re.search(r"C = ([-+0-9.e]+):.*\(([a-z-]+)\)", seen)
+        if m and m.group(2) == method:
+            c = float(m.group(1))
+            if abs(c - readout) <= 5e-4 * max(1.0, abs(readout)) and (near is None or abs(c - near) <= tol):
+                return m.group(1)
+        time.sleep(0.25)
+    nb.page.screenshot(path=nb.server["root"] / f"{nb.name}-counters.png")  # kept beside the notebook, to look at
+    pytest.fail(f"the counters never showed the slider's value {readout} ({method}, near {near}); "
+                f"they showed: {seen}")
+
+
+@pytest.mark.parametrize("ui", list(UIS))
+def test_explorer_redraws(notebook, ui):
+    """Every change of value (1 step, 40 steps), method and field redraws the surface, in both front ends."""
     import pyvista as pv
 
     from polygen.volume import UnstructuredVolume
     from polygen.widgets import isosurface_explorer
 
+    if ui == "notebook7":
+        pytest.importorskip("notebook", minversion="7", reason="Notebook 7 is the notebook package (test extra)")
     vol = UnstructuredVolume.from_pyvista(pv.ImageData(dimensions=(12, 12, 12)).triangulate())
     vol.add_field("r", np.linalg.norm(vol.points - 5.5, axis=1))
+    vol.add_field("x", vol.points[:, 0] + 0.3 * vol.points[:, 1])
     ref = isosurface_explorer(vol, window_size=(400, 300))
     try:
-        nb = notebook("explorer", EXPLORER)
+        nb = notebook(f"explorer-{ui}", EXPLORER, ui)
         # the first picture was never wrong (it is drawn where the context was made); once in a few runs it
         # reached 29.0 dB here, cause unknown: it must show the surface (not black), the moves must match
         img = _decode(nb.src())
         assert float(np.mean(img.sum(axis=2) < 30)) < 0.5, "the first picture is black"
         for steps in (1, 40):
-            readout = float(nb.move(0, steps))
-            # the counters say which value the kernel drew (6 digits); the readout shows 4
-            deadline = time.monotonic() + WAIT_S
-            while time.monotonic() < deadline:
-                m = re.search(r"C = ([-+0-9.e]+):", nb.text(".widget-html"))
-                if m and abs(float(m.group(1)) - readout) <= 5e-4 * max(1.0, abs(readout)):
-                    break
-                time.sleep(0.25)
-            else:
-                pytest.fail(f"the counters never reached the slider's value {readout}")
-            ref.update(value=float(m.group(1)))
-            nb.shows(_png(ref.png), what=f"after {steps} step(s), C = {m.group(1)}")
+            nb.move(0, steps)
+            c = _drawn(nb, method=ref.method)
+            ref.update(value=float(c))
+            nb.shows(_png(ref.png), what=f"after {steps} step(s), C = {c}")
+        nb.choose(1, OTHER_METHOD)
+        c = _drawn(nb, method=OTHER_METHOD)
+        ref.update(method=OTHER_METHOD)
+        nb.shows(_png(ref.png), what=f"method {OTHER_METHOD}, C = {c}")
+        # a new field moves the slider to the field's median (the page then rounds it to its grid)
+        nb.choose(0, "x")
+        ref.update(field="x")
+        c = _drawn(nb, method=OTHER_METHOD, near=ref.value, tol=float(np.ptp(vol.fields["x"])) / 200)
+        ref.update(value=float(c))
+        nb.shows(_png(ref.png), what=f"field x, C = {c}")
+        nb.move(0, 1)
+        c = _drawn(nb, method=OTHER_METHOD)
+        ref.update(value=float(c))
+        nb.shows(_png(ref.png), what=f"field x, one step on, C = {c}")
     finally:
         ref.close()
 
