@@ -71,8 +71,8 @@ class _Dispatcher(CPUDispatcher):
     numba types a constant argument of a call from one kernel to another as a literal
     (``Literal[int](0)``, ``Literal[bool](True)``) and compiles the callee once per distinct literal
     besides its ``int64`` build: ``_remove(..., 0)`` and ``_remove(..., t)`` were two compilations of
-    the whole function (the default run of ``polygen isosurface`` compiled 25 such extra builds, a
-    seconds each). The callee is here compiled for the plain types; the caller converts the constant.
+    the whole function (the first run of ``polygen isosurface`` built 170 kernels, 17 of them such
+    extra builds). The callee is here compiled for the plain types; the caller converts the constant.
     A call from Python never gives literals.
     """
 
