@@ -14,8 +14,16 @@ import operator
 import os
 import threading
 
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - not POSIX
+    fcntl = None
+
 import numba
 import numpy as np
+from numba.core import types
+from numba.core.caching import IndexDataCacheFile
+from numba.core.registry import CPUDispatcher
 
 CACHE = os.environ.get("POLYGEN_NUMBA_CACHE", "1") != "0"
 prange = numba.prange
@@ -57,16 +65,63 @@ scratch = _poisoned_empty if POISON else np.empty
 scratch_like = _poisoned_empty_like if POISON else np.empty_like
 
 
+class _Dispatcher(CPUDispatcher):
+    """A dispatcher that a kernel calling it with a constant argument does not specialise on the constant.
+
+    numba types a constant argument of a call from one kernel to another as a literal
+    (``Literal[int](0)``, ``Literal[bool](True)``) and compiles the callee once per distinct literal
+    besides its ``int64`` build: ``_remove(..., 0)`` and ``_remove(..., t)`` were two compilations of
+    the whole function (the first run of ``polygen isosurface`` built 170 kernels, 17 of them such
+    extra builds). The callee is here compiled for the plain types; the caller converts the constant.
+    A call from Python never gives literals.
+    """
+
+    def get_call_template(self, args, kws):
+        return super().get_call_template(tuple(types.unliteral(a) for a in args),
+                                         {k: types.unliteral(v) for k, v in kws.items()})
+
+
+class _LockedCacheFile(IndexDataCacheFile):
+    """numba's cache index and data files of one function, saved under an exclusive file lock.
+
+    numba saves a new build by reading the function's index, choosing the first unused data file
+    number and writing both: two processes that save different builds of one function at the same
+    moment can choose the same number, and the index then names the other build's code (numba does
+    not check the signature on loading). ``polygen isosurface`` compiles in two processes on a first
+    run (:func:`polygen.cli.isosurface._warm_up`), and pytest-xdist workers share a cache: a save
+    here re-reads the index under a lock on ``<index>.lock``, so the numbers never clash.
+    """
+
+    def save(self, key, data):
+        if fcntl is None:  # pragma: no cover - not POSIX
+            return super().save(key, data)
+        with open(self._index_path + ".lock", "ab") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file is closed
+            return super().save(key, data)
+
+
+def _plain_types(disp):
+    if type(disp) is CPUDispatcher:  # not with NUMBA_DISABLE_JIT (a plain function)
+        disp.__class__ = _Dispatcher
+        cache_file = getattr(disp._cache, "_cache_file", None)
+        if type(cache_file) is IndexDataCacheFile:
+            cache_file.__class__ = _LockedCacheFile
+    return disp
+
+
 def njit(fn=None, **kwargs):
     """``numba.njit`` with polygen's defaults (``cache=True, nogil=True``).
 
-    Use as ``@njit`` or ``@njit(parallel=True)``.
+    Use as ``@njit`` or ``@njit(parallel=True)``. The kernel is compiled for the
+    plain types of its arguments when another kernel calls it with a constant
+    (see :class:`_Dispatcher`).
     """
     kwargs.setdefault("cache", CACHE)
     kwargs.setdefault("nogil", True)
     if fn is None:
-        return numba.njit(**kwargs)
-    return numba.njit(**kwargs)(fn)
+        decorate = numba.njit(**kwargs)
+        return lambda f: _plain_types(decorate(f))
+    return _plain_types(numba.njit(**kwargs)(fn))
 
 
 @numba.njit(parallel=True, cache=CACHE)

@@ -180,3 +180,36 @@ def test_poison_is_off_by_default():
         assert not _jit.POISON and _jit.scratch is np.empty
     else:  # the poison tier of .ci/run
         assert _jit.POISON and np.isnan(_jit.scratch(3)).all()
+
+
+def test_a_constant_argument_from_a_kernel_compiles_no_extra_build():
+    # numba would compile `pick` three times: for Literal[int](0), Literal[int](1) and int64
+    @_jit.njit(cache=False)
+    def pick(a, k):
+        return a[k]
+
+    @_jit.njit(cache=False)
+    def total(a):
+        return pick(a, 0) + pick(a, 1) + pick(a, a.shape[0] - 1)
+
+    assert total(np.arange(4.0)) == 4.0
+    assert [tuple(map(str, s)) for s in pick.signatures] == [("array(float64, 1d, C)", "int64")]
+
+
+def test_cached_builds_are_saved_under_a_lock(tmp_path, monkeypatch):
+    # two processes saving different builds of one function must not both take data file 1
+    import numba
+
+    monkeypatch.setattr(numba.core.config, "CACHE_DIR", str(tmp_path))
+    locked = []
+    flock = _jit.fcntl.flock
+    monkeypatch.setattr(_jit.fcntl, "flock", lambda f, op: (locked.append(f.name), flock(f, op)))
+
+    def plus_one(a):
+        return a + 1
+
+    fn = _jit.njit(plus_one)
+    assert fn(1) == 2 and fn(1.5) == 2.5
+    index = [p for p in tmp_path.rglob("*.nbi")]
+    assert len(index) == 1 and locked == [str(index[0]) + ".lock"] * 2
+    assert len(list(tmp_path.rglob("*.nbc"))) == 2

@@ -146,20 +146,95 @@ def _vtk_time(vol, field, values):
     return time.perf_counter() - t0, tris
 
 
-def _warm_up(names, cell_type):
-    """Run each method on a tiny volume of ``cell_type``: the seconds spent (compiling or loading kernels)."""
-    from polygen.volume import UnstructuredVolume, datasets, methods
+def _warm_up(names, cell_type, helper=True):
+    """Run each method on a tiny volume of ``cell_type``: the seconds spent (compiling or loading kernels).
+
+    numba compiles on one thread. On a first run (the first kernel compiles) a helper process is
+    started that runs the same methods from the other end of the list, each method taken by whichever
+    of the two claims it first; both save what they compile in numba's on-disk cache. This process then
+    runs the helper's methods too, which loads their kernels from the cache (or compiles what the helper
+    did not save), so the seconds returned are all the compiling and loading it took. No helper where
+    numba's cache is off, on one core, or when nothing compiles (a second run).
+    """
+    import shutil
+    import subprocess
+    import tempfile
+
+    import numba.core.event as ev
+
+    from polygen import _jit
 
     t0 = time.perf_counter()
+    claims = tempfile.mkdtemp(prefix="polygen-warm-up-") if helper and len(names) > 1 else None
+    started = []
+
+    class StartHelper(ev.Listener):
+        def on_start(self, event):
+            if not started:
+                started.append(subprocess.Popen(
+                    [sys.executable, "-c", "from polygen.cli.isosurface import _helper_main; _helper_main()",
+                     claims, cell_type, *names], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL))
+
+        def on_end(self, event):
+            pass
+
+    listener = StartHelper()
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    if claims is not None and _jit.CACHE and cores > 1:
+        ev.register("numba:compile", listener)
+    try:
+        tiny = _tiny_volume(cell_type)
+        left = [name for name in names if not _run_tiny(tiny, name, claims)]
+        if started:
+            ev.unregister("numba:compile", listener)
+            started[0].wait()
+        for name in left:  # the helper's: from the cache now
+            _run_tiny(tiny, name, None)
+    finally:
+        if claims is not None and not started:
+            ev.unregister("numba:compile", listener)
+        if started and started[0].poll() is None:  # pragma: no cover - interrupted
+            started[0].kill()
+            started[0].wait()
+        if claims is not None:
+            shutil.rmtree(claims, ignore_errors=True)
+    return time.perf_counter() - t0
+
+
+def _tiny_volume(cell_type):
+    from polygen.volume import UnstructuredVolume, datasets
+
     tiny = datasets.load("hollow_cube" if cell_type == "tetra" else "hollow_cube_hex")
     # the same array types as a user's volume: fields added through the constructor
-    tiny = UnstructuredVolume(tiny.points, tiny.cells, {"f": tiny.points @ [1.0, 0.7, 0.3]})
-    for name in names:
-        method = methods.get(name)(tiny, field="f")
-        method.extract(1.5)
-        if type(method).extract_many is not methods.IsosurfaceMethod.extract_many:
-            method.extract_many([1.0, 2.0])
-    return time.perf_counter() - t0
+    return UnstructuredVolume(tiny.points, tiny.cells, {"f": tiny.points @ [1.0, 0.7, 0.3]})
+
+
+def _run_tiny(tiny, name, claims):
+    """Run method ``name`` on the tiny volume, unless ``claims`` (a folder) shows the other process took it:
+    whether it ran."""
+    from polygen.volume import methods
+
+    if claims is not None:
+        try:
+            os.close(os.open(os.path.join(claims, name), os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+        except (FileExistsError, FileNotFoundError):  # taken, or the warm-up is over
+            return False
+    method = methods.get(name)(tiny, field="f")
+    method.extract(1.5)
+    if type(method).extract_many is not methods.IsosurfaceMethod.extract_many:
+        method.extract_many([1.0, 2.0])
+    return True
+
+
+def _helper_main():
+    """The helper process of :func:`_warm_up`: ``claims cell_type names...``; the methods from the last."""
+    claims, cell_type, *names = sys.argv[1:]
+    tiny = _tiny_volume(cell_type)
+    for name in reversed(names):
+        if not os.path.isdir(claims):  # the main process is done (or gone)
+            return
+        _run_tiny(tiny, name, claims)
 
 
 def _is_partitioned(args):

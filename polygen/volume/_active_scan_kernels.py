@@ -827,8 +827,9 @@ def fold_normals(acc, out, cuts, v_off, t_off, tris, side_t, n_side, side_n):
         t_first[q] = t_off[cuts[q]]
     zeros = np.zeros(n_parts, np.int64)
     for q in prange(n_parts):
-        zeros[q] = _fold_part(acc, out, q, v_off[cuts[q]], v_off[cuts[q + 1]], tris, side_t, t_first, n_side,
-                              side_n)
+        # q as int64: one build of _fold_part (a prange index is uint64 in the parallel body, int64 before)
+        zeros[q] = _fold_part(acc, out, np.int64(q), v_off[cuts[q]], v_off[cuts[q + 1]], tris, side_t, t_first,
+                              n_side, side_n)
     return zeros.sum()
 
 

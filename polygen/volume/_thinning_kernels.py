@@ -11,7 +11,6 @@ tetrahedra (4 faces of 3 nodes) and hexahedra (6 faces of 4 nodes).
 
 import numpy as np
 
-from polygen import _jit
 from polygen._jit import njit, prange
 from polygen.volume._intrinsics import _KCACHE, _prefetch_row
 
@@ -332,7 +331,6 @@ def _find_prick(cells, face_nb, local_faces, cls, nb_node, root, is_void, g, pic
     return 0
 
 
-_NO_HALF = _jit.scratch(0, np.int8)  # _remove's filter off: every neighbour of class >= 1 is queued
 
 #: slots of the state array of :func:`thin_resume`
 ST_N_REMOVED = 0
@@ -409,6 +407,9 @@ def thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void,
     n_dec = st[ST_N_DEC]
     picked = np.empty(3, np.int64)
     fa = np.empty(6, np.int64)
+    # _remove's filter off: every neighbour of class >= 1 is queued. A writable array, as
+    # _thin_half's ``half``: a global one is read-only to numba, another build of _remove
+    no_half = np.empty(0, np.int8)
     while True:
         q = 1
         c = -1
@@ -435,7 +436,7 @@ def thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void,
             if ok:
                 stats[ST_REMOVED + q] += 1
                 stats[ST_IMPLICIT] += _remove(c, cells, face_nb, cls, nb_node, queue, head, tail, order, n_removed,
-                                              src, labelled, st, _NO_HALF, 0)
+                                              src, labelled, st, no_half, 0)
                 n_removed += 1
             continue
         if not prick:
@@ -466,7 +467,7 @@ def thin_resume(cells, face_nb, local_faces, fmask, cls, nb_node, root, is_void,
         n_pricks += 1
         for j in range(k):
             stats[ST_IMPLICIT] += _remove(picked[j], cells, face_nb, cls, nb_node, queue, head, tail, order,
-                                          n_removed, src, labelled, st, _NO_HALF, 0)
+                                          n_removed, src, labelled, st, no_half, 0)
             n_removed += 1
         root[g] = out_lab
         stats[ST_PRICKS] += 1
@@ -589,7 +590,10 @@ def thin_halves(cells, face_nb, fmask, cls, nb_node, half, split, stats2, order,
         else:
             d = decisions
         lab = labelled2[t] if src.shape[0] > 0 else labelled2[0, :0]
-        _thin_half(t, lo, hi, cells, face_nb, fmask, cls, nb_node, half, stats2[t], o, d, st2[t], src, lab)
+        # t as int64: a prange index is uint64 in the parallel body and int64 where numba types the
+        # kernel first, two builds of _thin_half (and _remove) otherwise
+        _thin_half(np.int64(t), lo, hi, cells, face_nb, fmask, cls, nb_node, half, stats2[t], o, d, st2[t], src,
+                   lab)
 
 
 @njit
