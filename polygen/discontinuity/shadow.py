@@ -24,6 +24,7 @@ import numpy as np
 from polygen.discontinuity import _geometry as geo
 from polygen.discontinuity._polyhedra import (Polyhedron, ShadowError, ShadowPolyhedra, ShadowWarning,
                                               _cap_and_tol, _empty_pair, _light_arrays)
+from polygen.discontinuity.concave import planes_section
 from polygen.radiosity.scene import PointLight, Polygon
 
 __all__ = [
@@ -338,30 +339,9 @@ def polyhedron_section(polyhedron, receiver, box, *, tol=1e-9):
     (k, 2) float64
         Counter-clockwise; (0, 2) when empty or of zero area.
     """
-    box = np.asarray(box, dtype=np.float64)
-    size = float(np.max(box[1] - box[0]))
-    poly = np.array([[box[0, 0], box[0, 1]], [box[1, 0], box[0, 1]], [box[1, 0], box[1, 1]],
-                     [box[0, 0], box[1, 1]]])
     if polyhedron.empty:
         return np.zeros((0, 2))
-    N = polyhedron.planes[:, :3]
-    A = np.stack([N @ receiver.u, N @ receiver.v], axis=1)
-    C = polyhedron.planes[:, 3] - N @ receiver.origin
-    for a, c in zip(A, C):
-        na = float(np.hypot(*a))
-        if na <= 1e-12:  # a face parallel to the receiver: all of the plane or none of it
-            if c < -tol * size:
-                return np.zeros((0, 2))
-            continue
-        poly = geo.clip_polygon_2d(poly, a / na, c / na)
-        if len(poly) < 3:
-            return np.zeros((0, 2))
-    poly = geo.clean_ring(poly, tol * size)
-    if len(poly) and geo.area_2d(poly) < 0:
-        poly = poly[::-1].copy()
-    if len(poly) and geo.area_2d(poly) <= (tol * size) ** 2:
-        return np.zeros((0, 2))
-    return poly
+    return planes_section(polyhedron.planes, receiver, box, tol=tol)
 
 
 def section_edge_planes(polyhedron, receiver, ring, *, tol=1e-9):
