@@ -22,6 +22,11 @@ Run ``python benchmarks/discontinuity.py`` from the repository root; writes
   (and F = 0.5 for DM) against a reference whose direct light is exact at every pixel, with the
   DM's and the uniform meshes' node values by (2.8) and with the direct light at the nodes
   (:func:`polygen.discontinuity.node_values.node_radiosity`), and the old reference's own error;
+* **conventional** (its own files, ``discontinuity_conventional.json`` / ``.md``) -- chapter 3's
+  "fewer elements" against conventional DM, restated: the fewest elements with which simplified DM
+  reaches conventional DM's whole-image error, as a fraction of conventional's elements (claim: <=
+  0.6), at notebook 03's sizes, camera and solve (:data:`CONVENTIONAL`), on the three examples (the
+  sphere 12 x 15), both displays, against the exact-direct reference;
 * **across** -- direct light only, exact at pixels and nodes: the DM's penumbra error
   against F and against ``element_levels`` (what refines across a narrow penumbra band);
 * **table** -- Table 3.1 (N_f1, N_f2, N_d, N_p, N_e1, N_e2, T_d, T_m,
@@ -67,6 +72,7 @@ from polygen.discontinuity import simplified_discontinuity
 from polygen.discontinuity.meshing import conventional_discontinuity, discontinuity_mesh
 from polygen.radiosity import Camera, mesh_scene, progressive_refinement, scenes
 from polygen.radiosity.error import adaptive_curve, image_error, shade, uniform_curve
+from polygen.radiosity.raster import pixel_points
 
 ROOM_CAMERA = dict(position=[5.0, 8.5, 0.3], look_at=[5.0, 0.0, 6.5], fov=80.0, near=0.01)
 # per scene: uniform patch sizes, the DM's coarse size and penumbra sizes, adaptive rounds,
@@ -192,49 +198,19 @@ EXACT_UNIFORM = {"two_rectangles_room": [1.6, 1.1, 0.75], "chair_scene": [1.6, 1
                  "sphere_scene": [1.6, 0.75]}
 
 
-def pixel_points(mesh, cam):
-    """The surface point each pixel shows: ``(mask (H, W) bool, element (P,), point (P, 3))``, by
-    intersecting the pixel centre's ray with the plane of the element the rasteriser shows there."""
-    from polygen.radiosity.raster import render
-
-    _, ids = render(mesh.nodes, mesh.elements, np.zeros(mesh.n_nodes), cam, return_ids=True)
-    H, W = ids.shape
-    r, c = np.mgrid[0:H, 0:W]
-    q = np.stack([(c + 0.5 - 0.5 * W) / cam.focal, (0.5 * H - (r + 0.5)) / cam.focal, np.ones((H, W))], -1)
-    d = q @ cam.view_matrix()
-    sel = ids >= 0
-    e, dd = ids[sel], d[sel]
-    n, x0 = mesh.element_normal[e], mesh.element_centroid[e]
-    t = ((x0 - cam.position) * n).sum(1) / (dd * n).sum(1)
-    return sel, e, cam.position + t[:, None] * dd
-
-
 def exact_reference(name, sc, cam, solve, log, *, fine, rest, samples=8):
     """The reference image with each area light's direct part exact at every pixel's surface point
-    (:func:`polygen.discontinuity.node_values.light_direct`, the visible part of the light where
-    rays find it partly hidden), and the rest (reflected light, ambient) Gouraud-interpolated by
-    (2.8) from a fine solve (floor and occluders ``fine``, walls ``rest``).
+    (:func:`polygen.discontinuity.node_values.exact_direct_image`), and the rest (reflected light,
+    ambient) Gouraud-interpolated by (2.8) from a fine solve (floor and occluders ``fine``, walls
+    ``rest``).
 
     Returns ``(image, indirect image, fine mesh elements)``."""
-    from polygen.discontinuity.node_values import element_direct, light_direct
-    from polygen.radiosity.formfactor import pack_polygons
-    from polygen.radiosity.raster import node_intensities, render
+    from polygen.discontinuity.node_values import exact_direct_image
 
     t0 = time.perf_counter()
     rm = mesh_scene(sc, _reference_sizes(sc, fine, rest), element_levels=1)
-    B = progressive_refinement(rm, **solve).display_radiosity(rm)
-    packed = pack_polygons(sc.polygons)
-    rest_img = render(rm.nodes, rm.elements, node_intensities(
-        rm, B - element_direct(rm, visibility_samples=solve["visibility_samples"], packed=packed)), cam,
-        background=np.nan)
-    sel, e, x = pixel_points(rm, cam)
-    img = rest_img.copy()
-    for lpoly in sc.area_lights:
-        on = rm.element_polygon[e] != lpoly
-        img[np.flatnonzero(sel.ravel())[on] // sel.shape[1], np.flatnonzero(sel.ravel())[on] % sel.shape[1]] += (
-            rm.element_reflectance[e[on]] * light_direct(sc, lpoly, x[on], rm.element_normal[e[on]],
-                                                         rm.element_polygon[e[on]], samples=samples,
-                                                         packed=packed))
+    img, rest_img = exact_direct_image(rm, progressive_refinement(rm, **solve), cam, samples=samples,
+                                       visibility_samples=solve["visibility_samples"])
     log(f"{name}: exact reference ({fine}/{rest}, {rm.n_elements} elements) {time.perf_counter() - t0:.0f} s")
     return img, rest_img, rm.n_elements
 
@@ -341,6 +317,82 @@ def across_part(name, image, log, *, sizes=(1.6, 0.75), levels=(1, 2, 3)):
             log(f"  {name} F {F} element_levels {lev}: {m.n_elements} elements, direct-only penumbra error "
                 f"{rows[-1]['error_penumbra']:.4f}")
     return rows
+
+
+#: the ``conventional`` part, fixed before measuring: notebook 03's sizes (coarse 2.5, penumbra 0.6),
+#: camera, image and solve (each light patch shoots once, then the ambient term); conventional DM at
+#: the coarse size, simplified DM at the coarse size times each factor (coarser and finer), penumbra
+#: size fixed; the reference half the sizes (floor and occluders 0.3, walls 1.25), exact direct light
+CONVENTIONAL = dict(coarse=2.5, fine=0.6, image=128, factors=(1.74, 1.32, 1.0, 0.76, 0.57),
+                    solve=dict(max_shots="lights", ambient=True, visibility_samples=2))
+
+
+def conventional_part(names, log):
+    """Claim (b): simplified DM reaches conventional DM's image error with <= 60 % of its elements."""
+    from polygen.discontinuity.node_values import exact_direct_image, node_radiosity
+    from polygen.radiosity.raster import render
+
+    cfg = CONVENTIONAL
+    out = {"machine": machine(), "config": {k: v for k, v in cfg.items()}, "scenes": {}}
+    for name in names:
+        sc = getattr(scenes, name)()
+        cam = Camera(width=cfg["image"], height=cfg["image"], **ROOM_CAMERA)
+        t0 = time.perf_counter()
+        rm = mesh_scene(sc, _reference_sizes(sc, cfg["fine"] / 2, cfg["coarse"] / 2), element_levels=1)
+        ref = exact_direct_image(rm, progressive_refinement(rm, **cfg["solve"]), cam)[0]
+        log(f"{name}: reference {rm.n_elements} elements {time.perf_counter() - t0:.0f} s")
+        rows = []
+        for method, f in [("conventional", 1.0)] + [("simplified", f) for f in cfg["factors"]]:
+            t0 = time.perf_counter()
+            m = discontinuity_mesh(sc, patch_size=cfg["coarse"] * f, penumbra_patch_size=cfg["fine"],
+                                   element_levels=1, method=method)
+            r = progressive_refinement(m, **cfg["solve"])
+            ang, q = m.element_quality()
+            rows.append(dict(method=method, coarse=round(cfg["coarse"] * f, 4), fine=cfg["fine"],
+                             elements=m.n_elements, slivers=int(np.sum(q < 0.2)), min_angle=float(ang.min()),
+                             error_mean=image_error(shade(m, r.display_radiosity(m), cam), ref),
+                             error_node=image_error(render(m.nodes, m.elements, node_radiosity(m, r), cam,
+                                                           background=np.nan), ref),
+                             seconds=time.perf_counter() - t0))
+            log(f"  {method} {rows[-1]['coarse']:g}/{cfg['fine']:g}: {m.n_elements} elements, error "
+                f"{rows[-1]['error_mean']:.4f} (2.8) {rows[-1]['error_node']:.4f} (node), "
+                f"{rows[-1]['seconds']:.0f} s")
+        conv, claim = rows[0], {}
+        for k in ("error_mean", "error_node"):
+            ok = [r["elements"] for r in rows[1:] if r[k] <= conv[k]]
+            claim[k] = dict(conventional_elements=conv["elements"], conventional_error=conv[k],
+                            simplified_elements=min(ok) if ok else None,
+                            ratio=min(ok) / conv["elements"] if ok else None)
+        out["scenes"][name] = dict(reference_elements=rm.n_elements, rows=rows, claim=claim)
+        _write_conventional(out)
+    return out
+
+
+def _write_conventional(out):
+    (RESULTS / "discontinuity_conventional.json").write_text(json.dumps(out, indent=1, default=float) + "\n")
+    cfg = out["config"]
+    lines = ["# Simplified against conventional DM: the elements to reach conventional's image error", "",
+             f"Notebook 03's sizes (coarse {cfg['coarse']}, penumbra {cfg['fine']}), camera and {cfg['image']}^2 "
+             f"image; solve {cfg['solve']}; simplified DM at coarse x {list(cfg['factors'])}; whole-image "
+             "error against a reference with exact direct light at every pixel; `(2.8)` node values as the "
+             "thesis displays them, `node` with the light's direct part at the nodes. Claim (fixed "
+             "beforehand): simplified reaches conventional's error with <= 0.6 of its elements.", "",
+             f"Made at `{out['machine']['commit']}` on {out['machine']['date']}.", "",
+             "| scene | method | coarse/F | elements | q < 0.2 | min angle | error (2.8) | error (node) | s |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for name, e in out["scenes"].items():
+        for r in e["rows"]:
+            lines.append(f"| {name} | {r['method']} | {r['coarse']:g}/{r['fine']:g} | {r['elements']} | "
+                         f"{r['slivers']} | {r['min_angle']:.2f} | {r['error_mean']:.4f} | {r['error_node']:.4f} | "
+                         f"{r['seconds']:.0f} |")
+    lines += ["", "| scene | display | conventional elements | conventional error | simplified elements "
+              "needed | ratio |", "|---|---|---|---|---|---|"]
+    for name, e in out["scenes"].items():
+        for k, c in e["claim"].items():
+            lines.append(f"| {name} | {'(2.8)' if k == 'error_mean' else 'node'} | {c['conventional_elements']} | "
+                         f"{c['conventional_error']:.4f} | {c['simplified_elements']} | "
+                         + ("not reached" if c["ratio"] is None else f"{c['ratio']:.3f}") + " |")
+    (RESULTS / "discontinuity_conventional.md").write_text("\n".join(lines) + "\n")
 
 
 def _dm_curve(sc, cam, ref, method, disc, coarse, pens, solve):
@@ -664,6 +716,9 @@ def main(argv=None):
     if "exact" in parts:
         for name in args.scenes.split(","):
             exact_part(name, args.image, solve, log)
+    if "conventional" in parts:
+        conventional_part(args.scenes.split(","), log)
+        return
     if "across" in parts:
         out.setdefault("across", {})
         for name in args.scenes.split(","):

@@ -54,3 +54,28 @@ def test_light_direct_refuses_a_non_emitter():
 
     with pytest.raises(ShadowError, match="floor"):
         light_direct(_scene(), 0, np.zeros((1, 3)), np.array([[0.0, 1, 0]]), [0])
+
+
+def test_exact_direct_image_against_many_rays_per_pixel():
+    from polygen.discontinuity.node_values import exact_direct_image
+    from polygen.radiosity import Camera
+    from polygen.radiosity.raster import pixel_points
+
+    sc = _scene()
+    m = mesh_scene(sc, 1.5, element_levels=1)
+    n_light = int(np.sum(m.patch_polygon == 1))
+    # the light's shots only: on the floor everything is the light's direct part
+    res = progressive_refinement(m, max_shots=n_light, ambient=False, visibility_samples=2)
+    cam = Camera([3.0, 4.0, -3.0], [3.0, 0.0, 3.0], fov=60.0, width=40, height=40, near=0.01)
+    img, rest = exact_direct_image(m, res, cam)
+    covered, e, x = pixel_points(m, cam)
+    floor = m.element_polygon[e] == 0
+    got = img[covered][floor, 0]
+    n = np.tile([0.0, 1.0, 0.0], (int(floor.sum()), 1))
+    rays = 0.5 * light_direct(sc, 1, x[floor], n, np.zeros(int(floor.sum()), np.int64), samples=48,
+                              exact=False)[:, 0]
+    free = 0.5 * 10.0 * point_polygon_form_factor(x[floor], n, sc.polygons[1])
+    assert np.any(got < 0.5 * free) and np.any(got > 0.99 * free)     # the shadow is in view
+    assert np.all(np.abs(got - rays) <= 0.05 * free)
+    assert np.allclose(rest[covered][floor], 0.0, atol=1e-9 * free.max())
+    assert np.isnan(img[~covered]).all()

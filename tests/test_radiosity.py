@@ -732,7 +732,8 @@ def test_solver_input_checks():
 @pytest.mark.parametrize("call, kw, name", [
     ("pr", {"tol": 0.0}, "tol"), ("pr", {"tol": -1e-3}, "tol"), ("pr", {"tol": np.nan}, "tol"),
     ("pr", {"tol": "0.1"}, "tol"), ("pr", {"max_shots": -1}, "max_shots"),
-    ("pr", {"max_shots": 2.5}, "max_shots"), ("pr", {"resolution": 101}, "resolution"),
+    ("pr", {"max_shots": 2.5}, "max_shots"), ("pr", {"max_shots": "light"}, "max_shots"),
+    ("pr", {"resolution": 101}, "resolution"),
     ("pr", {"resolution": 0}, "resolution"), ("pr", {"visibility_samples": 0}, "visibility_samples"),
     ("pr", {"visibility_samples": 65}, "visibility_samples"),
     ("pr", {"visibility_samples": 2.0}, "visibility_samples"),
@@ -745,6 +746,20 @@ def test_solver_parameter_validation(call, kw, name):
     fn = {"pr": progressive_refinement, "gs": gauss_seidel, "fm": form_factor_matrix}[call]
     with pytest.raises(SolverError, match=name):
         fn(m, **kw)
+
+
+def test_lights_shots_shoot_every_light_patch_once():
+    sc = scenes.two_rectangles_room()
+    # the 2 x 2 light in many small patches, the room in large ones
+    m = mesh_scene(sc, [0.4 if p.name == "light" else 3.3 for p in sc.polygons])
+    lights = np.unique(m.element_patch[(m.element_emission > 0).any(axis=1)])
+    assert len(lights) > 2
+    r = progressive_refinement(m, max_shots="lights", ambient=True, visibility_samples=1)
+    # each light patch once, nothing else -- even where a lit floor patch holds more unshot power
+    assert sorted(r.shots.tolist()) == lights.tolist()
+    # as many shots by the most unshot power: some of them go to lit room patches instead
+    full = progressive_refinement(m, max_shots=len(lights), visibility_samples=1)
+    assert not np.isin(full.shots, lights).all()
 
 
 def test_ambient_term():

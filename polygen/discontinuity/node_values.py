@@ -29,7 +29,7 @@ import numpy as np
 
 from polygen.discontinuity.shadow import ShadowError
 
-__all__ = ["node_radiosity", "light_direct", "element_direct"]
+__all__ = ["node_radiosity", "light_direct", "element_direct", "exact_direct_image"]
 
 
 def _light_points(light, samples, *, corners=False):
@@ -228,3 +228,50 @@ def element_direct(mesh, *, visibility_samples=2, packed=None):
             col += analytic_column(mesh, int(p), packed=packed, visibility_samples=visibility_samples)
         out += mesh.element_reflectance * col[:, None] * E[None, :]
     return out
+
+
+def exact_direct_image(mesh, result, camera, *, samples=8, visibility_samples=2, packed=None):
+    """(H, W, 3) an image whose area lights' direct part is exact at every pixel.
+
+    At each pixel's surface point (:func:`~polygen.radiosity.raster.pixel_points`)
+    each area light's reflected direct light is :func:`light_direct` (exact
+    over the light's visible part); the rest (reflected light, ambient) is
+    the solution's, less its elements' direct part, displayed by (2.8) and
+    Gouraud shading.  A reference for images of shadows: no mesh smears its
+    penumbrae.
+
+    Parameters
+    ----------
+    mesh : RadiosityMesh
+    result : RadiosityResult
+        The solution on ``mesh`` (its ``visibility_samples`` passed here).
+    camera : Camera
+    samples, visibility_samples, packed : keyword-only
+        As :func:`node_radiosity`.
+
+    Returns
+    -------
+    image : (H, W, 3) float64
+        NaN where no surface is seen.
+    rest : (H, W, 3) float64
+        Its part that is not the area lights' direct light.
+    """
+    from polygen.radiosity.formfactor import pack_polygons
+    from polygen.radiosity.raster import node_intensities, pixel_points, render
+
+    scene = mesh.scene
+    if packed is None:
+        packed = pack_polygons(scene.polygons)
+    B = result.display_radiosity(mesh)
+    rest = render(mesh.nodes, mesh.elements, node_intensities(
+        mesh, B - element_direct(mesh, visibility_samples=visibility_samples, packed=packed)), camera,
+        background=np.nan)
+    covered, e, x = pixel_points(mesh, camera)
+    flat = rest.reshape(-1, rest.shape[-1]).copy()
+    pix = np.flatnonzero(covered.ravel())
+    for lpoly in scene.area_lights:
+        on = mesh.element_polygon[e] != lpoly
+        flat[pix[on]] += mesh.element_reflectance[e[on]] * light_direct(
+            scene, lpoly, x[on], mesh.element_normal[e[on]], mesh.element_polygon[e[on]],
+            samples=samples, packed=packed)
+    return flat.reshape(rest.shape), rest

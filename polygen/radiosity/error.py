@@ -30,7 +30,7 @@ from polygen.radiosity.mesh import MeshError, RadiosityMesh, mesh_scene
 from polygen.radiosity.raster import Camera, RasterError, node_intensities, render
 from polygen.radiosity.solve import progressive_refinement
 
-__all__ = ["ErrorPoint", "shade", "image_error", "uniform_curve", "adaptive_curve"]
+__all__ = ["ErrorPoint", "shade", "image_error", "uniform_curve", "adaptive_curve", "adaptive_at_count"]
 
 
 @dataclass(frozen=True)
@@ -85,13 +85,17 @@ def shade(mesh, radiosity, camera, *, shading="gouraud"):
                   background=np.nan)
 
 
-def image_error(image, reference):
+def image_error(image, reference, *, mask=None):
     """Relative RMS difference of two linear images over the pixels both show.
 
     Parameters
     ----------
     image, reference : (H, W, C) float64
         From :func:`shade` (NaN where no surface is seen).
+    mask : (H, W) bool, keyword-only, optional
+        Take the difference over these of the shown pixels only (a shadow,
+        a penumbra), still relative to the reference's RMS over all shown
+        pixels, so that errors over different masks share one scale.
 
     Returns
     -------
@@ -106,13 +110,27 @@ def image_error(image, reference):
     seen = np.isfinite(a).all(axis=-1) & np.isfinite(r).all(axis=-1)
     if not seen.any():
         raise RasterError("the image and the reference share no covered pixel")
+    norm = np.sqrt(np.mean(r[seen] ** 2))
+    if mask is not None:
+        mask = np.asarray(mask, dtype=bool)
+        if mask.shape != a.shape[:2]:
+            raise RasterError(f"mask must be {a.shape[:2]}, got {mask.shape}")
+        seen &= mask
+        if not seen.any():
+            raise RasterError("the mask covers no pixel that both images show")
     d = a[seen] - r[seen]
-    return float(np.sqrt(np.mean(d * d)) / np.sqrt(np.mean(r[seen] ** 2)))
+    return float(np.sqrt(np.mean(d * d)) / norm)
 
 
 def _solve(mesh, solve):
     result = progressive_refinement(mesh, **solve)
     return result, result.display_radiosity(mesh)
+
+
+def _bright_scale(mesh, b):
+    # the scale of "a big jump": bright surfaces, not the light itself
+    lit = ~(mesh.element_emission > 0).any(axis=1)
+    return float(np.percentile(b[lit].max(axis=1), 95.0)) if lit.any() else float(b.max())
 
 
 def uniform_curve(scene, camera, reference, patch_sizes, *, element_levels=1, mesher=None,
@@ -187,9 +205,7 @@ def adaptive_curve(scene, camera, reference, patch_size, levels, *, threshold, e
     t0 = time.perf_counter()
     mesh = mesh_scene(scene, float(patch_size), element_levels=element_levels, **kw)
     _, b = _solve(mesh, solve)
-    # the scale of "a big jump": bright surfaces, not the light itself
-    lit = ~(mesh.element_emission > 0).any(axis=1)
-    scale = float(np.percentile(b[lit].max(axis=1), 95.0)) if lit.any() else float(b.max())
+    scale = _bright_scale(mesh, b)
     out = [ErrorPoint("adaptive level 0", mesh.n_elements, mesh.n_patches,
                       image_error(shade(mesh, b, camera), reference), time.perf_counter() - t0)]
     for level in range(1, int(levels) + 1):
@@ -199,3 +215,80 @@ def adaptive_curve(scene, camera, reference, patch_size, levels, *, threshold, e
                               image_error(shade(mesh, b, camera), reference),
                               time.perf_counter() - t0))
     return out
+
+
+def adaptive_at_count(scene, n_elements, *, patch_size, threshold=0.1, rtol=0.02, element_levels=1,
+                      mesher=None, solve=None, max_rounds=16):
+    """Adaptive subdivision (Def. 2.6) from a coarse mesh, stopped at a given element count.
+
+    For comparing a mesh with adaptive subdivision at an equal element
+    count.  Rounds as :func:`adaptive_curve` (``threshold`` times the bright
+    surfaces' radiosity) follow while the next one stays below
+    ``(1 - rtol) * n_elements``; the round that would pass it is made with a
+    larger threshold, found by bisection, so that only the largest jumps are
+    split and the count lands within ``rtol`` of ``n_elements``.
+
+    Parameters
+    ----------
+    scene : Scene
+    n_elements : int
+        The element count to reach.
+    patch_size : float, keyword-only
+        The starting uniform mesh's patch size.
+    threshold : float, keyword-only
+        Relative jump that marks an element, in (0, 1).
+    rtol : float, keyword-only
+        Allowed relative difference from ``n_elements``.
+    element_levels, mesher, solve : keyword-only
+        As :func:`uniform_curve`.
+    max_rounds : int, keyword-only
+
+    Returns
+    -------
+    mesh : RadiosityMesh
+        Within ``rtol`` of ``n_elements``.
+    result : RadiosityResult
+        Its solution.
+
+    Raises
+    ------
+    MeshError
+        If the starting mesh already has more than ``(1 + rtol) * n_elements``
+        elements, or no threshold lands within ``rtol``.
+    """
+    if not 0 < threshold < 1:
+        raise MeshError(f"threshold must be in (0, 1), got {threshold}")
+    if not 0 < rtol < 1:
+        raise MeshError(f"rtol must be in (0, 1), got {rtol}")
+    n = int(n_elements)
+    solve = {} if solve is None else dict(solve)
+    kw = {} if mesher is None else {"mesher": mesher}
+    mesh = mesh_scene(scene, float(patch_size), element_levels=element_levels, **kw)
+    if mesh.n_elements > (1 + rtol) * n:
+        raise MeshError(f"the starting mesh has {mesh.n_elements} elements, more than "
+                        f"{n_elements} (1 + {rtol}); give a larger patch_size")
+    result, b = _solve(mesh, solve)
+    scale = _bright_scale(mesh, b)
+    for _ in range(int(max_rounds)):
+        if abs(mesh.n_elements - n) <= rtol * n:
+            return mesh, result
+        nxt = adaptive_refine(mesh, b, threshold * scale).mesh
+        if nxt.n_elements == mesh.n_elements:
+            break
+        if nxt.n_elements > (1 + rtol) * n:
+            # the count falls as the threshold rises: bisect between this round's and the largest jump
+            lo, hi = threshold * scale, float(np.max(b))
+            for _ in range(60):
+                mid = 0.5 * (lo + hi)
+                nxt = adaptive_refine(mesh, b, mid).mesh
+                if abs(nxt.n_elements - n) <= rtol * n:
+                    break
+                lo, hi = (mid, hi) if nxt.n_elements > n else (lo, mid)
+            else:
+                break
+        mesh = nxt
+        result, b = _solve(mesh, solve)
+    if abs(mesh.n_elements - n) <= rtol * n:
+        return mesh, result
+    raise MeshError(f"adaptive subdivision reached {mesh.n_elements} elements, not {n_elements} "
+                    f"within {rtol}")

@@ -22,8 +22,8 @@ import numpy as np
 
 from polygen._jit import njit
 
-__all__ = ["RasterError", "Camera", "node_intensities", "render", "auto_exposure", "tone_map",
-           "to_pyvista"]
+__all__ = ["RasterError", "Camera", "node_intensities", "render", "pixel_points", "auto_exposure",
+           "tone_map", "to_pyvista"]
 
 
 class RasterError(ValueError):
@@ -294,6 +294,38 @@ def render(nodes, triangles, colors, camera, *, shading="gouraud", background=0.
     _render_kernel(q, tris, np.ascontiguousarray(skip), cols, flat, camera.focal, w, h,
                    camera.near, zbuf, image, ids)
     return (image, ids) if return_ids else image
+
+
+def pixel_points(mesh, camera):
+    """The surface point each pixel shows, for evaluating a quantity exactly per pixel.
+
+    Each pixel centre's ray is intersected with the plane of the element
+    that :func:`render` shows there (back faces culled, as it does).
+
+    Parameters
+    ----------
+    mesh : RadiosityMesh
+    camera : Camera
+
+    Returns
+    -------
+    covered : (H, W) bool
+        Pixels showing an element.
+    element : (P,) int64
+        The element seen at each covered pixel, in row-major pixel order.
+    point : (P, 3) float64
+        The point on that element's plane.
+    """
+    _, ids = render(mesh.nodes, mesh.elements, np.zeros(mesh.n_nodes), camera, return_ids=True)
+    h, w = ids.shape
+    r, c = np.mgrid[0:h, 0:w]
+    q = np.stack([(c + 0.5 - 0.5 * w) / camera.focal, (0.5 * h - (r + 0.5)) / camera.focal,
+                  np.ones((h, w))], -1)
+    covered = ids >= 0
+    e, d = ids[covered], (q @ camera.view_matrix())[covered]
+    n, x0 = mesh.element_normal[e], mesh.element_centroid[e]
+    t = ((x0 - camera.position) * n).sum(1) / (d * n).sum(1)
+    return covered, e, camera.position + t[:, None] * d
 
 
 def auto_exposure(image, *, percentile=99.0):

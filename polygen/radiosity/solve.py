@@ -360,9 +360,13 @@ def progressive_refinement(mesh, *, form_factors="analytic", resolution=100,
     tol : float, keyword-only
         Stop when the total unshot power is below ``tol`` times the initial
         (emitted) power; > 0.
-    max_shots : int, keyword-only
+    max_shots : int or "lights", keyword-only
         Upper bound on the number of shots, >= 0 (default 50 * number of
-        patches).
+        patches).  ``"lights"``: every patch of an area light shoots once
+        and nothing else does -- the direct light of the area lights, with
+        ``ambient=True`` an ambient term for the rest (a preview solve; a
+        light meshed into several patches is shot whole, whatever the
+        patch size).
     ambient : bool, keyword-only
         Estimate the ambient term for the remaining unshot energy.
     progress : bool, keyword-only
@@ -381,7 +385,15 @@ def progressive_refinement(mesh, *, form_factors="analytic", resolution=100,
     _check_mesh(mesh)
     tol = _check_tol(tol)
     n_p = mesh.n_patches
-    max_shots = 50 * n_p if max_shots is None else _check_int("max_shots", max_shots, 0, None)
+    shooters = None
+    if isinstance(max_shots, str):
+        if max_shots != "lights":
+            raise SolverError(f"max_shots must be an integer >= 0 or 'lights', got {max_shots!r}")
+        shooters = np.zeros(n_p, dtype=bool)
+        shooters[mesh.element_patch[(mesh.element_emission > 0).any(axis=1)]] = True
+        max_shots = int(shooters.sum())
+    else:
+        max_shots = 50 * n_p if max_shots is None else _check_int("max_shots", max_shots, 0, None)
     t0 = time.perf_counter()
     columns = FormFactorColumns(mesh, form_factors, resolution=resolution,
                                 visibility_samples=visibility_samples, parallel=parallel,
@@ -408,6 +420,8 @@ def progressive_refinement(mesh, *, form_factors="analytic", resolution=100,
     try:
         while not converged and len(shots) < max_shots:
             psum = power.sum(axis=1)
+            if shooters is not None:
+                psum = np.where(shooters, psum, -np.inf)
             p = int(np.argmax(psum))
             f_ep = columns(p)
             _shoot(p, f_ep, rho, area, mesh.element_patch, pe_start, pe_list, mesh.patch_area,
