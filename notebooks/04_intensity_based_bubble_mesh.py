@@ -524,33 +524,32 @@ plt.show()
 #   first mesh (1.7) it has 1448 elements with 0.0297: below the uniform and the adaptive
 #   curves at that count (printed below), but far from the adaptive re-mesh's 0.0148, which
 #   has twice its elements.
-# * **With every line kept (`lines="all"`, the earlier default) the combination does not
-#   beat both parents at equal element count** (the comparison,
-#   fixed before the run: at each of its points, its error against each parent's curve
-#   interpolated in log-log at its element count where that curve reaches,
-#   `error_at_elements`; this method's curve with every point of it, the fine first mesh's
-#   included). With the width cap its meshes cost many more elements for the same sizes
-#   (2352–3664), and at those counts it is worse than both: 0.040 with 2352 elements against
-#   0.019 for this method and 0.026 for simplified DM; beyond this method's last point (3088)
-#   it stays above simplified DM, up to 0.0177 with 3664 against 0.0178 (a tie, its best
-#   point) — the elements that the cap puts into the thin strips along the lines
-#   buy angles (smallest 12.3° at 2.4 and 21.9° at 1.7, against 4–6° before) but hardly any
-#   image accuracy. Before the cap (merged lines only, the same parameters otherwise with
-#   `size_min` 2×): 1328 elements with 0.0341 against this method's 0.0339 (a tie) and
-#   simplified DM's 0.040; 1720 with 0.029 against simplified DM's 0.033. So the combination
-#   beat simplified DM but not this method without the cap, and beats neither with it;
-#   `combined_bubble_mesh(width_cap=False)` gives the uncapped meshes.
-# * **Keeping only the lines of narrow penumbrae does not change that.** The hypothesis and
-#   its criterion, fixed before measuring: under an area light a penumbra wider than the
-#   elements is a smooth ramp that the size grid resolves, so `combined_bubble_mesh(lines=
-#   "narrow")` keeps the D0 lines, and the D1 lines only on the stretches where the penumbra
-#   they bound is narrower than the element the first pass's size grid asks there
-#   (`narrow_lines`). At the same settings it saves 11–23 % of the elements at about the same
-#   error (width-capped: 2096 elements with 0.0399 instead of 2352 with 0.0399; 2808 with
-#   0.0196 instead of 3664 with 0.0177) and beats simplified DM at 4 of its 6 points within
-#   that curve (2808: 0.0196 against 0.0224; uncapped, 1736: 0.0307 against 0.0331), but this
-#   method at none of its 8 (2808: 0.0196 against 0.0158; uncapped, 1400: 0.0348 against
-#   0.0310), so the default stayed `lines="all"` (`benchmarks/results/intensity_mesh_narrow.md`).
+# * **With every line kept (`lines="all"`, the earlier default) the combination does not beat
+#   both parents at equal element count** (the comparison, fixed before the run: at each of its
+#   points, its error against each parent's curve interpolated in log-log at its element count
+#   where that curve reaches, `error_at_elements`; this method's curve with every point of it,
+#   the fine first mesh's included). With the width cap its meshes cost many more elements for
+#   the same sizes (2352–3648), and at those counts it is worse than both: 0.040 with 2352
+#   elements against 0.019 for this method and 0.026 for simplified DM; beyond this method's
+#   last point (3088) it stays above simplified DM, at best 0.0181 with 3648 elements against
+#   0.0179 (1 % above; its best point) — the elements that the cap puts into the thin strips
+#   along the lines buy angles (smallest 12.3° at 2.4 and 20.5° at 1.7, against 4–6° before)
+#   but hardly any image accuracy. Before the cap (merged lines only, the same parameters
+#   otherwise with `size_min` 2×): 1328 elements with 0.0341 against this method's 0.0339 (a
+#   tie) and simplified DM's 0.040; 1720 with 0.029 against simplified DM's 0.033. So the
+#   combination beat simplified DM but not this method without the cap, and beats neither with
+#   it; `combined_bubble_mesh(width_cap=False)` gives the uncapped meshes.
+# * **Keeping only the lines of narrow penumbrae does not change that.** The hypothesis and its
+#   criterion, fixed before measuring: under an area light a penumbra wider than the elements
+#   is a smooth ramp that the size grid resolves, so `combined_bubble_mesh(lines="narrow")`
+#   keeps the D0 lines, and the D1 lines only on the stretches where the penumbra they bound is
+#   narrower than the element the first pass's size grid asks there (`narrow_lines`). At the
+#   same settings it saves 11–23 % of the elements at about the same error or a little more
+#   (width-capped: 2096 elements with 0.0399 instead of 2352 with 0.0400; 2808 with 0.0196
+#   instead of 3648 with 0.0181) and beats simplified DM at 4 of its 6 points within that curve
+#   (2808: 0.0196 against 0.0224; uncapped, 1736: 0.0307 against 0.0331), but this method at
+#   none of its 8 (2808: 0.0196 against 0.0158; uncapped, 1400: 0.0348 against 0.0310), so the
+#   default stayed `lines="all"` (`benchmarks/results/intensity_mesh_narrow.md`).
 # * **Where the extra error was** (`benchmarks/experiments/combination_error_zones.py`, zones fixed before
 #   measuring, taken from the combination's mesh): narrow lines at 1.7 (2808 elements, 0.0196)
 #   against this method from the fine first mesh (3088, 0.0145), per pixel. In skinny
@@ -649,13 +648,14 @@ plt.show()
 #   simplified DM): the single-lines variant, chosen on the box, does not carry over to the
 #   room. In short: chapter 4's claim holds on the room and not on the box at our sizes; the
 #   combination beats both parents on the box only, and never the uniform mesh there.
-# * **What the default run shows**: nothing about error. This notebook's run solves the
-#   meshes at `size_initial` 2.4 but has no reference solution (the benchmark's, 19328
-#   elements, takes 4–6 minutes here), so the curves are the benchmark's stored ones, and no
-#   claim about error is asserted here: the fewer-elements claim and the combination's are
-#   the slow tests'. Neither is the comparison with the uniform mesh above: it needs the
-#   reference and four bisected meshes per seed (about 20 minutes here at 2.4), so it is the
-#   benchmark's, and its numbers above are quoted from the results file, not asserted.
+# * **What the default run shows**: nothing about error. This notebook's run solves the meshes
+#   at `size_initial` 2.4 but has no reference solution (the benchmark's, 19328 elements, took
+#   3 minutes in its last run here, at a load of 5–8 on the two cores), so the curves are the
+#   benchmark's stored ones, and no claim about error is asserted here: the fewer-elements
+#   claim and the combination's are the slow tests'. Neither is the comparison with the uniform
+#   mesh above: it needs the reference and four bisected meshes per seed (about 20 minutes here
+#   at 2.4), so it is the benchmark's, and its numbers above are quoted from the results file,
+#   not asserted.
 
 # %%
 res = json.loads((Path("..") / "benchmarks" / "results" / "intensity_mesh.json").read_text())

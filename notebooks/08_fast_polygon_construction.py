@@ -331,14 +331,14 @@ for name, mm in memo.items():
 #
 # The paper's reason for not storing edges is memory; the last columns say what each costs here.
 #
-# In the benchmark (data 1–3, CPU time, `benchmarks/results/fast_construction.md`, rerun with
-# the memory counted from the arrays held) the paper's speed-up is the removal of the search:
-# `walk` takes 0.58–0.72 of `hash`'s t2, against the paper's 0.68–0.74. Storing the edges does
-# little for a search (`array` / `hash` 0.75–1.01: a stamped hash keyed by node pairs costs about
-# what an array read at the edge id costs, once neither is cleared in the timed step) but much
-# for the edge-centred loop (`table` / `walk` 0.68–0.74: reading the cells round an edge from a
-# list instead of walking to them), for 1.7 times the memory (the edge table the volume builds
-# for it included). That is why `edge-centred-table` is the fastest of the
+# In the benchmark (data 1–5 and 2M, CPU time, `benchmarks/results/fast_construction.md`, rerun
+# with the memory counted from the arrays held) the paper's speed-up is the removal of the search:
+# `walk` takes 0.50–0.73 of `hash`'s t2 (0.70 on data 2, 0.50–0.54 on data 3–5), against the
+# paper's 0.68–0.74. Storing the edges does little for a search (`array` / `hash` 0.84–1.06: a
+# stamped hash keyed by node pairs costs about what an array read at the edge id costs, once
+# neither is cleared in the timed step) but much for the edge-centred loop (`table` / `walk`
+# 0.55–0.69: reading the cells round an edge from a list instead of walking to them), for 1.6–1.7
+# times the memory (the edge table the volume builds for it included). That is why `edge-centred-table` is the fastest of the
 # four, and `edge-centred` is the paper's method as the paper states it. (`vol.isosurface` used
 # `edge-centred-table` by default until it got a construction that walks nothing at all: the
 # section "Beyond the paper" below.)
@@ -363,7 +363,7 @@ print(plotting.table(rows_i, list(rows_i[0])))
 # lists and the edge table of `table`, the cell records with edge ids and the edge table of
 # `array`. One thing does not follow the paper's premise here, and it still holds now that
 # `hash`'s memory is counted from what it holds (it holds no edges): `walk` needs *more* memory
-# than `hash` (1.7–1.9 times on data 1–3), because it keeps a vertex slot per local edge and node
+# than `hash` (1.5–2.1 times on data 1–5 and 2M in the benchmark), because it keeps a vertex slot per local edge and node
 # for every cell (40 bytes a tetrahedron, in 80-byte records), where `hash` keeps 32-byte records
 # and a table sized for the largest surface only. Labelling by edge id narrows the gap (the same
 # edge table on both sides) but does not close it. The walk is faster than `hash` either way.
@@ -413,9 +413,10 @@ assert all(r["look-ups hash"] > 0 and r["look-ups walk / table"] == "0 / 0" for 
 # `benchmarks/fast_construction.py` runs the same comparison on all five volumes, the
 # 2-million-cell one and the 10-million-cell one (its analytic field `gaussians`: no FEM
 # solve at that size), with `vtkContourFilter` beside. The results committed in
-# `benchmarks/results/fast_construction.md` are its rerun on data 1–3 without VTK (the sizes
-# that finish in minutes on the shared machine), after the memory count was made honest;
-# polygen's times there are CPU seconds on one thread. They are shown here as recorded, for
+# `benchmarks/results/fast_construction.md` are its rerun on data 1–5 and 2M with VTK (not 10M:
+# building that volume did not finish on the shared machine), after the memory count was made
+# honest and the look-up counters made to count the reads they name; polygen's times there are
+# CPU seconds on one thread, VTK's wall seconds on two. They are shown here as recorded, for
 # reading; nothing above rests on them, and no assert reads them.
 
 # %%

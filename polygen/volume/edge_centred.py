@@ -33,10 +33,10 @@ Two builders differ only in how for-loop (3) finds the cells sharing
     walking from face neighbour to face neighbour round it
     (:mod:`._edge_walk_kernels`); the vertex is known by its edge's nodes.
 :class:`EdgeCentredTable` (method ``edge-centred-table``, the default of
-    ``vol.isosurface``) — with stored edges: an edge table and, per edge, the
-    list of its cells with the edge's local index in each
-    (:mod:`._edge_centred_kernels`); faster, for about 2.3 times the
-    memory (``benchmarks/results/fast_construction.md``).
+    ``vol.isosurface`` before ``active-scan``) — with stored edges: an edge
+    table and, per edge, the list of its cells with the edge's local index in
+    each (:mod:`._edge_centred_kernels`); faster, for about 1.7 times the
+    walk's memory (``benchmarks/results/fast_construction.md``).
 
 Every cell around a crossed edge is itself crossed, so for-loop (3) needs
 no intersection test. The one exception is the degenerate crossing exactly
