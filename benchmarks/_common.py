@@ -40,7 +40,10 @@ def machine():
     from datetime import datetime, timezone
 
     commit = _git("rev-parse", "HEAD")
-    if commit is not None and _git("status", "--porcelain", "--untracked-files=no"):
+    # results files don't count: a script that writes several of them (or rewrites its own .json
+    # after its .md) would otherwise mark its own run "+dirty"
+    if commit is not None and _git("status", "--porcelain", "--untracked-files=no", "--", ":/",
+                                   ":(exclude,top)benchmarks/results"):
         commit += "+dirty"
     return {"python": platform.python_version(), "machine": platform.machine(), "cpus": os.cpu_count(),
             "commit": commit, "date": datetime.now(timezone.utc).isoformat(timespec="seconds")}
