@@ -49,6 +49,7 @@ from polygen.discontinuity import (conventional_bsp, conventional_segments, disc
                                    scene_sections, section_segments, shadow_polyhedron,
                                    simplified_discontinuity, unique_planes)
 from polygen.plotting import discontinuity as plot_dm
+from polygen.plotting import table
 from polygen.plotting.radiosity import plot_polygon_mesh, show_images
 from polygen.radiosity import Camera, mesh_scene, progressive_refinement, scenes
 from polygen.radiosity.error import shade
@@ -731,13 +732,11 @@ for name, e in exact.items():
     own = e["reference_rest_vs_coarse"]["error_penumbra"] / 3.0
     print(f"{name}: reference {e['reference_elements']} elements; old reference's own penumbra error "
           f"{e['old_reference_vs_exact']['error_penumbra']:.4f}; this reference's (reflected part, D/3) {own:.4f}")
-    print(f"{'F':>6s}{'DM el':>7s}{'DM mean':>16s}{'DM node':>16s}{'unif el':>8s}{'unif mean':>16s}{'unif node':>16s}")
-    for r in e["rows"]:
-        def c(k, r=r):
-            return (f"{r[k]['error_penumbra']:.4f} ({r[k + '_old_reference']['error_penumbra']:.4f})"
-                    if k in r else "")
-        print(f"{r['fine']:>6g}{r['dm_elements']:>7d}{c('dm_mean'):>16s}{c('dm_node'):>16s}"
-              f"{str(r.get('uniform_elements', '')):>8s}{c('uniform_mean'):>16s}{c('uniform_node'):>16s}")
+    cols = {"dm_mean": "DM mean", "dm_node": "DM node", "uniform_mean": "unif mean", "uniform_node": "unif node"}
+    rows_e = [{"F": r["fine"], "DM el": r["dm_elements"], "unif el": r.get("uniform_elements", ""),
+               **{lab: f"{r[k]['error_penumbra']:.4f} ({r[k + '_old_reference']['error_penumbra']:.4f})"
+                  for k, lab in cols.items() if k in r}} for r in e["rows"]]
+    print(table(rows_e, ["F", "DM el", "DM mean", "DM node", "unif el", "unif mean", "unif node"], floatfmt="{:g}"))
 
 # %%
 for name, e in exact.items():

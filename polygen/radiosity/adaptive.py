@@ -29,7 +29,7 @@ import numpy as np
 from polygen.mesh2d import refine_marked, triangle_edges
 from polygen.radiosity.mesh import MeshError, RadiosityMesh, assemble_mesh
 
-__all__ = ["AdaptiveRefinement", "element_jumps", "mark_jumps", "adaptive_refine"]
+__all__ = ["AdaptiveRefinement", "element_jumps", "mark_jumps", "adaptive_refine", "bright_scale"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -197,3 +197,14 @@ def adaptive_refine(mesh, element_values, threshold, *, min_area=0.0, marked=Non
         new.layouts = mesh.layouts
         new.patch_region = mesh.patch_region[np.concatenate(patch_order)]
     return AdaptiveRefinement(new, np.concatenate(parents).astype(np.int64), marked)
+
+
+def bright_scale(mesh, radiosity):
+    """The radiosity of the bright surfaces: the 95th percentile over non-emitting elements.
+
+    The scale that a relative adaptive-subdivision threshold multiplies,
+    as in :func:`polygen.radiosity.error.adaptive_curve`.
+    """
+    b = np.asarray(radiosity, dtype=np.float64)
+    lit = ~(mesh.element_emission > 0).any(axis=1)
+    return float(np.percentile(b[lit].max(axis=1), 95.0)) if lit.any() else float(b.max())

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from polygen.radiosity.adaptive import adaptive_refine
+from polygen.radiosity.adaptive import adaptive_refine, bright_scale
 from polygen.radiosity.mesh import MeshError, RadiosityMesh, mesh_scene
 from polygen.radiosity.raster import Camera, RasterError, node_intensities, render
 from polygen.radiosity.solve import progressive_refinement
@@ -127,12 +127,6 @@ def _solve(mesh, solve):
     return result, result.display_radiosity(mesh)
 
 
-def _bright_scale(mesh, b):
-    # the scale of "a big jump": bright surfaces, not the light itself
-    lit = ~(mesh.element_emission > 0).any(axis=1)
-    return float(np.percentile(b[lit].max(axis=1), 95.0)) if lit.any() else float(b.max())
-
-
 def uniform_curve(scene, camera, reference, patch_sizes, *, element_levels=1, mesher=None,
                   solve=None):
     """Image error of uniform meshes, one per patch size.
@@ -205,7 +199,7 @@ def adaptive_curve(scene, camera, reference, patch_size, levels, *, threshold, e
     t0 = time.perf_counter()
     mesh = mesh_scene(scene, float(patch_size), element_levels=element_levels, **kw)
     _, b = _solve(mesh, solve)
-    scale = _bright_scale(mesh, b)
+    scale = bright_scale(mesh, b)
     out = [ErrorPoint("adaptive level 0", mesh.n_elements, mesh.n_patches,
                       image_error(shade(mesh, b, camera), reference), time.perf_counter() - t0)]
     for level in range(1, int(levels) + 1):
@@ -268,7 +262,7 @@ def adaptive_at_count(scene, n_elements, *, patch_size, threshold=0.1, rtol=0.02
         raise MeshError(f"the starting mesh has {mesh.n_elements} elements, more than "
                         f"{n_elements} (1 + {rtol}); give a larger patch_size")
     result, b = _solve(mesh, solve)
-    scale = _bright_scale(mesh, b)
+    scale = bright_scale(mesh, b)
     for _ in range(int(max_rounds)):
         if abs(mesh.n_elements - n) <= rtol * n:
             return mesh, result

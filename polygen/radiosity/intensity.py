@@ -30,7 +30,7 @@ import numpy as np
 from polygen.mesh2d import triangle_edges
 from polygen.mesh2d.plate import PlateError
 from polygen.mesh2d.size_grid import element_size_grid
-from polygen.radiosity.adaptive import adaptive_refine
+from polygen.radiosity.adaptive import adaptive_refine, bright_scale
 from polygen.radiosity.mesh import MeshError, RadiosityMesh, bubble_mesher, mesh_scene
 from polygen.radiosity.raster import node_intensities
 from polygen.radiosity.scene import Scene, SceneError
@@ -236,17 +236,6 @@ def polygon_size_grids(mesh, node_sizes, *, grid, nu=0.3, layouts=None):
             at.append(lay.region_point[r])
         out.append(RegionSize(sizes, at=np.array(at)))
     return out
-
-
-def bright_scale(mesh, radiosity):
-    """The radiosity of the bright surfaces: the 95th percentile over non-emitting elements.
-
-    The scale that a relative adaptive-subdivision threshold multiplies,
-    as in :func:`polygen.radiosity.error.adaptive_curve`.
-    """
-    b = np.asarray(radiosity, dtype=np.float64)
-    lit = ~(mesh.element_emission > 0).any(axis=1)
-    return float(np.percentile(b[lit].max(axis=1), 95.0)) if lit.any() else float(b.max())
 
 
 @dataclass(frozen=True, eq=False)
