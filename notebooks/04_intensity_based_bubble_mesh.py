@@ -451,7 +451,10 @@ plt.show()
 # the element the first pass's size grid asks there (a wider penumbra is a smooth ramp that
 # the size grid resolves; `narrow_lines`); and of two kept lines closer than the largest
 # element (`size_min` / 2) only the longer (`single_lines`), so that a narrow penumbra is one
-# line and no strip narrower than an element is left for the width cap to fill.
+# line and no strip narrower than an element is left for the width cap to fill. Those lines are
+# open (one per narrow penumbra) and close no region, so with `"single"` every polygon gets one
+# size grid and the plate does smooth across them: the print below lists no polygon with grids
+# per region (with `lines="all"` five polygons get them, the floor among them).
 # %%
 from polygen.discontinuity import simplified_discontinuity
 from polygen.discontinuity.combined import combined_bubble_mesh
