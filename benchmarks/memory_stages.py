@@ -1,0 +1,135 @@
+"""Peak RSS of each stage of loading, preparing and querying one cached data set.
+
+Stages, one after the other in one process (numba kernels compiled or
+loaded from the cache on data1 first, not counted): read the cached
+arrays; the ``UnstructuredVolume`` constructor; the first surface
+(``prepare=False``: the unprepared scan); the edge table (``edges``,
+``cell_edges``, through the node -> cells lists); the face neighbours and
+the boundary groups; the default method's preparation (``active-scan``);
+20 queries one at a time. Each stage's peak is read from ``VmHWM`` after
+resetting it (``/proc/self/clear_refs`` = 5) at the stage's start: the
+stage's peak above the RSS it started from is its temporaries plus what
+it keeps.
+
+    python benchmarks/memory_stages.py 2M [--budget BYTES] [--json out.json]
+"""
+
+import argparse
+import gc
+import json
+import os
+import sys
+import time
+
+import numpy as np
+
+
+def _status(key):
+    with open("/proc/self/status") as fh:
+        for line in fh:
+            if line.startswith(key + ":"):
+                return int(line.split()[1]) * 1024
+    raise KeyError(key)
+
+
+def _reset_peak():
+    with open("/proc/self/clear_refs", "w") as fh:
+        fh.write("5")
+
+
+class Stages:
+    def __init__(self, n_cells=1):
+        self.rows = []
+        self.n_cells = n_cells
+
+    def run(self, name, fn):
+        gc.collect()
+        before = _status("VmRSS")
+        _reset_peak()
+        t0 = time.perf_counter()
+        out = fn()
+        t = time.perf_counter() - t0
+        peak = _status("VmHWM")
+        after = _status("VmRSS")
+        self.rows.append(dict(stage=name, seconds=t, rss_before=before, peak=peak, rss_after=after))
+        return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser()
+    ap.add_argument("name")
+    ap.add_argument("--field", default=None)
+    ap.add_argument("--budget", type=float, default=None)
+    ap.add_argument("--json", default=None)
+    args = ap.parse_args(argv)
+
+    from polygen.volume import UnstructuredVolume, datasets, isovalues
+    from polygen.volume.datasets.registry import _key, _read_cache, cache_path
+
+    # compile / load every kernel on a small volume first
+    small = datasets.load("data1")
+    sv = UnstructuredVolume(small.points, small.cells, dict(small.fields))
+    sv.isosurface(float(np.median(sv.scalars())), prepare=False)
+    sv.face_neighbors, sv.n_boundary_groups
+    sv.isosurface(float(np.median(sv.scalars())), prepare=True)
+    del small, sv
+    gc.collect()
+    base = _status("VmRSS")
+
+    st = Stages()
+    path = cache_path(args.name)
+    points, cells, fields = st.run("read cache", lambda: _read_cache(path, _key(args.name, 0)[1]))
+    field = args.field or next(iter(fields))
+    s = fields[field]
+    m = cells.shape[0]
+    st.n_cells = m
+    arrays = points.nbytes + cells.nbytes + sum(f.nbytes for f in fields.values())
+    vol = st.run("constructor", lambda: UnstructuredVolume(points, cells, {field: s},
+                                                          validate=m <= 1_000_000))
+    del points, cells, fields
+    gc.collect()
+    values = isovalues(vol.scalars(), 20)
+    st.run("first surface (unprepared scan)", lambda: vol.isosurface(values[10], prepare=False).n_triangles)
+    st.run("edge table (edges, cell_edges)", lambda: vol._edge_table)
+    st.run("face neighbours", lambda: vol.face_neighbors)
+    st.run("boundary groups", lambda: vol.n_boundary_groups)
+    vol.release_preparation_tables()
+    for attr in ("boundary_faces", "boundary_face_nodes", "boundary_cells", "_groups", "boundary_edge_table"):
+        vol.__dict__.pop(attr, None)
+    kw = {} if args.budget is None else {"memory_budget": int(args.budget)}
+
+    def prepare():
+        from polygen.volume import methods
+        meth = methods.get("active-scan")(vol, field=field, **kw)
+        with vol._iso_lock:
+            vol._iso_methods[(field, "active-scan")] = meth
+        vol.release_preparation_tables()
+        return meth
+
+    meth = st.run("active-scan preparation", prepare)
+    st.run("20 queries", lambda: [meth.extract(v).n_triangles for v in values])
+    peak_all = max(r["peak"] for r in st.rows)
+    out = dict(name=args.name, cells=m, nodes=vol.n_points, field=field, base_rss=base, input_bytes=arrays,
+               stages=st.rows, peak_rss=peak_all, peak_over_base=peak_all - base,
+               method_bytes=meth.memory_bytes(), volume_bytes=vol.memory_bytes(),
+               held=dict(points=vol.points.nbytes, cells=vol.cells.nbytes, field=vol.scalars().nbytes),
+               load=os.getloadavg())
+    print(f"{args.name}: {m} cells, {vol.n_points} nodes; base RSS {base / 2**20:.0f} MiB (after warm-up)")
+    print(f"{'stage':36s} {'s':>7s} {'before':>9s} {'peak':>9s} {'after':>9s} {'peak-before B/cell':>19s} "
+          f"{'kept B/cell':>12s}")
+    for r in st.rows:
+        print(f"{r['stage']:36s} {r['seconds']:7.2f} {r['rss_before'] / 2**20:9.0f} {r['peak'] / 2**20:9.0f} "
+              f"{r['rss_after'] / 2**20:9.0f} {(r['peak'] - r['rss_before']) / m:19.1f} "
+              f"{(r['rss_after'] - r['rss_before']) / m:12.1f}")
+    print(f"peak RSS {peak_all / 2**20:.0f} MiB = {peak_all / m:.1f} B/cell; above the warm-up "
+          f"{(peak_all - base) / m:.1f} B/cell")
+    print("method", {k: round(v / m, 1) for k, v in meth.memory_bytes().items()}, "B/cell")
+    print("volume", {k: round(v / m, 1) for k, v in vol.memory_bytes().items()}, "B/cell")
+    print("held", {k: round(v / m, 1) for k, v in out["held"].items()}, "B/cell; load", os.getloadavg())
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(out, fh, indent=1)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
