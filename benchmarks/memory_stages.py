@@ -61,24 +61,32 @@ def main(argv=None):
     ap.add_argument("--field", default=None)
     ap.add_argument("--budget", type=float, default=None)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--npz", default=None, help="read this cache file instead (a checkout without the name)")
     args = ap.parse_args(argv)
 
     from polygen.volume import UnstructuredVolume, datasets, isovalues
     from polygen.volume.datasets.registry import _key, _read_cache, cache_path
 
-    # compile / load every kernel on a small volume first
-    small = datasets.load("data1")
-    sv = UnstructuredVolume(small.points, small.cells, dict(small.fields))
-    sv.isosurface(float(np.median(sv.scalars())), prepare=False)
+    # compile / load every kernel first, on data4 (560k cells: the parallel and blocked paths of the large ones)
+    small = datasets.load("data4")
+    for validate in (True, False):
+        sv = UnstructuredVolume(small.points, small.cells, dict(small.fields), validate=validate)
+        sv.isosurface(float(np.median(sv.scalars())), prepare=False)
     sv.face_neighbors, sv.n_boundary_groups
-    sv.isosurface(float(np.median(sv.scalars())), prepare=True)
+    for v in isovalues(sv.scalars(), 20):
+        sv.isosurface(v, prepare=True)
     del small, sv
     gc.collect()
     base = _status("VmRSS")
 
     st = Stages()
-    path = cache_path(args.name)
-    points, cells, fields = st.run("read cache", lambda: _read_cache(path, _key(args.name, 0)[1]))
+    def read():
+        if args.npz is None:
+            return _read_cache(cache_path(args.name), _key(args.name, 0)[1])
+        with np.load(args.npz) as z:
+            return z["points"], z["cells"], {str(n): z[f"field_{i}"] for i, n in enumerate(z["field_names"])}
+
+    points, cells, fields = st.run("read cache", read)
     field = args.field or next(iter(fields))
     s = fields[field]
     m = cells.shape[0]
@@ -111,7 +119,7 @@ def main(argv=None):
     peak_all = max(r["peak"] for r in st.rows)
     out = dict(name=args.name, cells=m, nodes=vol.n_points, field=field, base_rss=base, input_bytes=arrays,
                stages=st.rows, peak_rss=peak_all, peak_over_base=peak_all - base,
-               method_bytes=meth.memory_bytes(), volume_bytes=vol.memory_bytes(),
+               method_bytes=meth.scan.memory_bytes(), volume_bytes=vol.memory_bytes(),
                held=dict(points=vol.points.nbytes, cells=vol.cells.nbytes, field=vol.scalars().nbytes),
                load=os.getloadavg())
     print(f"{args.name}: {m} cells, {vol.n_points} nodes; base RSS {base / 2**20:.0f} MiB (after warm-up)")
@@ -123,7 +131,7 @@ def main(argv=None):
               f"{(r['rss_after'] - r['rss_before']) / m:12.1f}")
     print(f"peak RSS {peak_all / 2**20:.0f} MiB = {peak_all / m:.1f} B/cell; above the warm-up "
           f"{(peak_all - base) / m:.1f} B/cell")
-    print("method", {k: round(v / m, 1) for k, v in meth.memory_bytes().items()}, "B/cell")
+    print("method", {k: round(v / m, 1) for k, v in meth.scan.memory_bytes().items()}, "B/cell")
     print("volume", {k: round(v / m, 1) for k, v in vol.memory_bytes().items()}, "B/cell")
     print("held", {k: round(v / m, 1) for k, v in out["held"].items()}, "B/cell; load", os.getloadavg())
     if args.json:

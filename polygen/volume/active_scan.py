@@ -157,6 +157,22 @@ class ActiveScan:
         below :attr:`BLOCKS_FROM` cells, blocks of :attr:`BLOCK` from there.
     chunk : int, optional
         Active cells per unit of parallel work (default 1024).
+    memory_budget : int, optional
+        Bytes the preparation may allocate beyond what the volume holds:
+        the arrays the method keeps (the table, the maxima, the rows, a
+        query's scratch: ``planned_bytes["kept"]``), each edge's owner while
+        the table is filled, and the temporaries of one group of blocks
+        (:attr:`GROUP_BYTES_PER_CELL` per cell). The largest group that fits
+        is taken (at most :attr:`GROUP_CELLS` cells); an
+        :class:`~polygen.volume.surface.IsoSurfaceError` says what is needed
+        when one block does not fit. Not counted: the volume's edge table
+        (``vol.edges``, ``vol.cell_edges``, built first if missing, kept by
+        the volume), the surfaces a query returns, and the kernels' own
+        scratch (kilobytes per thread). ``None``: groups of
+        :attr:`GROUP_CELLS` cells.
+    group : int, optional
+        Blocks per group of the preparation (its unit of work; the arrays do
+        not depend on it): by default from ``memory_budget``.
 
     Notes
     -----
