@@ -137,9 +137,9 @@ def brute_duplicates(cells):
 
 
 @pytest.mark.parametrize("name", ["data1", "hexa1"])
-def test_duplicate_check_by_blocks_gives_the_whole_pass_result(name):
-    # the constructor hashes the cells a block at a time (no hash per cell kept): the count and the pairs are
-    # those of one block of every cell, and a brute-force dictionary's, with copies inside and across blocks
+def test_duplicate_check_against_a_dictionary(name):
+    # the constructor's hash check: the count and the (earlier, later) pairs of a brute-force dictionary of
+    # sorted node tuples, with copies in other node orders spread through the volume and at its end
     vol = datasets.load(name)
     rng = np.random.default_rng(5)
     picks = rng.choice(vol.n_cells, 40, replace=False)
@@ -147,9 +147,8 @@ def test_duplicate_check_by_blocks_gives_the_whole_pass_result(name):
     cells = np.ascontiguousarray(np.concatenate([vol.cells, copies, vol.cells[picks[:3]]]), np.int64)
     count, pairs = brute_duplicates(cells)
     assert count == 43
-    for block in (1, 3, 1000, 4096, cells.shape[0]):
-        for limit in (5, 50):
-            n, got = _k.find_duplicate_cells(cells, limit=limit, block=block)
-            assert n == count
-            np.testing.assert_array_equal(got, np.array(pairs[:limit], np.int64).reshape(-1, 2))
-    assert _k.find_duplicate_cells(np.ascontiguousarray(vol.cells), block=7)[0] == 0
+    for limit in (5, 50):
+        n, got = _k.find_duplicate_cells(cells, limit=limit)
+        assert n == count
+        np.testing.assert_array_equal(got, np.array(pairs[:limit], np.int64).reshape(-1, 2))
+    assert _k.find_duplicate_cells(np.ascontiguousarray(vol.cells))[0] == 0

@@ -242,24 +242,18 @@ def tet_cells_clearly_valid(points, cells, rtol, used):
     return bad
 
 
-@njit(inline="always")
-def _cell_hash(cells, c):
-    """A hash of cell ``c``'s node set, the same in any node order (a sum of mixed ids)."""
-    h = np.uint64(0)
-    for k in range(cells.shape[1]):
-        x = np.uint64(cells[c, k]) * np.uint64(0x9E3779B97F4A7C15)
-        x ^= x >> np.uint64(29)
-        x *= np.uint64(0xBF58476D1CE4E5B9)
-        x ^= x >> np.uint64(32)
-        h += x
-    return h
-
-
 @njit(parallel=True)
-def _cell_hashes(cells, c0, out):
-    """``out[i]``: :func:`_cell_hash` of cell ``c0 + i``."""
-    for i in prange(out.shape[0]):
-        out[i] = _cell_hash(cells, c0 + i)
+def _cell_hashes(cells, out):
+    """``out[c]``: a hash of cell ``c``'s node set, the same in any node order (a sum of mixed ids)."""
+    for c in prange(cells.shape[0]):
+        h = np.uint64(0)
+        for k in range(cells.shape[1]):
+            x = np.uint64(cells[c, k]) * np.uint64(0x9E3779B97F4A7C15)
+            x ^= x >> np.uint64(29)
+            x *= np.uint64(0xBF58476D1CE4E5B9)
+            x ^= x >> np.uint64(32)
+            h += x
+        out[c] = h
 
 
 @njit
@@ -276,59 +270,45 @@ def _same_nodes(cells, a, b):
 
 
 @njit
-def duplicate_cells(cells, c0, hashes, slots, out, n):
-    """Insert the cells ``c0 ..`` (their hashes ``hashes``, from :func:`_cell_hashes`) into ``slots``; pairs
-    ``(earlier, later)`` of cells with the same node set go to ``out`` (K, 2). Returns the count so far
-    (``n`` before).
+def duplicate_cells(cells, hashes, slots, out):
+    """Pairs ``(earlier, later)`` of cells with the same node set, written to ``out`` (K, 2); their count.
 
     The node ids must be in range and distinct in each cell (checked
-    before). ``slots`` a power-of-two open-addressing table (more slots
-    than cells) of cell ids + 1, zeroed before the first block; the blocks
-    are inserted in order, so that the pairs do not depend on the block
-    size. A stored cell's hash is computed again when a probe meets it
-    (no hash per cell is kept). At most ``out.shape[0]`` pairs are
-    written, the count goes on.
+    before). ``hashes`` (M,) from :func:`_cell_hashes`; ``slots`` a
+    power-of-two open-addressing table (more slots than cells) of cell ids
+    + 1, zeroed here. One pass; at most ``out.shape[0]`` pairs are written,
+    the count goes on.
     """
+    slots[:] = 0
     mask = slots.shape[0] - 1
-    for i in range(hashes.shape[0]):
-        c = c0 + i
-        h = hashes[i]
-        j = np.int64(h & np.uint64(mask))
+    n = 0
+    for c in range(cells.shape[0]):
+        h = hashes[c]
+        i = np.int64(h & np.uint64(mask))
         while True:
-            s = slots[j]
+            s = slots[i]
             if s == 0:
-                slots[j] = c + 1
+                slots[i] = c + 1
                 break
-            if _cell_hash(cells, s - 1) == h and _same_nodes(cells, s - 1, c):
+            if hashes[s - 1] == h and _same_nodes(cells, s - 1, c):
                 if n < out.shape[0]:
                     out[n, 0] = s - 1
                     out[n, 1] = c
                 n += 1
                 break
-            j = (j + 1) & mask
+            i = (i + 1) & mask
     return n
 
 
-#: cells hashed per parallel pass of the duplicate check (:func:`find_duplicate_cells`): the hashes of one
-#: block (8 MiB) instead of 8 bytes per cell of the volume. Not smaller: each block is a parallel launch, and
-#: on a loaded 2-core machine (load 5) 2M's check took 433 ms in blocks of 2**16 cells, 185 ms in blocks of
-#: 2**20 and 150 ms in one block (medians of 7, interleaved)
-DUPLICATE_BLOCK = 1 << 20
-
-
-def find_duplicate_cells(cells, limit=5, block=DUPLICATE_BLOCK):
+def find_duplicate_cells(cells, limit=5):
     """``(count, pairs)``: how many cells repeat the node set of an earlier cell, and up to ``limit``
-    ``(earlier, later)`` pairs of them. The cells are hashed ``block`` at a time (in parallel) and
-    inserted in order: the result does not depend on ``block``."""
+    ``(earlier, later)`` pairs of them."""
     m = cells.shape[0]
-    hashes = empty(min(m, int(block)), np.uint64)
-    slots = np.zeros(1 << max(4, int(2 * m - 1).bit_length()), np.int32 if m < (1 << 31) - 1 else np.int64)
+    hashes = empty(m, np.uint64)
+    _cell_hashes(cells, hashes)
+    slots = empty(1 << max(4, int(2 * m - 1).bit_length()), np.int32 if m < (1 << 31) - 1 else np.int64)
     out = np.zeros((limit, 2), np.int64)
-    n = 0
-    for a in range(0, m, int(block)):
-        h = hashes[:min(m, a + int(block)) - a]
-        _cell_hashes(cells, a, h)
-        n = duplicate_cells(cells, a, h, slots, out, n)
+    n = duplicate_cells(cells, hashes, slots, out)
     return n, out[:min(n, limit)]
 
 
