@@ -333,3 +333,29 @@ def test_memory_budget_picks_the_group_or_says_what_it_needs():
             ActiveScan(vol, "fem", memory_budget=bad)
     with pytest.raises(IsoSurfaceError, match="group"):
         ActiveScan(vol, "fem", group=0)
+
+
+@pytest.mark.parametrize("name, block", [("data2", None), ("data2", 777), ("hexa1", 1000)])
+def test_edge_ids_written_into_the_table_give_the_same_arrays(name, block):
+    # on a volume that has not built its edge table, the edge ids go straight into the table's columns
+    # (no vol.cell_edges beside it); a volume that holds them gives its own: the same arrays
+    src = datasets.load(name)
+    fresh = UnstructuredVolume(src.points, src.cells, {"fem": src.scalars("fem")})
+    direct = ActiveScan(fresh, "fem", block=block, group=2)
+    assert direct.edges_in_table
+    assert fresh.__dict__["_edge_table"][1] is None  # the volume kept its edges, not the cells' edge ids
+    held = UnstructuredVolume(src.points, src.cells, {"fem": src.scalars("fem")})
+    held.cell_edges
+    ref = ActiveScan(held, "fem", block=block, group=2)
+    assert not ref.edges_in_table
+    off = ActiveScan(UnstructuredVolume(src.points, src.cells, {"fem": src.scalars("fem")}), "fem", block=block,
+                     edges_in_table=False)
+    assert not off.edges_in_table
+    np.testing.assert_array_equal(fresh.edges, held.edges)
+    np.testing.assert_array_equal(fresh.cell_edges, held.cell_edges)  # built again on demand: the same
+    for other in (ref, off):
+        for k in PREPARED:
+            np.testing.assert_array_equal(getattr(direct, k), getattr(other, k), err_msg=k)
+    v = isovalues(src.scalars("fem"), 5)[2]
+    for x, y in zip(arrays(direct.extract(v)), arrays(ref.extract(v))):
+        np.testing.assert_array_equal(x, y)

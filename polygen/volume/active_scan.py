@@ -173,6 +173,10 @@ class ActiveScan:
     group : int, optional
         Blocks per group of the preparation (its unit of work; the arrays do
         not depend on it): by default from ``memory_budget``.
+    edges_in_table : bool, optional
+        Have the volume write its cells' edge ids into the table instead of
+        building ``vol.cell_edges`` beside it (when it has not built them;
+        the same table either way). By default :attr:`EDGES_IN_TABLE`.
 
     Notes
     -----
@@ -202,7 +206,8 @@ class ActiveScan:
     #: other over all the active cells (the same arrays, for comparison)
     FUSED = True
 
-    def __init__(self, vol, field=None, *, rows=None, chunk=1024, block=None, memory_budget=None, group=None):
+    def __init__(self, vol, field=None, *, rows=None, chunk=1024, block=None, memory_budget=None, group=None,
+                 edges_in_table=None):
         points, cells, s, cell_type = volume_arrays(vol, field)
         if isinstance(rows, bool) or not (rows is None or (isinstance(rows, (int, np.integer)) and rows >= 1)):
             raise IsoSurfaceError(f"rows must be a positive integer; got {rows!r}")
@@ -236,10 +241,16 @@ class ActiveScan:
         rows = int(rows)
         if memory_budget is not None:  # what the method keeps cannot fit: say so before the edge table is built
             self._plan(m, 0, points.shape[0], n_blocks, rows, np.int32, memory_budget, group)
-        self.n_edges = vol.edges.shape[0]
-        cell_edges = vol.cell_edges
-        wide = max(points.shape[0], self.n_edges, m) >= _INT32_MAX
-        idx = np.int64 if wide else np.int32
+        in_table = self.EDGES_IN_TABLE if edges_in_table is None else bool(edges_in_table)
+        # the volume's edge ids go straight into the table's edge columns when the volume has not built them
+        # (the usual first preparation): no (M, 6|12) array of the volume's beside the table (24 bytes per
+        # tetrahedron); each group's are copied aside before its rows are sorted in place (below)
+        idx = np.int64 if max(points.shape[0], m * self.ne) >= _INT32_MAX else np.int32  # edges < m * ne
+        self.table = _jit.empty((m, self.nn + self.ne + 2), idx)
+        edges = vol._edges_into(self.table[:, self.nn:self.nn + self.ne]) if in_table else None
+        self.edges_in_table = edges is not None
+        cell_edges = None if self.edges_in_table else vol.cell_edges
+        self.n_edges = (vol.edges if edges is None else edges).shape[0]
         per_group = self._plan(m, self.n_edges, points.shape[0], n_blocks, rows, idx, memory_budget, group)
         self.group = per_group * self.block  # cells per group: the preparation's unit of work (below)
 
@@ -249,7 +260,6 @@ class ActiveScan:
         self.block_max = _jit.scratch(n_blocks)
         self.row_off = _jit.scratch(self.lower.size + 1, np.int64)
         self.row_off[0] = 0
-        self.table = _jit.empty((m, self.nn + self.ne + 2), idx)
         self.cmx = _jit.empty(m, np.float32)
         # group by group of whole blocks: a block's rows, its span-space order and its table rows depend on
         # its own cells only (and the edge owners on the cells before, carried in ``first``), so the groups
@@ -268,8 +278,11 @@ class ActiveScan:
 
     #: bytes per cell of a group's temporaries (:meth:`_prepare_group`): minima and maxima (float64), row and
     #: order (int64), maxima rounded to float32 and the float64 copy they are compared with, owner column
-    #: (int32), the rounding mask
-    GROUP_BYTES_PER_CELL = 8 + 8 + 8 + 8 + 4 + 8 + 4 + 1
+    #: (int32), the rounding mask; and the cell's edge ids copied aside (12 ids of 4 bytes at most)
+    GROUP_BYTES_PER_CELL = 8 + 8 + 8 + 8 + 4 + 8 + 4 + 1 + 48
+    #: write the volume's edge ids into the table (see ``__init__``) when the volume has not built them; False:
+    #: read ``vol.cell_edges`` (the same arrays: tested)
+    EDGES_IN_TABLE = True
     #: cells per group by default (rounded down to whole blocks, at least one): the temporaries of 2**20
     #: cells are 49 MiB whatever the volume's size
     GROUP_CELLS = 1 << 20
@@ -305,6 +318,10 @@ class ActiveScan:
         last group), with temporaries of their size only."""
         g = b - a
         blk0, blk1 = a // self.block, -(-b // self.block)
+        if cell_edges is None:  # the edge ids are in the table's rows a:b, which the fill below overwrites
+            ce = self.table[a:b, self.nn:self.nn + self.ne].copy()
+        else:
+            ce = cell_edges[a:b]
         n_rows = self.lower.shape[1]
         cmin = _jit.empty(g)
         cmax = _jit.empty(g)
@@ -325,8 +342,8 @@ class ActiveScan:
         _k.sort_rows_by_max(order, row_off, cmax32)
         self.row_off[blk0 * n_rows + 1:blk1 * n_rows + 1] = row_off[1:] + a
         own = _jit.scratch(g, np.int32)
-        _k.edge_owners(cell_edges[a:b], a, self.block, first, own)
-        _k.fill_table(order, cells[a:b], cell_edges[a:b], own, cmax32, a, self.table[a:b], self.cmx[a:b])
+        _k.edge_owners(ce, a, self.block, first, own)
+        _k.fill_table(order, cells[a:b], ce, own, cmax32, a, self.table[a:b], self.cmx[a:b])
 
     def node_gradients(self):
         if self._node_grad is None:
