@@ -172,7 +172,7 @@ def main(names):
                          f"{(s['peak'] - s['rss_before']) / m:.1f} | {(s['rss_after'] - s['rss_before']) / m:.1f} |")
         lines += ["", f"**Peak RSS {r['peak_rss'] / 2**30:.2f} GiB = {r['peak_rss'] / m:.1f} bytes per cell** "
                   f"({(r['peak_rss'] - r['base_rss']) / m:.1f} above the warm-up; with the extras "
-                  f"{r['peak_rss_with_extras'] / 2**30:.2f} GiB). Held after the queries, bytes "
+                  f"{r['peak_rss_with_extras'] / 2**30:.2f} GiB). Held at the end (the extras too), bytes "
                   "per cell: " + ", ".join(f"{k} {v / m:.1f}" for k, v in {**r["held"], **r["method_bytes"],
                                                                            **r["volume_bytes"]}.items()), ""]
     lines.append(f"Machine: {machine()}")
