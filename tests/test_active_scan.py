@@ -284,3 +284,78 @@ def test_block_by_block_passes_give_the_arrays_of_the_separate_passes(normals, m
                     assert same_surface(b, extract(vol, v, field="fem", normals=normals), normals_atol=1e-9)
         if block < vol.n_cells:
             assert deferred > 0  # the side list was exercised
+
+
+PREPARED = ("table", "cmx", "lower", "row_off", "block_min", "block_max")
+
+
+@pytest.mark.parametrize("name, block", [("data2", None), ("data2", 777), ("hexa1", 4096), ("hexa1", 1000)])
+def test_the_preparation_by_groups_gives_the_arrays_of_one_pass(name, block):
+    # the preparation goes group by group of whole blocks; one group of every block is the one pass over
+    # all the cells that it was before: the arrays must not depend on the group size
+    vol = datasets.load(name)
+    one = ActiveScan(vol, "fem", block=block, group=10**9)
+    assert one.group >= vol.n_cells
+    for group in (1, 2, 3):
+        other = ActiveScan(vol, "fem", block=block, group=group)
+        if block is not None:
+            assert other.group == group * block < vol.n_cells
+        for k in PREPARED:
+            np.testing.assert_array_equal(getattr(one, k), getattr(other, k), err_msg=k)
+
+
+def test_memory_budget_picks_the_group_or_says_what_it_needs():
+    vol = datasets.load("data2")
+    block = 1000
+    free = ActiveScan(vol, "fem", block=block, group=10**9)
+    fixed = free.planned_bytes["fixed"]
+    per_block = ActiveScan.GROUP_BYTES_PER_CELL * block
+    # room for the kept arrays, the edge owners and three blocks' temporaries: groups of three blocks
+    three = ActiveScan(vol, "fem", block=block, memory_budget=fixed + 3 * per_block + per_block // 2)
+    assert three.group == 3 * block
+    for k in PREPARED:
+        np.testing.assert_array_equal(getattr(free, k), getattr(three, k), err_msg=k)
+    # the budget caps the group it is given
+    with pytest.raises(IsoSurfaceError, match="memory_budget"):
+        ActiveScan(vol, "fem", block=block, group=4, memory_budget=fixed + 3 * per_block)
+    with pytest.raises(IsoSurfaceError, match="memory_budget is 1,000 bytes"):
+        ActiveScan(vol, "fem", block=block, memory_budget=1000)
+    # a budget below the table alone is refused before the volume builds its edge table
+    fresh = UnstructuredVolume(vol.points, vol.cells, {"fem": vol.scalars("fem")})
+    with pytest.raises(IsoSurfaceError, match="needs at least"):
+        ActiveScan(fresh, "fem", memory_budget=48 * vol.n_cells)
+    assert "_edge_table" not in fresh.__dict__
+    # through the registry, as a preparation parameter
+    m = methods.get("active-scan")(vol, field="fem", memory_budget=fixed + 3 * per_block, block=block)
+    assert m.scan.group == 3 * block
+    for bad in (0, -5, 2.5, True, "1GB"):
+        with pytest.raises(IsoSurfaceError, match="memory_budget"):
+            ActiveScan(vol, "fem", memory_budget=bad)
+    with pytest.raises(IsoSurfaceError, match="group"):
+        ActiveScan(vol, "fem", group=0)
+
+
+@pytest.mark.parametrize("name, block", [("data2", None), ("data2", 777), ("hexa1", 1000)])
+def test_edge_ids_written_into_the_table_give_the_same_arrays(name, block):
+    # on a volume that has not built its edge table, the edge ids go straight into the table's columns
+    # (no vol.cell_edges beside it); a volume that holds them gives its own: the same arrays
+    src = datasets.load(name)
+    fresh = UnstructuredVolume(src.points, src.cells, {"fem": src.scalars("fem")})
+    direct = ActiveScan(fresh, "fem", block=block, group=2)
+    assert direct.edges_in_table
+    assert fresh.__dict__["_edge_table"][1] is None  # the volume kept its edges, not the cells' edge ids
+    held = UnstructuredVolume(src.points, src.cells, {"fem": src.scalars("fem")})
+    held.cell_edges
+    ref = ActiveScan(held, "fem", block=block, group=2)
+    assert not ref.edges_in_table
+    off = ActiveScan(UnstructuredVolume(src.points, src.cells, {"fem": src.scalars("fem")}), "fem", block=block,
+                     edges_in_table=False)
+    assert not off.edges_in_table
+    np.testing.assert_array_equal(fresh.edges, held.edges)
+    np.testing.assert_array_equal(fresh.cell_edges, held.cell_edges)  # built again on demand: the same
+    for other in (ref, off):
+        for k in PREPARED:
+            np.testing.assert_array_equal(getattr(direct, k), getattr(other, k), err_msg=k)
+    v = isovalues(src.scalars("fem"), 5)[2]
+    for x, y in zip(arrays(direct.extract(v)), arrays(ref.extract(v))):
+        np.testing.assert_array_equal(x, y)

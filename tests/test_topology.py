@@ -122,3 +122,33 @@ def test_preparation_drops_the_tables_only_it_reads():
     np.testing.assert_array_equal(vol.cell_edges, cell_edges)
     np.testing.assert_array_equal(vol.edges, edges)
     np.testing.assert_array_equal(vol.face_neighbors, nb)
+
+
+def brute_duplicates(cells):
+    """(count, (earlier, later) pairs in order of the later cell) by a dict of sorted node tuples."""
+    seen, pairs = {}, []
+    for c, row in enumerate(np.sort(cells, axis=1)):
+        key = tuple(row.tolist())
+        if key in seen:
+            pairs.append((seen[key], c))
+        else:
+            seen[key] = c
+    return len(pairs), pairs
+
+
+@pytest.mark.parametrize("name", ["data1", "hexa1"])
+def test_duplicate_check_against_a_dictionary(name):
+    # the constructor's hash check: the count and the (earlier, later) pairs of a brute-force dictionary of
+    # sorted node tuples, with copies in other node orders spread through the volume and at its end
+    vol = datasets.load(name)
+    rng = np.random.default_rng(5)
+    picks = rng.choice(vol.n_cells, 40, replace=False)
+    copies = vol.cells[picks][:, rng.permutation(vol.cells.shape[1])]
+    cells = np.ascontiguousarray(np.concatenate([vol.cells, copies, vol.cells[picks[:3]]]), np.int64)
+    count, pairs = brute_duplicates(cells)
+    assert count == 43
+    for limit in (5, 50):
+        n, got = _k.find_duplicate_cells(cells, limit=limit)
+        assert n == count
+        np.testing.assert_array_equal(got, np.array(pairs[:limit], np.int64).reshape(-1, 2))
+    assert _k.find_duplicate_cells(np.ascontiguousarray(vol.cells))[0] == 0

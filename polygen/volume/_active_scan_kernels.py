@@ -79,31 +79,37 @@ def cell_extremes(cells, s, cmin, cmax):
 
 
 @njit
-def edge_owners(cell_edges, n_edges, block, first, own):
-    """``own[c]``: the table's owner column (see the module docstring) of cell ``c``: bit ``w``, ``c`` is
-    the first cell of its local edge ``w`` (each edge has one owner, the cell that makes its vertex); bit
-    ``FOREIGN + w``, the edge's owner is in another block of ``block`` consecutive cells (an earlier one:
-    the owner is the edge's first cell); from bit ``REACH``, how many blocks back the earliest owner of the
-    cell's edges is (at most ``REACH_MAX``). ``first`` (n_edges): scratch, each edge's owner.
+def edge_owners(cell_edges, c0, block, first, own):
+    """``own[i]``: the table's owner column (see the module docstring) of cell ``c = c0 + i`` (``cell_edges``
+    holds the rows of cells ``c0 ..``): bit ``w``, ``c`` is the first cell of its local edge ``w`` (each edge
+    has one owner, the cell that makes its vertex); bit ``FOREIGN + w``, the edge's owner is in another block
+    of ``block`` consecutive cells (an earlier one: the owner is the edge's first cell); from bit ``REACH``,
+    how many blocks back the earliest owner of the cell's edges is (at most ``REACH_MAX``).
 
-    Returns the number of edges without a cell (0 for a volume's own edge table).
+    ``first`` (n_edges): each edge's owner so far, -1 for none (set to -1 before the first call; the
+    preparation calls this on its groups of cells in order, carrying ``first`` from one to the next).
     """
-    first[:] = -1
-    for c in range(cell_edges.shape[0]):
+    for i in range(cell_edges.shape[0]):
+        c = c0 + i
         bits = 0
         b = c // block
         back = 0
         for w in range(cell_edges.shape[1]):
-            e = cell_edges[c, w]
+            e = cell_edges[i, w]
             if first[e] < 0:
                 first[e] = c
                 bits |= 1 << w
             elif first[e] // block != b:
                 bits |= 1 << (FOREIGN + w)
                 back = max(back, b - first[e] // block)
-        own[c] = bits | (min(back, REACH_MAX) << REACH)
+        own[i] = bits | (min(back, REACH_MAX) << REACH)
+
+
+@njit
+def count_unowned(first):
+    """How many edges have no owner after :func:`edge_owners` (0 for a volume's own edge table)."""
     missing = 0
-    for e in range(n_edges):
+    for e in range(first.shape[0]):
         if first[e] < 0:
             missing += 1
     return missing
@@ -192,8 +198,10 @@ def sort_rows_by_max(order, row_off, cmax32):
 
 
 @njit(parallel=True)
-def fill_table(order, cells, cell_edges, own, cmax32, tab, cmx):
-    """``tab`` and ``cmx`` in span-space order (see the module docstring)."""
+def fill_table(order, cells, cell_edges, own, cmax32, c0, tab, cmx):
+    """``tab`` and ``cmx`` in span-space order (see the module docstring), for the cells ``c0 + order``:
+    ``cells``, ``cell_edges``, ``own`` and ``cmax32`` hold those cells' rows from ``c0`` on, ``tab`` and ``cmx``
+    the rows of their positions."""
     nn = cells.shape[1]
     ne = cell_edges.shape[1]
     for p in prange(order.shape[0]):
@@ -203,7 +211,7 @@ def fill_table(order, cells, cell_edges, own, cmax32, tab, cmx):
         for w in range(ne):
             tab[p, nn + w] = cell_edges[c, w]
         tab[p, nn + ne] = own[c]
-        tab[p, nn + ne + 1] = c
+        tab[p, nn + ne + 1] = c0 + c
         cmx[p] = cmax32[c]
 
 

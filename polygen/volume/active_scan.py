@@ -157,6 +157,26 @@ class ActiveScan:
         below :attr:`BLOCKS_FROM` cells, blocks of :attr:`BLOCK` from there.
     chunk : int, optional
         Active cells per unit of parallel work (default 1024).
+    memory_budget : int, optional
+        Bytes the preparation may allocate beyond what the volume holds:
+        the arrays the method keeps (the table, the maxima, the rows, a
+        query's scratch: ``planned_bytes["kept"]``), each edge's owner while
+        the table is filled, and the temporaries of one group of blocks
+        (:attr:`GROUP_BYTES_PER_CELL` per cell). The largest group that fits
+        is taken (at most :attr:`GROUP_CELLS` cells); an
+        :class:`~polygen.volume.surface.IsoSurfaceError` says what is needed
+        when one block does not fit. Not counted: the volume's edge table
+        (``vol.edges``, ``vol.cell_edges``, built first if missing, kept by
+        the volume), the surfaces a query returns, and the kernels' own
+        scratch (kilobytes per thread). ``None``: groups of
+        :attr:`GROUP_CELLS` cells.
+    group : int, optional
+        Blocks per group of the preparation (its unit of work; the arrays do
+        not depend on it): by default from ``memory_budget``.
+    edges_in_table : bool, optional
+        Have the volume write its cells' edge ids into the table instead of
+        building ``vol.cell_edges`` beside it (when it has not built them;
+        the same table either way). By default :attr:`EDGES_IN_TABLE`.
 
     Notes
     -----
@@ -186,7 +206,8 @@ class ActiveScan:
     #: other over all the active cells (the same arrays, for comparison)
     FUSED = True
 
-    def __init__(self, vol, field=None, *, rows=None, chunk=1024, block=None):
+    def __init__(self, vol, field=None, *, rows=None, chunk=1024, block=None, memory_budget=None, group=None,
+                 edges_in_table=None):
         points, cells, s, cell_type = volume_arrays(vol, field)
         if isinstance(rows, bool) or not (rows is None or (isinstance(rows, (int, np.integer)) and rows >= 1)):
             raise IsoSurfaceError(f"rows must be a positive integer; got {rows!r}")
@@ -194,6 +215,11 @@ class ActiveScan:
             raise IsoSurfaceError(f"chunk must be a positive integer; got {chunk!r}")
         if isinstance(block, bool) or not (block is None or (isinstance(block, (int, np.integer)) and block >= 1)):
             raise IsoSurfaceError(f"block must be a positive integer or None; got {block!r}")
+        if isinstance(group, bool) or not (group is None or (isinstance(group, (int, np.integer)) and group >= 1)):
+            raise IsoSurfaceError(f"group must be a positive integer (blocks per group) or None; got {group!r}")
+        if not (memory_budget is None or (isinstance(memory_budget, (int, np.integer))
+                                          and not isinstance(memory_budget, bool) and memory_budget > 0)):
+            raise IsoSurfaceError(f"memory_budget must be a positive number of bytes or None; got {memory_budget!r}")
         self.vol = vol
         self.points = points
         self.s = s
@@ -206,52 +232,118 @@ class ActiveScan:
         self.ne = self.local_edges.shape[0]
         if (self.nn, self.ne) not in ((4, 6), (8, 12)):  # the passes are built for these two (_k._count_part)
             raise IsoSurfaceError(f"the active-cell scan takes tetrahedra or hexahedra; got {self.nn}-node cells")
-        self.n_edges = vol.edges.shape[0]
-        cell_edges = vol.cell_edges
-        wide = max(points.shape[0], self.n_edges, m) >= _INT32_MAX
-        idx = np.int64 if wide else np.int32
-
-        cmin = _jit.empty(m)
-        cmax = _jit.empty(m)
-        if m:
-            _k.cell_extremes(cells, s, cmin, cmax)
         if block is None:
             block = self.BLOCK if m >= self.BLOCKS_FROM else max(1, m)
         self.block = int(block)
         n_blocks = -(-m // self.block) if m else 0
         if rows is None:  # a row per ROW cells of a block, at most 4096 (blocks of 16384 cells: 32)
             rows = min(4096, max(1, min(m, self.block) // self.ROW))
-        # each block's row bounds: equally filled by its cells' minima (from a sample of them)
-        self.lower = _jit.scratch((n_blocks, int(rows)))
-        row = _jit.scratch(m, np.int64)
-        if m:
-            _k.block_rows(cmin, self.block, self.lower, row)
+        rows = int(rows)
+        if memory_budget is not None:  # what the method keeps cannot fit: say so before the edge table is built
+            self._plan(m, 0, points.shape[0], n_blocks, rows, np.int32, memory_budget, group)
+        in_table = self.EDGES_IN_TABLE if edges_in_table is None else bool(edges_in_table)
+        # the volume's edge ids go straight into the table's edge columns when the volume has not built them
+        # (the usual first preparation): no (M, 6|12) array of the volume's beside the table (24 bytes per
+        # tetrahedron); each group's are copied aside before its rows are sorted in place (below)
+        idx = np.int64 if max(points.shape[0], m * self.ne) >= _INT32_MAX else np.int32  # edges < m * ne
+        self.table = _jit.empty((m, self.nn + self.ne + 2), idx)
+        edges = vol._edges_into(self.table[:, self.nn:self.nn + self.ne]) if in_table else None
+        self.edges_in_table = edges is not None
+        cell_edges = None if self.edges_in_table else vol.cell_edges
+        self.n_edges = (vol.edges if edges is None else edges).shape[0]
+        per_group = self._plan(m, self.n_edges, points.shape[0], n_blocks, rows, idx, memory_budget, group)
+        self.group = per_group * self.block  # cells per group: the preparation's unit of work (below)
+
+        # the kept arrays; each block's row bounds are equally filled by its cells' minima (from a sample)
+        self.lower = _jit.scratch((n_blocks, rows))
         self.block_min = _jit.scratch(n_blocks)
         self.block_max = _jit.scratch(n_blocks)
-        if m:
-            _k.block_extremes(cmin, cmax, self.block, self.block_min, self.block_max)
+        self.row_off = _jit.scratch(self.lower.size + 1, np.int64)
+        self.row_off[0] = 0
+        self.cmx = _jit.empty(m, np.float32)
+        # group by group of whole blocks: a block's rows, its span-space order and its table rows depend on
+        # its own cells only (and the edge owners on the cells before, carried in ``first``), so the groups
+        # give the arrays that one pass over all the cells gives, with temporaries of one group's size
+        first = _jit.scratch(self.n_edges, idx)
+        first[:] = -1
+        for a in range(0, m, self.group):
+            self._prepare_group(a, min(m, a + self.group), cells, s, cell_edges, first)
+        if _k.count_unowned(first):
+            raise IsoSurfaceError("the volume's edge table has edges without a cell")  # pragma: no cover
+        del first
+        self._idx = idx
+        self._scratch = _Scratch(self)  # ev, node stamps, buffers: what one query writes
+        self._node_grad = None
+        self.stats = {}
+
+    #: bytes per cell of a group's temporaries (:meth:`_prepare_group`): minima and maxima (float64), row and
+    #: order (int64), maxima rounded to float32 and the float64 copy they are compared with, owner column
+    #: (int32), the rounding mask; and the cell's edge ids copied aside (12 ids of 4 bytes at most)
+    GROUP_BYTES_PER_CELL = 8 + 8 + 8 + 8 + 4 + 8 + 4 + 1 + 48
+    #: write the volume's edge ids into the table (see ``__init__``) when the volume has not built them; False:
+    #: read ``vol.cell_edges`` (the same arrays: tested)
+    EDGES_IN_TABLE = True
+    #: cells per group by default (rounded down to whole blocks, at least one): the temporaries of 2**20
+    #: cells are 49 MiB whatever the volume's size
+    GROUP_CELLS = 1 << 20
+
+    def _plan(self, m, n_edges, n_points, n_blocks, rows, idx, budget, group):
+        """Blocks per group of the preparation: ``group``, else the most that ``budget`` allows (at most
+        :attr:`GROUP_CELLS` cells' worth), else :attr:`GROUP_CELLS` cells' worth; an
+        :class:`IsoSurfaceError` when even one block per group does not fit the budget."""
+        isz = np.dtype(idx).itemsize
+        n_seg = n_blocks * rows
+        kept = (m * (self.nn + self.ne + 2) * isz + 4 * m  # table, maxima
+                + n_seg * 8 + (n_seg + 1) * 8 + 16 * n_blocks  # row bounds, row starts, block extremes
+                + n_edges * isz + 8 * n_points + 16 * n_seg + 8 * (n_seg + 1))  # a query's ev, node stamps, ranges
+        fixed = kept + n_edges * isz  # + each edge's owner while the table is filled
+        self.planned_bytes = {"kept": int(kept), "fixed": int(fixed)}
+        default = max(1, self.GROUP_CELLS // self.block)
+        if budget is None:
+            return int(group) if group is not None else default
+        per_block = self.GROUP_BYTES_PER_CELL * min(self.block, max(m, 1))
+        fits = (int(budget) - fixed) // per_block
+        want = int(group) if group is not None else default
+        if fits < 1 or (group is not None and fits < want):
+            need = fixed + per_block * (want if group is not None else 1)
+            raise IsoSurfaceError(
+                f"the active-cell scan's preparation needs at least {need:,} bytes for {m:,} cells"
+                f"{f' and {n_edges:,} edges' if n_edges else ''} ({kept:,} kept: the table, maxima, rows and a "
+                f"query's scratch; the rest temporaries of {want if group is not None else 1} block(s) of "
+                f"{self.block:,} cells); memory_budget is {int(budget):,} bytes")
+        return int(min(fits, want))
+
+    def _prepare_group(self, a, b, cells, s, cell_edges, first):
+        """The rows, span-space order and table rows of the cells ``a:b`` (whole blocks; ``b = m`` for the
+        last group), with temporaries of their size only."""
+        g = b - a
+        blk0, blk1 = a // self.block, -(-b // self.block)
+        if cell_edges is None:  # the edge ids are in the table's rows a:b, which the fill below overwrites
+            ce = self.table[a:b, self.nn:self.nn + self.ne].copy()
+        else:
+            ce = cell_edges[a:b]
+        n_rows = self.lower.shape[1]
+        cmin = _jit.empty(g)
+        cmax = _jit.empty(g)
+        _k.cell_extremes(cells[a:b], s, cmin, cmax)
+        lower = self.lower[blk0:blk1]
+        row = _jit.scratch(g, np.int64)
+        _k.block_rows(cmin, self.block, lower, row)
+        _k.block_extremes(cmin, cmax, self.block, self.block_min[blk0:blk1], self.block_max[blk0:blk1])
         with np.errstate(over="ignore"):  # beyond float32's range: +-inf, then rounded up below as the rest
             cmax32 = cmax.astype(np.float32)  # rounded up where float32 is below: tested maybe, never missed
         low = cmax32.astype(np.float64) < cmax
         cmax32[low] = np.nextafter(cmax32[low], np.float32(np.inf))
         del cmin, cmax, low
-
-        self.row_off = _jit.scratch(self.lower.size + 1, np.int64)
-        order = _jit.scratch(m, np.int64)
-        _k.rows_by_count(row, self.lower.size, self.row_off, order)
+        row_off = _jit.scratch(lower.size + 1, np.int64)
+        order = _jit.scratch(g, np.int64)
+        _k.rows_by_count(row, lower.size, row_off, order)
         del row
-        _k.sort_rows_by_max(order, self.row_off, cmax32)
-        own = _jit.scratch(m, np.int32)
-        if _k.edge_owners(cell_edges, self.n_edges, self.block, _jit.scratch(self.n_edges, idx), own):
-            raise IsoSurfaceError("the volume's edge table has edges without a cell")  # pragma: no cover
-        self.table = _jit.empty((m, self.nn + self.ne + 2), idx)
-        self.cmx = _jit.empty(m, np.float32)
-        _k.fill_table(order, cells, cell_edges, own, cmax32, self.table, self.cmx)
-        del order, own, cmax32
-        self._idx = idx
-        self._scratch = _Scratch(self)  # ev, node stamps, buffers: what one query writes
-        self._node_grad = None
-        self.stats = {}
+        _k.sort_rows_by_max(order, row_off, cmax32)
+        self.row_off[blk0 * n_rows + 1:blk1 * n_rows + 1] = row_off[1:] + a
+        own = _jit.scratch(g, np.int32)
+        _k.edge_owners(ce, a, self.block, first, own)
+        _k.fill_table(order, cells[a:b], ce, own, cmax32, a, self.table[a:b], self.cmx[a:b])
 
     def node_gradients(self):
         if self._node_grad is None:
@@ -374,8 +466,9 @@ class ActiveScanMethod(IsosurfaceMethod):
                    "parallel; each crossed edge's vertex made by its one owner cell: no search, no walk (ours)")
     construction = "scan"
 
-    def _prepare(self, rows=None, chunk=1024, block=None):
-        self.scan = ActiveScan(self.vol, self.field, rows=rows, chunk=chunk, block=block)
+    def _prepare(self, rows=None, chunk=1024, block=None, memory_budget=None, group=None):
+        self.scan = ActiveScan(self.vol, self.field, rows=rows, chunk=chunk, block=block,
+                               memory_budget=memory_budget, group=group)
 
     def extract(self, value, *, normals="mean"):
         iso = self.scan.extract(value, normals=normals)

@@ -768,6 +768,25 @@ class UnstructuredVolume:
                                  cell_edges)
         return edges, cell_edges
 
+    def _edges_into(self, cell_edges):
+        """The edge table's ``edges``, each cell's edge ids written into ``cell_edges`` (M, 6|12), the
+        caller's array (the edge-id columns of a preparation's table), instead of one the volume keeps.
+
+        The volume then keeps ``edges`` alone, as after :meth:`release_preparation_tables` (a reader of
+        :attr:`cell_edges` builds them again). ``None`` where the volume holds its cell edges already
+        (the caller reads them) or its packed keys would overflow.
+        """
+        with self._table_lock:
+            table = self.__dict__.get("_edge_table")
+            if (table is not None and table[1] is not None) or self.n_cells >= 1 << 28 or self.n_points >= 1 << 31:
+                return None
+            off, nc = self._incidence()
+            edges = _k.edges_by_node(self.cells, self.local_edges, _local_incidence(self.cell_type, "edges")[0], off,
+                                     nc, cell_edges)
+            if table is None:
+                self.__dict__["_edge_table"] = (edges, None)
+            return edges if table is None else table[0]
+
     @property
     def edges(self) -> np.ndarray:
         """(E, 2) int64 distinct cell edges, ``a < b``, numbered by ``a`` then ``b``."""

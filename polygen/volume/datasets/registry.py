@@ -28,13 +28,14 @@ class _Spec:
     params: dict  # everything the result depends on besides the seed (cache key)
     builder: Callable  # (seed, bar) -> (points, cells, fields)
     stages: int = 1
+    reorder: bool = True  # renumber along a Morton curve after building (a refined volume keeps its parent's)
 
 
 _REGISTRY: dict = {}
 
 
-def _register(info, params, builder, stages=1):
-    _REGISTRY[info.name] = _Spec(info, params, builder, stages)
+def _register(info, params, builder, stages=1, reorder=True):
+    _REGISTRY[info.name] = _Spec(info, params, builder, stages, reorder)
 
 
 _THESIS = {
@@ -85,6 +86,50 @@ def _add_part(name, part_key, cell_type, target, h0, *, n_sources, noise=0.0, n_
     _register(info, params, _part_builder(part, cell_type, target, h0, n_sources, noise, n_bumps, fem), 4 if fem else 2)
 
 
+def _refined_builder(parent):
+    def build(seed, bar):
+        from polygen.volume.datasets.refine import refine_tetrahedra
+
+        spec = _REGISTRY[parent]
+        _tick(bar, f"load {parent}")
+        coarse = load(parent, seed=seed, progress=bar is not None)
+        _tick(bar, "refine")
+        cells_bar = None
+        if bar is not None:
+            from tqdm.auto import tqdm
+
+            cells_bar = tqdm(total=coarse.n_cells, desc=f"refining {parent}", unit="cell", unit_scale=True,
+                             leave=False)
+        try:
+            # a field the parent solved (FEM) is interpolated at the midpoints; the analytic ones are evaluated
+            points, cells, fields, _ = refine_tetrahedra(coarse, fields="interpolate" if spec.params["fem"] else None,
+                                                         progress=cells_bar)
+        finally:
+            if cells_bar is not None:
+                cells_bar.close()
+        del coarse
+        _tick(bar, "analytic fields")
+        # the same bumps and eye as the parent's: the box of the points, which the midpoints do not widen
+        fields["gaussians"] = gaussian_field(points, n_bumps=spec.params["n_bumps"], seed=seed)
+        fields["distance"] = distance_field(points)
+        return points, cells, {name: fields[name] for name in spec.info.fields}
+
+    return build
+
+
+def _add_refined(name, parent):
+    """``name``: every tetrahedron of data set ``parent`` split into eight (:mod:`.refine`), its analytic fields
+    evaluated again at the new nodes, its FEM field (if any) interpolated. Not reordered: the parent's Morton
+    order carries over (a refined node follows its edge's smaller node, children follow their parent)."""
+    p = _REGISTRY[parent]
+    info = dataclasses.replace(
+        p.info, name=name, target_cells=8 * p.info.target_cells,
+        description=f"{parent} refined once: each tetrahedron into 8 at its edges' midpoints (~{8 * p.info.target_cells} "
+                    "cells); for the memory limit")
+    params = dict(parent=parent, parent_params=p.params, refine="midpoints-shortest-diagonal")
+    _register(info, params, _refined_builder(parent), 3, reorder=False)
+
+
 # the thesis's data 1-5 (Tables 6.1, 7.1); h0 is the mesh size that hits the target with gmsh 4.15
 _add_part("data1", "bracket", "tetra", 20736, 0.11425, n_sources=22, n_bumps=60, thesis=_THESIS["data1"])
 _add_part("data2", "flange", "tetra", 61680, 0.08431, n_sources=46, n_bumps=150, thesis=_THESIS["data2"])
@@ -99,6 +144,7 @@ _add_part(
     "10M", "manifold", "tetra", 10_000_000, 0.02547, n_sources=0, n_bumps=4000, fem=False,
     note="for scaling; analytic fields only (an FEM solve at this size needs too much memory and time)",
 )
+_add_refined("80M", "10M")
 _add_part("hexa1", "plate", "hexa", 20736, 0.07145, n_sources=22, n_bumps=60)
 _add_part("hexa2", "flange_hex", "hexa", 61680, 0.0545, n_sources=46, n_bumps=150)
 _add_part("hexa3", "base_plate", "hexa", 346644, 0.03943, n_sources=136, n_bumps=600)
@@ -228,7 +274,7 @@ def _build_arrays(name, seed, progress):
             bar.n = bar.total
             bar.set_postfix_str("done")
             bar.close()
-    if spec.info.cached:
+    if spec.info.cached and spec.reorder:
         points, cells, fields = _spatial_order(points, cells, fields)
     return points, cells, fields
 
@@ -281,7 +327,7 @@ def load(name, *, seed=0, field=None, progress=False, cache=True):
     ----------
     name : str
         One of :func:`names`, e.g. ``"data1"`` .. ``"data5"``, ``"2M"``,
-        ``"10M"``, ``"hexa1"``, ``"torus"``, ``"hollow_cube"``,
+        ``"10M"``, ``"80M"`` (10M refined once: building it needs about 6 GiB), ``"hexa1"``, ``"torus"``, ``"hollow_cube"``,
         ``"genus3"``, ``"two_tets"``.
     seed : int, keyword-only
         Moves the heat sources, random loads and Gaussian bumps (the mesh
