@@ -684,38 +684,42 @@ for name, rows in paired.items():
 #    the penumbra pixels — more than every error compared under the chair's and sphere's 0.2
 #    lights. It smears a narrow penumbra as the uniform meshes do, so it rewarded them and
 #    charged DM for a sharp shadow. Against the exact reference the ordering flips: at F = 1.6 the
-#    DM's error with the thesis's own display is 0.047 against the uniform mesh's 0.156 (chair),
-#    0.062 against 0.163 (sphere), 0.028 against 0.030 (room).
+#    DM's error with the thesis's own display is 0.051 against the uniform mesh's 0.156 (chair),
+#    0.062 against 0.163 (sphere), 0.029 against 0.031 (room).
 # 2. **Gouraud interpolation across a line — the part of the realisation to fix.** (2.8) makes a
 #    node on a discontinuity line the mean of the elements on both sides, so the coarse bright or
 #    umbra elements beside the penumbra pull the line's nodes by an amount set by the values
-#    across the line, not by F: the DM's (2.8) error stays flat (chair 0.047, 0.047, 0.055, 0.042
+#    across the line, not by F: the DM's (2.8) error stays flat (chair 0.051, 0.049, 0.050, 0.048
 #    for F = 1.6, 1.1, 0.75, 0.5; sphere 0.062 → 0.059). The fix evaluates each area light's
 #    direct part at the node itself (`node_radiosity`; exact over the light's visible part where
 #    rays find it partly hidden), keeping (2.8) for the reflected light: chair 0.024, 0.021,
-#    0.025, 0.020; sphere 0.031, 0.031, 0.031, 0.031; room 0.0075, 0.0051, 0.0056, 0.0049.
+#    0.025, 0.020; sphere 0.031, 0.031, 0.031, 0.031; room 0.0082, 0.0051, 0.0053, 0.0042.
 # 3. **Visibility samples per element**: not it — 4 × 4 or 8 × 8 rays moved the DM's penumbra
 #    error by < 0.003 (above), and the node values use the visible part exactly.
 # 4. **Slivers, the coarse umbra and bright elements next to the penumbra**: the coarse elements
 #    act only through (2.8)'s means at the line's nodes (item 2). Under the 0.2 lights the
 #    penumbra is a band narrower than every F, one element across whatever F (the chair's DM mesh
-#    grows only 3144 → 3616 elements from F = 1.6 to 0.5): F refines along the lines, not across.
+#    grows only 3464 → 3936 elements from F = 1.6 to 0.5): F refines along the lines, not across.
 # 5. **The penumbra mask**: the same pixels (the DM mesh's penumbra elements) for every image.
 #
 # So the DM mesh interpolates the shadow better than the uniform mesh at every pairing on the
 # three scenes, by 4–6× on the small-light scenes, once the reference is right and the line's
 # nodes carry their own direct light. **Not shown**: that its error falls at every step of F.
-# It does on the room from 1.6 to 1.1 (0.0075 → 0.0051) and then stays at 0.005, which is the
-# room reference's own resolution (below); on the chair and the sphere it is flat at 0.020–0.025
-# and 0.031. Measured reason: F does not change the mesh across those narrow bands (item 4), so
+# On the room it falls from 1.6 to 1.1 (0.0082 → 0.0051), not from 1.1 to 0.75 (0.0053), and
+# again to 0.5 (0.0042), at the room reference's own resolution (below); on the chair and the
+# sphere it is flat at 0.020–0.025 and 0.031. Measured reason: F does not change the mesh across those narrow bands (item 4), so
 # what is left is across them. In direct light alone, exact at the pixels and at the DM mesh's
 # nodes (benchmark part `across`, chair at F = 1.6), the penumbra error is 0.043 with the
 # elements as meshed, 0.0105 with each split in 4 and 0.0040 in 16, while F = 0.75 instead of
 # 1.6 leaves it at 0.045: the thesis's F, an edge length, does not control the accuracy of a
 # penumbra narrower than F; an element size across the band would. The reference's own error: its direct part is exact; its reflected part
 # differs from one solved on a mesh twice as coarse by D = 0.0079 (chair), 0.0030 (sphere),
-# 0.0131 (room) over the penumbra pixels, so about D/3: 0.0026, 0.0010 and 0.0044 — at most a
-# third of the smallest error compared on the chair and the sphere, not on the room (0.0049/3).
+# 0.0143 (room) over the penumbra pixels, so about D/3: 0.0026, 0.0010 and 0.0048 — at most a
+# third of the smallest error compared on the chair and the sphere, not on the room (0.0042/3).
+# The room's reference was refined for this (floor and occluders 0.3 instead of 0.6, 15,656
+# elements): D did not fall (0.0131 before, against a 1.2 mesh; 0.0143 now, against 0.6), so the
+# difference between two solves' reflected parts is not set by their mesh size but by the solve
+# (to 1 % unshot, the rest as an ambient term), and a finer mesh does not reach the third.
 #
 # The table: penumbra-pixel error against the exact-direct reference (old reference in
 # parentheses), `mean` node values by (2.8), `node` with each area light's direct part at the
