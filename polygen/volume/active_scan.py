@@ -204,7 +204,7 @@ class ActiveScan:
         m = cells.shape[0]
         self.nn = cells.shape[1]
         self.ne = self.local_edges.shape[0]
-        if (self.nn, self.ne) not in ((4, 6), (8, 12)):  # the passes are built for these two (_k._count_part)
+        if (self.nn, self.ne) not in ((4, 6), (8, 12)):  # the passes are built for these two (_k.count_pass)
             raise IsoSurfaceError(f"the active-cell scan takes tetrahedra or hexahedra; got {self.nn}-node cells")
         self.n_edges = vol.edges.shape[0]
         cell_edges = vol.cell_edges
