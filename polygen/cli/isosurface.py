@@ -146,6 +146,42 @@ def _vtk_time(vol, field, values):
     return time.perf_counter() - t0, tris
 
 
+def _start_helper():
+    """The helper process of :func:`_warm_up`, started now: it imports polygen (seconds) while this one loads
+    the volume, then waits for its work on its stdin (:func:`_helper_main`)."""
+    import subprocess
+
+    return subprocess.Popen([sys.executable, "-c", "from polygen.cli.isosurface import _helper_main; _helper_main()"],
+                            stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def _early_helper(n_methods):
+    """:func:`_start_helper` where this is a first run (the probe kernel that importing polygen runs was compiled,
+    not loaded from numba's cache) on two or more cores with the cache on and methods to share; else None."""
+    from polygen import _jit
+    from polygen.volume import _intrinsics
+
+    stats = getattr(getattr(_intrinsics, "_probe", None), "stats", None)
+    first = stats is not None and bool(stats.cache_misses) and not stats.cache_hits
+    if not (first and n_methods > 1 and _jit.CACHE and _cores() > 1):
+        return None
+    return _start_helper()
+
+
+def _cores():
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def _end_helper(proc):
+    """Tell a helper from :func:`_start_helper` that got no work to end (its stdin closed), and wait for it."""
+    if proc is not None and proc.poll() is None:
+        try:
+            proc.stdin.close()
+        except OSError:  # pragma: no cover - gone already
+            pass
+        proc.wait()
+
+
 def _warm_up(names, cell_type, helper=True, n_cells=0):
     """Run each method on a tiny volume of ``cell_type``: the seconds spent (compiling or loading kernels).
 
@@ -155,14 +191,14 @@ def _warm_up(names, cell_type, helper=True, n_cells=0):
     not while the methods are measured on the volume (a method that compiles a kernel there is measured again).
 
     numba compiles on one thread. On a first run (the first kernel compiles) a helper process is
-    started that runs the same methods from the other end of the list, each method taken by whichever
+    started (or ``helper``, one from :func:`_start_helper`, is given its work) that runs the same methods
+    from the other end of the list, each method taken by whichever
     of the two claims it first; both save what they compile in numba's on-disk cache. This process then
     runs the helper's methods too, which loads their kernels from the cache (or compiles what the helper
     did not save), so the seconds returned are all the compiling and loading it took. No helper where
     numba's cache is off, on one core, or when nothing compiles (a second run).
     """
     import shutil
-    import subprocess
     import tempfile
 
     import numba.core.event as ev
@@ -172,33 +208,46 @@ def _warm_up(names, cell_type, helper=True, n_cells=0):
     t0 = time.perf_counter()
     claims = tempfile.mkdtemp(prefix="polygen-warm-up-") if helper and len(names) > 1 else None
     started = []
+    names = _warm_up_order(names) + _large_items(n_cells)
+
+    def start(proc):
+        work = "\t".join([claims, cell_type, str(n_cells), *names]) + "\n"
+        try:
+            proc.stdin.write(work.encode())
+            proc.stdin.close()
+        except OSError:  # pragma: no cover - the helper is gone: this process does all
+            pass
+        started.append(proc)
 
     class StartHelper(ev.Listener):
         def on_start(self, event):
             if not started:
-                started.append(subprocess.Popen(
-                    [sys.executable, "-c", "from polygen.cli.isosurface import _helper_main; _helper_main()",
-                     claims, cell_type, str(n_cells), *names], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                    stderr=subprocess.DEVNULL))
+                start(_start_helper())
 
         def on_end(self, event):
             pass
 
     listener = StartHelper()
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    if claims is not None and _jit.CACHE and cores > 1:
+    registered = False
+    if claims is not None and not isinstance(helper, bool):
+        start(helper)
+    elif claims is not None and _jit.CACHE and _cores() > 1:
         ev.register("numba:compile", listener)
-    names = _warm_up_order(names) + _large_items(n_cells)
+        registered = True
+    else:
+        _end_helper(None if isinstance(helper, bool) else helper)
     try:
         tiny = _tiny_volume(cell_type)
         left = [name for name in names if not _run_tiny(tiny, name, claims, n_cells)]
-        if started:
+        if registered:
             ev.unregister("numba:compile", listener)
+            registered = False
+        if started:
             started[0].wait()
         for name in left:  # the helper's: from the cache now
             _run_tiny(tiny, name, None, n_cells)
     finally:
-        if claims is not None and not started:
+        if registered:
             ev.unregister("numba:compile", listener)
         if started and started[0].poll() is None:  # pragma: no cover - interrupted
             started[0].kill()
@@ -221,11 +270,14 @@ def _warm_up_order(names):
 
 def _tiny_options(name, n_cells):
     """The options method ``name`` is given on the tiny volume so that it takes the paths it takes on a volume
-    of ``n_cells`` cells (and the warm-up compiles their kernels): thinning's two halves at once."""
-    from polygen.volume import thinning
+    of ``n_cells`` cells (and the warm-up compiles their kernels): thinning's two halves at once, the edge-centred
+    table's construction by two threads (which it chooses from 10,000 cells crossed while the cores are idle)."""
+    from polygen.volume import edge_centred, thinning
 
     if name == "thinning" and n_cells >= thinning.PARALLEL_MIN_CELLS:
         return {"parallel": True}
+    if name == "edge-centred-table" and n_cells >= edge_centred.EdgeCentredTable.PARALLEL_MIN_CELLS and _cores() > 1:
+        return {"threads": 2}
     return {}
 
 
@@ -279,8 +331,14 @@ def _run_tiny(tiny, name, claims, n_cells=0):
 
 
 def _helper_main():
-    """The helper process of :func:`_warm_up`: ``claims cell_type n_cells names...``; the methods from the last."""
-    claims, cell_type, n_cells, *names = sys.argv[1:]
+    """The helper process of :func:`_warm_up`: ``claims cell_type n_cells names...`` (one line on stdin, tabs
+    between; none: nothing to do); the methods from the last."""
+    import polygen.volume  # noqa: F401 - the imports first, while the main process loads its volume
+
+    work = sys.stdin.readline().rstrip("\n")
+    if not work:
+        return
+    claims, cell_type, n_cells, *names = work.split("\t")
     n_cells = int(n_cells)
     tiny = _tiny_volume(cell_type)
     for name in reversed(names):
@@ -462,16 +520,21 @@ def run(args):
     if not args.value and args.values < 1:
         raise CLIError(f"--values needs at least 1; got {args.values}")
     progress = sys.stderr.isatty()
-    label, vol = _load(args.mesh, progress, orient=args.orient, cell_data=args.cell_data,
-                       tetrahedralize=args.tetrahedralize)
-    args.field, how = choose_field(vol, args.field)
-    s = vol.scalars(args.field)
-    if args.value:
-        values = np.asarray(args.value, float)
-        if not np.isfinite(values).all():
-            raise CLIError(f"--value must be finite; got {args.value}")
-    else:
-        values = isovalues(s, args.values)
+    helper = _early_helper(len(chosen))  # a first run: the warm-up's helper imports polygen while the volume loads
+    try:
+        label, vol = _load(args.mesh, progress, orient=args.orient, cell_data=args.cell_data,
+                           tetrahedralize=args.tetrahedralize)
+        args.field, how = choose_field(vol, args.field)
+        s = vol.scalars(args.field)
+        if args.value:
+            values = np.asarray(args.value, float)
+            if not np.isfinite(values).all():
+                raise CLIError(f"--value must be finite; got {args.value}")
+        else:
+            values = isovalues(s, args.values)
+    except BaseException:
+        _end_helper(helper)
+        raise
     print(f"{label}: {vol}; field {args.field!r} ({how}) in [{s.min():.6g}, {s.max():.6g}]; "
           f"{len(values)} values")
     # numba compiles each kernel on its first call (then loads it from its cache): run every
@@ -480,7 +543,8 @@ def run(args):
 
     compiled = ev.RecordingListener()  # numba's compile events: a kernel loaded from its cache makes none
     ev.register("numba:compile", compiled)
-    print(f"compiling kernels (once per install, then cached): {_warm_up(chosen, vol.cell_type, n_cells=vol.n_cells):.1f} s")
+    warm_s = _warm_up(chosen, vol.cell_type, helper if helper is not None else True, n_cells=vol.n_cells)
+    print(f"compiling kernels (once per install, then cached): {warm_s:.1f} s")
     # the volume's topology is shared by the methods: built once here, so that no method's
     # preprocessing column carries it
     t0 = time.perf_counter()
