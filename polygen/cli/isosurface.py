@@ -259,8 +259,10 @@ def _warm_up(names, cell_type, helper=True, n_cells=0):
 
 #: methods with kernels that no other method compiles: last in the warm-up's list, so that the helper process,
 #: which starts from the end, compiles them while this one compiles those that the others share (the tiny
-#: volume's topology, the propagation, the marching tables) -- both compiling one kernel at once is work lost
-_OWN_KERNELS = ("active-scan", "edge-centred", "edge-centred-table")
+#: volume's topology, the propagation, the marching tables) -- both compiling one kernel at once is work lost.
+#: The largest last: the helper's first, so that what is left when the two meet is small (the active scan's
+#: kernels were once the last left, 25 s compiled by one process while the other had finished)
+_OWN_KERNELS = ("edge-centred", "edge-centred-table", "active-scan")
 
 
 def _warm_up_order(names):
