@@ -51,3 +51,13 @@ def test_isosurface_bad_arguments(tmp_path, capsys):
     assert "neither a file nor a data set" in capsys.readouterr().err
     with pytest.raises(ValueError, match="unknown method 'nope'"):  # --debug: the exception itself
         main(["isosurface", "torus", "--method", "nope", "--no-files", "--debug"])
+
+
+def test_warm_up_helper_started_early_ends_without_work():
+    # a first run starts the warm-up's helper before the volume loads; when the command then stops (a bad
+    # field, one method) the helper gets no work and must end by itself, not wait for ever
+    from polygen.cli import isosurface
+
+    proc = isosurface._start_helper()
+    isosurface._end_helper(proc)
+    assert proc.returncode == 0

@@ -146,18 +146,59 @@ def _vtk_time(vol, field, values):
     return time.perf_counter() - t0, tris
 
 
-def _warm_up(names, cell_type, helper=True):
+def _start_helper():
+    """The helper process of :func:`_warm_up`, started now: it imports polygen (seconds) while this one loads
+    the volume, then waits for its work on its stdin (:func:`_helper_main`)."""
+    import subprocess
+
+    return subprocess.Popen([sys.executable, "-c", "from polygen.cli.isosurface import _helper_main; _helper_main()"],
+                            stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def _early_helper(n_methods):
+    """:func:`_start_helper` where this is a first run (the probe kernel that importing polygen runs was compiled,
+    not loaded from numba's cache) on two or more cores with the cache on and methods to share; else None."""
+    from polygen import _jit
+    from polygen.volume import _intrinsics
+
+    stats = getattr(getattr(_intrinsics, "_probe", None), "stats", None)
+    first = stats is not None and bool(stats.cache_misses) and not stats.cache_hits
+    if not (first and n_methods > 1 and _jit.CACHE and _cores() > 1):
+        return None
+    return _start_helper()
+
+
+def _cores():
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def _end_helper(proc):
+    """Tell a helper from :func:`_start_helper` that got no work to end (its stdin closed), and wait for it."""
+    if proc is not None and proc.poll() is None:
+        try:
+            proc.stdin.close()
+        except OSError:  # pragma: no cover - gone already
+            pass
+        proc.wait()
+
+
+def _warm_up(names, cell_type, helper=True, n_cells=0):
     """Run each method on a tiny volume of ``cell_type``: the seconds spent (compiling or loading kernels).
 
+    ``n_cells``, the size of the volume the methods will run on: from the sizes where a method or the
+    topology takes another path (parallel, in halves), the tiny volume is made to take it too (see
+    :func:`_tiny_options`, :data:`_LARGE`), so that their kernels are compiled here, by both processes, and
+    not while the methods are measured on the volume (a method that compiles a kernel there is measured again).
+
     numba compiles on one thread. On a first run (the first kernel compiles) a helper process is
-    started that runs the same methods from the other end of the list, each method taken by whichever
+    started (or ``helper``, one from :func:`_start_helper`, is given its work) that runs the same methods
+    from the other end of the list, each method taken by whichever
     of the two claims it first; both save what they compile in numba's on-disk cache. This process then
     runs the helper's methods too, which loads their kernels from the cache (or compiles what the helper
     did not save), so the seconds returned are all the compiling and loading it took. No helper where
     numba's cache is off, on one core, or when nothing compiles (a second run).
     """
     import shutil
-    import subprocess
     import tempfile
 
     import numba.core.event as ev
@@ -167,32 +208,46 @@ def _warm_up(names, cell_type, helper=True):
     t0 = time.perf_counter()
     claims = tempfile.mkdtemp(prefix="polygen-warm-up-") if helper and len(names) > 1 else None
     started = []
+    names = _warm_up_order(names) + _large_items(n_cells)
+
+    def start(proc):
+        work = "\t".join([claims, cell_type, str(n_cells), *names]) + "\n"
+        try:
+            proc.stdin.write(work.encode())
+            proc.stdin.close()
+        except OSError:  # pragma: no cover - the helper is gone: this process does all
+            pass
+        started.append(proc)
 
     class StartHelper(ev.Listener):
         def on_start(self, event):
             if not started:
-                started.append(subprocess.Popen(
-                    [sys.executable, "-c", "from polygen.cli.isosurface import _helper_main; _helper_main()",
-                     claims, cell_type, *names], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                    stderr=subprocess.DEVNULL))
+                start(_start_helper())
 
         def on_end(self, event):
             pass
 
     listener = StartHelper()
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    if claims is not None and _jit.CACHE and cores > 1:
+    registered = False
+    if claims is not None and not isinstance(helper, bool):
+        start(helper)
+    elif claims is not None and _jit.CACHE and _cores() > 1:
         ev.register("numba:compile", listener)
+        registered = True
+    else:
+        _end_helper(None if isinstance(helper, bool) else helper)
     try:
         tiny = _tiny_volume(cell_type)
-        left = [name for name in names if not _run_tiny(tiny, name, claims)]
-        if started:
+        left = [name for name in names if not _run_tiny(tiny, name, claims, n_cells)]
+        if registered:
             ev.unregister("numba:compile", listener)
+            registered = False
+        if started:
             started[0].wait()
         for name in left:  # the helper's: from the cache now
-            _run_tiny(tiny, name, None)
+            _run_tiny(tiny, name, None, n_cells)
     finally:
-        if claims is not None and not started:
+        if registered:
             ev.unregister("numba:compile", listener)
         if started and started[0].poll() is None:  # pragma: no cover - interrupted
             started[0].kill()
@@ -200,6 +255,45 @@ def _warm_up(names, cell_type, helper=True):
         if claims is not None:
             shutil.rmtree(claims, ignore_errors=True)
     return time.perf_counter() - t0
+
+
+#: methods with kernels that no other method compiles: last in the warm-up's list, so that the helper process,
+#: which starts from the end, compiles them while this one compiles those that the others share (the tiny
+#: volume's topology, the propagation, the marching tables) -- both compiling one kernel at once is work lost.
+#: The largest last: the helper's first, so that what is left when the two meet is small (the active scan's
+#: kernels were once the last left, 25 s compiled by one process while the other had finished)
+_OWN_KERNELS = ("edge-centred", "edge-centred-table", "active-scan")
+
+
+def _warm_up_order(names):
+    """``names`` in the warm-up's order: :data:`_OWN_KERNELS` last."""
+    return [n for n in names if n not in _OWN_KERNELS] + [n for n in _OWN_KERNELS if n in names]
+
+
+def _tiny_options(name, n_cells):
+    """The options method ``name`` is given on the tiny volume so that it takes the paths it takes on a volume
+    of ``n_cells`` cells (and the warm-up compiles their kernels): thinning's two halves at once, the edge-centred
+    table's construction by two threads (which it chooses from 10,000 cells crossed while the cores are idle)."""
+    from polygen.volume import edge_centred, thinning
+
+    if name == "thinning" and n_cells >= thinning.PARALLEL_MIN_CELLS:
+        return {"parallel": True}
+    if name == "edge-centred-table" and n_cells >= edge_centred.EdgeCentredTable.PARALLEL_MIN_CELLS and _cores() > 1:
+        return {"threads": 2}
+    return {}
+
+
+#: a warm-up item besides the methods: the parallel counting sort of the topology (node -> cells, edge -> cells)
+#: and the probe of numba's threading layer that large volumes make
+_LARGE = "(large volumes)"
+
+
+def _large_items(n_cells):
+    """The warm-up items besides the methods for a volume of ``n_cells``: :data:`_LARGE` from the size whose
+    node -> cells lists (4 or 8 entries a cell) take the parallel sort."""
+    from polygen.volume import _topology
+
+    return [_LARGE] if 4 * n_cells >= _topology._SERIAL_BELOW else []
 
 
 def _tiny_volume(cell_type):
@@ -210,7 +304,7 @@ def _tiny_volume(cell_type):
     return UnstructuredVolume(tiny.points, tiny.cells, {"f": tiny.points @ [1.0, 0.7, 0.3]})
 
 
-def _run_tiny(tiny, name, claims):
+def _run_tiny(tiny, name, claims, n_cells=0):
     """Run method ``name`` on the tiny volume, unless ``claims`` (a folder) shows the other process took it:
     whether it ran."""
     from polygen.volume import methods
@@ -220,7 +314,18 @@ def _run_tiny(tiny, name, claims):
             os.close(os.open(os.path.join(claims, name), os.O_CREAT | os.O_EXCL | os.O_WRONLY))
         except (FileExistsError, FileNotFoundError):  # taken, or the warm-up is over
             return False
-    method = methods.get(name)(tiny, field="f")
+    if name == _LARGE:
+        from polygen import _jit
+        from polygen.volume import _topology
+
+        _jit.parallel_kernels_may_overlap()
+        n = _topology._SERIAL_BELOW
+        cells = np.zeros((n // 4 + 1, 4), np.int64)
+        cells.setflags(write=False)  # as a volume's cells
+        _topology.node_cells_csr(cells, 1)
+        _topology.stable_csr(np.zeros(n, np.int64), 1)
+        return True
+    method = methods.get(name)(tiny, field="f", **_tiny_options(name, n_cells))
     method.extract(1.5)
     if type(method).extract_many is not methods.IsosurfaceMethod.extract_many:
         method.extract_many([1.0, 2.0])
@@ -228,13 +333,20 @@ def _run_tiny(tiny, name, claims):
 
 
 def _helper_main():
-    """The helper process of :func:`_warm_up`: ``claims cell_type names...``; the methods from the last."""
-    claims, cell_type, *names = sys.argv[1:]
+    """The helper process of :func:`_warm_up`: ``claims cell_type n_cells names...`` (one line on stdin, tabs
+    between; none: nothing to do); the methods from the last."""
+    import polygen.volume  # noqa: F401 - the imports first, while the main process loads its volume
+
+    work = sys.stdin.readline().rstrip("\n")
+    if not work:
+        return
+    claims, cell_type, n_cells, *names = work.split("\t")
+    n_cells = int(n_cells)
     tiny = _tiny_volume(cell_type)
     for name in reversed(names):
         if not os.path.isdir(claims):  # the main process is done (or gone)
             return
-        _run_tiny(tiny, name, claims)
+        _run_tiny(tiny, name, claims, n_cells)
 
 
 def _is_partitioned(args):
@@ -410,16 +522,21 @@ def run(args):
     if not args.value and args.values < 1:
         raise CLIError(f"--values needs at least 1; got {args.values}")
     progress = sys.stderr.isatty()
-    label, vol = _load(args.mesh, progress, orient=args.orient, cell_data=args.cell_data,
-                       tetrahedralize=args.tetrahedralize)
-    args.field, how = choose_field(vol, args.field)
-    s = vol.scalars(args.field)
-    if args.value:
-        values = np.asarray(args.value, float)
-        if not np.isfinite(values).all():
-            raise CLIError(f"--value must be finite; got {args.value}")
-    else:
-        values = isovalues(s, args.values)
+    helper = _early_helper(len(chosen))  # a first run: the warm-up's helper imports polygen while the volume loads
+    try:
+        label, vol = _load(args.mesh, progress, orient=args.orient, cell_data=args.cell_data,
+                           tetrahedralize=args.tetrahedralize)
+        args.field, how = choose_field(vol, args.field)
+        s = vol.scalars(args.field)
+        if args.value:
+            values = np.asarray(args.value, float)
+            if not np.isfinite(values).all():
+                raise CLIError(f"--value must be finite; got {args.value}")
+        else:
+            values = isovalues(s, args.values)
+    except BaseException:
+        _end_helper(helper)
+        raise
     print(f"{label}: {vol}; field {args.field!r} ({how}) in [{s.min():.6g}, {s.max():.6g}]; "
           f"{len(values)} values")
     # numba compiles each kernel on its first call (then loads it from its cache): run every
@@ -428,7 +545,8 @@ def run(args):
 
     compiled = ev.RecordingListener()  # numba's compile events: a kernel loaded from its cache makes none
     ev.register("numba:compile", compiled)
-    print(f"compiling kernels (once per install, then cached): {_warm_up(chosen, vol.cell_type):.1f} s")
+    warm_s = _warm_up(chosen, vol.cell_type, helper if helper is not None else True, n_cells=vol.n_cells)
+    print(f"compiling kernels (once per install, then cached): {warm_s:.1f} s")
     # the volume's topology is shared by the methods: built once here, so that no method's
     # preprocessing column carries it
     t0 = time.perf_counter()
@@ -438,22 +556,29 @@ def run(args):
 
     rows = []
     keep = None
-    if compiled.buffer:
-        # kernels compiled on the tiny volume: this is the first run, and the volume's own size takes paths
-        # the tiny one does not (parallel passes, blocks, two threads): one untimed pass of the same work
-        # compiles them, so that the table is the table of a second run
-        t0 = time.perf_counter()
-        for name in chosen:
-            _measure(name, vol, args.field, values, False, methods, tqdm)
-        print(f"compiling the kernels this volume's size takes (first run only): {time.perf_counter() - t0:.1f} s")
+    again = []  # methods measured again: "name (kernels)"
+    t_again = 0.0
     for name in chosen:
         compiled.buffer.clear()
         row, surfaces = _measure(name, vol, args.field, values, keep is None, methods, tqdm, progress=progress)
-        row["compiled"] = len(compiled.buffer)  # kernels compiled while timed: none, after the pass above
+        n = _n_compiled(compiled.buffer)
+        if n:
+            # a first run, and the volume took a path that the warm-up's tiny one did not (a size, a value
+            # at a node): the method is measured again, its kernels compiled now, so that its row is the row
+            # of a second run
+            t0 = time.perf_counter()
+            compiled.buffer.clear()
+            row, surfaces = _measure(name, vol, args.field, values, keep is None, methods, tqdm, progress=progress)
+            t_again += time.perf_counter() - t0
+            again.append(f"{name} ({n})")
+        row["compiled"] = _n_compiled(compiled.buffer)  # kernels compiled while timed: none, after the above
         if keep is None:
             keep = surfaces
         rows.append(row)
     ev.unregister("numba:compile", compiled)
+    if again:
+        print(f"measured again, having compiled kernels this volume takes (first run only): {', '.join(again)}: "
+              f"{t_again:.1f} s")
     reference = rows[0]["_counts"]
     for r in rows:
         r["same_as_first"] = r.pop("_counts") == reference
@@ -479,6 +604,11 @@ def run(args):
         _write_files(Path(args.output), label, vol, keep, values, rows[0]["method"])
     return 0 if all(r["same_as_first"] for r in rows) else 1
 
+
+
+def _n_compiled(events):
+    """The kernels (builds) compiled, from a :class:`numba.core.event.RecordingListener`'s ``buffer``."""
+    return sum(1 for _, event in events if event.is_start)
 
 
 def _measure(name, vol, field, values, keep, methods, tqdm, progress=False):

@@ -365,23 +365,30 @@ def _count_part_body(tab, nn, ne, s, value, faces, tri_table, tri_count, case_ma
         ch[3, k] = n_c
 
 
-@njit(cache=_KCACHE)
-def _count_part(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
-                k0, k1, st, ch):
-    """Pass 1 (:func:`_count_part_body`) on tetrahedra or hexahedra.
+# Each pass is built once per cell type: its body inlined with the node and edge counts as constants, so that
+# its loops over a cell's nodes and edges are unrolled and the node values kept in registers (the three passes
+# so built took 0.87-0.88 of the generic build's time for 20 values on 2M, 0.88-0.89 on 10M; interleaved
+# sweeps in one process, 2-core Xeon VM). The two builds are kernels of their own (``_count_part4``,
+# ``_count_part8``, ...: tetrahedra, hexahedra), not two branches of one: a volume's cells are of one type
+# (:class:`ActiveScan` checks that it is one of these two), and the first run compiles only its type's --
+# one kernel with both branches took 15 s of CPU to compile, the fused pass alone (data4, 2-core VM).
+# ``count_pass`` and the others (plain Python) choose by ``nn``.
 
-    The body is inlined with the node and edge counts as constants, once per cell type, so that its loops
-    over a cell's nodes and edges are unrolled and the node values kept in registers: the three passes
-    so built took 0.87-0.88 of the generic build's time for 20 values on 2M, 0.88-0.89 on 10M
-    (interleaved sweeps in one process, 2-core Xeon VM). A volume's cells are tetrahedra or hexahedra
-    (:class:`ActiveScan` checks it).
-    """
-    if nn == 4:
-        _count_part_body(tab, 4, 6, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff,
-                         chunk, k0, k1, st, ch)
-    else:
-        _count_part_body(tab, 8, 12, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff,
-                         chunk, k0, k1, st, ch)
+
+@njit(cache=_KCACHE)
+def _count_part4(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
+                 k0, k1, st, ch):
+    """Pass 1 (:func:`_count_part_body`) on tetrahedra (``nn``, ``ne``: 4 and 6)."""
+    _count_part_body(tab, 4, 6, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff,
+                     chunk, k0, k1, st, ch)
+
+
+@njit(cache=_KCACHE)
+def _count_part8(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
+                 k0, k1, st, ch):
+    """Pass 1 (:func:`_count_part_body`) on hexahedra (``nn``, ``ne``: 8 and 12)."""
+    _count_part_body(tab, 8, 12, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff,
+                     chunk, k0, k1, st, ch)
 
 
 @njit(inline="always")
@@ -455,15 +462,19 @@ def _vertex_part_body(tab, nn, ne, s, value, points, local_edges, tri_table, tri
 
 
 @njit(cache=_KCACHE)
-def _vertex_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
-                 k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc):
-    """Pass 2 (:func:`_vertex_part_body`) on tetrahedra or hexahedra (see :func:`_count_part`)."""
-    if nn == 4:
-        _vertex_part_body(tab, 4, 6, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
-                          chunk, k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc)
-    else:
-        _vertex_part_body(tab, 8, 12, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
-                          chunk, k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc)
+def _vertex_part4(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
+                  k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc):
+    """Pass 2 (:func:`_vertex_part_body`) on tetrahedra (see :func:`_count_part4`)."""
+    _vertex_part_body(tab, 4, 6, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
+                      chunk, k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc)
+
+
+@njit(cache=_KCACHE)
+def _vertex_part8(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
+                  k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc):
+    """Pass 2 (:func:`_vertex_part_body`) on hexahedra."""
+    _vertex_part_body(tab, 8, 12, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
+                      chunk, k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc)
 
 
 @njit(inline="always")
@@ -591,13 +602,18 @@ def _triangle_part_body(tab, nn, ne, s, value, tri_table, tri_count, case_mask, 
 
 
 @njit(cache=_KCACHE)
-def _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, k0, k1,
-                   st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side, reads):
-    """Pass 3 (:func:`_triangle_part_body`) on tetrahedra or hexahedra (see :func:`_count_part`)."""
-    if nn == 4:
-        return _triangle_part_body(tab, 4, 6, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff,
-                                   chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t,
-                                   n_side, reads)
+def _triangle_part4(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, k0,
+                    k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side, reads):
+    """Pass 3 (:func:`_triangle_part_body`) on tetrahedra (see :func:`_count_part4`)."""
+    return _triangle_part_body(tab, 4, 6, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff,
+                               chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side,
+                               reads)
+
+
+@njit(cache=_KCACHE)
+def _triangle_part8(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, k0,
+                    k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side, reads):
+    """Pass 3 (:func:`_triangle_part_body`) on hexahedra."""
     return _triangle_part_body(tab, 8, 12, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff,
                                chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v0, v1, side_t, n_side,
                                reads)
@@ -655,16 +671,26 @@ def _fused_part_body(tab, nn, ne, s, value, points, local_edges, tri_table, tri_
 
 
 @njit(cache=_KCACHE)
-def _fused_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
-                block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, side_t, reads):
-    """Passes 2 and 3 (:func:`_fused_part_body`) on tetrahedra or hexahedra (see :func:`_count_part`)."""
-    if nn == 4:
-        return _fused_part_body(tab, 4, 6, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges,
-                                roff, chunk, block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris,
-                                tri_cell, acc, side_t, reads)
+def _fused_part4(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
+                 block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, side_t, reads):
+    """Passes 2 and 3 (:func:`_fused_part_body`) on tetrahedra (see :func:`_count_part4`)."""
+    return _fused_part_body(tab, 4, 6, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
+                            chunk, block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell,
+                            acc, side_t, reads)
+
+
+@njit(cache=_KCACHE)
+def _fused_part8(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
+                 block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, side_t, reads):
+    """Passes 2 and 3 (:func:`_fused_part_body`) on hexahedra."""
     return _fused_part_body(tab, 8, 12, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
                             chunk, block, k0, k1, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell,
                             acc, side_t, reads)
+
+
+def _fused_part(tab, nn, *args):
+    """:func:`_fused_part4` or :func:`_fused_part8`, by ``nn`` (from Python: the tests run the parts one by one)."""
+    return (_fused_part4 if nn == 4 else _fused_part8)(tab, nn, *args)
 
 
 @njit(inline="always")
@@ -694,16 +720,43 @@ def _part_by(off, n_parts, q):
 # The passes split the chunks into one run of consecutive chunks per thread (not prange over the chunks):
 # each part is one thread's from start to end, so it alone writes the normal sums of the vertices its
 # chunks made, and the sums come out the same whatever the scheduler did.
+def count_pass(tab, nn, *args):
+    """:func:`_count_part4` (or 8) by ``n_parts`` threads, then the running counts ``off`` (3, chunks + 1) of the
+    triangles, vertices and cells with a node at ``value`` (the chunks' first ids); returns the crossed cells.
+
+    Arguments ``tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
+    st, ch, off, n_parts``."""
+    return (_count_pass4 if nn == 4 else _count_pass8)(tab, nn, *args)
+
+
 @njit(parallel=True, cache=_KCACHE)
-def count_pass(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
-               st, ch, off, n_parts):
-    """:func:`_count_part` by ``n_parts`` threads, then the running counts ``off`` (3, chunks + 1) of the
-    triangles, vertices and cells with a node at ``value`` (the chunks' first ids); returns the crossed cells."""
+def _count_pass4(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
+                 st, ch, off, n_parts):
+    """:func:`count_pass` on tetrahedra."""
     n_ch = ch.shape[1]
     for q in prange(n_parts):
         k0, k1 = _part(n_ch, n_parts, q)
-        _count_part(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
-                    k0, k1, st, ch)
+        _count_part4(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
+                     k0, k1, st, ch)
+    return _count_offsets(ch, off)
+
+
+@njit(parallel=True, cache=_KCACHE)
+def _count_pass8(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
+                 st, ch, off, n_parts):
+    """:func:`count_pass` on hexahedra."""
+    n_ch = ch.shape[1]
+    for q in prange(n_parts):
+        k0, k1 = _part(n_ch, n_parts, q)
+        _count_part8(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk,
+                     k0, k1, st, ch)
+    return _count_offsets(ch, off)
+
+
+@njit(inline="always")
+def _count_offsets(ch, off):
+    """The running counts ``off`` of the chunks' counts ``ch`` (:func:`count_pass`); returns the crossed cells."""
+    n_ch = ch.shape[1]
     n_c = 0
     for j in range(3):
         off[j, 0] = 0
@@ -714,15 +767,33 @@ def count_pass(tab, nn, ne, s, value, faces, tri_table, tri_count, case_mask, lo
     return n_c
 
 
+def vertex_pass(tab, nn, *args):
+    """:func:`_vertex_part4` (or 8) by ``n_parts`` threads, each with about as many vertices to make (at 2M the
+    chunks' halves had up to 4.9 % more in one, weighted over a sweep).
+
+    Arguments ``tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
+    st, v_off, x_off, ev, pos, keys, exact_cells, acc, n_parts``."""
+    return (_vertex_pass4 if nn == 4 else _vertex_pass8)(tab, nn, *args)
+
+
 @njit(parallel=True, cache=_KCACHE)
-def vertex_pass(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
-                st, v_off, x_off, ev, pos, keys, exact_cells, acc, n_parts):
-    """:func:`_vertex_part` by ``n_parts`` threads, each with about as many vertices to make (at 2M the
-    chunks' halves had up to 4.9 % more in one, weighted over a sweep)."""
+def _vertex_pass4(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
+                  st, v_off, x_off, ev, pos, keys, exact_cells, acc, n_parts):
+    """:func:`vertex_pass` on tetrahedra."""
     for q in prange(n_parts):
         k0, k1 = _part_by(v_off, n_parts, q)
-        _vertex_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
-                     chunk, k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc)
+        _vertex_part4(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
+                      chunk, k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc)
+
+
+@njit(parallel=True, cache=_KCACHE)
+def _vertex_pass8(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
+                  st, v_off, x_off, ev, pos, keys, exact_cells, acc, n_parts):
+    """:func:`vertex_pass` on hexahedra."""
+    for q in prange(n_parts):
+        k0, k1 = _part_by(v_off, n_parts, q)
+        _vertex_part8(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff,
+                      chunk, k0, k1, st, v_off, x_off, ev, pos, keys, exact_cells, acc)
 
 
 @njit
@@ -734,32 +805,72 @@ def part_cuts(off, n_parts):
     return cuts
 
 
-@njit(parallel=True, cache=_KCACHE)
-def triangle_pass(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, st,
-                  t_off, ev, nvid, tris, tri_cell, pos, acc, cuts, v_off, side_t, n_side, n_parts, ev_reads):
-    """:func:`_triangle_part` by ``n_parts`` threads, part ``q`` (chunks ``cuts[q] .. cuts[q + 1]``) adding
-    the normals of its triangles whose corners its chunks made (``v_off``) into ``acc``, the others' ids
+def triangle_pass(tab, nn, *args):
+    """:func:`_triangle_part4` (or 8) by ``n_parts`` threads, part ``q`` (chunks ``cuts[q] .. cuts[q + 1]``)
+    adding the normals of its triangles whose corners its chunks made (``v_off``) into ``acc``, the others' ids
     onto its side list (``side_t`` from ``t_off[cuts[q]]`` on; its length into ``n_side[q]``); ``ev_reads[q]``
-    counts part ``q``'s reads of a vertex id at an edge id (``ev[edge]``), one per triangle corner on an edge."""
+    counts part ``q``'s reads of a vertex id at an edge id (``ev[edge]``), one per triangle corner on an edge.
+
+    Arguments ``tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, st,
+    t_off, ev, nvid, tris, tri_cell, pos, acc, cuts, v_off, side_t, n_side, n_parts, ev_reads``."""
+    return (_triangle_pass4 if nn == 4 else _triangle_pass8)(tab, nn, *args)
+
+
+@njit(parallel=True, cache=_KCACHE)
+def _triangle_pass4(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, st,
+                    t_off, ev, nvid, tris, tri_cell, pos, acc, cuts, v_off, side_t, n_side, n_parts, ev_reads):
+    """:func:`triangle_pass` on tetrahedra."""
     for q in prange(n_parts):
         k0, k1 = cuts[q], cuts[q + 1]
         t0 = t_off[k0]
-        n_side[q] = _triangle_part(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff,
-                                   chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v_off[k0],
-                                   v_off[k1], side_t, t0, ev_reads[q:q + 1]) - t0
+        n_side[q] = _triangle_part4(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges,
+                                    roff, chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v_off[k0],
+                                    v_off[k1], side_t, t0, ev_reads[q:q + 1]) - t0
 
 
 @njit(parallel=True, cache=_KCACHE)
-def fused_pass(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk, block,
-               st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, cuts, side_t, n_side, n_parts,
-               ev_reads):
-    """:func:`_fused_part` by ``n_parts`` threads (no node at the value), part ``q`` chunks ``cuts[q] ..
-    cuts[q + 1]``, its side list's length into ``n_side[q]`` (see :func:`triangle_pass`); then
-    :func:`side_normals`."""
+def _triangle_pass8(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges, roff, chunk, st,
+                    t_off, ev, nvid, tris, tri_cell, pos, acc, cuts, v_off, side_t, n_side, n_parts, ev_reads):
+    """:func:`triangle_pass` on hexahedra."""
     for q in prange(n_parts):
-        n_side[q] = _fused_part(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges,
-                                roff, chunk, block, cuts[q], cuts[q + 1], st, v_off, t_off, ev, nvid, pos, keys,
-                                exact_cells, tris, tri_cell, acc, side_t, ev_reads[q:q + 1])
+        k0, k1 = cuts[q], cuts[q + 1]
+        t0 = t_off[k0]
+        n_side[q] = _triangle_part8(tab, nn, ne, s, value, tri_table, tri_count, case_mask, local_edges, ranges,
+                                    roff, chunk, k0, k1, st, t_off, ev, nvid, tris, tri_cell, pos, acc, v_off[k0],
+                                    v_off[k1], side_t, t0, ev_reads[q:q + 1]) - t0
+
+
+def fused_pass(tab, nn, *args):
+    """:func:`_fused_part4` (or 8) by ``n_parts`` threads (no node at the value), part ``q`` chunks ``cuts[q] ..
+    cuts[q + 1]``, its side list's length into ``n_side[q]`` (see :func:`triangle_pass`); then
+    :func:`side_normals`.
+
+    Arguments ``tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
+    block, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, cuts, side_t, n_side, n_parts,
+    ev_reads``."""
+    return (_fused_pass4 if nn == 4 else _fused_pass8)(tab, nn, *args)
+
+
+@njit(parallel=True, cache=_KCACHE)
+def _fused_pass4(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
+                 block, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, cuts, side_t, n_side,
+                 n_parts, ev_reads):
+    """:func:`fused_pass` on tetrahedra."""
+    for q in prange(n_parts):
+        n_side[q] = _fused_part4(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask,
+                                 ranges, roff, chunk, block, cuts[q], cuts[q + 1], st, v_off, t_off, ev, nvid, pos,
+                                 keys, exact_cells, tris, tri_cell, acc, side_t, ev_reads[q:q + 1])
+
+
+@njit(parallel=True, cache=_KCACHE)
+def _fused_pass8(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask, ranges, roff, chunk,
+                 block, st, v_off, t_off, ev, nvid, pos, keys, exact_cells, tris, tri_cell, acc, cuts, side_t, n_side,
+                 n_parts, ev_reads):
+    """:func:`fused_pass` on hexahedra."""
+    for q in prange(n_parts):
+        n_side[q] = _fused_part8(tab, nn, ne, s, value, points, local_edges, tri_table, tri_count, case_mask,
+                                 ranges, roff, chunk, block, cuts[q], cuts[q + 1], st, v_off, t_off, ev, nvid, pos,
+                                 keys, exact_cells, tris, tri_cell, acc, side_t, ev_reads[q:q + 1])
 
 
 @njit(parallel=True, cache=_KCACHE)

@@ -1270,9 +1270,10 @@ def construct_parallel(nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_tab
     """
     n_thr = stack.shape[0]
     for t in prange(n_thr):
-        status[t] = _flood(t, nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_count, case_mask,
-                           local_edges, n_edges, ec_off, ec, nc_off, nc, gen, seeds, next_seed, ev, stack, tris,
-                           tri_cell, vkey, vend, counters, 0)
+        # np.int64: numba types the prange index int64, then uint64 in the parallel body: two builds otherwise
+        status[t] = _flood(np.int64(t), nodes, ids, starts, dyn, ds, nn, s, value, faces, tri_table, tri_count,
+                           case_mask, local_edges, n_edges, ec_off, ec, nc_off, nc, gen, seeds, next_seed, ev, stack,
+                           tris, tri_cell, vkey, vend, counters, 0)
 
 
 @njit(parallel=True, cache=_KCACHE)
@@ -1742,9 +1743,10 @@ def construct_tet_parallel(rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_
     """
     n_thr = stack.shape[0]
     for t in prange(n_thr):
-        status[t] = _flood_tet(t, rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tri_count, case_mask,
-                               tri_slots, local_edges, n_edges, ec, nc_off, nc, gen, seeds, next_seed, ev, stack,
-                               tris, tri_cell, vkey, vend, points, pos, acc, fcode, fval, mean, counters, 0)
+        # np.int64: one build (the prange index is int64, then uint64 in the parallel body: 7 + 11 CPU-s on data4)
+        status[t] = _flood_tet(np.int64(t), rec, dyn, dw, ds, nodes2, dyn2, s, value, faces, tri_table, tri_count,
+                               case_mask, tri_slots, local_edges, n_edges, ec, nc_off, nc, gen, seeds, next_seed, ev,
+                               stack, tris, tri_cell, vkey, vend, points, pos, acc, fcode, fval, mean, counters, 0)
 
 
 @njit(parallel=True, cache=_KCACHE)

@@ -315,6 +315,7 @@ def _find_prick(cells, face_nb, local_faces, cls, nb_node, root, is_void, g, pic
             n = face_nb[c, f]
             if n < 0 or cls[n] <= 0:
                 continue
+            n = np.int64(n)  # face_nb may be int32: one build of the helpers, for c's type
             a, b = _side_counts(n, cells, nb_node, root, is_void, g)
             if a == 0 or b == 0:
                 continue

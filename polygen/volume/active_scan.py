@@ -230,7 +230,7 @@ class ActiveScan:
         m = cells.shape[0]
         self.nn = cells.shape[1]
         self.ne = self.local_edges.shape[0]
-        if (self.nn, self.ne) not in ((4, 6), (8, 12)):  # the passes are built for these two (_k._count_part)
+        if (self.nn, self.ne) not in ((4, 6), (8, 12)):  # the passes are built for these two (_k.count_pass)
             raise IsoSurfaceError(f"the active-cell scan takes tetrahedra or hexahedra; got {self.nn}-node cells")
         if block is None:
             block = self.BLOCK if m >= self.BLOCKS_FROM else max(1, m)

@@ -46,7 +46,8 @@ __all__ = ["IsoSurface", "extract", "IsoSurfaceError", "same_surface"]
 
 _CHUNK = 8192
 _INT32_MAX = np.iinfo(np.int32).max
-_NO_CELL_EDGES = np.zeros((0, 6), np.int64)  # the unprepared scan keys by node pairs: no edge table
+_NO_CELL_EDGES = np.zeros((0, 6), np.int32)  # the unprepared scan keys by node pairs: no edge table (int32 as a
+# volume's cell_edges: one build of _m._scan_fill serves both scans)
 
 
 def _classify(cells, s, value, cell_type, table, count, local_edges, faces):
