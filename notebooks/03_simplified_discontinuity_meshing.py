@@ -48,16 +48,14 @@ from polygen.discontinuity import (conventional_bsp, conventional_segments, disc
                                    ev_ve_planes, plane_roles, receiver_complex, scene_lights,
                                    scene_sections, section_segments, shadow_polyhedron,
                                    simplified_discontinuity, unique_planes)
-from polygen.plotting import discontinuity as plot_dm
-from polygen.plotting import table
+from polygen.plotting import discontinuity as plot_dm, table
 from polygen.plotting.radiosity import plot_polygon_mesh, show_images
 from polygen.radiosity import Camera, mesh_scene, progressive_refinement, scenes
 from polygen.radiosity.error import shade
 
 # patch sizes outside / inside penumbra, and the solve: direct light + ambient by default
 COARSE, FINE = (1.0, 0.25) if FULL else (2.5, 0.6)
-# by default each light patch shoots once (the direct light) and an ambient term stands for the rest;
-# POLYGEN_FULL=1 solves to 1 % unshot
+# by default each light patch shoots once, an ambient term for the rest; FULL: to 1 % unshot
 SOLVE = (dict(tol=0.01, ambient=True, visibility_samples=2) if FULL
          else dict(max_shots="lights", ambient=True, visibility_samples=2))
 IMAGE = 256 if FULL else 128
