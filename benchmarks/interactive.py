@@ -39,6 +39,13 @@ The machine's load average is recorded before and after. Results go to
     python benchmarks/interactive.py                # data4, 2M
     python benchmarks/interactive.py data4 2M 10M   # 10M only if cached (building it takes long)
     python benchmarks/interactive.py --only first 2M   # quick: constructor, first surface, preparation, memory
+    python benchmarks/interactive.py 80M            # polygen and VTK each in a process of its own (see below)
+
+80M (when cached: ``polygen.volume.datasets.load("80M")`` builds it, 2.5 min) runs every part with
+polygen and VTK each in a process of its own, both alive, the rounds interleaved between them: one
+process holding VTK's grid and span spaces beside polygen's prepared volume would not fit 24 GiB.
+``--own-processes`` runs the named data sets that way too. A run without data4 and 2M (80M alone)
+writes ``interactive_<names>.{json,md}`` beside the full results.
 
 ``--only`` takes a comma-separated subset of ``first`` (constructor, first
 surface, preparation, memory), ``sweeps`` and ``rss``; a partial run writes
@@ -302,11 +309,160 @@ def rss(side, path, value, label=""):
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+# ------------------------------------------------------------------ two processes (80M)
+#: data sets whose two sides run in processes of their own, both alive, the rounds interleaved between them:
+#: one process holding VTK's grid and span spaces beside polygen's prepared volume would not fit 24 GiB
+OWN_PROCESSES = ("80M",)
+#: the line prefix of a side's answers on its stdout (anything else there is a library's print)
+ANSWER = "@@ "
+
+
+def _answer(obj):
+    print(ANSWER + json.dumps(obj), flush=True)
+
+
+def side_main(side, name):
+    """One side of :func:`run_own_processes`: loads ``name``, answers ``ready`` with its first-surface
+    timings, then one answer per command on stdin (``round``, ``200 LABEL``, ``end``)."""
+    loaded = datasets.load(name)
+    field = FIELD if FIELD in loaded.fields else next(iter(loaded.fields))
+    points, cells, s = loaded.points, loaded.cells, np.array(loaded.scalars(field))
+    del loaded
+    values, values200 = isovalues(s, 20), isovalues(s, 200)
+    first_value = values[len(values) // 2]
+    if side == "polygen":
+        warm_up()
+    else:
+        import pyvista  # noqa: F401  (the libraries are loaded before the baseline, as polygen's warm-up does)
+        import vtk  # noqa: F401
+    gc.collect()
+    base = rss_now_mb()
+    ready = {"cells": int(cells.shape[0]), "nodes": int(points.shape[0]), "field": field,
+             "array_bytes": int(points.nbytes + cells.nbytes + s.nbytes)}
+    if side == "polygen":
+        t_ctor, c_ctor, vol = timed_cpu(lambda: UnstructuredVolume(points, cells, {FIELD: s}))
+        del points, cells  # the volume holds its own copies
+        t_first, iso = timed(lambda: vol.isosurface(first_value))
+        t_ready, _ = timed(vol.wait_prepared)
+        method = vol._prepared(FIELD, methods.DEFAULT)
+        ready.update(ctor_s=t_ctor, ctor_cpu_s=c_ctor, first_isosurface_s=t_first,
+                     ctor_plus_first_s=t_ctor + t_first, first_answered_by=type(iso).__name__,
+                     first_triangles=int(iso.n_triangles), background_ready_after_s=t_first + t_ready,
+                     method=methods.DEFAULT, rss_prepared_mb=rss_now_mb())
+        del iso
+        method.extract_many(values[:2])  # the other threads' buffers: allocated once, not timed
+    else:
+        t_grid, grid = timed(vtk_grid, points, cells, s)
+        del points, cells
+        _, one = vtk_filter(grid, "vtkContourFilter")
+        t_vtk, n_vtk = timed(one, first_value)
+        ready.update(vtk_grid_s=t_grid, vtk_first_contour_s=t_vtk, vtk_first_triangles=int(n_vtk))
+        confs = {}
+        for label, _ in VTK_CONFIGS:
+            _, one = vtk_filter(grid, label)
+            t_build, _ = timed(one, values[0])  # builds the span space, if any
+            confs[label] = {"one": one, "build_s": t_build}
+        ready["build_s"] = {label: c["build_s"] for label, c in confs.items()}
+    _answer(ready)
+    for line in sys.stdin:
+        cmd = line.split()
+        if cmd[0] == "round":
+            out = {}
+            if side == "polygen":
+                ts, isos = per_value(method.extract, values)
+                out[f"polygen {methods.DEFAULT}"] = (ts, [i.n_triangles for i in isos])
+                del isos
+                t, isos = timed(method.extract_many, values)
+                out[f"polygen {methods.DEFAULT} extract_many"] = ([t / len(values)] * len(values),
+                                                                  [i.n_triangles for i in isos])
+                del isos
+            else:
+                for label, c in confs.items():
+                    ts, counts = per_value(c["one"], values)
+                    out[label] = (ts, [int(n) for n in counts])
+            gc.collect()
+            _answer(out)
+        elif cmd[0] == "200":
+            one = method.extract if side == "polygen" else confs[cmd[1]]["one"]
+            ts, _ = per_value(one, values200)
+            _answer(ts)
+        else:  # end
+            _answer({"peak_rss_mb": rss_now_mb("VmHWM"), "rss_after_loading_mb": base})
+            return
+
+
+class _Side:
+    """A side process of :func:`run_own_processes`."""
+
+    def __init__(self, side, name):
+        self.proc = subprocess.Popen([sys.executable, __file__, "--side", side, name], stdin=subprocess.PIPE,
+                                     stdout=subprocess.PIPE, text=True, env=os.environ)
+
+    def read(self):
+        for line in self.proc.stdout:
+            if line.startswith(ANSWER):
+                return json.loads(line[len(ANSWER):])
+        raise RuntimeError(f"a side process ended without answering (exit code {self.proc.wait()})")
+
+    def ask(self, cmd):
+        self.proc.stdin.write(cmd + "\n")
+        self.proc.stdin.flush()
+        return self.read()
+
+
+def run_own_processes(name):
+    """``run(name)`` with polygen and VTK each in a process of its own, both alive: polygen loads and prepares
+    first (nothing else running), then VTK builds its grid and span spaces; then the rounds alternate between
+    them (every VTK configuration, then polygen's prepared default one value at a time and by extract_many),
+    and each process's peak RSS (VmHWM) is its memory column."""
+    row = {"data": name, "own_processes": True, "load_before": tuple(round(x, 2) for x in os.getloadavg())}
+    print(f"{name}: polygen's process (load, constructor, first surface, preparation)", file=sys.stderr)
+    poly = _Side("polygen", name)
+    first = poly.read()
+    print(f"{name}: VTK's process (load, grid, first contour, span spaces)", file=sys.stderr)
+    vtk_side = _Side("vtk", name)
+    vfirst = vtk_side.read()
+    row.update(cells=first.pop("cells"), nodes=first.pop("nodes"), field=first.pop("field"),
+               array_bytes=first.pop("array_bytes"), rss_prepared_mb=first.pop("rss_prepared_mb"))
+    builds = vfirst.pop("build_s")
+    row["first"] = {**first, **{k: vfirst[k] for k in ("vtk_grid_s", "vtk_first_contour_s", "vtk_first_triangles")}}
+    times, tris = {}, {}
+    for r in range(rounds(row["cells"])):
+        print(f"{name}: round {r + 1}", file=sys.stderr)
+        for side in (vtk_side, poly):
+            for k, (ts, counts) in side.ask("round").items():
+                times.setdefault(k, []).append(ts)
+                tris[k] = counts
+    rows = {}
+    for k, per_round in times.items():
+        a = np.array(per_round)
+        med_value = np.median(a, axis=0)
+        rows[k] = {"sweep_s": float(np.median(a.sum(axis=1))), "latency_median_s": float(np.median(med_value)),
+                   "latency_max_s": float(med_value.max()), "triangles": int(sum(tris[k])),
+                   "same_counts_as_vtkContourFilter": tris[k] == tris["vtkContourFilter"]}
+    for label, b in builds.items():
+        rows[label]["build_s"] = b
+    best = min((lbl for lbl, _ in VTK_CONFIGS), key=lambda lbl: rows[lbl]["sweep_s"])
+    for side, key in ((poly, f"polygen {methods.DEFAULT}"), (vtk_side, best)):
+        ts = side.ask(f"200 {best}")
+        rows[key].update(latency200_median_s=float(np.median(ts)), latency200_max_s=float(max(ts)))
+    row["sweeps"], row["vtk_best"] = rows, best
+    row["rss_polygen"], row["rss_vtk"] = poly.ask("end"), vtk_side.ask("end")
+    for side in (poly, vtk_side):
+        side.proc.wait()
+    row["load_after"] = tuple(round(x, 2) for x in os.getloadavg())
+    return row
+
+
 # ------------------------------------------------------------------ main
 PARTS = ("first", "sweeps", "rss")
 
 
 def run(name, parts=PARTS):
+    if name in OWN_PROCESSES:
+        if set(parts) != set(PARTS):
+            raise SystemExit(f"{name} runs every part, each side in its own process (--only is for the others)")
+        return run_own_processes(name)
     has_fem = FIELD in datasets.info(name).fields
     vol = datasets.load(name, field=FIELD if has_fem else None)
     field = FIELD if has_fem else next(iter(vol.fields))  # 10M, 80M: their analytic field, no FEM solve
@@ -401,6 +557,12 @@ def report(rows, load_before, load_after):
     lines = ["# Interactive isosurfaces: polygen vs the strongest VTK configuration", ""]
     for r in rows:
         lines += [f"## {r['data']} ({r['cells']:,} cells, {r['nodes']:,} nodes, field {r.get('field', FIELD)!r})", ""]
+        if r.get("own_processes"):
+            lines += ["polygen and VTK each in a process of its own, both alive (one process holding both would not "
+                      "fit this machine's 24 GiB), the rounds interleaved between them; polygen's rows: the prepared "
+                      "default method, one value at a time and by extract_many (the other methods' preparations "
+                      "are not held at this size). polygen's resident set once prepared: "
+                      f"{r['rss_prepared_mb'] / 1024:.2f} GiB.", ""]
         if "load_before" in r:
             lines += [f"Load average (1, 5, 15 min) before this data set {r['load_before']}, after {r['load_after']}.",
                       ""]
@@ -450,6 +612,8 @@ def main(names, parts=PARTS):
     load_after = tuple(round(x, 2) for x in os.getloadavg())
     RESULTS.mkdir(parents=True, exist_ok=True)
     stem = "interactive" if set(parts) == set(PARTS) else "interactive_" + "-".join(p for p in PARTS if p in parts)
+    if not set(names) >= set(DATA):  # a run of other data sets (80M alone) sits beside the full results
+        stem += "_" + "-".join(names)
     (RESULTS / f"{stem}.json").write_text(json.dumps(
         {"machine": machine(), "load_before": load_before, "load_after": load_after, "rows": rows}, indent=2) + "\n")
     (RESULTS / f"{stem}.md").write_text(report(rows, load_before, load_after))
@@ -459,6 +623,10 @@ def main(names, parts=PARTS):
 def parse(argv):
     """``(names, parts)`` from ``[--only first,sweeps,rss] [names...]``."""
     parts = PARTS
+    global OWN_PROCESSES
+    if "--own-processes" in argv:  # every named data set the 80M way (a check of that path on a small one)
+        argv = [a for a in argv if a != "--own-processes"]
+        OWN_PROCESSES = tuple(argv)
     if "--only" in argv:
         i = argv.index("--only")
         parts = tuple(p for p in argv[i + 1].split(",") if p)
@@ -472,5 +640,7 @@ def parse(argv):
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == "--worker":
         worker(sys.argv[2], sys.argv[3], float(sys.argv[4]))
+    elif len(sys.argv) > 1 and sys.argv[1] == "--side":
+        side_main(sys.argv[2], sys.argv[3])
     else:
         main(*parse(sys.argv[1:]))
