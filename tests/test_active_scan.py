@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from polygen.volume import UnstructuredVolume, datasets, isovalues, methods
+from polygen.volume import active_scan, edge_centred
 from polygen.volume.active_scan import ActiveScan, ActiveScanMethod
 from polygen.volume.isosurface import extract
 from polygen.volume.surface import IsoSurfaceError, same_surface
@@ -97,7 +98,8 @@ def test_tests_the_crossed_cells_and_at_most_one_row_more():
             assert widest == vol.n_cells
 
 
-def test_the_same_arrays_whatever_the_threads_and_chunks():
+def test_the_same_arrays_whatever_the_threads_and_chunks(monkeypatch):
+    monkeypatch.setattr(active_scan, "query_threads", lambda full: full)  # every thread, however busy the machine
     # the vertices are numbered along the table's order, chunk by chunk: the threads and the chunk size
     # change nothing but the rounding of the normal sums; other rows or blocks give another order, the
     # same surface
@@ -124,6 +126,36 @@ def test_the_same_arrays_whatever_the_threads_and_chunks():
                     np.testing.assert_allclose(a.normals, b.normals, atol=1e-12, rtol=0)
                 else:
                     assert same_surface(a, b, normals_atol=1e-12)
+    finally:
+        numba.set_num_threads(before)
+
+
+def test_a_busy_machine_takes_fewer_threads_and_the_same_surface(monkeypatch):
+    """Other programs' runnable tasks (the machine's reading faked) take cores away from a query: the spinning
+    barriers of its passes would wait for their time slices. The surface is the same whatever the count."""
+    vol = datasets.load("data2")
+    s = vol.scalars("fem")
+    scan = ActiveScan(vol, "fem", chunk=64)
+    busy = {"n": 0}
+    monkeypatch.setattr(edge_centred, "_runnable_elsewhere", lambda: busy["n"])
+    monkeypatch.setattr(edge_centred, "BUSY_SECONDS", 0.0)  # a reading per query
+    monkeypatch.setattr(edge_centred, "_cpus", lambda: 2)
+    before = numba.get_num_threads()
+    full = min(before, 2)
+    v = float(np.median(s))
+    try:
+        numba.set_num_threads(full)
+        seen = {}
+        for n_busy, expected in ((0, full), (1, 1), (5, 1)):
+            busy["n"] = n_busy
+            seen[n_busy] = scan.extract(v)
+            assert scan.stats["threads"] == expected, (n_busy, scan.stats)
+            assert numba.get_num_threads() == full  # the caller's count is given back
+        for x, y in zip(arrays(seen[0]), arrays(seen[5])):
+            np.testing.assert_array_equal(x, y)
+        monkeypatch.setattr(edge_centred, "_runnable_elsewhere", lambda: None)  # nothing known: every thread
+        scan.extract(v)
+        assert scan.stats["threads"] == full
     finally:
         numba.set_num_threads(before)
 

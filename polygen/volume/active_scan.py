@@ -355,7 +355,16 @@ class ActiveScan:
         value = check_value(value)
         check_normals(normals)
         node_grad = self.node_gradients() if normals == "gradient" else None
-        iso, self.stats = self._extract(value, normals, node_grad, self._scratch, numba.get_num_threads())
+        full = numba.get_num_threads()
+        n = query_threads(full)
+        if n == full:
+            iso, self.stats = self._extract(value, normals, node_grad, self._scratch, n)
+            return iso
+        numba.set_num_threads(n)  # this Python thread's count only
+        try:
+            iso, self.stats = self._extract(value, normals, node_grad, self._scratch, n)
+        finally:
+            numba.set_num_threads(full)
         return iso
 
     def _extract(self, value, normals, node_grad, sc, n_parts):
@@ -457,6 +466,29 @@ class ActiveScan:
             "rows": int(self.lower.nbytes + self.row_off.nbytes + self.block_min.nbytes + self.block_max.nbytes),
             "scratch": int(self._scratch.nbytes()),
         }
+
+
+def query_threads(full):
+    """The threads of one query: numba's ``full``, fewer while other programs' tasks wait for the cores.
+
+    A query is four parallel passes, each ending at a barrier where numba's
+    OpenMP workers spin. With another program's task on a core, a pass
+    waits for the time slice of the thread that was put aside, and the
+    spinning one burns its own: on this project's 2-core machine at load
+    6.7, data1's 20-value sweep took 60-130 ms of CPU a value on two
+    threads and 0.23 ms on one. The reading of the machine's runnable tasks is
+    the edge-centred table's ``threads="auto"`` one
+    (:func:`polygen.volume.edge_centred._busy`, read at most every
+    ``BUSY_SECONDS``); the surface is the same whatever the count.
+    """
+    if full < 2:
+        return full
+    from polygen.volume import edge_centred as _ec  # the one reading of the machine's load
+
+    busy = _ec._busy()
+    if busy is None:
+        return full
+    return max(1, min(full, int(_ec._cpus() - busy)))
 
 
 @register
