@@ -1130,19 +1130,44 @@ def direct_stitch(value, partitions, *, n_ids, normals="mean"):
     client on the workers' machine does through shared memory
     (:mod:`polygen.volume.distributed`).
     """
-    found, isos = [], []
-    for p in partitions:
-        iso, counters = p.surface(value)
-        marks = p.marks(iso)
-        found.append(counters | {"n": iso.vertices.shape[0], "m": iso.triangles.shape[0], "seam": marks["seam"],
-                                 "seam_keys": marks["seam_keys"]})
-        isos.append((iso, marks))
+    # the methods one partition after another (each on all of numba's threads); the marks and the rows, one
+    # thread per partition (their kernels release the GIL, and each partition writes rows of its own)
+    surfaces = [p.surface(value) for p in partitions]
+    marks = _side_by_side(lambda i: partitions[i].marks(surfaces[i][0]), len(partitions))
+    found = [counters | {"n": iso.vertices.shape[0], "m": iso.triangles.shape[0], "seam": mk["seam"],
+                         "seam_keys": mk["seam_keys"]} for (iso, counters), mk in zip(surfaces, marks)]
     t0, c0 = time.perf_counter(), time.thread_time()
     layout = rows_layout(found)
     out, _ = rows_arrays(layout, normals)
-    written = [p.write_rows(iso, normals, plan, out, marks)
-               for p, (iso, marks), plan in zip(partitions, isos, layout["plans"])]
+    written = _side_by_side(lambda i: partitions[i].write_rows(surfaces[i][0], normals, layout["plans"][i], out,
+                                                               marks[i]), len(partitions))
     return finish_rows(value, out, layout, found, written, n_ids=n_ids, normals=normals, t0=t0, c0=c0)
+
+
+_POOL = None
+_POOL_LOCK = threading.Lock()
+
+
+def _side_by_side(fn, n):
+    """``[fn(0), ..., fn(n - 1)]``, on up to numba's thread count of threads at once (a pool kept here)."""
+    import numba
+
+    if n < 2 or numba.get_num_threads() < 2:
+        return [fn(i) for i in range(n)]
+    global _POOL
+    with _POOL_LOCK:
+        if _POOL is None:
+            from concurrent.futures import ThreadPoolExecutor
+
+            _POOL = ThreadPoolExecutor(max_workers=os.cpu_count() or 2, thread_name_prefix="polygen-partitions")
+        pool = _POOL
+    width = min(n, numba.get_num_threads())
+    out = [None] * n
+    for a in range(0, n, width):  # at most ``width`` at once
+        futures = [pool.submit(fn, i) for i in range(a, min(n, a + width))]
+        for i, f in enumerate(futures, a):
+            out[i] = f.result()
+    return out
 
 
 def reduce_tree(items, combine):
