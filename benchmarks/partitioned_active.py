@@ -29,6 +29,7 @@ round. Each partitioned surface is checked against the single volume's
 
     python benchmarks/partitioned_active.py            # 2M, 2 and 4 partitions
     python benchmarks/partitioned_active.py 10M 2,4    # results/partitioned_active_10M.*
+    python benchmarks/partitioned_active.py 10M 2,4 dask  # one way only (one copy fewer in memory): ..._10M_dask.*
 """
 
 import os
@@ -127,7 +128,7 @@ def main(name="2M", parts=None, ways="local,dask"):
         if client is not None:
             client.close()
             client.cluster.close()
-    _write(name, vol, rows)
+    _write(name, vol, rows, "" if ways == ("local", "dask") else "_" + "_".join(ways))
 
 
 def _sweep(m, values, ref, client):
@@ -180,7 +181,7 @@ def _row(name, run, k, prepare_s, got, base):
     return row
 
 
-def _write(name, vol, rows):
+def _write(name, vol, rows, suffix=""):
     cols = ["run", "prepare_s", "one_ms", "query_med_ms", "query_max_ms", "one_vs_single", "many_ms",
             "many_vs_single", "one_cpu_ms", "many_cpu_ms", "many_cpu_vs_single", "work_1t_ms", "many_cpu_vs_work_1t",
             "goals_met", "load", "same_as_single"]
@@ -212,7 +213,7 @@ def _write(name, vol, rows):
              "threads of the single volume spin while waiting for each other, which inflates its CPU seconds)",
              "same_as_single: every partitioned surface of every round had the single volume's triangle and vertex "
              "counts"]
-    write_results("partitioned_active" if name == "2M" else f"partitioned_active_{name}", rows, cols,
+    write_results(("partitioned_active" if name == "2M" else f"partitioned_active_{name}") + suffix, rows, cols,
                   title=f"Partitioned volumes against one volume's active scan: {name}", notes=notes)
 
 
