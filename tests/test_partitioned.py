@@ -713,6 +713,42 @@ def test_dask_blocks_written_again_once_their_surfaces_are_gone(client, data3):
     on_dask.close()
 
 
+def test_dask_free_blocks_kept_for_sweeps_of_the_other_kind(client, data3):
+    """Free blocks a query did not use are kept (up to the most bytes one query used): a sweep one value at a
+    time after an extract_many, and the reverse, write the blocks of the sweep before instead of making new."""
+    import gc
+
+    values = list(isovalues(data3.scalars(), 8))
+    pvol = PartitionedVolume.split(data3, 2)
+    on_dask = dask_prepare(pvol, client=client, stitch_on="client")
+
+    def one_by_one():
+        out, made = [], 0
+        for v in values:
+            out.append(on_dask.extract(v))
+            made += on_dask.blocks_made_last
+        return out, made
+
+    many = on_dask.extract_many(values)
+    assert on_dask.blocks_made_last == 1
+    del many
+    gc.collect()
+    first, made_first = one_by_one()
+    assert made_first == len(values) - 1  # the first value writes extract_many's block again, the others are new
+    del first
+    gc.collect()
+    on_dask.extract_many(values)  # its surfaces go at once
+    assert on_dask.blocks_made_last == 0
+    gc.collect()
+    again, made_again = one_by_one()
+    assert made_again < made_first
+    assert _left_blocks(on_dask) == []
+    local = pvol.prepare()
+    for v, s in zip(values, again):
+        _same_arrays(local.extract(v), s, counters=False)
+    on_dask.close()
+
+
 def test_local_client_workers_keep_freed_memory(client):
     """local_client starts its workers with glibc told to keep freed memory (no fresh pages for every query's
     arrays): the settings are in their environment from the start, where glibc reads them."""
