@@ -714,7 +714,7 @@ def test_dask_blocks_written_again_once_their_surfaces_are_gone(client, data3):
 
 
 def test_dask_free_blocks_kept_for_sweeps_of_the_other_kind(client, data3):
-    """Free blocks a query did not use are kept (up to the most bytes one query used): a sweep one value at a
+    """Free blocks a query did not use are kept (up to KEEP_FREE x the most bytes one query used): a sweep one value at a
     time after an extract_many, and the reverse, write the blocks of the sweep before instead of making new."""
     import gc
 

@@ -88,6 +88,8 @@ DIRECT_CHUNK_VALUES = 20
 #: chunks whose extraction is asked for before the client lays out the first of them (through shared memory):
 #: a worker extracts the next chunk while the client lays out and finishes the one before
 AHEAD = 2
+#: free shared-memory blocks kept for later queries: up to this many times the most bytes one query's blocks took
+KEEP_FREE = 2
 #: glibc's settings for the worker processes of :func:`local_client` (set before they start: see there)
 WORKER_MALLOC = {"MALLOC_MMAP_THRESHOLD_": 32 << 20, "MALLOC_TRIM_THRESHOLD_": 1 << 30}
 #: how long a new query waits for a cluster with no worker listed to list one
@@ -585,12 +587,15 @@ class DaskPartitionedMethod:
     def _keep_free(self, used):
         """After a query that used the blocks ``used``: the free blocks it did not use are kept for later queries
         while they total no more than the most bytes one query's blocks have taken so far, the least recently
-        used given up first.
+        used given up first (``KEEP_FREE`` times those bytes: a sweep of one kind keeps the blocks of the other
+        kind's too -- the most recent block of an ``extract_many`` alone is as large as the free blocks of a whole
+        sweep one value at a time, so a bound of 1x gave those up).
 
         (Each query giving up every free block it did not use made a sweep one value at a time after an
         ``extract_many``, or the reverse, make all its blocks anew, their pages faulted in again on the workers:
         10M in 2 partitions, the 20 values one at a time cost 2003 ms of CPU against 1128 ms for ``extract_many``.)
-        The memory kept is then at most what the largest query held while its surfaces lived.
+        The memory kept free is then at most ``KEEP_FREE`` times what the largest query held while its surfaces
+        lived.
         """
         self._mark_freed()
         self._query_count += 1
@@ -604,7 +609,7 @@ class DaskPartitionedMethod:
         total = sum(self._blocks[n][1] for _, n in free)
         drop = set()
         for _, n in free:  # oldest first
-            if total <= self._most_bytes:
+            if total <= KEEP_FREE * self._most_bytes:
                 break
             drop.add(n)
             total -= self._blocks[n][1]
