@@ -163,7 +163,8 @@ def _row(name, run, k, prepare_s, got, base):
     med = lambda key, rs=got: float(np.median([r[key] for r in rs]))  # noqa: E731
     ratio = lambda key: float(np.median([a[key] / b[key] for a, b in zip(got, base)]))  # noqa: E731
     row = {"data": name, "run": run, "partitions": k, "prepare_s": prepare_s,
-           "one_ms": med("one_ms"), "query_med_ms": med("query_med_ms"), "query_max_ms": max(r["query_max_ms"] for r in got),
+           "one_ms": med("one_ms"), "query_med_ms": med("query_med_ms"),
+           "query_max_ms": max(r["query_max_ms"] for r in got),
            "many_ms": med("many_ms"), "one_vs_single": ratio("one_ms"), "many_vs_single": ratio("many_ms"),
            "one_cpu_ms": med("one_cpu_ms"), "many_cpu_ms": med("many_cpu_ms"),
            "many_cpu_vs_single": ratio("many_cpu_ms"),

@@ -496,7 +496,8 @@ def test_split_by_default_leaves_data4_whole_and_says_why(data4, caplog):
     assert pvol.split_reason.startswith("not split") and f"{data4.n_cells:,} cells" in pvol.split_reason
     assert pvol.split_reason in caplog.text
     assert PartitionedVolume.split(data4).n_partitions == 1  # this machine's cores
-    assert PartitionedVolume.split(data4, 3).n_partitions == 3 and PartitionedVolume.split(data4, 3).split_reason is None
+    three = PartitionedVolume.split(data4, 3)
+    assert three.n_partitions == 3 and three.split_reason is None
 
 
 def test_split_by_default_splits_a_large_volume(monkeypatch, data3):
@@ -714,8 +715,8 @@ def test_dask_blocks_written_again_once_their_surfaces_are_gone(client, data3):
 
 
 def test_dask_free_blocks_kept_for_sweeps_of_the_other_kind(client, data3):
-    """Free blocks a query did not use are kept (up to KEEP_FREE x the most bytes one query used): a sweep one value at a
-    time after an extract_many, and the reverse, write the blocks of the sweep before instead of making new."""
+    """Free blocks a query did not use are kept (up to KEEP_FREE x the most bytes one query used): a sweep one value
+    at a time after an extract_many, and the reverse, write the blocks of the sweep before instead of making new."""
     import gc
 
     values = list(isovalues(data3.scalars(), 8))

@@ -68,8 +68,8 @@ def configure(parser):
     dist.add_argument("--scheduler", metavar="ADDRESS",
                       help="use the Dask cluster whose scheduler is at ADDRESS (e.g. tcp://host:8786)")
     dist.add_argument("--partitions", type=int, metavar="K",
-                      help="split the volume into K partitions (Morton ranges of cells; default: one per worker, with at "
-                           "least a million cells each -- a smaller volume is not split)")
+                      help="split the volume into K partitions (Morton ranges of cells; default: one per worker, "
+                           "with at least a million cells each -- a smaller volume is not split)")
     parser.add_argument("--components", action="store_true",
                         help="print each surface's connected components (by the first method): triangles, area, "
                              "enclosed volume, bounds, closed, touching the boundary")

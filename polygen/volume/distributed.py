@@ -513,8 +513,9 @@ class DaskPartitionedMethod:
             made[0] += size + sum(f["seam"].nbytes + f["seam_keys"].nbytes for per in found for f in per)
             forget, self._forget = self._forget, []
             send(c, writes, lambda i, a: self._call(
-                i, "write_shared", (uid, c), name, [{"n_vertices": lay["n_vertices"], "n_triangles": lay["n_triangles"], "offset": o,
-                                  "plan": lay["plans"][i]} for lay, o in zip(layouts, offsets)], normals, forget))
+                i, "write_shared", (uid, c), name,
+                [{"n_vertices": lay["n_vertices"], "n_triangles": lay["n_triangles"], "offset": o,
+                  "plan": lay["plans"][i]} for lay, o in zip(layouts, offsets)], normals, forget))
             dt, dc = time.perf_counter() - t1, time.thread_time() - c1
             held[c] = (found, layouts, offsets, block, dt / len(chunks[c]), dc / len(chunks[c]))
             phases["stitch_s"] += dt
