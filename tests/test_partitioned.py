@@ -461,6 +461,59 @@ def test_bad_arguments():
         prepared.extract("x")
 
 
+# ------------------------------------------------------------------ the automatic partition count
+
+def test_auto_partitions_rule():
+    """One partition per worker, each of at least MIN_CELLS_PER_PARTITION cells; fewer than two such: not split."""
+    from polygen.volume.partitioned import MIN_CELLS_PER_PARTITION as MIN
+    from polygen.volume.partitioned import auto_partitions
+
+    assert auto_partitions(100, 8)[0] == 1
+    assert auto_partitions(2 * MIN - 1, 8)[0] == 1
+    assert auto_partitions(2 * MIN, 8)[0] == 2
+    assert auto_partitions(5 * MIN + 7, 8)[0] == 5  # the cells, not the workers, bound it
+    assert auto_partitions(100 * MIN, 8)[0] == 8  # the workers bound it
+    assert auto_partitions(100 * MIN, 1)[0] == 1
+    assert auto_partitions(10 * MIN, 2)[0] == 2
+    k, reason = auto_partitions(MIN, 4)
+    assert k == 1 and reason.startswith("not split") and f"{MIN:,}" in reason
+    assert "split into 3 partitions" in auto_partitions(3 * MIN, 4)[1]
+    assert auto_partitions(MIN)[0] == 1  # default workers: this machine's cores
+    for bad in (0, -5, 2.5, True, "10"):
+        with pytest.raises(PartitionError, match="n_cells"):
+            auto_partitions(bad, 2)
+    for bad in (0, 1.5, False):
+        with pytest.raises(PartitionError, match="workers"):
+            auto_partitions(10 * MIN, bad)
+
+
+def test_split_by_default_leaves_data4_whole_and_says_why(data4, caplog):
+    import logging
+
+    with caplog.at_level(logging.INFO, logger="polygen.volume.partitioned"):
+        pvol = PartitionedVolume.split(data4, workers=8)
+    assert pvol.n_partitions == 1
+    assert pvol.split_reason.startswith("not split") and f"{data4.n_cells:,} cells" in pvol.split_reason
+    assert pvol.split_reason in caplog.text
+    assert PartitionedVolume.split(data4).n_partitions == 1  # this machine's cores
+    three = PartitionedVolume.split(data4, 3)
+    assert three.n_partitions == 3 and three.split_reason is None
+
+
+def test_split_by_default_splits_a_large_volume(monkeypatch, data3):
+    """The count follows the cells: with the floor lowered below data3's size, data3 splits one per worker."""
+    from polygen.volume import partitioned
+
+    monkeypatch.setattr(partitioned, "MIN_CELLS_PER_PARTITION", data3.n_cells // 4)
+    pvol = PartitionedVolume.split(data3, workers=3)
+    assert pvol.n_partitions == 3 and "one per worker" in pvol.split_reason
+    assert PartitionedVolume.split(data3, workers=8).n_partitions == 4
+    values = isovalues(data3.scalars(), 3)
+    prepared = pvol.prepare()
+    for v in values:
+        assert_same_as_single(data3, data3.isosurface(v), prepared.extract(v))
+
+
 def test_stitch_merges_shared_keys_once():
     """Two pieces making one vertex (same key) and one triangle on a shared face at C: each kept once."""
     n = 10
@@ -658,6 +711,42 @@ def test_dask_blocks_written_again_once_their_surfaces_are_gone(client, data3):
         np.testing.assert_array_equal(here.vertex_keys, k)
         _same_arrays(here, a, counters=False)
         _same_arrays(here, b, counters=False)
+    on_dask.close()
+
+
+def test_dask_free_blocks_kept_for_sweeps_of_the_other_kind(client, data3):
+    """Free blocks a query did not use are kept (up to KEEP_FREE x the most bytes one query used): a sweep one value
+    at a time after an extract_many, and the reverse, write the blocks of the sweep before instead of making new."""
+    import gc
+
+    values = list(isovalues(data3.scalars(), 8))
+    pvol = PartitionedVolume.split(data3, 2)
+    on_dask = dask_prepare(pvol, client=client, stitch_on="client")
+
+    def one_by_one():
+        out, made = [], 0
+        for v in values:
+            out.append(on_dask.extract(v))
+            made += on_dask.blocks_made_last
+        return out, made
+
+    many = on_dask.extract_many(values)
+    assert on_dask.blocks_made_last == 1
+    del many
+    gc.collect()
+    first, made_first = one_by_one()
+    assert made_first == len(values) - 1  # the first value writes extract_many's block again, the others are new
+    del first
+    gc.collect()
+    on_dask.extract_many(values)  # its surfaces go at once
+    assert on_dask.blocks_made_last == 0
+    gc.collect()
+    again, made_again = one_by_one()
+    assert made_again < made_first
+    assert _left_blocks(on_dask) == []
+    local = pvol.prepare()
+    for v, s in zip(values, again):
+        _same_arrays(local.extract(v), s, counters=False)
     on_dask.close()
 
 
@@ -891,15 +980,31 @@ def test_cli_split_and_pvtu(tmp_path, capsys):
     assert "t_1.vtu" in capsys.readouterr().err
 
 
+def test_cli_leaves_a_small_volume_whole_and_says_why(capsys):
+    """Without --partitions the count is automatic: a small volume is not split, in one line saying why."""
+    from polygen.cli import main
+
+    pytest.importorskip("distributed")
+    vol = datasets.load("torus")
+    rc = main(["isosurface", "torus", "--workers", "2", "--values", "2", "--no-files"])
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert f"torus: not split: {vol.n_cells:,} cells are fewer than" in out
+    assert "torus: 1 partitions" in out
+    for v in isovalues(vol.scalars(), 2):
+        assert f"{vol.isosurface(v).n_triangles:10d}" in out
+
+
 def test_cli_on_a_local_cluster(capsys):
     from polygen.cli import main
 
     pytest.importorskip("distributed")
     vol = datasets.load("torus")
-    rc = main(["isosurface", "torus", "--workers", "2", "--values", "3", "--no-files"])
+    rc = main(["isosurface", "torus", "--workers", "2", "--partitions", "2", "--values", "3", "--no-files"])
     out = capsys.readouterr().out
     assert rc == 0
     assert "prepared on Dask (2 workers)" in out and "bytes of surfaces came back" in out
+    assert "not split" not in out  # --partitions given: no automatic count
     for v in isovalues(vol.scalars(), 3):
         assert f"{vol.isosurface(v).n_triangles:10d}" in out
     rc = main(["isosurface", "torus", "--workers", "2", "--scheduler", "tcp://127.0.0.1:1", "--no-files"])

@@ -68,7 +68,8 @@ def configure(parser):
     dist.add_argument("--scheduler", metavar="ADDRESS",
                       help="use the Dask cluster whose scheduler is at ADDRESS (e.g. tcp://host:8786)")
     dist.add_argument("--partitions", type=int, metavar="K",
-                      help="split the volume into K partitions (Morton ranges of cells; default: one per worker)")
+                      help="split the volume into K partitions (Morton ranges of cells; default: one per worker, "
+                           "with at least a million cells each -- a smaller volume is not split)")
     parser.add_argument("--components", action="store_true",
                         help="print each surface's connected components (by the first method): triangles, area, "
                              "enclosed volume, bounds, closed, touching the boundary")
@@ -377,8 +378,7 @@ def run_partitioned(args):
         else:
             label, vol = _load(args.mesh, sys.stderr.isatty(), orient=args.orient, cell_data=args.cell_data,
                                tetrahedralize=args.tetrahedralize)
-            k = args.partitions if args.partitions is not None else (args.workers or 2)
-            pvol = PartitionedVolume.split(vol, k)
+            pvol = None
         client = None
         if args.workers is not None or args.scheduler is not None:
             from polygen.volume.distributed import local_client
@@ -386,6 +386,12 @@ def run_partitioned(args):
 
             client = local_client(args.workers or 2, scheduler=args.scheduler)
         try:
+            if pvol is None:
+                # without --partitions, as many as pay (auto_partitions: one per worker, none for a small volume)
+                workers = None if client is None else len(client.scheduler_info()["workers"]) or None
+                pvol = PartitionedVolume.split(vol, args.partitions, workers=workers)
+                if pvol.split_reason is not None:
+                    print(f"{label}: {pvol.split_reason}")
             if client is None:
                 prepared = pvol.prepare(args.field, method)
             else:

@@ -24,7 +24,9 @@ another partition) at every query, and propagates (thesis 5.4.2) from the
 crossed ones that the method left without triangles: a missed piece
 touching the seam crosses a seam cell. The tests check every partition's
 result against its own full scan. ``span-space``, ``extrema-graph`` and the
-scan matched the single volume without seam seeds in those runs.
+scan matched the single volume without seam seeds in those runs. A scan (a method whose
+``construction`` is ``"scan"``: the active scan, the default, and the full
+scan) tests every cell the surface crosses, so it skips the seam test.
 
 The pieces are stitched by naming each vertex by the **pair of global node
 ids** of its edge (``a * N + b``, ``a < b``; ``a * N + a`` for a crossing
@@ -61,6 +63,7 @@ import dask.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import os
 import pathlib
 import threading
@@ -80,10 +83,57 @@ from polygen.volume.surface import IsoSurface, IsoSurfaceError, check_normals, c
 
 __all__ = ["PartitionedVolume", "PartitionedMethod", "PartitionError", "StitchedIsoSurface", "GLOBAL_IDS",
            "stitch", "tree_stitch", "merge", "finish", "reduce_tree", "scale_model", "span_weights", "seam_plan",
-           "drop_face_twins", "rows_layout", "rows_arrays", "finish_rows", "direct_stitch"]
+           "drop_face_twins", "rows_layout", "rows_arrays", "finish_rows", "direct_stitch", "auto_partitions",
+           "MIN_CELLS_PER_PARTITION"]
 
 #: the point array that numbers the nodes globally (as ParaView's D3 filter and VTK's redistribution name it)
 GLOBAL_IDS = "GlobalNodeId"
+
+#: the fewest cells a partition keeps when the partition count is chosen automatically (:func:`auto_partitions`)
+MIN_CELLS_PER_PARTITION = 1_000_000
+
+logger = logging.getLogger(__name__)
+
+
+def auto_partitions(n_cells, workers=None):
+    """How many partitions a volume of ``n_cells`` cells is split into by default, and why: ``(k, reason)``.
+
+    The rule: one partition per worker (``workers``; default this
+    machine's cores, ``os.cpu_count()``), but no more than keep
+    :data:`MIN_CELLS_PER_PARTITION` cells each; ``k = 1`` (not split) when
+    the volume has fewer than twice that many cells or there is one worker.
+
+    Why: a single volume's default method (``active-scan``) already runs
+    every query on all of this machine's cores, so a split gains nothing on
+    one machine but memory per process, and costs every query a fixed
+    price: two calls per partition (extract and report the seam, then write
+    the rows), the client's layout of the stitched arrays and the seam
+    normals, and each partition's seam cells tested again -- about half a
+    millisecond on two partitions of one machine (each call's round trip
+    ~0.1 ms). The active scan does about 2 ms of one thread's work per
+    million cells and query (the issue's 2M measurement: 44 ms for 20
+    values on 2 threads, 1.96 M cells), so a partition of fewer than a
+    million cells would spend a quarter of its query or more on that fixed
+    price; workers on other machines gain their cores only when each has
+    such a partition to work on. data4 (557,868 cells) is not split.
+    """
+    if isinstance(n_cells, bool) or not isinstance(n_cells, (int, np.integer)) or n_cells < 1:
+        raise PartitionError(f"n_cells must be a positive integer; got {n_cells!r}")
+    if workers is None:
+        workers = os.cpu_count() or 1
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise PartitionError(f"workers must be a positive integer; got {workers!r}")
+    n_cells, workers = int(n_cells), int(workers)
+    fits = n_cells // MIN_CELLS_PER_PARTITION
+    if workers == 1:
+        return 1, f"not split: one worker ({n_cells:,} cells)"
+    if fits < 2:
+        return 1, (f"not split: {n_cells:,} cells are fewer than 2 x {MIN_CELLS_PER_PARTITION:,} (the fewest cells a "
+                   "partition keeps by default: below that a partitioned query's fixed cost is a large share of its "
+                   "work, and one volume's active scan uses every core already)")
+    k = min(workers, fits)
+    why = "one per worker" if k == workers else f"at least {MIN_CELLS_PER_PARTITION:,} cells each"
+    return k, f"split into {k} partitions ({why}: {n_cells:,} cells, {workers} workers)"
 
 
 class PartitionError(ValueError):
@@ -209,6 +259,10 @@ class PreparedPartition:
             if not issubclass(w.category, ThinningWarning):
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         self._thinning_warned = any(issubclass(w.category, ThinningWarning) for w in caught)
+        # a scan (the active scan, the full scan) tests every cell the surface crosses: it cannot miss a piece at
+        # the seam, and testing the seam cells again would only cost (2M in 2 partitions: ~0.2 ms per value, a
+        # tenth of the active scan's query)
+        self._complete = getattr(self.method, "construction", "") == "scan"
         self._propagator = None
         self._lock = threading.Lock()
         self.seam_cells = np.zeros(0, np.int64)
@@ -302,9 +356,9 @@ class PreparedPartition:
         # missed must cross the partition's seam (measured: the thinning skeleton of a Morton range whose
         # boundary is not a manifold), so propagation from the crossed seam cells it left out finds it
         t0 = time.perf_counter()
-        missed = self._seam_seeds(value, iso)
+        missed = self.seam_cells[:0] if self._complete else self._seam_seeds(value, iso)
         seam_seeds = int(missed.size)
-        tested = int(self.seam_cells.size)
+        tested = 0 if self._complete else int(self.seam_cells.size)
         if missed.size:
             if self._propagator is None:
                 from polygen.volume.propagate import Propagator
@@ -1076,19 +1130,44 @@ def direct_stitch(value, partitions, *, n_ids, normals="mean"):
     client on the workers' machine does through shared memory
     (:mod:`polygen.volume.distributed`).
     """
-    found, isos = [], []
-    for p in partitions:
-        iso, counters = p.surface(value)
-        marks = p.marks(iso)
-        found.append(counters | {"n": iso.vertices.shape[0], "m": iso.triangles.shape[0], "seam": marks["seam"],
-                                 "seam_keys": marks["seam_keys"]})
-        isos.append((iso, marks))
+    # the methods one partition after another (each on all of numba's threads); the marks and the rows, one
+    # thread per partition (their kernels release the GIL, and each partition writes rows of its own)
+    surfaces = [p.surface(value) for p in partitions]
+    marks = _side_by_side(lambda i: partitions[i].marks(surfaces[i][0]), len(partitions))
+    found = [counters | {"n": iso.vertices.shape[0], "m": iso.triangles.shape[0], "seam": mk["seam"],
+                         "seam_keys": mk["seam_keys"]} for (iso, counters), mk in zip(surfaces, marks)]
     t0, c0 = time.perf_counter(), time.thread_time()
     layout = rows_layout(found)
     out, _ = rows_arrays(layout, normals)
-    written = [p.write_rows(iso, normals, plan, out, marks)
-               for p, (iso, marks), plan in zip(partitions, isos, layout["plans"])]
+    written = _side_by_side(lambda i: partitions[i].write_rows(surfaces[i][0], normals, layout["plans"][i], out,
+                                                               marks[i]), len(partitions))
     return finish_rows(value, out, layout, found, written, n_ids=n_ids, normals=normals, t0=t0, c0=c0)
+
+
+_POOL = None
+_POOL_LOCK = threading.Lock()
+
+
+def _side_by_side(fn, n):
+    """``[fn(0), ..., fn(n - 1)]``, on up to numba's thread count of threads at once (a pool kept here)."""
+    import numba
+
+    if n < 2 or numba.get_num_threads() < 2:
+        return [fn(i) for i in range(n)]
+    global _POOL
+    with _POOL_LOCK:
+        if _POOL is None:
+            from concurrent.futures import ThreadPoolExecutor
+
+            _POOL = ThreadPoolExecutor(max_workers=os.cpu_count() or 2, thread_name_prefix="polygen-partitions")
+        pool = _POOL
+    width = min(n, numba.get_num_threads())
+    out = [None] * n
+    for a in range(0, n, width):  # at most ``width`` at once
+        futures = [pool.submit(fn, i) for i in range(a, min(n, a + width))]
+        for i, f in enumerate(futures, a):
+            out[i] = f.result()
+    return out
 
 
 def reduce_tree(items, combine):
@@ -1237,6 +1316,8 @@ class PartitionedVolume:
         if not pieces:
             raise PartitionError("a partitioned volume needs at least one piece")
         self.pieces = pieces
+        #: why :meth:`split` chose this many partitions (automatic count), else None
+        self.split_reason = None
 
     @property
     def n_partitions(self) -> int:
@@ -1247,7 +1328,7 @@ class PartitionedVolume:
                f"{', ...' if self.n_partitions > 4 else ''})"
 
     @classmethod
-    def split(cls, vol, k, *, weights=None):
+    def split(cls, vol, k=None, *, weights=None, workers=None):
         """``vol`` in ``k`` partitions: contiguous ranges of its cells along a Morton curve.
 
         Global node and cell ids are ``vol``'s own; each partition holds its
@@ -1257,17 +1338,29 @@ class PartitionedVolume:
         Parameters
         ----------
         vol : UnstructuredVolume
-        k : int
-            Number of partitions, ``1 <= k <= vol.n_cells``.
+        k : int, optional
+            Number of partitions, ``1 <= k <= vol.n_cells``. Default: chosen
+            by :func:`auto_partitions` from the cell count and ``workers``
+            (a volume too small to gain is not split: one partition); the
+            choice and its reason are logged (``logging``, logger
+            ``polygen.volume.partitioned``, level INFO) and kept as
+            :attr:`split_reason`.
         weights : (n_cells,) array_like of float, optional, keyword-only
             Each cell's expected work: the ranges are cut where the running
             sum of weights along the curve passes ``i / k`` of the total
             (each range keeps at least one cell). Default: every cell the same
             (ranges of equal cell counts). :func:`span_weights` gives a sweep's
             expected work (a partition's workers finish together).
+        workers : int, optional, keyword-only
+            The workers the partitions will run on, for the automatic count
+            (default: this machine's cores); ignored when ``k`` is given.
         """
         if not isinstance(vol, UnstructuredVolume):
             raise PartitionError(f"expected an UnstructuredVolume; got {type(vol).__name__}")
+        reason = None
+        if k is None:
+            k, reason = auto_partitions(vol.n_cells, workers)
+            logger.info("%s", reason)
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 1 <= k <= vol.n_cells:
             raise PartitionError(f"k must be an integer in 1..{vol.n_cells}; got {k!r}")
         lo = vol.points.min(axis=0)
@@ -1298,7 +1391,9 @@ class PartitionedVolume:
             pieces.append(_MemoryPiece(
                 name=f"part{i}", points=vol.points[nodes], cells=np.searchsorted(nodes, cells),
                 fields={n: v[nodes] for n, v in vol.fields.items()}, global_ids=nodes, cell_ids=chunk))
-        return cls(pieces)
+        out = cls(pieces)
+        out.split_reason = reason
+        return out
 
     def partition_of_cells(self):
         """(n_cells,) int32: the partition holding each global cell (a volume from :meth:`split`)."""
