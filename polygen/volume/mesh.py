@@ -457,7 +457,7 @@ class UnstructuredVolume:
         span = float((self.points.max(axis=0) - lo).max())
         scale = (2**21 - 1) / span if span > 0 else 0.0
         node_order = np.argsort(_k.morton_codes(self.points, lo, scale), kind="stable")
-        new_id = _jit.scratch(self.n_points, np.int64)
+        new_id = _jit.scratch(self.n_points, index_dtype(self.n_points))  # the copy below is in the index dtype
         new_id[node_order] = np.arange(self.n_points)
         centroids = _k.cell_centroids(self.points, self.cells)
         cell_order = np.argsort(_k.morton_codes(centroids, lo, scale), kind="stable")
@@ -654,8 +654,8 @@ class UnstructuredVolume:
         Only what is held now is counted (the tables are built lazily, and
         the preparation of the default method drops those only it reads:
         :meth:`release_preparation_tables`): ``face_neighbors`` (int32, 16
-        bytes per tetrahedron), the edge table (``edges`` int64 and
-        ``cell_edges`` int32), ``cell_records``, ``edge_cells``,
+        bytes per tetrahedron), the edge table (``edges`` int32 like
+        the cells, and ``cell_edges`` int32), ``cell_records``, ``edge_cells``,
         ``node_cells`` (int32 cells), ``cell_components``, the boundary
         tables and the locator. The points, cells and fields themselves are
         not counted.
@@ -743,7 +743,7 @@ class UnstructuredVolume:
 
     @functools.cached_property
     def boundary_face_nodes(self) -> np.ndarray:
-        """(B, 3|4) int64 node ids of each boundary face, outward oriented."""
+        """(B, 3|4) node ids of each boundary face, outward oriented (the dtype of :attr:`cells`)."""
         bf = self.boundary_faces
         return self.cells[bf[:, :1], self.local_faces[bf[:, 1]]]
 
