@@ -307,3 +307,22 @@ def test_listing_shows_cached_state(cache, data1, capsys):
     assert "cached" in lines["data1"]
     for name in ds.names():
         assert ("cached" in lines[name]) == ds.is_cached(name)
+
+
+def test_cache_with_int64_cells_is_read_as_int32(tmp_path):
+    """A cache file written with int64 cells (before the volume kept int32 ones) is narrowed while read,
+    block by block; an id outside the nodes makes the file unreadable (rebuilt), not a wrapped id."""
+    from polygen.volume.datasets import registry
+
+    points, cells = tiny._tiny("torus", "tetra")
+    cells, fields = np.asarray(cells, np.int64), {}
+    path = tmp_path / "c.npz"
+    registry._write_cache(path, points, cells, fields, "k")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(registry, "_BLOCK_ROWS", 7)  # several blocks and a short last one
+        back = registry._read_cache(path, "k")
+        assert back[1].dtype == np.int32
+        np.testing.assert_array_equal(back[1], cells)
+        cells[-1, 0] = points.shape[0] + 2**32
+        registry._write_cache(path, points, cells, fields, "k")
+        assert registry._read_cache(path, "k") is None

@@ -395,7 +395,7 @@ def test_walk_stores_no_edges(tets):
     assert mem["records"] == vol.n_cells * (2 + nn + nf + ne + nn) * 4
     # the node-pair keys name the scan's edges (crossings on nodes: none for this field)
     scan = extract(vol, value, field=s)
-    e = vol.edges[scan.vertex_keys]
+    e = vol.edges[scan.vertex_keys].astype(np.int64)  # int32 node ids: a * N in int64
     assert np.array_equal(np.sort(iso.vertex_keys), np.sort(e[:, 0] * vol.n_points + e[:, 1]))
     assert np.array_equal(np.sort(ec.edge_ids(iso.vertex_keys)), np.sort(scan.vertex_keys))
     assert "label_edge_list" in ec.memory_bytes()

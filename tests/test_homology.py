@@ -62,7 +62,7 @@ def gf2_rank(m):
 
 def h1_rank_of_loops(vol, loops):
     """dim of the span of the loops in H1(boundary; Z2) = rank([d2 | loops]) - rank(d2)."""
-    f = vol.boundary_face_nodes
+    f = vol.boundary_face_nodes.astype(np.int64)  # int32 node ids: a * N in int64
     e = np.sort(np.stack([f, np.roll(f, -1, axis=1)], -1).reshape(-1, 2), axis=1)
     keys, inv = np.unique(e[:, 0] * vol.n_points + e[:, 1], return_inverse=True)
     d2 = np.zeros((keys.size, f.shape[0]), bool)
@@ -70,7 +70,7 @@ def h1_rank_of_loops(vol, loops):
     cols = []
     for i in range(loops.n_loops):
         nodes = loops.loop(i)
-        pairs = np.sort(np.stack([nodes, np.roll(nodes, -1)], 1), axis=1)
+        pairs = np.sort(np.stack([nodes, np.roll(nodes, -1)], 1), axis=1).astype(np.int64)
         col = np.zeros(keys.size, bool)
         idx = np.searchsorted(keys, pairs[:, 0] * vol.n_points + pairs[:, 1])
         np.logical_xor.at(col, idx, True)

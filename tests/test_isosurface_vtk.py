@@ -112,9 +112,10 @@ def hexa1():
 def boundary_edge_pairs(vol):
     """Set of (edge a, edge b), a < b, of two volume edges on one boundary face."""
     n = vol.n_points
-    code = vol.edges[:, 0] * n + vol.edges[:, 1]
+    e = vol.edges.astype(np.int64)  # int32 node ids: a * N in int64
+    code = e[:, 0] * n + e[:, 1]
     order = np.argsort(code)
-    f = vol.boundary_face_nodes
+    f = vol.boundary_face_nodes.astype(np.int64)
     k = f.shape[1]
     a, b = f, np.roll(f, -1, axis=1)
     c = np.minimum(a, b) * n + np.maximum(a, b)

@@ -26,7 +26,7 @@ N_VALUES_DASK = 60  # with the cluster: keeps each Dask test well under a minute
 
 def global_keys(vol, iso):
     """The single volume's vertex keys as global pair keys ``a * N + b`` (``a * (N + 1)`` on a node)."""
-    e, n = vol.edges, vol.n_points
+    e, n = vol.edges.astype(np.int64), vol.n_points  # int32 node ids: a * N in int64
     k = iso.vertex_keys
     on_edge = k < e.shape[0]
     out = np.empty(k.shape, np.int64)

@@ -59,7 +59,7 @@ def test_tables_equal_brute_force(name):
     np.testing.assert_array_equal(off, ref_off)
     np.testing.assert_array_equal(cells, order // vol.cells.shape[1])  # ascending cell ids per node
     assert vol.face_neighbors.dtype == vol.cell_edges.dtype == cells.dtype == np.int32
-    assert vol.edges.dtype == np.int64 and off.dtype == np.int64
+    assert vol.edges.dtype == vol.cells.dtype == np.int32 and off.dtype == np.int64
 
 
 def test_tables_do_not_depend_on_the_number_of_threads_or_the_node_order():

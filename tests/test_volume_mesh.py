@@ -435,3 +435,38 @@ def test_borderline_tetrahedron_is_counted_in_the_used_nodes(monkeypatch):
     monkeypatch.setattr(_mesh, "_DEGENERATE_RTOL", min(ratios) * (1 - 1e-12))
     got = UnstructuredVolume(p, vol.cells)
     assert got.unreferenced_nodes.size == 0
+
+
+def test_cells_and_edges_are_int32_and_the_callers_int64_cells_are_untouched():
+    """The volume keeps int32 node ids (16 bytes per tetrahedron, not 32) from a caller's int64 cells; it
+    neither keeps nor writes the caller's array (orient=True reorders only its copy), and its surfaces are
+    VTK's contour of the caller's own int64 mesh."""
+    from polygen.volume import datasets, isovalues
+
+    src = datasets.load("data1")
+    cells = np.array(src.cells, np.int64)
+    cells[::7, 1], cells[::7, 2] = cells[::7, 2].copy(), cells[::7, 1].copy()  # inverted: orient reorders
+    before = cells.copy()
+    s = src.scalars("fem")
+    vol = UnstructuredVolume(src.points, cells, {"fem": s}, orient=True)
+    np.testing.assert_array_equal(cells, before)
+    assert vol.cells.dtype == vol.edges.dtype == np.int32
+    assert not np.shares_memory(vol.cells, cells)
+    np.testing.assert_array_equal(vol.cells[1::7], cells[1::7])  # the rows orient did not touch
+    grid = pv.UnstructuredGrid({pv.CellType.TETRA: before}, src.points)  # VTK's own int64 ids
+    grid.point_data["fem"] = s
+    for value in isovalues(s, 5):
+        ref = grid.contour([value], scalars="fem")
+        for iso in (vol.isosurface(value, prepare=False), vol.isosurface(value, prepare=True)):
+            assert (iso.n_triangles, iso.n_vertices) == (ref.n_cells, ref.n_points), value
+            assert iso.area() == pytest.approx(ref.area, rel=1e-9), value
+
+
+@pytest.mark.parametrize("shift", [2**32, -2**32])
+def test_int64_ids_that_would_wrap_into_range_are_refused(shift):
+    """An int64 id 2**32 away from a valid one narrows to that id in int32: it is named before narrowing."""
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    cells = np.array([[0, 1, 2, 3]], np.int64)
+    cells[0, 2] += shift
+    with pytest.raises(VolumeError, match="outside 0..3"):
+        UnstructuredVolume(points, cells)

@@ -18,7 +18,18 @@ __all__ = [
     "HEX_UNIT_CORNERS",
     "HEX_CORNER_FRAMES",
     "KUHN_TETS",
+    "index_dtype",
 ]
+
+
+def index_dtype(n):
+    """The dtype of ids below ``n`` (node ids in cells and edges): int32 when they fit, int64 past 2**31.
+
+    One dtype in practice, so that each kernel is compiled once: a volume's
+    ``cells`` and ``edges`` and the cell arrays the array-level functions
+    take are converted to it.
+    """
+    return np.int32 if n <= np.iinfo(np.int32).max + 1 else np.int64
 
 #: (4, 3) local faces of a VTK tetrahedron, outward for a positive cell (Def. 5.3 face numbers).
 TET_FACES = np.array([[0, 1, 3], [1, 2, 3], [2, 0, 3], [0, 2, 1]], np.int64)

@@ -62,6 +62,7 @@ import numpy as np
 
 from polygen import _jit
 from polygen.volume import _extrema_kernels as _k
+from polygen.volume._cells import index_dtype
 from polygen.volume.homology import BoundaryLoops, boundary_loops
 from polygen.volume.methods import SeedsThenPropagate, register
 from polygen.volume.registry import register_seed_source
@@ -142,7 +143,7 @@ def _cells_and_values(cells, values):
         raise ExtremaGraphError(f"node values must be finite; {int(np.sum(~np.isfinite(s)))} are not")
     if cells.size and (cells.min() < 0 or cells.max() >= s.shape[0]):
         raise ExtremaGraphError(f"cells refer to nodes outside 0..{s.shape[0] - 1}")
-    return np.ascontiguousarray(cells, np.int64), np.ascontiguousarray(s)
+    return np.ascontiguousarray(cells, index_dtype(s.shape[0])), np.ascontiguousarray(s)
 
 
 def _node_cells_csr(cells, n):
@@ -191,7 +192,7 @@ def find_extrema(vol, field=None):
     """
     _, cells, s, _ = volume_arrays(vol, field)
     off, nc = vol.node_cells  # int64 offsets, int32 cells: read as they are (no 32-byte-per-cell copy)
-    return _extrema_from_arrays(np.ascontiguousarray(cells, np.int64), s, off, nc)
+    return _extrema_from_arrays(cells, s, off, nc)
 
 
 # ------------------------------------------------------------------ the graph
@@ -378,7 +379,7 @@ class ExtremaGraph:
             self._mark[:] = 0
             self._stamp = 0
         self._stamp += 1
-        cells = np.ascontiguousarray(self.vol.cells, np.int64)
+        cells = self.vol.cells
         n_boundary = self.loops.cells.shape[0] if self.boundary == "loops" else self.blist_min.shape[0]
         hits = _jit.scratch(self.arc_cells.shape[0] + n_boundary, np.int64)
         t0 = time.perf_counter()
@@ -484,8 +485,7 @@ def build_extrema_graph(vol, field=None, *, polyline=True, boundary="lists", rec
     """
     if boundary not in BOUNDARY:
         raise ExtremaGraphError(f"boundary must be one of {BOUNDARY}; got {boundary!r}")
-    _, cells, s, cell_type = volume_arrays(vol, field)
-    cells = np.ascontiguousarray(cells, np.int64)
+    _, cells, s, cell_type = volume_arrays(vol, field)  # the volume's cells as they are (int32), not copied
     # topology is the volume model's, not part of Table 6.3
     face_nb = np.ascontiguousarray(vol.face_neighbors, np.int64)
     off, nc = vol.node_cells

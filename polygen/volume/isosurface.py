@@ -27,6 +27,7 @@ import time
 import numpy as np
 
 from polygen import _jit
+from polygen.volume._cells import index_dtype
 from polygen.volume import marching as _m
 from polygen.volume import registry as _registry
 from polygen.volume.propagate import Propagator
@@ -135,7 +136,8 @@ def _scan_unprepared(vol, value, field, normals, node_grad=None):
     tri = _jit.scratch((n_t, 3), np.int64)
     v_max = 3 * n_t  # every corner its own vertex: the bound (rows past the count are never touched)
     codes = _jit.scratch(v_max, np.int64)
-    edges = _jit.scratch((v_max, 2), np.int64)
+    edges = _jit.scratch((v_max, 2), index_dtype(n_points))  # node pairs in the dtype of vol.edges (one build of
+    # the kernels that read either)
     keys = _jit.scratch(v_max, np.int64)
     # the hash table is sized for at most n_t vertices (a closed surface has about n_t / 2), half full at
     # most; past that the kernel stops and the table is sized for the bound. A table for the bound (12 n_t

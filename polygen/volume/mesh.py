@@ -21,7 +21,7 @@ from polygen._jit import parallel_kernels_may_overlap
 from polygen.volume import _topology as _k
 from polygen.volume import io as _io
 from polygen.volume import registry as _registry
-from polygen.volume._cells import HEX_CORNER_FRAMES, HEX_EDGES, HEX_FACES, TET_EDGES, TET_FACES
+from polygen.volume._cells import HEX_CORNER_FRAMES, HEX_EDGES, HEX_FACES, TET_EDGES, TET_FACES, index_dtype
 from polygen.volume.errors import VolumeError, VolumeWarning
 
 __all__ = ["UnstructuredVolume", "VolumeError", "VolumeWarning", "TET_FACES", "HEX_FACES", "TET_EDGES", "HEX_EDGES"]
@@ -112,9 +112,9 @@ class UnstructuredVolume:
     """A tetrahedral-only or hexahedral-only volume with node scalars.
 
     The volume never keeps or writes the caller's arrays: ``points``,
-    ``cells`` and every field are copied (converted to float64 / int64 /
-    float64), and the copies are read-only (``vol.points``, ``vol.cells``),
-    so neither a later change to the caller's arrays nor an assignment into
+    ``cells`` and every field are copied (converted to float64 / int32 --
+    int64 past 2**31 nodes -- / float64), and the copies are read-only
+    (``vol.points``, ``vol.cells``), so neither a later change to the caller's arrays nor an assignment into
     ``vol.points`` can bypass the checks below or leave the topology and the
     prepared methods stale. ``orient=True`` reorders the nodes of the copy.
 
@@ -127,8 +127,9 @@ class UnstructuredVolume:
     ----------
     points : (N, 3) float64
         Node coordinates.
-    cells : (M, 4) or (M, 8) int64
-        Node ids of each cell in VTK order (``VTK_TETRA`` or ``VTK_HEXAHEDRON``).
+    cells : (M, 4) or (M, 8) integer
+        Node ids of each cell in VTK order (``VTK_TETRA`` or ``VTK_HEXAHEDRON``); kept as int32
+        (``vol.cells``), int64 for more than 2**31 nodes.
     fields : dict of str -> (N,) float64, optional
         Scalar fields on the nodes. The first one is the default. They are
         copied and kept read-only (:meth:`add_field`); ``vol.fields`` is a
@@ -173,8 +174,14 @@ class UnstructuredVolume:
         # the volume's own copies: the caller's arrays are never written (orient=True reorders our copy) and
         # a later change to them cannot reach the checks or anything prepared from these
         self.points = _owned(points, np.float64)
-        self.cells = _owned(cells, np.int64)
         n = self.points.shape[0]
+        # int32 node ids whenever every valid id fits (16 bytes per tetrahedron instead of 32); ids outside
+        # 0..n-1 are named from the caller's values, before a narrowing copy could wrap them into range
+        index = index_dtype(n)
+        if not np.can_cast(cells.dtype, index) and (int(cells.min()) < 0 or int(cells.max()) >= n):
+            self.cells = cells  # read only by the check, which raises
+            self._check_cells(n)
+        self.cells = _owned(cells, index)
         lo, hi = np.zeros(3), np.zeros(3)
         finite = bool(_k.points_range(self.points, lo, hi))  # the row-wise check below only when it fails
         bad_pts = np.flatnonzero(~np.all(np.isfinite(self.points), axis=1)) if not finite else np.zeros(0, np.int64)
@@ -450,7 +457,7 @@ class UnstructuredVolume:
         span = float((self.points.max(axis=0) - lo).max())
         scale = (2**21 - 1) / span if span > 0 else 0.0
         node_order = np.argsort(_k.morton_codes(self.points, lo, scale), kind="stable")
-        new_id = _jit.scratch(self.n_points, np.int64)
+        new_id = _jit.scratch(self.n_points, index_dtype(self.n_points))  # the copy below is in the index dtype
         new_id[node_order] = np.arange(self.n_points)
         centroids = _k.cell_centroids(self.points, self.cells)
         cell_order = np.argsort(_k.morton_codes(centroids, lo, scale), kind="stable")
@@ -647,8 +654,8 @@ class UnstructuredVolume:
         Only what is held now is counted (the tables are built lazily, and
         the preparation of the default method drops those only it reads:
         :meth:`release_preparation_tables`): ``face_neighbors`` (int32, 16
-        bytes per tetrahedron), the edge table (``edges`` int64 and
-        ``cell_edges`` int32), ``cell_records``, ``edge_cells``,
+        bytes per tetrahedron), the edge table (``edges`` int32 like
+        the cells, and ``cell_edges`` int32), ``cell_records``, ``edge_cells``,
         ``node_cells`` (int32 cells), ``cell_components``, the boundary
         tables and the locator. The points, cells and fields themselves are
         not counted.
@@ -736,7 +743,7 @@ class UnstructuredVolume:
 
     @functools.cached_property
     def boundary_face_nodes(self) -> np.ndarray:
-        """(B, 3|4) int64 node ids of each boundary face, outward oriented."""
+        """(B, 3|4) node ids of each boundary face, outward oriented (the dtype of :attr:`cells`)."""
         bf = self.boundary_faces
         return self.cells[bf[:, :1], self.local_faces[bf[:, 1]]]
 
@@ -789,7 +796,7 @@ class UnstructuredVolume:
 
     @property
     def edges(self) -> np.ndarray:
-        """(E, 2) int64 distinct cell edges, ``a < b``, numbered by ``a`` then ``b``."""
+        """(E, 2) distinct cell edges, ``a < b``, numbered by ``a`` then ``b``; the dtype of :attr:`cells`."""
         return self._edge_table[0]
 
     @property

@@ -308,7 +308,7 @@ class PreparedPartition:
         # reads one int64 per vertex instead of its edge's two nodes, their global ids and seam marks (2M, one
         # partition, 20 values: 4.6-7.2 -> 1.6 ms)
         self._key_map = _jit.scratch(vol.edges.shape[0] + vol.n_points, np.int64)
-        _key_map(np.ascontiguousarray(vol.edges, np.int64), self.global_ids, self._shared_node, self.n_ids,
+        _key_map(vol.edges, self.global_ids, self._shared_node, self.n_ids,
                  self._key_map)
         on_seam = np.all(self._shared_node[vol.boundary_face_nodes], axis=1)
         self.seam_cells = np.unique(vol.boundary_faces[on_seam, 0])

@@ -404,7 +404,7 @@ class Propagator:
             self._vtable = np.zeros((0, 2), np.int32)
             self._labels = EdgeLabels(vol)
         else:
-            self.edges = np.ascontiguousarray(vol.edges, np.int64)
+            self.edges = vol.edges  # the volume's (int32), not copied
             self._htable = np.zeros((1, 2), np.int64)
             self._vtable = np.zeros((self.edges.shape[0] + self.n_points, 2), np.int32)  # stamp, vertex id
         self._keys = _jit.scratch(512, np.int64)

@@ -281,8 +281,8 @@ class PairKeyedIsoSurface(IsoSurface):
         on_node = pairs[:, 0] == pairs[:, 1]
         keys = _jit.scratch(pairs.shape[0], np.int64)
         keys[on_node] = edges.shape[0] + pairs[on_node, 0]
-        codes = pairs[~on_node, 0] * n + pairs[~on_node, 1]
-        edge_codes = edges[:, 0] * n + edges[:, 1]
+        codes = pairs[~on_node, 0].astype(np.int64) * n + pairs[~on_node, 1]  # int32 ids: a * N in int64
+        edge_codes = edges[:, 0].astype(np.int64) * n + edges[:, 1]
         idx = np.searchsorted(edge_codes, codes)
         if codes.size and not np.array_equal(edge_codes[np.minimum(idx, edge_codes.size - 1)], codes):
             raise IsoSurfaceError("a vertex's node pair is not an edge of the volume")  # never: the tests check

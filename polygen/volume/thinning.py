@@ -461,7 +461,6 @@ def thin_volume(vol, field=None, *, prick_voids=True, record=False, n_buckets=No
     if parallel is None:
         parallel = (not record and vol.n_cells >= PARALLEL_MIN_CELLS and (os.cpu_count() or 1) >= 2
                     and parallel_kernels_may_overlap())
-    cells = np.ascontiguousarray(cells, np.int64)
     t0 = time.perf_counter()
     vol.node_cells  # first: face neighbours and edges are matched through it
     face_nb = vol.face_neighbors  # int32 while the cell ids fit; the kernels read it as it is

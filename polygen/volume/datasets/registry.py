@@ -13,6 +13,7 @@ from typing import Callable
 
 import numpy as np
 
+from polygen.volume._cells import index_dtype
 from polygen.volume.datasets._base import CACHE_ENV, FORMAT_VERSION, DatasetError, DatasetInfo, _seed
 from polygen.volume.datasets.fem import _heat_field, _tick
 from polygen.volume.datasets.fields import distance_field, gaussian_field
@@ -248,6 +249,37 @@ def _write_cache(path, points, cells, fields, payload):
         raise
 
 
+_BLOCK_ROWS = 1 << 20  # cells converted per block when a cache file's int64 cells are read as int32
+
+
+def _read_cells(z, n_points):
+    """The ``cells`` of the open cache file ``z`` in the volume's index dtype (int32 below 2**31 nodes).
+
+    Caches written before the volume kept int32 cells hold int64 ones; they are read and narrowed a block of
+    rows at a time, so that the full int64 array (32 bytes per tetrahedron, 2.6 GB on 80M) is never held
+    beside the int32 one. Ids outside ``0..n_points-1`` raise ``ValueError`` (the file is then rebuilt).
+    """
+    index = index_dtype(n_points)
+    with z.zip.open("cells.npy") as fh:
+        version = np.lib.format.read_magic(fh)
+        read_header = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+        shape, fortran, dtype = read_header(fh)
+        if fortran or len(shape) != 2 or dtype.kind not in "iu" or np.can_cast(dtype, index):
+            return np.asarray(z["cells"])  # not int64 (a newer file: the index dtype already), read as it is
+        out = np.empty(shape, index)
+        row = shape[1] * dtype.itemsize
+        for a in range(0, shape[0], _BLOCK_ROWS):
+            b = min(shape[0], a + _BLOCK_ROWS)
+            data = fh.read((b - a) * row)
+            if len(data) != (b - a) * row:
+                raise ValueError("truncated cells")
+            block = np.frombuffer(data, dtype).reshape(b - a, shape[1])
+            if block.size and (block.min() < 0 or block.max() >= n_points):
+                raise ValueError("node ids out of range")
+            out[a:b] = block
+        return out
+
+
 def _read_cache(path, payload):
     try:
         with np.load(path, allow_pickle=False) as z:
@@ -255,7 +287,8 @@ def _read_cache(path, payload):
                 return None
             names_ = [str(s) for s in z["field_names"]]
             fields = {n: z[f"field_{i}"] for i, n in enumerate(names_)}
-            return z["points"], z["cells"], fields
+            points = z["points"]
+            return points, _read_cells(z, points.shape[0]), fields
     except (OSError, KeyError, ValueError):
         return None  # unreadable or foreign file: rebuild and overwrite
 

@@ -41,6 +41,7 @@ import numpy as np
 from polygen import _jit
 from polygen._jit import njit, prange
 from polygen.volume import registry as _registry
+from polygen.volume._cells import index_dtype
 from polygen.volume.seeds.source import Seeds
 from polygen.volume.surface import volume_arrays
 
@@ -302,8 +303,9 @@ def cell_ranges(cells, scalars):
 
     Parameters
     ----------
-    cells : (M, k) int64
-        Node indices of each cell (k = 4 for tetrahedra, 8 for hexahedra).
+    cells : (M, k) integer
+        Node indices of each cell (k = 4 for tetrahedra, 8 for hexahedra); read as int32 (int64 for
+        2**31 nodes or more).
     scalars : (N,) float64
         Node values; must be finite.
 
@@ -324,12 +326,13 @@ def cell_ranges(cells, scalars):
         raise IntervalError(f"cells must hold integer node indices; got dtype {cells.dtype}")
     if s.ndim != 1:
         raise IntervalError(f"scalars must be a 1-D (N,) array; got shape {s.shape}")
-    cells = np.ascontiguousarray(cells, dtype=np.int64)
-    bad = np.flatnonzero(((cells < 0) | (cells >= s.size)).any(axis=1))
-    if bad.size:
+    if cells.size and (cells.min() < 0 or cells.max() >= s.size):
+        bad = np.flatnonzero(((cells < 0) | (cells >= s.size)).any(axis=1))
         raise IntervalError(
             f"{bad.size} cell(s) refer to nodes outside [0, {s.size}): cells {_examples(bad)}"
         )
+    # checked before narrowing; a volume's cells pass through uncopied
+    cells = np.ascontiguousarray(cells, dtype=index_dtype(s.size))
     bad = np.flatnonzero(~np.isfinite(s))
     if bad.size:
         raise IntervalError(f"scalars must be finite; {bad.size} node(s) are not: nodes {_examples(bad)}")
