@@ -196,23 +196,42 @@ def paired_part(names, image, solve, log):
 EXACT_DM = [1.6, 1.1, 0.75, 0.5]
 EXACT_UNIFORM = {"two_rectangles_room": [1.6, 1.1, 0.75], "chair_scene": [1.6, 1.1, 0.75],
                  "sphere_scene": [1.6, 0.75]}
-#: the exact reference's floor and occluder size where the default (SETUPS' ``fine``) left its own
-#: penumbra error above a third of the smallest error compared: on the room the reflected part's
-#: D/3 was 0.0044 against the DM's 0.0049 (halving the size quarters an O(h^2) error)
+#: the exact reference's size on the occluders and the polygons that receive a penumbra, where the
+#: default (SETUPS' ``fine``) left its own penumbra error above a third of the smallest error compared.
+#: On the room, D (its reflected part against one twice as coarse, 80^2 image, tol 0.01, ambient,
+#: 2 x 2 rays) was 0.0131 with the floor and occluders at 0.6 and the walls at 1.4: set by the walls'
+#: size (walls alone 1.4 -> 2.8: 0.0137; floor alone 0.6 -> 1.2: 0.0052), not by the solve (tol 0.001:
+#: 0.0135; no ambient term: 0.0134; 4 x 4 rays: 0.0129), as 540 of its 2165 penumbra pixels lie on the
+#: walls x0 and z0 (displayed at the walls' size) and the floor's reflected light comes from the walls.
+#: With every penumbra receiver fine (``_exact_reference_sizes``), D = 0.0060 at 0.6, above the DM's
+#: 0.0042; hence 0.3
 EXACT_FINE = {"two_rectangles_room": 0.3}
 
 
-def exact_reference(name, sc, cam, solve, log, *, fine, rest, samples=8):
+def _exact_reference_sizes(sc, sd, fine, rest):
+    # fine on every room polygon that receives a penumbra (the DM's complexes) and on the occluders,
+    # the rest coarser. On the chair and the sphere only the floor receives one (the sizes of
+    # _reference_sizes); on the room the left and back walls do too (483 and 57 of the 2165 penumbra
+    # pixels), which at the walls' size 1.4 against 2.8 made half of D there
+    from polygen.discontinuity import PENUMBRA
+
+    pen = {k for k, cx in sd.complexes.items() if np.any(cx.face_states() == PENUMBRA)}
+    return [fine if (k in pen or not p.name.startswith("room")) else rest for k, p in enumerate(sc.polygons)]
+
+
+def exact_reference(name, sc, cam, solve, log, *, fine, rest, samples=8, sd=None):
     """The reference image with each area light's direct part exact at every pixel's surface point
     (:func:`polygen.discontinuity.node_values.exact_direct_image`), and the rest (reflected light,
-    ambient) Gouraud-interpolated by (2.8) from a fine solve (floor and occluders ``fine``, walls
-    ``rest``).
+    ambient) Gouraud-interpolated by (2.8) from a fine solve (``fine`` on the occluders and on every
+    polygon that receives a penumbra in ``sd``, the simplified DM of ``sc``; walls ``rest``).
 
     Returns ``(image, indirect image, fine mesh elements)``."""
     from polygen.discontinuity.node_values import exact_direct_image
 
     t0 = time.perf_counter()
-    rm = mesh_scene(sc, _reference_sizes(sc, fine, rest), element_levels=1)
+    if sd is None:
+        sd = simplified_discontinuity(sc)
+    rm = mesh_scene(sc, _exact_reference_sizes(sc, sd, fine, rest), element_levels=1)
     img, rest_img = exact_direct_image(rm, progressive_refinement(rm, **solve), cam, samples=samples,
                                        visibility_samples=solve["visibility_samples"])
     log(f"{name}: exact reference ({fine}/{rest}, {rm.n_elements} elements) {time.perf_counter() - t0:.0f} s")
@@ -234,12 +253,14 @@ def exact_part(name, image, solve, log):
     packed = pack_polygons(sc.polygons)
     old_ref, _ = _reference(name, cfg, sc, cam, image, solve, log)
     fine = EXACT_FINE.get(name, cfg["fine"])
-    ref, ref_rest, n_ref = exact_reference(name, sc, cam, solve, log, fine=fine, rest=cfg["rest"])
+    sd = simplified_discontinuity(sc)
+    ref, ref_rest, n_ref = exact_reference(name, sc, cam, solve, log, fine=fine, rest=cfg["rest"], sd=sd)
     # the reference's own error: its direct part is exact; its reflected part against one from a mesh
     # twice as coarse (for an O(h^2) interpolation the fine one's error is about a third of that)
-    _, coarse_rest, _ = exact_reference(name, sc, cam, solve, log, fine=2 * fine, rest=2 * cfg["rest"])
-    sd = simplified_discontinuity(sc)
-    out = dict(solve=dict(solve), reference_elements=n_ref, fine=fine, rest=cfg["rest"], rows=[], machine=machine())
+    _, coarse_rest, _ = exact_reference(name, sc, cam, solve, log, fine=2 * fine, rest=2 * cfg["rest"], sd=sd)
+    out = dict(solve=dict(solve), reference_elements=n_ref, fine=fine, rest=cfg["rest"], rows=[], machine=machine(),
+               fine_polygons=[p.name for p, h in zip(sc.polygons, _exact_reference_sizes(sc, sd, fine, cfg["rest"]))
+                              if h == fine])
     mask = None
     for F in EXACT_DM:
         m = discontinuity_mesh(sc, patch_size=cfg["coarse"], penumbra_patch_size=F, element_levels=1,
@@ -829,7 +850,8 @@ def _markdown(out):
                   "penumbra error is its error against the exact one.", ""]
         for name, e in out["exact"].items():
             lines += [f"### {name}", "",
-                      f"Reference: {e['reference_elements']} elements ({e['fine']}/{e['rest']}); old reference "
+                      f"Reference: {e['reference_elements']} elements ({e['fine']} on "
+                      f"{', '.join(e.get('fine_polygons', ['the floor', 'the occluders']))}; {e['rest']} elsewhere); old reference "
                       f"against it: penumbra {e['old_reference_vs_exact']['error_penumbra']:.4f}, rest "
                       f"{e['old_reference_vs_exact']['error_rest']:.4f}; reflected part against the 2x "
                       f"coarse one D = {e['reference_rest_vs_coarse']['error_penumbra']:.4f}.", "",
