@@ -607,8 +607,8 @@ for name, rows in paired.items():
 # %% [markdown]
 # Measured (also in `benchmarks/results/discontinuity.md`; solves to 1 % unshot): on the room the
 # DM meshes have 51 %, 34 % and 23 % of the uniform meshes' elements at F = 1.6, 1.1, 0.75
-# (Table 3.1's N_e1 < N_e2 holds), but 2.5×, 4.0× and 7.5× their image error; on the chair 112 %,
-# 59 % and 31 % of the elements (the line network alone outweighs the uniform mesh at F = 1.6) for
+# (Table 3.1's N_e1 < N_e2 holds), but 2.5×, 4.0× and 7.5× their image error; on the chair 124 %,
+# 65 % and 33 % of the elements (the line network alone outweighs the uniform mesh at F = 1.6) for
 # 1.1×, 1.8× and 4.3× the error. The reason is where the error lies: 94–97 % of the room
 # DM's squared error, and ~95 % of the chair's, is in pixels outside the penumbra regions, on
 # surfaces 3.3.6 leaves at the coarse size by design — on the room's difference image most of it
@@ -634,8 +634,8 @@ for name, rows in paired.items():
 # part carries every scene's simplified curve to coarse sizes 4.36 and 5.75 (the uniform curve's
 # own step 3.3/2.5, penumbra 1.6; fixed before measuring). The meshes hardly shrink — the lines
 # and the regions they bound keep their elements: sphere 1896 and 1768 elements (errors 0.0435,
-# 0.0652), room 968 and 864, chair 2872 and 2728 — and the ratios become 0.99, 0.92, 0.74 on the
-# sphere, 1.57 / not reached / not reached on the room, 2.99, 2.48, 1.43 on the chair (the table
+# 0.0652), room 968 and 864, chair 3192 and 3048 — and the ratios become 0.99, 0.92, 0.74 on the
+# sphere, 1.57 / not reached / not reached on the room, 3.33, 2.75, 1.57 on the chair (the table
 # printed above and in `discontinuity.md`). Adaptive subdivision reaches
 # 0.0268 with 2403 elements. Paired at the same F (the table above, C = 3.3): the sphere's DM has
 # 0.61 of the uniform mesh's elements at F = 1.6 with 0.90 of its error (2160 against 3552
