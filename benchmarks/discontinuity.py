@@ -852,9 +852,10 @@ def _markdown(out):
                   "penumbra pixels (so about D/3 for an O(h^2) interpolation); the old reference's own "
                   "penumbra error is its error against the exact one.", ""]
         for name, e in out["exact"].items():
+            fine_on = ", ".join(e.get("fine_polygons", ["the floor", "the occluders"]))
             lines += [f"### {name}", "",
-                      f"Reference: {e['reference_elements']} elements ({e['fine']} on "
-                      f"{', '.join(e.get('fine_polygons', ['the floor', 'the occluders']))}; {e['rest']} elsewhere); old reference "
+                      f"Reference: {e['reference_elements']} elements ({e['fine']} on {fine_on}; {e['rest']} "
+                      "elsewhere); old reference "
                       f"against it: penumbra {e['old_reference_vs_exact']['error_penumbra']:.4f}, rest "
                       f"{e['old_reference_vs_exact']['error_rest']:.4f}; reflected part against the 2x "
                       f"coarse one D = {e['reference_rest_vs_coarse']['error_penumbra']:.4f}"
