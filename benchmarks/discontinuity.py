@@ -196,23 +196,42 @@ def paired_part(names, image, solve, log):
 EXACT_DM = [1.6, 1.1, 0.75, 0.5]
 EXACT_UNIFORM = {"two_rectangles_room": [1.6, 1.1, 0.75], "chair_scene": [1.6, 1.1, 0.75],
                  "sphere_scene": [1.6, 0.75]}
-#: the exact reference's floor and occluder size where the default (SETUPS' ``fine``) left its own
-#: penumbra error above a third of the smallest error compared: on the room the reflected part's
-#: D/3 was 0.0044 against the DM's 0.0049 (halving the size quarters an O(h^2) error)
+#: the exact reference's size on the occluders and the polygons that receive a penumbra, where the
+#: default (SETUPS' ``fine``) left its own penumbra error above a third of the smallest error compared.
+#: On the room, D (its reflected part against one twice as coarse, 80^2 image, tol 0.01, ambient,
+#: 2 x 2 rays) was 0.0131 with the floor and occluders at 0.6 and the walls at 1.4: set by the walls'
+#: size (walls alone 1.4 -> 2.8: 0.0137; floor alone 0.6 -> 1.2: 0.0052), not by the solve (tol 0.001:
+#: 0.0135; no ambient term: 0.0134; 4 x 4 rays: 0.0129), as 540 of its 2165 penumbra pixels lie on the
+#: walls x0 and z0 (displayed at the walls' size) and the floor's reflected light comes from the walls.
+#: With every penumbra receiver fine (``_exact_reference_sizes``), D = 0.0060 at 0.6, above the DM's
+#: 0.0042; hence 0.3
 EXACT_FINE = {"two_rectangles_room": 0.3}
 
 
-def exact_reference(name, sc, cam, solve, log, *, fine, rest, samples=8):
+def _exact_reference_sizes(sc, sd, fine, rest):
+    # fine on every room polygon that receives a penumbra (the DM's complexes) and on the occluders,
+    # the rest coarser. On the chair and the sphere only the floor receives one (the sizes of
+    # _reference_sizes); on the room the left and back walls do too (483 and 57 of the 2165 penumbra
+    # pixels), which at the walls' size 1.4 against 2.8 made half of D there
+    from polygen.discontinuity import PENUMBRA
+
+    pen = {k for k, cx in sd.complexes.items() if np.any(cx.face_states() == PENUMBRA)}
+    return [fine if (k in pen or not p.name.startswith("room")) else rest for k, p in enumerate(sc.polygons)]
+
+
+def exact_reference(name, sc, cam, solve, log, *, fine, rest, samples=8, sd=None):
     """The reference image with each area light's direct part exact at every pixel's surface point
     (:func:`polygen.discontinuity.node_values.exact_direct_image`), and the rest (reflected light,
-    ambient) Gouraud-interpolated by (2.8) from a fine solve (floor and occluders ``fine``, walls
-    ``rest``).
+    ambient) Gouraud-interpolated by (2.8) from a fine solve (``fine`` on the occluders and on every
+    polygon that receives a penumbra in ``sd``, the simplified DM of ``sc``; walls ``rest``).
 
     Returns ``(image, indirect image, fine mesh elements)``."""
     from polygen.discontinuity.node_values import exact_direct_image
 
     t0 = time.perf_counter()
-    rm = mesh_scene(sc, _reference_sizes(sc, fine, rest), element_levels=1)
+    if sd is None:
+        sd = simplified_discontinuity(sc)
+    rm = mesh_scene(sc, _exact_reference_sizes(sc, sd, fine, rest), element_levels=1)
     img, rest_img = exact_direct_image(rm, progressive_refinement(rm, **solve), cam, samples=samples,
                                        visibility_samples=solve["visibility_samples"])
     log(f"{name}: exact reference ({fine}/{rest}, {rm.n_elements} elements) {time.perf_counter() - t0:.0f} s")
@@ -234,12 +253,14 @@ def exact_part(name, image, solve, log):
     packed = pack_polygons(sc.polygons)
     old_ref, _ = _reference(name, cfg, sc, cam, image, solve, log)
     fine = EXACT_FINE.get(name, cfg["fine"])
-    ref, ref_rest, n_ref = exact_reference(name, sc, cam, solve, log, fine=fine, rest=cfg["rest"])
+    sd = simplified_discontinuity(sc)
+    ref, ref_rest, n_ref = exact_reference(name, sc, cam, solve, log, fine=fine, rest=cfg["rest"], sd=sd)
     # the reference's own error: its direct part is exact; its reflected part against one from a mesh
     # twice as coarse (for an O(h^2) interpolation the fine one's error is about a third of that)
-    _, coarse_rest, _ = exact_reference(name, sc, cam, solve, log, fine=2 * fine, rest=2 * cfg["rest"])
-    sd = simplified_discontinuity(sc)
-    out = dict(solve=dict(solve), reference_elements=n_ref, fine=fine, rest=cfg["rest"], rows=[], machine=machine())
+    _, coarse_rest, _ = exact_reference(name, sc, cam, solve, log, fine=2 * fine, rest=2 * cfg["rest"], sd=sd)
+    out = dict(solve=dict(solve), reference_elements=n_ref, fine=fine, rest=cfg["rest"], rows=[], machine=machine(),
+               fine_polygons=[p.name for p, h in zip(sc.polygons, _exact_reference_sizes(sc, sd, fine, cfg["rest"]))
+                              if h == fine])
     mask = None
     for F in EXACT_DM:
         m = discontinuity_mesh(sc, patch_size=cfg["coarse"], penumbra_patch_size=F, element_levels=1,
@@ -250,6 +271,9 @@ def exact_part(name, image, solve, log):
             mask = shade(m, ind, cam, shading="flat")[..., 0] > 0.5
             out["old_reference_vs_exact"] = _split_error(old_ref, ref, mask)
             out["reference_rest_vs_coarse"] = _split_error(ref_rest, coarse_rest, mask)
+            # the same difference relative to the reference image's RMS, as every error compared: the
+            # reference against itself with the 2x coarse solve's reflected part
+            out["reference_vs_coarse_rest"] = _split_error(ref - ref_rest + coarse_rest, ref, mask)
             log(f"  old reference against the exact one: penumbra {out['old_reference_vs_exact']['error_penumbra']:.4f}; "
                 f"reflected part fine vs 2x coarse: penumbra {out['reference_rest_vs_coarse']['error_penumbra']:.4f}")
         row = dict(fine=F, coarse=cfg["coarse"], dm_elements=m.n_elements)
@@ -828,11 +852,15 @@ def _markdown(out):
                   "penumbra pixels (so about D/3 for an O(h^2) interpolation); the old reference's own "
                   "penumbra error is its error against the exact one.", ""]
         for name, e in out["exact"].items():
+            fine_on = ", ".join(e.get("fine_polygons", ["the floor", "the occluders"]))
             lines += [f"### {name}", "",
-                      f"Reference: {e['reference_elements']} elements ({e['fine']}/{e['rest']}); old reference "
+                      f"Reference: {e['reference_elements']} elements ({e['fine']} on {fine_on}; {e['rest']} "
+                      "elsewhere); old reference "
                       f"against it: penumbra {e['old_reference_vs_exact']['error_penumbra']:.4f}, rest "
                       f"{e['old_reference_vs_exact']['error_rest']:.4f}; reflected part against the 2x "
-                      f"coarse one D = {e['reference_rest_vs_coarse']['error_penumbra']:.4f}.", "",
+                      f"coarse one D = {e['reference_rest_vs_coarse']['error_penumbra']:.4f}"
+                      + (f" ({e['reference_vs_coarse_rest']['error_penumbra']:.4f} relative to the image's RMS, "
+                         "as the errors compared)" if "reference_vs_coarse_rest" in e else "") + ".", "",
                       "| F | DM elements | DM mean | DM node | uniform elements | uniform mean | uniform node |",
                       "|---|---|---|---|---|---|---|"]
             for r in e["rows"]:
@@ -849,6 +877,14 @@ def _markdown(out):
 
             def pen(e, i, k):
                 return e["rows"][i][k]["error_penumbra"]
+
+            def own(e):
+                return e["reference_rest_vs_coarse"]["error_penumbra"]
+
+            def smallest(e):
+                return min(r[k]["error_penumbra"] for r in e["rows"] for k in ("dm_node", "uniform_mean",
+                                                                                 "uniform_node") if k in r)
+            scn = (("chair", c), ("sphere", sp), ("room", rm))
             lines += [
                 "**Diagnosis.** (1) *The reference's own penumbra error* explains the reversed "
                 "comparison: the old reference (a uniform 0.6 mesh displayed by (2.8)) is off by "
@@ -880,14 +916,25 @@ def _markdown(out):
                 "table below) splitting the elements across the band makes it fall about fourfold per level "
                 "while F does not move it: the error left is across the band. (5) *The mask* is the DM mesh's penumbra elements for every image alike. "
                 "The reference's own error: its direct part is exact; its reflected part differs from one "
-                f"solved twice as coarse by D = {c['reference_rest_vs_coarse']['error_penumbra']:.4f} (chair), "
-                f"{sp['reference_rest_vs_coarse']['error_penumbra']:.4f} (sphere), "
-                f"{rm['reference_rest_vs_coarse']['error_penumbra']:.4f} (room), about D/3 for its own "
-                "error: below a third of the smallest error compared on chair and sphere, not on the room "
-                "(the DM's 0.004-0.005 there is at the reference's resolution). Refining the room's reference "
-                "on the floor and the occluders from 0.6 to 0.3 (`EXACT_FINE`) did not lower D (0.0131 "
-                "against the 1.2 one before, 0.0143 against the 0.6 one now): the difference between the "
-                "two solves' reflected parts is not set by their mesh size.", ""]
+                f"solved twice as coarse by D = {own(c):.4f} (chair), {own(sp):.4f} (sphere), {own(rm):.4f} "
+                f"(room), about D/3 for its own error. D/3 is at most a third of the smallest error compared "
+                f"({smallest(c):.4f}, {smallest(sp):.4f}, {smallest(rm):.4f}) on "
+                + (", ".join(k for k, e in scn if own(e) <= smallest(e)) or "none") + "; above it on "
+                + (", ".join(k for k, e in scn if own(e) > smallest(e)) or "none") + ". D is relative to the "
+                "reflected part's RMS over all pixels, the errors compared to the whole image's: on the room the "
+                "reflected part's RMS is 0.39 of the image's (on the 0.6/2.8 solve), so its D in the units of the "
+                f"errors compared is {0.388 * own(rm):.4f}. "
+                "On the room D had been set by the walls, not by the solve. One factor at a time (80^2 image, "
+                "floor and occluders 0.6, walls 1.4, against 1.2/2.8): D = 0.0131 as stored before; solved to "
+                "0.1 % unshot 0.0135, without the ambient term 0.0134, with 4 x 4 rays 0.0129; the walls alone "
+                "1.4 against 2.8 0.0137, the floor alone 0.6 against 1.2 0.0052. 540 of the room's 2165 penumbra "
+                "pixels lie on the walls x0 and z0 (0.48 of the squared difference), which the reference had left "
+                "at the walls' 1.4, so refining the floor and the occluders to 0.3 had left D at 0.0143. The "
+                "reference is now fine on every polygon that receives a penumbra (`_exact_reference_sizes`; on "
+                "chair and sphere only the floor does, their sizes unchanged): D = 0.0060 at 0.6 (9800 elements), "
+                f"{own(rm):.4f} at {rm['fine']:g} ({rm['reference_elements']} elements). With the receivers at "
+                "0.6, the other walls alone (1.4 against 2.8) differ by 0.0037 and the receivers alone (0.6 "
+                "against 1.2) by 0.0059.", ""]
     if out.get("across"):
         lines += ["### Where the DM's remaining penumbra error lies (direct light only)", "",
                   "Direct light only, exact at every pixel and at the DM mesh's nodes, over the same penumbra "

@@ -607,8 +607,8 @@ for name, rows in paired.items():
 # %% [markdown]
 # Measured (also in `benchmarks/results/discontinuity.md`; solves to 1 % unshot): on the room the
 # DM meshes have 51 %, 34 % and 23 % of the uniform meshes' elements at F = 1.6, 1.1, 0.75
-# (Table 3.1's N_e1 < N_e2 holds), but 2.5×, 4.0× and 7.5× their image error; on the chair 112 %,
-# 59 % and 31 % of the elements (the line network alone outweighs the uniform mesh at F = 1.6) for
+# (Table 3.1's N_e1 < N_e2 holds), but 2.5×, 4.0× and 7.5× their image error; on the chair 124 %,
+# 65 % and 33 % of the elements (the line network alone outweighs the uniform mesh at F = 1.6) for
 # 1.1×, 1.8× and 4.3× the error. The reason is where the error lies: 94–97 % of the room
 # DM's squared error, and ~95 % of the chair's, is in pixels outside the penumbra regions, on
 # surfaces 3.3.6 leaves at the coarse size by design — on the room's difference image most of it
@@ -634,8 +634,8 @@ for name, rows in paired.items():
 # part carries every scene's simplified curve to coarse sizes 4.36 and 5.75 (the uniform curve's
 # own step 3.3/2.5, penumbra 1.6; fixed before measuring). The meshes hardly shrink — the lines
 # and the regions they bound keep their elements: sphere 1896 and 1768 elements (errors 0.0435,
-# 0.0652), room 968 and 864, chair 2872 and 2728 — and the ratios become 0.99, 0.92, 0.74 on the
-# sphere, 1.57 / not reached / not reached on the room, 2.99, 2.48, 1.43 on the chair (the table
+# 0.0652), room 968 and 864, chair 3192 and 3048 — and the ratios become 0.99, 0.92, 0.74 on the
+# sphere, 1.57 / not reached / not reached on the room, 3.33, 2.75, 1.57 on the chair (the table
 # printed above and in `discontinuity.md`). Adaptive subdivision reaches
 # 0.0268 with 2403 elements. Paired at the same F (the table above, C = 3.3): the sphere's DM has
 # 0.61 of the uniform mesh's elements at F = 1.6 with 0.90 of its error (2160 against 3552
@@ -691,7 +691,7 @@ for name, rows in paired.items():
 #    for F = 1.6, 1.1, 0.75, 0.5; sphere 0.062 → 0.059). The fix evaluates each area light's
 #    direct part at the node itself (`node_radiosity`; exact over the light's visible part where
 #    rays find it partly hidden), keeping (2.8) for the reflected light: chair 0.024, 0.021,
-#    0.025, 0.020; sphere 0.031, 0.031, 0.031, 0.031; room 0.0082, 0.0051, 0.0053, 0.0042.
+#    0.025, 0.020; sphere 0.031, 0.031, 0.031, 0.031; room 0.0080, 0.0050, 0.0051, 0.0036.
 # 3. **Visibility samples per element**: not it — 4 × 4 or 8 × 8 rays moved the DM's penumbra
 #    error by < 0.003 (above), and the node values use the visible part exactly.
 # 4. **Slivers, the coarse umbra and bright elements next to the penumbra**: the coarse elements
@@ -703,8 +703,8 @@ for name, rows in paired.items():
 # So the DM mesh interpolates the shadow better than the uniform mesh at every pairing on the
 # three scenes, by 4–6× on the small-light scenes, once the reference is right and the line's
 # nodes carry their own direct light. **Not shown**: that its error falls at every step of F.
-# On the room it falls from 1.6 to 1.1 (0.0082 → 0.0051), not from 1.1 to 0.75 (0.0053), and
-# again to 0.5 (0.0042), at the room reference's own resolution (below); on the chair and the
+# On the room it falls from 1.6 to 1.1 (0.0080 → 0.0050), not from 1.1 to 0.75 (0.0051, a step
+# smaller than the room reference's own error, below), and again to 0.5 (0.0036); on the chair and the
 # sphere it is flat at 0.020–0.025 and 0.031. Measured reason: F does not change the mesh across those narrow bands (item 4), so
 # what is left is across them. In direct light alone, exact at the pixels and at the DM mesh's
 # nodes (benchmark part `across`, chair at F = 1.6), the penumbra error is 0.043 with the
@@ -712,12 +712,18 @@ for name, rows in paired.items():
 # 1.6 leaves it at 0.045: the thesis's F, an edge length, does not control the accuracy of a
 # penumbra narrower than F; an element size across the band would. The reference's own error: its direct part is exact; its reflected part
 # differs from one solved on a mesh twice as coarse by D = 0.0079 (chair), 0.0030 (sphere),
-# 0.0143 (room) over the penumbra pixels, so about D/3: 0.0026, 0.0010 and 0.0048 — at most a
-# third of the smallest error compared on the chair and the sphere, not on the room (0.0042/3).
-# The room's reference was refined for this (floor and occluders 0.3 instead of 0.6, 15,656
-# elements): D did not fall (0.0131 before, against a 1.2 mesh; 0.0143 now, against 0.6), so the
-# difference between two solves' reflected parts is not set by their mesh size but by the solve
-# (to 1 % unshot, the rest as an ambient term), and a finer mesh does not reach the third.
+# 0.0046 (room) over the penumbra pixels, so about D/3: 0.0026, 0.0010 and 0.0015 — at most a
+# third of the smallest error compared on the chair and the sphere, not on the room (0.0036/3 =
+# 0.0012). On the room D had been set by the walls, not by the solve: one factor at a time
+# (floor and occluders 0.6, walls 1.4, against 1.2/2.8; D = 0.0131), a solve to 0.1 % unshot
+# gave 0.0135, no ambient term 0.0134, 4 × 4 rays 0.0129, while the walls alone (1.4 against 2.8)
+# gave 0.0137 and the floor alone (0.6 against 1.2) 0.0052: 540 of the room's 2165 penumbra pixels
+# lie on the walls x0 and z0, which the reference had left at the walls' size, so refining only
+# the floor and the occluders to 0.3 had left D at 0.0143. The reference is now fine on every
+# polygon that receives a penumbra (0.3 on the room: 35,208 elements): D = 0.0046. D is relative
+# to the reflected part's RMS, the errors compared to the whole image's; on the room the
+# reflected part's RMS is 0.39 of the image's, so in the errors' units D is 0.0018 and D/3
+# 0.0006, within the third; in D's own units it is not, and `REF_OK` below keeps D's units.
 #
 # The table: penumbra-pixel error against the exact-direct reference (old reference in
 # parentheses), `mean` node values by (2.8), `node` with each area light's direct part at the
