@@ -9,7 +9,7 @@ Run ``python benchmarks/discontinuity.py`` from the repository root; writes
   discontinuity meshing (all EV/VE segments) and simplified discontinuity
   meshing, the two DM curves at one coarse size with a decreasing penumbra
   size (``--parts scaled``: both sizes scaled together, the penumbra size a
-  third of the coarse one, at each uniform size); and the issue's claim:
+  third of the coarse one, at each uniform size); and a claim of ours:
   the simplified method reaches the uniform mesh's error with <= 60 % of
   its elements (reported, not tuned);
 * **coarser** -- the simplified curve carried to coarser sizes (:data:`COARSER`), so that the

@@ -198,7 +198,7 @@ def main(argv=None):
     ap.add_argument("--nodes", type=int, default=10_000, help="target node count of the uniform bubble mesh")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--out", default=str(Path(__file__).parent / "results"))
-    ap.add_argument("--graded-only", action="store_true", help="only the issue-15 tables (mesh2d_graded)")
+    ap.add_argument("--graded-only", action="store_true", help="only the graded-size tables (mesh2d_graded)")
     args = ap.parse_args(argv)
     if args.graded_only:
         graded_main()

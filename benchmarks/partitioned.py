@@ -7,7 +7,7 @@ construction from the thinning skeleton) on every partition; twenty values
 ``linspace(min, max, 22)[1:-1]``, mean normals:
 
 * **single**: the method prepared on the whole volume here, the twenty
-  values by ``extract_many`` (the issue's yardstick) and one by one;
+  values by ``extract_many`` (the yardstick) and one by one;
 * **k partitions**: splitting here, preparation on the workers (wall clock,
   and each partition's own time), the twenty values by one
   ``extract_many`` call in each of two modes -- **stitched on the client**

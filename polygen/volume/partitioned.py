@@ -111,11 +111,11 @@ def auto_partitions(n_cells, workers=None):
     normals, and each partition's seam cells tested again -- about half a
     millisecond on two partitions of one machine (each call's round trip
     ~0.1 ms). The active scan does about 2 ms of one thread's work per
-    million cells and query (the issue's 2M measurement: 44 ms for 20
+    million cells and query (measured on 2M, quiet: 44 ms for 20
     values on 2 threads, 1.96 M cells), so a partition of fewer than a
     million cells would spend a quarter of its query or more on that fixed
     price; workers on other machines gain their cores only when each has
-    such a partition to work on. data4 (557,868 cells) is not split.
+    such a partition to work on. data4 (560,860 cells) is not split.
     """
     if isinstance(n_cells, bool) or not isinstance(n_cells, (int, np.integer)) or n_cells < 1:
         raise PartitionError(f"n_cells must be a positive integer; got {n_cells!r}")
