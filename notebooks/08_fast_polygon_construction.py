@@ -39,9 +39,7 @@
 # | **no search** | (c) `walk`: the paper's new method (`edge-centred`) | (d) `table`: edge-centred with an edge table and edge → cells index (`edge-centred-table`) |
 
 # %%
-import json
-import os
-import time
+import json, os, time  # noqa: E401
 from pathlib import Path
 
 FULL = os.environ.get("POLYGEN_FULL") == "1"   # the paper's four volumes for Table 2 when set
@@ -58,7 +56,6 @@ from polygen.volume.constructions import construction_memory, edge_keyed, prepar
 from polygen.volume.seeds.source import seed_source
 from polygen.volume.edge_centred import EdgeCentredWalk
 from polygen.volume.isosurface import extract, same_surface
-
 import numba
 
 pv = plotting.setup_notebook()
