@@ -152,3 +152,21 @@ def test_duplicate_check_against_a_dictionary(name):
         assert n == count
         np.testing.assert_array_equal(got, np.array(pairs[:limit], np.int64).reshape(-1, 2))
     assert _k.find_duplicate_cells(np.ascontiguousarray(vol.cells))[0] == 0
+
+
+@pytest.mark.parametrize("width", [4, 8])
+def test_duplicate_check_with_a_node_in_very_many_cells(width):
+    # one node in every cell (a fan): its group holds them all, past the pairwise comparison's size, and is
+    # sorted by hash instead; repeats in other node orders, spread through, against the dictionary
+    rng = np.random.default_rng(11)
+    rest = np.array([rng.choice(np.arange(1, 60), width - 1, replace=False) for _ in range(400)])
+    cells = np.concatenate([np.zeros((400, 1), np.int64), rest], axis=1)
+    picks = rng.choice(400, 30, replace=False)
+    copies = cells[picks][:, rng.permutation(width)]
+    cells = np.ascontiguousarray(np.insert(cells, np.sort(rng.choice(400, 30)), copies, axis=0), np.int32)
+    count, pairs = brute_duplicates(cells)
+    assert count >= 30
+    for limit in (5, 100):
+        n, got = _k.find_duplicate_cells(cells, limit=limit)
+        assert n == count
+        np.testing.assert_array_equal(got, np.array(pairs[:limit], np.int64).reshape(-1, 2))

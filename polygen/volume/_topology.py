@@ -242,18 +242,17 @@ def tet_cells_clearly_valid(points, cells, rtol, used):
     return bad
 
 
-@njit(parallel=True)
-def _cell_hashes(cells, out):
-    """``out[c]``: a hash of cell ``c``'s node set, the same in any node order (a sum of mixed ids)."""
-    for c in prange(cells.shape[0]):
-        h = np.uint64(0)
-        for k in range(cells.shape[1]):
-            x = np.uint64(cells[c, k]) * np.uint64(0x9E3779B97F4A7C15)
-            x ^= x >> np.uint64(29)
-            x *= np.uint64(0xBF58476D1CE4E5B9)
-            x ^= x >> np.uint64(32)
-            h += x
-        out[c] = h
+@njit
+def _cell_hash(cells, c):
+    """A hash of cell ``c``'s node set, the same in any node order (a sum of mixed ids)."""
+    h = np.uint64(0)
+    for k in range(cells.shape[1]):
+        x = np.uint64(cells[c, k]) * np.uint64(0x9E3779B97F4A7C15)
+        x ^= x >> np.uint64(29)
+        x *= np.uint64(0xBF58476D1CE4E5B9)
+        x ^= x >> np.uint64(32)
+        h += x
+    return h
 
 
 @njit
@@ -269,47 +268,114 @@ def _same_nodes(cells, a, b):
     return True
 
 
-@njit
-def duplicate_cells(cells, hashes, slots, out):
-    """Pairs ``(earlier, later)`` of cells with the same node set, written to ``out`` (K, 2); their count.
+@njit(parallel=True)
+def _min_nodes(cells, out):
+    """``out[c]``: the smallest node id of cell ``c``."""
+    for c in prange(cells.shape[0]):
+        v = cells[c, 0]
+        for k in range(1, cells.shape[1]):
+            v = min(v, cells[c, k])
+        out[c] = v
 
-    The node ids must be in range and distinct in each cell (checked
-    before). ``hashes`` (M,) from :func:`_cell_hashes`; ``slots`` a
-    power-of-two open-addressing table (more slots than cells) of cell ids
-    + 1, zeroed here. One pass; at most ``out.shape[0]`` pairs are written,
-    the count goes on.
-    """
-    slots[:] = 0
-    mask = slots.shape[0] - 1
+
+@njit
+def _repeats_in_bucket(cells, members, hs):
+    """How many of ``members`` (cell ids, ascending) repeat the node set of an earlier member; ``hs`` their
+    hashes (filled here). Pairs of equal hashes are compared node by node; a large bucket is sorted by hash
+    first, so that a node shared by very many cells costs ``k log k``, not ``k**2``."""
+    k = members.shape[0]
+    for i in range(k):
+        hs[i] = _cell_hash(cells, members[i])
+    count = 0
+    if k <= 64:
+        for i in range(1, k):
+            for j in range(i):
+                if hs[j] == hs[i] and _same_nodes(cells, members[j], members[i]):
+                    count += 1
+                    break
+        return count
+    by_hash = np.argsort(hs[:k], kind="mergesort")  # stable: equal hashes stay in ascending cell order
+    a = 0
+    while a < k:
+        b = a + 1
+        while b < k and hs[by_hash[b]] == hs[by_hash[a]]:
+            b += 1
+        for i in range(a + 1, b):
+            for j in range(a, i):
+                if _same_nodes(cells, members[by_hash[j]], members[by_hash[i]]):
+                    count += 1
+                    break
+        a = b
+    return count
+
+
+@njit(parallel=True)
+def _count_repeats(cells, offsets, order, n_chunks):
+    """The number of cells that repeat the node set of an earlier cell, the cells grouped by smallest node
+    (``offsets``, ``order``: :func:`stable_csr` of their smallest nodes); independent of ``n_chunks``."""
+    nb = offsets.shape[0] - 1
+    bounds = _chunk_bounds(nb, n_chunks)
+    counts = np.zeros(n_chunks, np.int64)
+    for t in prange(n_chunks):
+        big = 0
+        for b in range(bounds[t], bounds[t + 1]):
+            big = max(big, offsets[b + 1] - offsets[b])
+        hs = np.empty(big, np.uint64)
+        n = 0
+        for b in range(bounds[t], bounds[t + 1]):
+            lo = offsets[b]
+            hi = offsets[b + 1]
+            if hi - lo > 1:
+                n += _repeats_in_bucket(cells, order[lo:hi], hs)
+        counts[t] = n
+    return counts.sum()
+
+
+@njit
+def _repeat_examples(cells, min_node, offsets, order, out):
+    """The first ``out.shape[0]`` pairs ``(earliest, later)`` of cells with the same node set, in the order
+    of the later cell (the serial path that names them, once :func:`_count_repeats` found some)."""
     n = 0
     for c in range(cells.shape[0]):
-        h = hashes[c]
-        i = np.int64(h & np.uint64(mask))
-        while True:
-            s = slots[i]
-            if s == 0:
-                slots[i] = c + 1
+        if n == out.shape[0]:
+            break
+        b = min_node[c]
+        h = _cell_hash(cells, c)
+        for p in range(offsets[b], offsets[b + 1]):
+            e = order[p]
+            if e >= c:
                 break
-            if hashes[s - 1] == h and _same_nodes(cells, s - 1, c):
-                if n < out.shape[0]:
-                    out[n, 0] = s - 1
-                    out[n, 1] = c
+            if _cell_hash(cells, e) == h and _same_nodes(cells, e, c):
+                out[n, 0] = e
+                out[n, 1] = c
                 n += 1
                 break
-            i = (i + 1) & mask
     return n
 
 
-def find_duplicate_cells(cells, limit=5):
+def find_duplicate_cells(cells, limit=5, n_nodes=None):
     """``(count, pairs)``: how many cells repeat the node set of an earlier cell, and up to ``limit``
-    ``(earlier, later)`` pairs of them."""
+    ``(earlier, later)`` pairs of them (``earlier`` the first cell with that node set).
+
+    The node ids must be in range (``0..n_nodes-1``; ``n_nodes`` defaults to
+    the largest id + 1) and distinct in each cell (checked before). A repeated cell has the same smallest node as its original, so the cells
+    are grouped by smallest node (a parallel counting sort: node-local memory
+    reads, where a hash table over all cells reads at random) and compared
+    inside each group; the pairs are named in a second, serial pass only when
+    there are any.
+    """
     m = cells.shape[0]
-    hashes = empty(m, np.uint64)
-    _cell_hashes(cells, hashes)
-    slots = empty(1 << max(4, int(2 * m - 1).bit_length()), np.int32 if m < (1 << 31) - 1 else np.int64)
+    if n_nodes is None:
+        n_nodes = int(cells.max()) + 1 if m else 0
+    index = np.int32 if m < np.iinfo(np.int32).max else np.int64
+    min_node = empty(m, cells.dtype)
+    _min_nodes(cells, min_node)
+    order = empty(m, index)
+    offsets = _stable_csr(min_node, n_nodes, numba.get_num_threads(), order, 1)
+    count = int(_count_repeats(cells, offsets, order, 4 * numba.get_num_threads()))
     out = np.zeros((limit, 2), np.int64)
-    n = duplicate_cells(cells, hashes, slots, out)
-    return n, out[:min(n, limit)]
+    n = _repeat_examples(cells, min_node, offsets, order, out) if count else 0
+    return count, out[:n]
 
 
 @njit(parallel=True)

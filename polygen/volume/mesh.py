@@ -89,9 +89,13 @@ def _nbytes(obj):
 
 
 def _owned(a, dtype):
-    """A C-contiguous ``dtype`` array with the values of ``a`` that shares no memory with it."""
-    out = np.ascontiguousarray(a, dtype=dtype)
-    return out.copy() if np.may_share_memory(out, a) else out
+    """A C-contiguous ``dtype`` array with the values of ``a`` that shares no memory with it.
+
+    A fresh buffer from :func:`polygen._jit.astype`, without numpy's huge-page advice (see
+    ``polygen._jit.HUGE_ADVICE_BYTES``): measured in this project's VM, the first write of 1 GiB took
+    1.5-10 s with the advice, 0.6-0.9 s without, and an 80M-cell volume's copy is 1.3 GB.
+    """
+    return _jit.astype(a, dtype)
 
 
 def _not_a_path(obj, where, what):
@@ -199,7 +203,8 @@ class UnstructuredVolume:
         # tetrahedra, checked in full: one parallel pass decides when every cell is clearly valid (the usual
         # case); otherwise the exact checks below find the bad cells and name them
         # (hexahedra, validate=False, orient=True: the ids in one parallel pass, the geometry if asked below)
-        used = np.zeros(n, np.uint8)  # 1 for the nodes of the cells the pass found clearly valid
+        used = _jit.empty(n, np.uint8)  # 1 for the nodes of the cells the pass found clearly valid
+        used[:] = 0
         fast_geometry = self.cells.shape[1] == 4 and validate and not orient
         if fast_geometry:
             clear = _k.tet_cells_clearly_valid(self.points, self.cells, _DEGENERATE_RTOL, used) == 0
@@ -227,7 +232,7 @@ class UnstructuredVolume:
         self.cells.setflags(write=False)
         if not clear:  # a cell the pass could not call valid passed the exact checks: count its nodes too
             used = np.bincount(self.cells.ravel(), minlength=n)
-        self.unreferenced_nodes = np.flatnonzero(used == 0)
+        self.unreferenced_nodes = np.flatnonzero(np.equal(used, 0, out=_jit.empty(n, bool)))
         if self.unreferenced_nodes.size:
             warnings.warn(
                 f"{self.unreferenced_nodes.size} of {n} nodes are used by no cell, e.g. nodes "
@@ -276,10 +281,10 @@ class UnstructuredVolume:
 
         Two copies of a cell share each of its faces, so an inner face of it
         has three or more cells; even on the boundary every surface through
-        it comes out twice. Always checked (one hash pass over the cells), so
+        it comes out twice. Always checked (cells grouped by smallest node), so
         that every method and the unprepared scan refuse such a volume alike.
         """
-        count, pairs = _k.find_duplicate_cells(self.cells)
+        count, pairs = _k.find_duplicate_cells(self.cells, n_nodes=self.n_points)
         if count:
             a, b = (int(x) for x in pairs[0])
             raise VolumeError(
@@ -335,7 +340,7 @@ class UnstructuredVolume:
             raise VolumeError(f"field {name!r} must have shape ({self.n_points},); got {values.shape}")
         if not np.issubdtype(values.dtype, np.number) or np.issubdtype(values.dtype, np.complexfloating):
             raise VolumeError(f"field {name!r} must be real numbers; got dtype {values.dtype}")
-        values = np.array(values, dtype=np.float64, order="C", copy=True)
+        values = _owned(values, np.float64)
         bad = np.flatnonzero(~np.isfinite(values))
         if bad.size:
             raise VolumeError(f"field {name!r} has {bad.size} NaN or infinite values, e.g. at nodes {_examples(bad)}")
