@@ -1,3 +1,4 @@
+import json
 import os
 
 # Headless rendering: VTK's EGL window needs no X server (set before VTK loads).
@@ -12,7 +13,36 @@ def pytest_addoption(parser):
     parser.addoption("--runslow", action="store_true", default=False, help="run tests marked slow")
 
 
+def pytest_configure(config):
+    # pytest-xdist hands out test files largest-count first; the order below (longest first) is kept instead
+    if hasattr(config.option, "loadscopereorder"):
+        config.option.loadscopereorder = False
+
+
+# Seconds each test file took in the test command on a fresh clone (tests/durations.json: a scheduling
+# hint, not a result; a file not listed counts as the median). With --dist loadfile the workers take whole
+# files in this order, longest first, so that no long file starts last while the other worker idles.
+_DURATIONS = os.path.join(os.path.dirname(__file__), "tests", "durations.json")
+
+
+def _longest_files_first(config, items):
+    try:
+        with open(_DURATIONS) as f:
+            cost = json.load(f)
+    except (OSError, ValueError):
+        return
+    default = sorted(cost.values())[len(cost) // 2] if cost else 0.0
+    root = str(config.rootpath)
+    def file_of(item):
+        return os.path.relpath(str(item.path), root).replace(os.sep, "/")
+    first = {}
+    for i, item in enumerate(items):
+        first.setdefault(file_of(item), i)
+    items.sort(key=lambda item: (-cost.get(file_of(item), default), first[file_of(item)]))
+
+
 def pytest_collection_modifyitems(config, items):
+    _longest_files_first(config, items)
     if config.getoption("--runslow"):
         return
     skip_slow = pytest.mark.skip(reason="slow: run with --runslow")
