@@ -268,41 +268,68 @@ def _same_nodes(cells, a, b):
     return True
 
 
+@njit
+def _smallest_node(cells, c):
+    v = cells[c, 0]
+    for k in range(1, cells.shape[1]):
+        v = min(v, cells[c, k])
+    return v
+
+
 @njit(parallel=True)
-def _min_nodes(cells, out):
-    """``out[c]``: the smallest node id of cell ``c``."""
-    for c in prange(cells.shape[0]):
-        v = cells[c, 0]
-        for k in range(1, cells.shape[1]):
-            v = min(v, cells[c, k])
-        out[c] = v
+def _group_by_smallest_node(cells, n_nodes, n_threads, order, hashes):
+    """The cells grouped by smallest node: ``order`` their ids, ``hashes`` (uint32) their node-set hashes at the same
+    positions; returns the offsets ``(n_nodes + 1,)``. A stable counting sort as :func:`_stable_csr`
+    (slabs of cells, one per thread), the smallest node and the hash computed while the rows are read in
+    order, so that comparing a group reads ``hashes`` in order and a row only where two hashes agree."""
+    m = cells.shape[0]
+    n_slabs = max(1, min(n_threads, 8, m // 65536))
+    sb = _chunk_bounds(m, n_slabs)
+    counts = np.zeros((n_slabs, n_nodes), np.int64)
+    for t in prange(n_slabs):
+        for c in range(sb[t], sb[t + 1]):
+            counts[t, _smallest_node(cells, c)] += 1
+    offsets = np.empty(n_nodes + 1, np.int64)
+    s = np.int64(0)
+    for k in range(n_nodes):
+        offsets[k] = s
+        for u in range(n_slabs):
+            n = counts[u, k]
+            counts[u, k] = s
+            s += n
+    offsets[n_nodes] = s
+    for t in prange(n_slabs):
+        for c in range(sb[t], sb[t + 1]):
+            k = _smallest_node(cells, c)
+            p = counts[t, k]
+            order[p] = c
+            hashes[p] = _cell_hash(cells, c) >> np.uint64(32)  # 32 bits: equal ones are compared anyway
+            counts[t, k] = p + 1
+    return offsets
 
 
 @njit
-def _repeats_in_bucket(cells, members, hs):
-    """How many of ``members`` (cell ids, ascending) repeat the node set of an earlier member; ``hs`` their
-    hashes (filled here). Pairs of equal hashes are compared node by node; a large bucket is sorted by hash
-    first, so that a node shared by very many cells costs ``k log k``, not ``k**2``."""
-    k = members.shape[0]
-    for i in range(k):
-        hs[i] = _cell_hash(cells, members[i])
+def _repeats_in_group(cells, order, hashes, lo, hi):
+    """How many cells of the group ``order[lo:hi]`` (ascending ids) repeat the node set of an earlier one.
+    Equal hashes are compared node by node; a large group is sorted by hash first, so that a node shared
+    by very many cells costs ``k log k``, not ``k**2``."""
     count = 0
-    if k <= 64:
-        for i in range(1, k):
-            for j in range(i):
-                if hs[j] == hs[i] and _same_nodes(cells, members[j], members[i]):
+    if hi - lo <= 64:
+        for i in range(lo + 1, hi):
+            for j in range(lo, i):
+                if hashes[j] == hashes[i] and _same_nodes(cells, order[j], order[i]):
                     count += 1
                     break
         return count
-    by_hash = np.argsort(hs[:k], kind="mergesort")  # stable: equal hashes stay in ascending cell order
+    by_hash = np.argsort(hashes[lo:hi], kind="mergesort") + lo  # stable: equal hashes in ascending cell order
     a = 0
-    while a < k:
+    while a < by_hash.shape[0]:
         b = a + 1
-        while b < k and hs[by_hash[b]] == hs[by_hash[a]]:
+        while b < by_hash.shape[0] and hashes[by_hash[b]] == hashes[by_hash[a]]:
             b += 1
         for i in range(a + 1, b):
             for j in range(a, i):
-                if _same_nodes(cells, members[by_hash[j]], members[by_hash[i]]):
+                if _same_nodes(cells, order[by_hash[j]], order[by_hash[i]]):
                     count += 1
                     break
         a = b
@@ -310,42 +337,35 @@ def _repeats_in_bucket(cells, members, hs):
 
 
 @njit(parallel=True)
-def _count_repeats(cells, offsets, order, n_chunks):
-    """The number of cells that repeat the node set of an earlier cell, the cells grouped by smallest node
-    (``offsets``, ``order``: :func:`stable_csr` of their smallest nodes); independent of ``n_chunks``."""
-    nb = offsets.shape[0] - 1
-    bounds = _chunk_bounds(nb, n_chunks)
+def _count_repeats(cells, offsets, order, hashes, n_chunks):
+    """The number of cells that repeat the node set of an earlier cell, from the groups of
+    :func:`_group_by_smallest_node`; independent of ``n_chunks``."""
+    bounds = _chunk_bounds(offsets.shape[0] - 1, n_chunks)
     counts = np.zeros(n_chunks, np.int64)
     for t in prange(n_chunks):
-        big = 0
-        for b in range(bounds[t], bounds[t + 1]):
-            big = max(big, offsets[b + 1] - offsets[b])
-        hs = np.empty(big, np.uint64)
         n = 0
         for b in range(bounds[t], bounds[t + 1]):
-            lo = offsets[b]
-            hi = offsets[b + 1]
-            if hi - lo > 1:
-                n += _repeats_in_bucket(cells, order[lo:hi], hs)
+            if offsets[b + 1] - offsets[b] > 1:
+                n += _repeats_in_group(cells, order, hashes, offsets[b], offsets[b + 1])
         counts[t] = n
     return counts.sum()
 
 
 @njit
-def _repeat_examples(cells, min_node, offsets, order, out):
+def _repeat_examples(cells, offsets, order, hashes, out):
     """The first ``out.shape[0]`` pairs ``(earliest, later)`` of cells with the same node set, in the order
-    of the later cell (the serial path that names them, once :func:`_count_repeats` found some)."""
+    of the later cell (the serial pass that names them, once :func:`_count_repeats` found some)."""
     n = 0
     for c in range(cells.shape[0]):
         if n == out.shape[0]:
             break
-        b = min_node[c]
-        h = _cell_hash(cells, c)
+        b = _smallest_node(cells, c)
+        h = _cell_hash(cells, c) >> np.uint64(32)
         for p in range(offsets[b], offsets[b + 1]):
             e = order[p]
             if e >= c:
                 break
-            if _cell_hash(cells, e) == h and _same_nodes(cells, e, c):
+            if hashes[p] == h and _same_nodes(cells, e, c):
                 out[n, 0] = e
                 out[n, 1] = c
                 n += 1
@@ -358,23 +378,22 @@ def find_duplicate_cells(cells, limit=5, n_nodes=None):
     ``(earlier, later)`` pairs of them (``earlier`` the first cell with that node set).
 
     The node ids must be in range (``0..n_nodes-1``; ``n_nodes`` defaults to
-    the largest id + 1) and distinct in each cell (checked before). A repeated cell has the same smallest node as its original, so the cells
-    are grouped by smallest node (a parallel counting sort: node-local memory
-    reads, where a hash table over all cells reads at random) and compared
-    inside each group; the pairs are named in a second, serial pass only when
-    there are any.
+    the largest id + 1) and distinct in each cell (checked before). A repeated
+    cell has the same smallest node as its original, so the cells are grouped
+    by smallest node (a parallel counting sort, which reads the rows in order,
+    where a hash table over all cells reads at random) and compared inside
+    each group; the pairs are named in a second, serial pass only when there
+    are any.
     """
     m = cells.shape[0]
     if n_nodes is None:
         n_nodes = int(cells.max()) + 1 if m else 0
-    index = np.int32 if m < np.iinfo(np.int32).max else np.int64
-    min_node = empty(m, cells.dtype)
-    _min_nodes(cells, min_node)
-    order = empty(m, index)
-    offsets = _stable_csr(min_node, n_nodes, numba.get_num_threads(), order, 1)
-    count = int(_count_repeats(cells, offsets, order, 4 * numba.get_num_threads()))
+    order = empty(m, np.int32 if m < np.iinfo(np.int32).max else np.int64)
+    hashes = empty(m, np.uint32)
+    offsets = _group_by_smallest_node(cells, n_nodes, numba.get_num_threads(), order, hashes)
+    count = int(_count_repeats(cells, offsets, order, hashes, 4 * numba.get_num_threads()))
     out = np.zeros((limit, 2), np.int64)
-    n = _repeat_examples(cells, min_node, offsets, order, out) if count else 0
+    n = _repeat_examples(cells, offsets, order, hashes, out) if count else 0
     return count, out[:n]
 
 
