@@ -854,7 +854,12 @@ def _markdown(out):
                   "which the criterion is decided); the old reference's own "
                   "penumbra error is its error against the exact one.", ""]
         for name, e in out["exact"].items():
-            fine_on = ", ".join(e.get("fine_polygons", ["the floor", "the occluders"]))
+            fine_on = e.get("fine_polygons", ["the floor", "the occluders"])
+            if len(fine_on) > 8:
+                # the sphere's 180 faces: the room's polygons and the light by name, the occluders counted
+                named = [k for k in fine_on if k.startswith("room") or k == "light"]
+                fine_on = named + [f"{len(fine_on) - len(named)} occluder polygons"]
+            fine_on = ", ".join(fine_on)
             lines += [f"### {name}", "",
                       f"Reference: {e['reference_elements']} elements ({e['fine']} on {fine_on}; {e['rest']} "
                       "elsewhere); old reference "
