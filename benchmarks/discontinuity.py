@@ -204,7 +204,9 @@ EXACT_UNIFORM = {"two_rectangles_room": [1.6, 1.1, 0.75], "chair_scene": [1.6, 1
 #: 0.0135; no ambient term: 0.0134; 4 x 4 rays: 0.0129), as 540 of its 2165 penumbra pixels lie on the
 #: walls x0 and z0 (displayed at the walls' size) and the floor's reflected light comes from the walls.
 #: With every penumbra receiver fine (``_exact_reference_sizes``), D = 0.0060 at 0.6, above the DM's
-#: 0.0042; hence 0.3
+#: 0.0042; hence 0.3. These D are relative to the reflected part's RMS, a unit mismatch with the errors
+#: compared (relative to the image's RMS; about 0.39 of it on the room): the criterion is now decided on
+#: ``reference_vs_coarse_rest``, in the errors' units
 EXACT_FINE = {"two_rectangles_room": 0.3}
 
 
