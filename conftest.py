@@ -5,6 +5,12 @@ import os
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
 os.environ.setdefault("MPLBACKEND", "Agg")
+# Idle OpenMP threads sleep at once instead of spinning (libgomp reads this when numba first loads it).
+# Two pytest-xdist workers on two cores run four kernel threads: a spinning thread holds the core its
+# partner waits for. Measured on this 2-core machine (load 3.4-5, test_active_scan + test_partitioned in
+# two workers): 165-203 s spinning, 85-89 s passive. The tests assert no timings; the benchmarks and
+# the CLI keep libgomp's default.
+os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 
 import pytest  # noqa: E402
 
