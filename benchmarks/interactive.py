@@ -47,6 +47,7 @@ process holding VTK's grid and span spaces beside polygen's prepared volume woul
 ``--own-processes`` runs the named data sets that way too. A run without data4 and 2M (80M alone)
 writes ``interactive_<names>.{json,md}`` beside the full results.
 
+80M takes ``--only first`` too (each side's first surface and its peak memory so far, no sweeps).
 ``--only`` takes a comma-separated subset of ``first`` (constructor, first
 surface, preparation, memory), ``sweeps`` and ``rss``; a partial run writes
 ``interactive_<parts>.{json,md}`` beside the full results instead of
@@ -410,7 +411,7 @@ class _Side:
         return self.read()
 
 
-def run_own_processes(name):
+def run_own_processes(name, parts=("first", "sweeps", "rss")):
     """``run(name)`` with polygen and VTK each in a process of its own, both alive: polygen loads and prepares
     first (nothing else running), then VTK builds its grid and span spaces; then the rounds alternate between
     them (every VTK configuration, then polygen's prepared default one value at a time and by extract_many),
@@ -426,6 +427,12 @@ def run_own_processes(name):
                array_bytes=first.pop("array_bytes"), rss_prepared_mb=first.pop("rss_prepared_mb"))
     builds = vfirst.pop("build_s")
     row["first"] = {**first, **{k: vfirst[k] for k in ("vtk_grid_s", "vtk_first_contour_s", "vtk_first_triangles")}}
+    if "sweeps" not in parts:  # --only first: the first surfaces and each side's peak memory so far
+        row["rss_polygen"], row["rss_vtk"] = poly.ask("end"), vtk_side.ask("end")
+        for side in (poly, vtk_side):
+            side.proc.wait()
+        row["load_after"] = tuple(round(x, 2) for x in os.getloadavg())
+        return row
     times, tris = {}, {}
     for r in range(rounds(row["cells"])):
         print(f"{name}: round {r + 1}", file=sys.stderr)
@@ -460,9 +467,9 @@ PARTS = ("first", "sweeps", "rss")
 
 def run(name, parts=PARTS):
     if name in OWN_PROCESSES:
-        if set(parts) != set(PARTS):
-            raise SystemExit(f"{name} runs every part, each side in its own process (--only is for the others)")
-        return run_own_processes(name)
+        if set(parts) not in (set(PARTS), {"first"}):
+            raise SystemExit(f"{name} runs every part, or --only first, each side in its own process")
+        return run_own_processes(name, parts)
     has_fem = FIELD in datasets.info(name).fields
     vol = datasets.load(name, field=FIELD if has_fem else None)
     field = FIELD if has_fem else next(iter(vol.fields))  # 10M, 80M: their analytic field, no FEM solve
@@ -571,7 +578,7 @@ def report(rows, load_before, load_after):
         if "first" in r:
             lines += first_lines(r)
         if "rss_polygen" in r:
-            best = r["vtk_best"]
+            best = r.get("vtk_best", "its grid, first contour and span spaces")
             per_cell = (lambda mb: f"{mb * 2**20 / r['cells']:.1f}")  # noqa: E731
             lines += ["| peak memory | MB | bytes per cell |", "|---|---|---|"]
             for side, label in (("rss_polygen", "polygen"), ("rss_vtk", f"VTK, {best}")):
