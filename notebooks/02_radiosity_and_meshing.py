@@ -233,6 +233,11 @@ plot_radiosity.show_images(images, [f"{len(r.shots)} shot{'s' * (len(r.shots) > 
 plt.show()
 plot_radiosity.plot_convergence({"Cornell box, default form factors": final.history})
 plt.show()
+h = final.history
+assert final.converged and h[-1] <= 0.01
+assert np.all(np.diff(h) <= 1e-12)                      # unshot energy never grows
+
+# %%
 # the whole system, solved without shooting: Gauss-Seidel on the (elements x patches) matrix
 GS_TOL = 1e-10
 t0 = time.perf_counter()
@@ -250,9 +255,6 @@ print(f"Gauss-Seidel on the whole system: {whole.stats['n_sweeps']} sweeps, "
 print(f"{'shots':>6s} {'unshot':>8s} {'error against it':>17s} {'largest excess':>15s}")
 for r, g, a in zip(runs, gap, above):
     print(f"{len(r.shots):6d} {r.history[-1]:8.2%} {g:17.4f} {a:15.2e}")
-h = final.history
-assert final.converged and h[-1] <= 0.01
-assert np.all(np.diff(h) <= 1e-12)                      # unshot energy never grows
 assert whole.converged and all(b < a for a, b in zip(gap, gap[1:]))   # closer shot by shot
 assert max(above) <= gs_slack                            # never above the whole solution
 
@@ -325,6 +327,8 @@ power_e = (lit.element_area * lit.element_emission[:, 0]).sum()
 leaving = lambda r: (lit.element_area * r.radiosity[:, 0]).sum()   # noqa: E731
 closed = mesh_scene(scenes.three_rectangles_box(), 2.5, element_levels=1)
 gs_closed = gauss_seidel(closed, tol=1e-12)
+
+# %%
 rows = [
     ("furnace: max |B - 2| / 2", 0.0, np.abs(rf.radiosity / 2 - 1).max()),
     ("cube: max |B_PR - B_solve| / max B", 0.0, np.abs(rc.radiosity[:, 0] - direct).max() / direct.max()),
@@ -441,6 +445,11 @@ plot_radiosity.plot_bubbles(bm.nodes, bm.sizes, kind=bm.kind, ax=axes[1, 0],
                             title=f"relaxed bubbles ({len(bm.nodes)}; {bm.n_steps} steps)")
 plot_radiosity.plot_mesh2d(bm.nodes, bm.triangles, ax=axes[1, 1], title="Delaunay of the relaxed bubbles")
 plt.show()
+
+# %% [markdown]
+# The triangles' quality before and after relaxation, and the neighbours' distance against r₀.
+
+# %%
 ang_raw, q_raw = triangle_quality(raw.nodes, raw.triangles)
 ang_bm, q_bm = triangle_quality(bm.nodes, bm.triangles)
 fig, axes = plt.subplots(1, 2, figsize=(12, 3.8))

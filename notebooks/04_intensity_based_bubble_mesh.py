@@ -320,6 +320,8 @@ for k, poly in enumerate(scene.polygons):
     by_polygon.append({"polygon": poly.name, "patches": len(np.unique(second.element_patch[sel])),
                        "elements": int(sel.sum()), "mean q": round(float(q[sel].mean()), 4)})
 print(table(by_polygon, ["polygon", "patches", "elements", "mean q"]))
+
+# %%
 # smallest angle >= 25 deg on the second mesh; mean q >= 0.93 at Table 4.1's size
 assert ang.min() >= 25.0
 if FULL:

@@ -286,6 +286,8 @@ for name in ["data1", TET, HEX]:
     row["foreground"] = fg.mean()
     shown[name]["vtk"] = theirs
     rows.append(row)
+
+# %%
 print(plotting.table(rows, list(rows[0])))
 plot_render.plot_comparison([shown[TET]["attenuation"], shown[TET]["vtk"], shown[TET]["opacity"]],
                             [f"{TET}, ours, VTK's optical model", f"{TET}, VTK ugrid ray caster",
@@ -361,6 +363,8 @@ rc_kept = RayCaster(vol4, keep_samples=True)
 rc_kept.render(cam4, tf4, step=step4)
 t0 = time.perf_counter(); rc_kept.render(cam4, tf2, step=step4); t_kept = time.perf_counter() - t0
 rows.append({"change": "ray casting, samples kept: transfer function", "seconds": t_kept, "skeleton rebuilt": "-"})
+
+# %%
 print(plotting.table(rows, ["change", "seconds", "skeleton rebuilt"]))
 print(f"kept samples: {rc_kept.kept_bytes / 1e6:.0f} MB; the shells' fragments: {frag_mb:.0f} MB")
 assert [r["skeleton rebuilt"] for r in rows[:3]] == [0, 0, 1]
