@@ -54,10 +54,10 @@ _NO_CELL_EDGES = np.zeros((0, 6), np.int32)  # the unprepared scan keys by node 
 def _classify(cells, s, value, cell_type, table, count, local_edges, faces):
     """t1 of both scans: every cell's case, and per chunk of cells the crossed cells and triangle offsets."""
     nch = max(1, -(-cells.shape[0] // _CHUNK))
-    cases = _jit.scratch(cells.shape[0], np.int32)
-    ch_cells = _jit.scratch(nch, np.int64)
-    ch_tris = _jit.scratch(nch, np.int64)
-    ch_look = _jit.scratch(nch, np.int64)
+    cases = _jit.empty(cells.shape[0], np.int32)
+    ch_cells = _jit.empty(nch, np.int64)
+    ch_tris = _jit.empty(nch, np.int64)
+    ch_look = _jit.empty(nch, np.int64)
     _m._scan_count(cells, s, value, faces, table, count, _m.crossed_counts(cell_type), local_edges, _CHUNK,
                    cases, ch_cells, ch_tris, ch_look)
     tri_off = np.zeros(nch + 1, np.int64)
@@ -83,16 +83,17 @@ def _scan(vol, value, field, normals, node_grad=None):
     # t2: triangles as vertex keys (pass 2), then one vertex per key
     t0 = time.perf_counter()
     n_ic, n_t = int(ch_cells.sum()), int(tri_off[-1])
-    tri_keys = _jit.scratch((n_t, 3), np.int64)
-    tri_cell = _jit.scratch(n_t, np.int64)
+    tri_keys = _jit.empty((n_t, 3), np.int64)
+    tri_cell = _jit.empty(n_t, np.int64)
     _m._scan_fill(cells, s, value, cell_edges, n_edges, points.shape[0], False, table, count, local_edges,
                   _CHUNK, cases, tri_off, tri_keys, tri_cell)
     n_keys = n_edges + points.shape[0]
-    tri = _jit.scratch((n_t, 3), np.int64)
+    tri = _jit.empty((n_t, 3), np.int64)
     if n_t:
-        seen = np.zeros(n_keys, np.uint8)
-        vid = _jit.scratch(n_keys, np.int32)
-        keys = _jit.scratch(min(n_keys, 3 * n_t), np.int64)
+        seen = _jit.empty(n_keys, np.uint8)
+        seen[:] = 0
+        vid = _jit.empty(n_keys, np.int32)
+        keys = _jit.empty(min(n_keys, 3 * n_t), np.int64)
         n_v = _m._number_vertices(tri_keys, seen, vid, keys, tri)
         keys = keys[:n_v].copy()
     else:
@@ -129,16 +130,16 @@ def _scan_unprepared(vol, value, field, normals, node_grad=None):
 
     t0 = time.perf_counter()
     n_ic, n_t = int(ch_cells.sum()), int(tri_off[-1])
-    tri_codes = _jit.scratch((n_t, 3), np.int64)
-    tri_cell = _jit.scratch(n_t, np.int64)
+    tri_codes = _jit.empty((n_t, 3), np.int64)
+    tri_cell = _jit.empty(n_t, np.int64)
     _m._scan_fill(cells, s, value, _NO_CELL_EDGES, 0, n_points, True, table, count, local_edges, _CHUNK,
                   cases, tri_off, tri_codes, tri_cell)
-    tri = _jit.scratch((n_t, 3), np.int64)
+    tri = _jit.empty((n_t, 3), np.int64)
     v_max = 3 * n_t  # every corner its own vertex: the bound (rows past the count are never touched)
-    codes = _jit.scratch(v_max, np.int64)
-    edges = _jit.scratch((v_max, 2), index_dtype(n_points))  # node pairs in the dtype of vol.edges (one build of
+    codes = _jit.empty(v_max, np.int64)
+    edges = _jit.empty((v_max, 2), index_dtype(n_points))  # node pairs in the dtype of vol.edges (one build of
     # the kernels that read either)
-    keys = _jit.scratch(v_max, np.int64)
+    keys = _jit.empty(v_max, np.int64)
     # the hash table is sized for at most n_t vertices (a closed surface has about n_t / 2), half full at
     # most; past that the kernel stops and the table is sized for the bound. A table for the bound (12 n_t
     # slots, all written) was most of the memory a first surface touched: 268 of ~560 MB on 10M, 2.0 M
@@ -146,8 +147,9 @@ def _scan_unprepared(vol, value, field, normals, node_grad=None):
     n_v = -1
     for n_most in (n_t, v_max):
         bits = max(4, int(2 * n_most).bit_length())
-        table_keys = np.full(1 << bits, -1, np.int64)
-        table_vals = _jit.scratch(1 << bits, np.int32 if v_max < _INT32_MAX else np.int64)
+        table_keys = _jit.empty(1 << bits, np.int64)
+        table_keys[:] = -1
+        table_vals = _jit.empty(1 << bits, np.int32 if v_max < _INT32_MAX else np.int64)
         n_v = _m._number_pair_codes(tri_codes, n_points, 64 - bits, table_keys, table_vals, codes, tri, edges,
                                     keys)
         del table_keys, table_vals
