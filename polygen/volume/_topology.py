@@ -282,22 +282,12 @@ def _group_by_smallest_node(cells, n_nodes, n_threads, order, hashes):
     positions; returns the offsets ``(n_nodes + 1,)``. A stable counting sort as :func:`_stable_csr`
     (slabs of cells, one per thread), the smallest node and the hash computed while the rows are read in
     order, so that comparing a group reads ``hashes`` in order and a row only where two hashes agree."""
-    m = cells.shape[0]
-    n_slabs = max(1, min(n_threads, 8, m // 65536))
-    sb = _chunk_bounds(m, n_slabs)
-    counts = np.zeros((n_slabs, n_nodes), np.int64)
+    sb, counts = _slabs(cells.shape[0], n_threads, n_nodes)
+    n_slabs = counts.shape[0]
     for t in prange(n_slabs):
         for c in range(sb[t], sb[t + 1]):
             counts[t, _smallest_node(cells, c)] += 1
-    offsets = np.empty(n_nodes + 1, np.int64)
-    s = np.int64(0)
-    for k in range(n_nodes):
-        offsets[k] = s
-        for u in range(n_slabs):
-            n = counts[u, k]
-            counts[u, k] = s
-            s += n
-    offsets[n_nodes] = s
+    offsets = _slab_offsets(counts)
     for t in prange(n_slabs):
         for c in range(sb[t], sb[t + 1]):
             k = _smallest_node(cells, c)
@@ -913,16 +903,19 @@ def node_cells_csr(cells, n_nodes):
     return _stable_csr(flat, n_nodes, numba.get_num_threads(), out, k), out
 
 
-@njit(parallel=True)
-def _stable_csr(keys, n_keys, n_threads, out, divide):
-    """Fill ``out`` with ``position // divide`` grouped by key (stable); return the offsets."""
-    n = keys.shape[0]
+@njit
+def _slabs(n, n_threads, n_keys):
+    """A counting sort's slabs of ``n`` positions (at most 8, one per thread, none under 65,536 positions):
+    their bounds and their zeroed counts ``(n_slabs, n_keys)``."""
     n_slabs = max(1, min(n_threads, 8, n // 65536))
-    sb = _chunk_bounds(n, n_slabs)
-    counts = np.zeros((n_slabs, n_keys), np.int64)
-    for t in prange(n_slabs):
-        for i in range(sb[t], sb[t + 1]):
-            counts[t, keys[i]] += 1
+    return _chunk_bounds(n, n_slabs), np.zeros((n_slabs, n_keys), np.int64)
+
+
+@njit
+def _slab_offsets(counts):
+    """Each key's offset, its slabs' counts ``(n_slabs, n_keys)`` turned into each slab's first position in
+    place (slab t of key k after every key < k and after slabs < t); returns the offsets ``(n_keys + 1,)``."""
+    n_slabs, n_keys = counts.shape
     offsets = np.empty(n_keys + 1, np.int64)
     s = np.int64(0)
     for k in range(n_keys):
@@ -932,6 +925,18 @@ def _stable_csr(keys, n_keys, n_threads, out, divide):
             counts[u, k] = s
             s += c
     offsets[n_keys] = s
+    return offsets
+
+
+@njit(parallel=True)
+def _stable_csr(keys, n_keys, n_threads, out, divide):
+    """Fill ``out`` with ``position // divide`` grouped by key (stable); return the offsets."""
+    sb, counts = _slabs(keys.shape[0], n_threads, n_keys)
+    n_slabs = counts.shape[0]
+    for t in prange(n_slabs):
+        for i in range(sb[t], sb[t + 1]):
+            counts[t, keys[i]] += 1
+    offsets = _slab_offsets(counts)
     for t in prange(n_slabs):
         for i in range(sb[t], sb[t + 1]):
             k = keys[i]
