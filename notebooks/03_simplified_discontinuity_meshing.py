@@ -762,9 +762,11 @@ for name, e in exact.items():
     rows = e["rows"]
     dm = [r["dm_node"]["error_penumbra"] for r in rows]
     paired_rows = [r for r in rows if "uniform_mean" in r]
-    # DM at F no worse than uniform at F, at every pairing
-    assert all(r["dm_node"]["error_penumbra"] <= min(r["uniform_mean"]["error_penumbra"],
-                                                     r["uniform_node"]["error_penumbra"]) for r in paired_rows), name
+    # DM at F no worse than uniform at F, at every pairing (printed: the results file is not asserted on;
+    # the same comparison is measured in this run and asserted below)
+    HOLDS = all(r["dm_node"]["error_penumbra"] <= min(r["uniform_mean"]["error_penumbra"],
+                                                      r["uniform_node"]["error_penumbra"]) for r in paired_rows)
+    print(f"{name}: simplified DM (node) <= uniform at every pairing: {HOLDS}")
     FALLS[name] = all(b < a for a, b in zip(dm, dm[1:]))
     compared = min(min(r[k]["error_penumbra"] for k in ("dm_node", "uniform_mean", "uniform_node") if k in r)
                    for r in rows)
@@ -773,6 +775,63 @@ for name, e in exact.items():
     REF_OK[name] = e["reference_vs_coarse_rest"]["error_penumbra"] / 3.0 <= compared / 3.0
     print(f"{name}: DM node error by F {[round(x, 4) for x in dm]}: falls at every step {FALLS[name]}; "
           f"reference's own error (D/3, image's RMS) <= 1/3 of the smallest compared ({compared:.4f}): {REF_OK[name]}")
+
+# %% [markdown]
+# ### The premise, measured in this run
+#
+# The table above is the benchmark's full-size run, read from `benchmarks/results/`: printed, not
+# asserted, since a committed file is not a measurement of this run. The same comparison is made
+# here at this notebook's sizes (`COARSE`/`FINE`, its solve, camera and image) on the three
+# examples, fixed before the run: simplified DM with the light's direct part at its nodes, at
+# `FINE` in its penumbra regions, against the uniform mesh at `FINE` in both displays, over the
+# penumbra pixels. A penumbra pixel is one whose surface point some light leaves partly visible
+# (`illumination` at each pixel's surface point: the true penumbra, not a mesh's elements). The
+# reference's direct light is exact at every pixel (`exact_direct_image`); its reflected light
+# and ambient term come from a mesh of half `FINE` on the floor and the occluders and half `COARSE`
+# elsewhere (the chair's reference serves claim (c) below too).
+
+# %%
+from polygen.discontinuity.node_values import exact_direct_image, node_radiosity
+from polygen.radiosity.error import adaptive_at_count, image_error
+from polygen.radiosity.raster import pixel_points, render
+
+
+def node_image(mm, rr):
+    """``mm`` displayed with each area light's direct part at its nodes (``node_radiosity``)."""
+    return render(mm.nodes, mm.elements, node_radiosity(mm, rr), cam, background=np.nan)
+
+
+refs, premise = {}, {}
+for name in ["two_rectangles_room", "sphere_scene", "chair_scene"]:
+    sc, sd, m = examples[name][:3]
+    rm = mesh_scene(sc, [FINE / 2 if (p.name == "room_y0" or not p.name.startswith("room")) else COARSE / 2
+                         for p in sc.polygons], element_levels=1)
+    covered, e_px, x_px = pixel_points(rm, cam)
+    st = illumination(sd, x_px, polygons=rm.element_polygon[e_px])
+    states = np.zeros(covered.shape + st.shape[1:], np.int8)   # per pixel and light; 0: no surface seen
+    states[covered] = st
+    refs[name] = (exact_direct_image(rm, progressive_refinement(rm, **SOLVE), cam)[0], states)
+    pen = (states == PENUMBRA).any(axis=-1)
+    u = mesh_scene(sc, FINE, element_levels=1)
+    err = {}
+    for label, mm in (("simplified DM", m), ("uniform", u)):
+        rr = progressive_refinement(mm, **SOLVE)
+        err[label, "(2.8)"] = image_error(shade(mm, rr.display_radiosity(mm), cam), refs[name][0], mask=pen)
+        err[label, "node"] = image_error(node_image(mm, rr), refs[name][0], mask=pen)
+    premise[name] = err
+    print(f"{name}: {int(pen.sum())} penumbra pixels; simplified DM {m.n_elements} elements, error (2.8) "
+          f"{err['simplified DM', '(2.8)']:.4f}, node {err['simplified DM', 'node']:.4f}; uniform at F = {FINE:g} "
+          f"{u.n_elements} elements, (2.8) {err['uniform', '(2.8)']:.4f}, node {err['uniform', 'node']:.4f}")
+for name, err in premise.items():   # the premise: at F, no worse than the uniform mesh at F, either display
+    assert err["simplified DM", "node"] <= min(err["uniform", "(2.8)"], err["uniform", "node"]), name
+
+# %% [markdown]
+# Measured at this size: simplified DM's penumbra error with node values is below the uniform
+# mesh's in both displays on the three scenes, with a fifth to a quarter of its elements (room
+# 0.0011 against 0.0017 and 0.0044; sphere 0.032 against 0.124 and 0.129; chair 0.022 against 0.136
+# and 0.137). In the thesis's display (2.8) the DM mesh is below on the sphere and the chair and
+# above on the room (0.0133 against 0.0044), for item 2's reason: the line's nodes take the mean of
+# the elements on both sides, and the room's wide penumbra has many of them.
 
 # %% [markdown]
 # ## The thesis's claims, measured: slivers, elements, and the chair against adaptive subdivision
@@ -819,17 +878,9 @@ for name in claim_scenes:   # (a): fewer slivers and a larger smallest angle, at
     assert s_[1] < c_[1] and s_[2] > c_[2], name
 
 # %%
-from polygen.discontinuity.node_values import exact_direct_image, node_radiosity
-from polygen.radiosity.error import adaptive_at_count, image_error
-from polygen.radiosity.raster import pixel_points, render
-
 sc, sd, m_dm = examples["chair_scene"][:3]
-rm = mesh_scene(sc, [FINE / 2 if (p.name == "room_y0" or not p.name.startswith("room")) else COARSE / 2
-                     for p in sc.polygons], element_levels=1)
-ref_chair = exact_direct_image(rm, progressive_refinement(rm, **SOLVE), cam)[0]
-covered, e_px, x_px = pixel_points(rm, cam)
-shadow = np.zeros(covered.shape, bool)   # the chair's shadow: not bright for its light
-shadow[covered] = (illumination(sd, x_px, polygons=rm.element_polygon[e_px]) >= 2).any(axis=1)
+ref_chair, states = refs["chair_scene"]
+shadow = (states >= PENUMBRA).any(axis=-1)   # the chair's shadow: penumbra or umbra of its light
 
 # %%
 m_ad, r_ad = adaptive_at_count(sc, m_dm.n_elements, patch_size=COARSE, solve=SOLVE)
@@ -837,8 +888,7 @@ chair_err = {}
 for label, mm, rr in (("simplified DM", m_dm, progressive_refinement(m_dm, **SOLVE)),
                       ("adaptive subdivision", m_ad, r_ad)):
     chair_err[label, "(2.8)"] = image_error(shade(mm, rr.display_radiosity(mm), cam), ref_chair, mask=shadow)
-    chair_err[label, "node"] = image_error(render(mm.nodes, mm.elements, node_radiosity(mm, rr), cam,
-                                                  background=np.nan), ref_chair, mask=shadow)
+    chair_err[label, "node"] = image_error(node_image(mm, rr), ref_chair, mask=shadow)
 print(f"chair: simplified DM {m_dm.n_elements} elements, adaptive subdivision {m_ad.n_elements} "
       f"({m_ad.n_elements / m_dm.n_elements - 1:+.1%}); {int(shadow.sum())} shadow pixels")
 for (label, disp), v in chair_err.items():
