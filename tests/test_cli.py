@@ -61,3 +61,22 @@ def test_warm_up_helper_started_early_ends_without_work():
     proc = isosurface._start_helper()
     isosurface._end_helper(proc)
     assert proc.returncode == 0
+
+
+def test_warm_up_compiles_the_topology_kernels_a_large_volume_takes():
+    # the main job times the topology after the warm-up: a volume whose node -> cells lists take the parallel
+    # sort must find _stable_csr compiled for its cells (int32, read-only), not compile it inside that timing
+    from polygen.cli import isosurface
+    from polygen.volume import UnstructuredVolume, _topology
+
+    n_cells = _topology._SERIAL_BELOW // 4 + 10
+    assert isosurface._large_items(n_cells) == [isosurface._LARGE]
+    isosurface._run_tiny(None, isosurface._LARGE, None, n_cells)
+    before = list(_topology._stable_csr.signatures)
+    rng = np.random.default_rng(0)
+    points = rng.random((4 * n_cells, 3))
+    cells = np.arange(4 * n_cells).reshape(n_cells, 4)  # disjoint tetrahedra, oriented below
+    vol = UnstructuredVolume(points, cells, orient=True)
+    _topology.node_cells_csr(vol.cells, vol.n_points)
+    assert vol.cells.dtype == np.int32 and not vol.cells.flags.writeable
+    assert list(_topology._stable_csr.signatures) == before
