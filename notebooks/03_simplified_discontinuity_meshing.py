@@ -795,33 +795,27 @@ for name, e in exact.items():
 # elsewhere (the chair's reference serves claim (c) below too).
 
 # %%
-from polygen.discontinuity.node_values import exact_direct_image, node_radiosity
+from polygen.discontinuity.node_values import exact_direct_image, node_image, pixel_states
 from polygen.radiosity.error import adaptive_at_count, image_error
-from polygen.radiosity.raster import pixel_points, render
 
-
-def node_image(mm, rr):
-    """``mm`` displayed with each area light's direct part at its nodes (``node_radiosity``)."""
-    return render(mm.nodes, mm.elements, node_radiosity(mm, rr), cam, background=np.nan)
-
-
-refs, premise = {}, {}
+refs = {}   # each example's reference image and the lights' states at its pixels
 for name in ["two_rectangles_room", "sphere_scene", "chair_scene"]:
     sc, sd, m = examples[name][:3]
     rm = mesh_scene(sc, [FINE / 2 if (p.name == "room_y0" or not p.name.startswith("room")) else COARSE / 2
                          for p in sc.polygons], element_levels=1)
-    covered, e_px, x_px = pixel_points(rm, cam)
-    st = illumination(sd, x_px, polygons=rm.element_polygon[e_px])
-    states = np.zeros(covered.shape + st.shape[1:], np.int8)   # per pixel and light; 0: no surface seen
-    states[covered] = st
-    refs[name] = (exact_direct_image(rm, progressive_refinement(rm, **SOLVE), cam)[0], states)
+    refs[name] = (exact_direct_image(rm, progressive_refinement(rm, **SOLVE), cam)[0], pixel_states(rm, sd, cam))
+
+# %%
+premise = {}
+for name, (ref, states) in refs.items():
+    sc, sd, m = examples[name][:3]
     pen = (states == PENUMBRA).any(axis=-1)
     u = mesh_scene(sc, FINE, element_levels=1)
     err = {}
     for label, mm in (("simplified DM", m), ("uniform", u)):
         rr = progressive_refinement(mm, **SOLVE)
-        err[label, "(2.8)"] = image_error(shade(mm, rr.display_radiosity(mm), cam), refs[name][0], mask=pen)
-        err[label, "node"] = image_error(node_image(mm, rr), refs[name][0], mask=pen)
+        err[label, "(2.8)"] = image_error(shade(mm, rr.display_radiosity(mm), cam), ref, mask=pen)
+        err[label, "node"] = image_error(node_image(mm, rr, cam), ref, mask=pen)
     premise[name] = err
     print(f"{name}: {int(pen.sum())} penumbra pixels; simplified DM {m.n_elements} elements, error (2.8) "
           f"{err['simplified DM', '(2.8)']:.4f}, node {err['simplified DM', 'node']:.4f}; uniform at F = {FINE:g} "
@@ -892,7 +886,7 @@ chair_err = {}
 for label, mm, rr in (("simplified DM", m_dm, progressive_refinement(m_dm, **SOLVE)),
                       ("adaptive subdivision", m_ad, r_ad)):
     chair_err[label, "(2.8)"] = image_error(shade(mm, rr.display_radiosity(mm), cam), ref_chair, mask=shadow)
-    chair_err[label, "node"] = image_error(node_image(mm, rr), ref_chair, mask=shadow)
+    chair_err[label, "node"] = image_error(node_image(mm, rr, cam), ref_chair, mask=shadow)
 print(f"chair: simplified DM {m_dm.n_elements} elements, adaptive subdivision {m_ad.n_elements} "
       f"({m_ad.n_elements / m_dm.n_elements - 1:+.1%}); {int(shadow.sum())} shadow pixels")
 for (label, disp), v in chair_err.items():

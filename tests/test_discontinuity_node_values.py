@@ -79,3 +79,34 @@ def test_exact_direct_image_against_many_rays_per_pixel():
     assert np.all(np.abs(got - rays) <= 0.05 * free)
     assert np.allclose(rest[covered][floor], 0.0, atol=1e-9 * free.max())
     assert np.isnan(img[~covered]).all()
+
+
+def test_pixel_states_and_node_image_against_rays():
+    # pixel_states: each floor pixel's penumbra state against the light's visible part by many rays; node_image:
+    # over those penumbra pixels, nearer the exact image than the same mesh displayed by (2.8)
+    from polygen.discontinuity import PENUMBRA, simplified_discontinuity
+    from polygen.discontinuity.node_values import exact_direct_image, node_image, pixel_states
+    from polygen.radiosity import Camera
+    from polygen.radiosity.error import image_error, shade
+    from polygen.radiosity.raster import pixel_points
+
+    sc = _scene()
+    m = mesh_scene(sc, 0.5, element_levels=1)
+    res = progressive_refinement(m, max_shots="lights", ambient=False, visibility_samples=2)
+    cam = Camera([3.0, 4.0, -3.0], [3.0, 0.0, 3.0], fov=60.0, width=40, height=40, near=0.01)
+    states = pixel_states(m, simplified_discontinuity(sc), cam)
+    covered, e, x = pixel_points(m, cam)
+    assert states.shape == covered.shape + (1,) and np.all(states[~covered] == 0)
+    floor = m.element_polygon[e] == 0
+    n = np.tile([0.0, 1.0, 0.0], (int(floor.sum()), 1))
+    free = point_polygon_form_factor(x[floor], n, sc.polygons[1])
+    frac = light_direct(sc, 1, x[floor], n, np.zeros(int(floor.sum()), np.int64), samples=48, exact=False)[:, 0]
+    frac = frac / (10.0 * free)
+    pen = states[covered][floor, 0] == PENUMBRA
+    assert pen.any() and (~pen).any()
+    clear = (frac > 0.02) & (frac < 0.98)   # partly visible by the rays, away from the band's edges
+    assert np.all(pen[clear]) and np.all((frac[pen] > 0.0) & (frac[pen] < 1.0 + 1e-9))
+    ref = exact_direct_image(m, res, cam)[0]
+    mask = (states == PENUMBRA).any(axis=-1)
+    assert image_error(node_image(m, res, cam), ref, mask=mask) < image_error(
+        shade(m, res.display_radiosity(m), cam), ref, mask=mask)

@@ -29,7 +29,7 @@ import numpy as np
 
 from polygen.discontinuity.shadow import ShadowError
 
-__all__ = ["node_radiosity", "light_direct", "element_direct", "exact_direct_image"]
+__all__ = ["node_radiosity", "light_direct", "element_direct", "exact_direct_image", "node_image", "pixel_states"]
 
 
 def _light_points(light, samples, *, corners=False):
@@ -275,3 +275,27 @@ def exact_direct_image(mesh, result, camera, *, samples=8, visibility_samples=2,
             scene, lpoly, x[on], mesh.element_normal[e[on]], mesh.element_polygon[e[on]],
             samples=samples, packed=packed)
     return flat.reshape(rest.shape), rest
+
+
+def node_image(mesh, result, camera, **kwargs):
+    """(H, W, 3) ``mesh`` displayed with each area light's direct part at its nodes
+    (:func:`node_radiosity`, ``kwargs`` passed to it), Gouraud-shaded; NaN where no surface is seen."""
+    from polygen.radiosity.raster import render
+
+    return render(mesh.nodes, mesh.elements, node_radiosity(mesh, result, **kwargs), camera, background=np.nan)
+
+
+def pixel_states(mesh, discontinuity, camera):
+    """(H, W, n_lights) int8: each light's state (``UMBRA`` 3, ``PENUMBRA`` 2, ``BRIGHT`` 1) at each pixel's
+    surface point on ``mesh`` (:func:`~polygen.radiosity.raster.pixel_points`), by
+    :func:`~polygen.discontinuity.illumination` of ``discontinuity`` (the scene's simplified discontinuity
+    phase); 0 where no surface is seen or the light lies behind the point's face. The penumbra pixels of an
+    image: ``(pixel_states(...) == PENUMBRA).any(axis=-1)``."""
+    from polygen.discontinuity.simplified import illumination
+    from polygen.radiosity.raster import pixel_points
+
+    covered, e, x = pixel_points(mesh, camera)
+    st = illumination(discontinuity, x, polygons=mesh.element_polygon[e])
+    out = np.zeros(covered.shape + st.shape[1:], np.int8)
+    out[covered] = st
+    return out
