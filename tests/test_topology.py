@@ -155,6 +155,55 @@ def test_duplicate_check_against_a_dictionary(name):
 
 
 @pytest.mark.parametrize("width", [4, 8])
+@pytest.mark.parametrize("dtype,readonly", [(np.int32, True), (np.int64, False)])
+def test_constructor_pass_against_numpy_and_a_dictionary(width, dtype, readonly):
+    """The constructor's one pass (:func:`own_cells`) on 300,000 rows (a slab per thread): its copy is the
+    rows narrowed by numpy, in memory of its own; its count of rows that are not clearly valid and its
+    marks of used nodes are those of numpy's checks (ids out of range, repeated, inverted or flat
+    tetrahedra); and its counts by smallest node give the duplicates of a dictionary of sorted rows."""
+    from polygen.volume.mesh import _DEGENERATE_RTOL
+
+    rng = np.random.default_rng(width)
+    n, m = 40_000, 300_000
+    rows = rng.integers(0, n // 2, m)[:, None] + np.cumsum(rng.integers(1, n // (2 * width), (m, width)), axis=1)
+    rows = rng.permuted(rows, axis=1)  # distinct ids, any order
+    picks = rng.choice(m, 50, replace=False)
+    rows = np.concatenate([rows, rng.permuted(rows[picks], axis=1)])  # 50 repeats in other node orders
+    points = rng.random((n, 3))
+    broken = rows.copy()
+    wrong = rng.choice(m, 60, replace=False)
+    broken[wrong[:20], 1] = n  # out of range
+    broken[wrong[20:40], 2] = -1
+    broken[wrong[40:], 3] = broken[wrong[40:], 0]  # a repeated node
+    for cells, geometry in ((broken, width == 4), (rows, False), (rows, width == 4)):
+        cells = np.ascontiguousarray(cells, dtype)
+        cells.setflags(write=not readonly)
+        used = np.zeros(n, np.uint8)
+        copy, bad, counted = _k.own_cells(points, cells, np.int32, geometry, _DEGENERATE_RTOL, used)
+        np.testing.assert_array_equal(copy, cells.astype(np.int32))
+        assert copy.dtype == np.int32 and not np.shares_memory(copy, cells)
+        assert counted[0].size - 1 == min(numba.get_num_threads(), 8, (m + 50) // 65536)  # slabs
+        ids_ok = ((cells >= 0) & (cells < n)).all(axis=1) & (np.diff(np.sort(cells, axis=1), axis=1) > 0).all(axis=1)
+        ok = ids_ok.copy()
+        if geometry:
+            v6, longest = _k.tet_volumes6(points, np.clip(cells, 0, n - 1))
+            bound = _DEGENERATE_RTOL * longest ** 3
+            assert not np.any(np.abs(v6 - bound) < 1e-6 * bound)  # no cell on the bound: numpy decides alike
+            ok &= v6 > bound
+        assert bad == m + 50 - ok.sum() and (bad > 1000 if geometry else bad == 60 * (not ids_ok.all()))
+        expect = np.zeros(n, np.uint8)
+        expect[cells[ok].ravel()] = 1
+        np.testing.assert_array_equal(used, expect)
+        if ids_ok.all():
+            count, pairs = brute_duplicates(cells)
+            assert count == 50
+            for given in (counted, None):
+                got = _k.find_duplicate_cells(copy, limit=50, n_nodes=n, counted=given)
+                assert got[0] == count
+                np.testing.assert_array_equal(got[1], np.array(pairs, np.int64))
+
+
+@pytest.mark.parametrize("width", [4, 8])
 def test_duplicate_check_with_a_node_in_very_many_cells(width):
     # one node in every cell (a fan): its group holds them all, past the pairwise comparison's size, and is
     # sorted by hash instead; repeats in other node orders, spread through, against the dictionary

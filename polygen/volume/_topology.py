@@ -193,53 +193,130 @@ def points_range(points, lo, hi):
     return True
 
 
-@njit(parallel=True)
-def tet_cells_clearly_valid(points, cells, rtol, used):
-    """How many tetrahedra are *not* clearly valid; marks ``used[node] = 1`` for the others' nodes.
+@njit
+def _tet_clearly_valid(points, i0, i1, i2, i3, rtol):
+    """Whether the tetrahedron ``i0 i1 i2 i3`` (ids in range) has a positive volume clearly above the
+    degeneracy bound of :meth:`UnstructuredVolume._check_geometry` (``6V > rtol * longest**3`` with a
+    relative margin of 1e-9, so that rounding never calls a cell valid that the exact check would refuse)."""
+    ax = points[i1, 0] - points[i0, 0]
+    ay = points[i1, 1] - points[i0, 1]
+    az = points[i1, 2] - points[i0, 2]
+    bx = points[i2, 0] - points[i0, 0]
+    by = points[i2, 1] - points[i0, 1]
+    bz = points[i2, 2] - points[i0, 2]
+    dx = points[i3, 0] - points[i0, 0]
+    dy = points[i3, 1] - points[i0, 1]
+    dz = points[i3, 2] - points[i0, 2]
+    v6 = ax * (by * dz - bz * dy) - ay * (bx * dz - bz * dx) + az * (bx * dy - by * dx)
+    e = max(ax * ax + ay * ay + az * az, bx * bx + by * by + bz * bz, dx * dx + dy * dy + dz * dz)
+    for i, j in ((i1, i2), (i1, i3), (i2, i3)):  # the other edges from the points, as tet_volumes6
+        ex = points[i, 0] - points[j, 0]
+        ey = points[i, 1] - points[j, 1]
+        ez = points[i, 2] - points[j, 2]
+        e = max(e, ex * ex + ey * ey + ez * ez)
+    return v6 > rtol * (1.0 + 1e-9) * e * np.sqrt(e)  # False for NaN too
 
-    One parallel pass, no temporaries: node ids in range, four distinct
-    nodes, and a positive volume clearly above the degeneracy bound of
-    :meth:`UnstructuredVolume._check_geometry` (``6V > rtol * longest**3``
-    with a relative margin of 1e-9, so rounding can never call a cell valid
-    that the exact check would refuse). The constructor runs the full,
-    exact checks (and their messages) only when this count is not zero.
-    """
-    m = cells.shape[0]
+
+@njit
+def _own_tets(points, src, dst, geometry, rtol, used, lo, hi, counts_t):
+    """:func:`_own_cells` for the tetrahedra ``lo:hi`` (the four ids in registers): how many are not clearly
+    valid."""
     n = points.shape[0]
-    bad = 0
-    for c in prange(m):
-        i0 = cells[c, 0]
-        i1 = cells[c, 1]
-        i2 = cells[c, 2]
-        i3 = cells[c, 3]
-        if (min(min(i0, i1), min(i2, i3)) < 0 or max(max(i0, i1), max(i2, i3)) >= n
+    n_bad = 0
+    for c in range(lo, hi):
+        i0 = src[c, 0]
+        i1 = src[c, 1]
+        i2 = src[c, 2]
+        i3 = src[c, 3]
+        dst[c, 0] = i0
+        dst[c, 1] = i1
+        dst[c, 2] = i2
+        dst[c, 3] = i3
+        low = min(min(i0, i1), min(i2, i3))
+        if (low < 0 or max(max(i0, i1), max(i2, i3)) >= n
                 or i0 == i1 or i0 == i2 or i0 == i3 or i1 == i2 or i1 == i3 or i2 == i3):
-            bad += 1
+            n_bad += 1
             continue
-        ax = points[i1, 0] - points[i0, 0]
-        ay = points[i1, 1] - points[i0, 1]
-        az = points[i1, 2] - points[i0, 2]
-        bx = points[i2, 0] - points[i0, 0]
-        by = points[i2, 1] - points[i0, 1]
-        bz = points[i2, 2] - points[i0, 2]
-        dx = points[i3, 0] - points[i0, 0]
-        dy = points[i3, 1] - points[i0, 1]
-        dz = points[i3, 2] - points[i0, 2]
-        v6 = ax * (by * dz - bz * dy) - ay * (bx * dz - bz * dx) + az * (bx * dy - by * dx)
-        e = max(ax * ax + ay * ay + az * az, bx * bx + by * by + bz * bz, dx * dx + dy * dy + dz * dz)
-        for i, j in ((i1, i2), (i1, i3), (i2, i3)):  # the other edges from the points, as tet_volumes6
-            ex = points[i, 0] - points[j, 0]
-            ey = points[i, 1] - points[j, 1]
-            ez = points[i, 2] - points[j, 2]
-            e = max(e, ex * ex + ey * ey + ez * ez)
-        if not (v6 > rtol * (1.0 + 1e-9) * e * np.sqrt(e)):  # NaN too
-            bad += 1
+        counts_t[low] += 1
+        if geometry and not _tet_clearly_valid(points, np.int64(i0), np.int64(i1), np.int64(i2), np.int64(i3), rtol):
+            n_bad += 1
             continue
         used[i0] = 1
         used[i1] = 1
         used[i2] = 1
         used[i3] = 1
-    return bad
+    return n_bad
+
+
+@njit
+def _own_rows(n, src, dst, used, lo, hi, counts_t):
+    """:func:`_own_cells` for the rows ``lo:hi`` of any width (ids only): how many are not clearly valid."""
+    k = src.shape[1]
+    n_bad = 0
+    for c in range(lo, hi):
+        ok = True
+        low = n
+        for i in range(k):
+            a = src[c, i]
+            dst[c, i] = a
+            if a < 0 or a >= n:
+                ok = False
+            elif a < low:
+                low = a
+            for j in range(i):
+                if src[c, j] == a:
+                    ok = False
+        if not ok:
+            n_bad += 1
+            continue
+        counts_t[low] += 1
+        for i in range(k):
+            used[src[c, i]] = 1
+    return n_bad
+
+
+@njit(parallel=True)
+def _own_cells(points, src, dst, geometry, rtol, used, sb, counts, bad):
+    """:func:`own_cells`' one pass, slab ``t`` of ``sb`` by thread: ``bad[t]`` its cells that are not clearly
+    valid, ``counts[t, k]`` its valid-id cells whose smallest node is ``k``."""
+    for t in prange(sb.shape[0] - 1):
+        if src.shape[1] == 4:
+            bad[t] = _own_tets(points, src, dst, geometry, rtol, used, sb[t], sb[t + 1], counts[t])
+        else:
+            bad[t] = _own_rows(points.shape[0], src, dst, used, sb[t], sb[t + 1], counts[t])
+
+
+def own_cells(points, cells, dtype, geometry, rtol, used):
+    """The constructor's one parallel pass over the cells: ``(copy, bad, counted)``.
+
+    ``copy``: ``cells`` (int32 or int64, C-contiguous) as a fresh ``dtype`` array. ``bad``: how many cells
+    are not clearly valid -- a node id outside ``0..len(points)-1`` (read before the narrowing copy could
+    wrap it into range), a repeated node, or (``geometry``, tetrahedra) a volume not clearly above the
+    degeneracy bound (:func:`_tet_clearly_valid`); ``used[node] = 1`` for the nodes of the others. The
+    constructor runs the exact checks (and their messages) only when ``bad`` is not zero. ``counted``: the
+    slabs and counts of :func:`find_duplicate_cells`' counting sort by smallest node, complete whenever every
+    id is in range and distinct in its cell.
+
+    Reading the caller's rows once for the copy, the checks and the count, instead of a numpy copy and two
+    passes over it: the first constructor of a fresh process on 80M took 2.70 and 3.07 s against 3.19 and
+    5.78 s before (runs alternated); on 2M no change (0.083-0.096 s against 0.080-0.096), where the
+    15,000 first writes to fresh pages, the same number either way, are most of the time.
+    """
+    m, n = cells.shape[0], points.shape[0]
+    if cells.flags.writeable:  # read-only rows, as a volume's own: one compiled pass for both (a view: not a copy)
+        cells = cells.view()
+        cells.setflags(write=False)
+    dst = empty(cells.shape, dtype)
+    sb, counts = _slabs(m, numba.get_num_threads(), n)
+    bad = np.zeros(sb.shape[0] - 1, np.int64)
+    _own_cells(points, cells, dst, geometry, rtol, used, sb, counts, bad)
+    return dst, int(bad.sum()), (sb, counts)
+
+
+def tet_cells_clearly_valid(points, cells, rtol, used):
+    """How many tetrahedra are *not* clearly valid (ids out of range or repeated, or a volume not clearly
+    above the degeneracy bound); marks ``used[node] = 1`` for the others' nodes (:func:`own_cells`)."""
+    return own_cells(points, cells, cells.dtype, True, rtol, used)[1]
 
 
 @njit
@@ -277,49 +354,64 @@ def _smallest_node(cells, c):
 
 
 @njit(parallel=True)
-def _group_by_smallest_node(cells, n_nodes, n_threads, order, hashes):
-    """The cells grouped by smallest node: ``order`` their ids, ``hashes`` (uint32) their node-set hashes at the same
-    positions; returns the offsets ``(n_nodes + 1,)``. A stable counting sort as :func:`_stable_csr`
-    (slabs of cells, one per thread), the smallest node and the hash computed while the rows are read in
-    order, so that comparing a group reads ``hashes`` in order and a row only where two hashes agree."""
-    sb, counts = _slabs(cells.shape[0], n_threads, n_nodes)
-    n_slabs = counts.shape[0]
-    for t in prange(n_slabs):
+def _count_smallest_nodes(cells, sb, counts):
+    """``counts[t, k]``: the cells of slab ``t`` of ``sb`` whose smallest node is ``k``."""
+    for t in prange(sb.shape[0] - 1):
         for c in range(sb[t], sb[t + 1]):
             counts[t, _smallest_node(cells, c)] += 1
+
+
+#: the high 32 bits of a packed group entry (:func:`_group_by_smallest_node`): the node-set hash
+_HASH_BITS = np.uint64(0xFFFFFFFF00000000)
+
+
+@njit(parallel=True)
+def _group_by_smallest_node(cells, sb, counts, keyed, hash_mask):
+    """The cells grouped by smallest node, from their counts per slab (:func:`_count_smallest_nodes`), into
+    ``keyed`` (uint64): each cell's id in the low bits, the high 32 bits of its node-set hash above them
+    (``hash_mask``: :data:`_HASH_BITS`, or 0 where the ids need all 64 bits); returns the offsets
+    ``(n_nodes + 1,)``. A stable counting sort as :func:`_stable_csr` (slabs of cells, one per thread), the
+    hash computed while the rows are read in order and written with the id (one random write a cell), so that
+    comparing a group reads ``keyed`` in order and a row only where two hashes agree. Also returns whether
+    the counts were not those of ``cells`` (then ``keyed`` is incomplete)."""
     offsets = _slab_offsets(counts)
-    for t in prange(n_slabs):
+    wrong = np.zeros(counts.shape[0], np.bool_)
+    for t in prange(counts.shape[0]):
         for c in range(sb[t], sb[t + 1]):
             k = _smallest_node(cells, c)
             p = counts[t, k]
-            order[p] = c
-            hashes[p] = _cell_hash(cells, c) >> np.uint64(32)  # 32 bits: equal ones are compared anyway
+            if p >= offsets[k + 1]:  # counts that are not these cells' (guarded: never a write out of place)
+                wrong[t] = True
+                continue
+            keyed[p] = (_cell_hash(cells, c) & hash_mask) | np.uint64(c)
             counts[t, k] = p + 1
-    return offsets
+    return offsets, wrong.any()
 
 
 @njit
-def _repeats_in_group(cells, order, hashes, lo, hi):
-    """How many cells of the group ``order[lo:hi]`` (ascending ids) repeat the node set of an earlier one.
-    Equal hashes are compared node by node; a large group is sorted by hash first, so that a node shared
-    by very many cells costs ``k log k``, not ``k**2``."""
+def _repeats_in_group(cells, keyed, hash_mask, lo, hi):
+    """How many cells of the group ``keyed[lo:hi]`` (ascending ids) repeat the node set of an earlier one.
+    Equal hashes are compared node by node; a group of more than 64 is sorted by hash first, so that a node
+    shared by very many cells costs ``k log k``, not ``k**2``."""
+    ids = ~hash_mask
     count = 0
     if hi - lo <= 64:
         for i in range(lo + 1, hi):
+            h = keyed[i] & hash_mask
             for j in range(lo, i):
-                if hashes[j] == hashes[i] and _same_nodes(cells, order[j], order[i]):
+                if keyed[j] & hash_mask == h and _same_nodes(cells, keyed[j] & ids, keyed[i] & ids):
                     count += 1
                     break
         return count
-    by_hash = np.argsort(hashes[lo:hi], kind="mergesort") + lo  # stable: equal hashes in ascending cell order
+    by_hash = np.argsort(keyed[lo:hi] & hash_mask, kind="mergesort") + lo  # stable: equal hashes by cell id
     a = 0
     while a < by_hash.shape[0]:
         b = a + 1
-        while b < by_hash.shape[0] and hashes[by_hash[b]] == hashes[by_hash[a]]:
+        while b < by_hash.shape[0] and keyed[by_hash[b]] & hash_mask == keyed[by_hash[a]] & hash_mask:
             b += 1
         for i in range(a + 1, b):
             for j in range(a, i):
-                if _same_nodes(cells, order[by_hash[j]], order[by_hash[i]]):
+                if _same_nodes(cells, keyed[by_hash[j]] & ids, keyed[by_hash[i]] & ids):
                     count += 1
                     break
         a = b
@@ -327,35 +419,47 @@ def _repeats_in_group(cells, order, hashes, lo, hi):
 
 
 @njit(parallel=True)
-def _count_repeats(cells, offsets, order, hashes, n_chunks):
+def _count_repeats(cells, offsets, keyed, hash_mask, n_chunks):
     """The number of cells that repeat the node set of an earlier cell, from the groups of
-    :func:`_group_by_smallest_node`; independent of ``n_chunks``."""
+    :func:`_group_by_smallest_node`; independent of ``n_chunks``. A small group is compared here (in line),
+    a large one by :func:`_repeats_in_group`."""
     bounds = _chunk_bounds(offsets.shape[0] - 1, n_chunks)
     counts = np.zeros(n_chunks, np.int64)
+    ids = ~hash_mask
     for t in prange(n_chunks):
         n = 0
         for b in range(bounds[t], bounds[t + 1]):
-            if offsets[b + 1] - offsets[b] > 1:
-                n += _repeats_in_group(cells, order, hashes, offsets[b], offsets[b + 1])
+            lo = offsets[b]
+            hi = offsets[b + 1]
+            if hi - lo > 8:
+                n += _repeats_in_group(cells, keyed, hash_mask, lo, hi)
+                continue
+            for i in range(lo + 1, hi):
+                h = keyed[i] & hash_mask
+                for j in range(lo, i):
+                    if keyed[j] & hash_mask == h and _same_nodes(cells, keyed[j] & ids, keyed[i] & ids):
+                        n += 1
+                        break
         counts[t] = n
     return counts.sum()
 
 
 @njit
-def _repeat_examples(cells, offsets, order, hashes, out):
+def _repeat_examples(cells, offsets, keyed, hash_mask, out):
     """The first ``out.shape[0]`` pairs ``(earliest, later)`` of cells with the same node set, in the order
     of the later cell (the serial pass that names them, once :func:`_count_repeats` found some)."""
+    ids = ~hash_mask
     n = 0
     for c in range(cells.shape[0]):
         if n == out.shape[0]:
             break
         b = _smallest_node(cells, c)
-        h = _cell_hash(cells, c) >> np.uint64(32)
+        h = _cell_hash(cells, c) & hash_mask
         for p in range(offsets[b], offsets[b + 1]):
-            e = order[p]
+            e = keyed[p] & ids
             if e >= c:
                 break
-            if hashes[p] == h and _same_nodes(cells, e, c):
+            if keyed[p] & hash_mask == h and _same_nodes(cells, e, c):
                 out[n, 0] = e
                 out[n, 1] = c
                 n += 1
@@ -363,7 +467,7 @@ def _repeat_examples(cells, offsets, order, hashes, out):
     return n
 
 
-def find_duplicate_cells(cells, limit=5, n_nodes=None):
+def find_duplicate_cells(cells, limit=5, n_nodes=None, counted=None):
     """``(count, pairs)``: how many cells repeat the node set of an earlier cell, and up to ``limit``
     ``(earlier, later)`` pairs of them (``earlier`` the first cell with that node set).
 
@@ -373,50 +477,23 @@ def find_duplicate_cells(cells, limit=5, n_nodes=None):
     by smallest node (a parallel counting sort, which reads the rows in order,
     where a hash table over all cells reads at random) and compared inside
     each group; the pairs are named in a second, serial pass only when there
-    are any.
+    are any. ``counted``: the slabs and counts of that sort, from :func:`own_cells` (else counted here).
     """
     m = cells.shape[0]
     if n_nodes is None:
         n_nodes = int(cells.max()) + 1 if m else 0
-    order = empty(m, np.int32 if m < np.iinfo(np.int32).max else np.int64)
-    hashes = empty(m, np.uint32)
-    offsets = _group_by_smallest_node(cells, n_nodes, numba.get_num_threads(), order, hashes)
-    count = int(_count_repeats(cells, offsets, order, hashes, 4 * numba.get_num_threads()))
+    keyed = empty(m, np.uint64)
+    mask = _HASH_BITS if m <= 2**32 else np.uint64(0)  # ids of 33 bits and more: every pair compared
+    if counted is None:
+        counted = _slabs(m, numba.get_num_threads(), n_nodes)
+        _count_smallest_nodes(cells, *counted)
+    offsets, wrong = _group_by_smallest_node(cells, *counted, keyed, mask)
+    if wrong:
+        raise ValueError("find_duplicate_cells: the counts by smallest node given are not those of these cells")
+    count = int(_count_repeats(cells, offsets, keyed, mask, 4 * numba.get_num_threads()))
     out = np.zeros((limit, 2), np.int64)
-    n = _repeat_examples(cells, offsets, order, hashes, out) if count else 0
+    n = _repeat_examples(cells, offsets, keyed, mask, out) if count else 0
     return count, out[:n]
-
-
-@njit(parallel=True)
-def cell_ids_valid(cells, n, used):
-    """How many cells have a node id outside ``0..n-1`` or a repeated node; marks ``used[node] = 1`` for the others.
-
-    One parallel pass, no temporaries, any node count: the constructor's check
-    of the ids where :func:`tet_cells_clearly_valid` does not run
-    (``validate=False``, hexahedra). It runs the exact checks (and their
-    messages) only when this count is not zero.
-    """
-    m, k = cells.shape
-    bad = 0
-    for c in prange(m):
-        ok = True
-        for i in range(k):
-            a = cells[c, i]
-            if a < 0 or a >= n:
-                ok = False
-                break
-            for j in range(i):
-                if cells[c, j] == a:
-                    ok = False
-                    break
-            if not ok:
-                break
-        if not ok:
-            bad += 1
-            continue
-        for i in range(k):
-            used[cells[c, i]] = 1
-    return bad
 
 
 @njit(parallel=True)

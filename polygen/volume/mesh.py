@@ -179,13 +179,15 @@ class UnstructuredVolume:
         # a later change to them cannot reach the checks or anything prepared from these
         self.points = _owned(points, np.float64)
         n = self.points.shape[0]
-        # int32 node ids whenever every valid id fits (16 bytes per tetrahedron instead of 32); ids outside
-        # 0..n-1 are named from the caller's values, before a narrowing copy could wrap them into range
         index = index_dtype(n)
-        if not np.can_cast(cells.dtype, index) and (int(cells.min()) < 0 or int(cells.max()) >= n):
-            self.cells = cells  # read only by the check, which raises
-            self._check_cells(n)
-        self.cells = _owned(cells, index)
+        if cells.dtype not in (np.int32, np.int64) or not cells.flags.c_contiguous:
+            # another integer type or layout: a numpy copy first (the pass below reads int32 or int64 rows, one
+            # compiled kernel each); ids outside 0..n-1 are named from the caller's values, before a narrowing
+            # copy could wrap them into range
+            if not np.can_cast(cells.dtype, index) and (int(cells.min()) < 0 or int(cells.max()) >= n):
+                self.cells = cells  # read only by the check, which raises
+                self._check_cells(n)
+            cells = _owned(cells, index)
         lo, hi = np.zeros(3), np.zeros(3)
         finite = bool(_k.points_range(self.points, lo, hi))  # the row-wise check below only when it fails
         bad_pts = np.flatnonzero(~np.all(np.isfinite(self.points), axis=1)) if not finite else np.zeros(0, np.int64)
@@ -200,19 +202,20 @@ class UnstructuredVolume:
         if not np.all(np.isfinite(extent)):
             raise VolumeError(f"the points span {extent.tolist()}: max - min of a coordinate overflows float64; "
                               "rescale the coordinates")
-        # tetrahedra, checked in full: one parallel pass decides when every cell is clearly valid (the usual
-        # case); otherwise the exact checks below find the bad cells and name them
-        # (hexahedra, validate=False, orient=True: the ids in one parallel pass, the geometry if asked below)
+        # one parallel pass over the caller's rows: the volume's own copy (int32 node ids whenever every valid id
+        # fits: 16 bytes per tetrahedron instead of 32), the ids, and for tetrahedra the geometry: it decides
+        # when every cell is clearly valid (the usual case); otherwise the exact checks below find the bad cells
+        # and name them. It also counts the cells by smallest node for the duplicate check
         used = _jit.empty(n, np.uint8)  # 1 for the nodes of the cells the pass found clearly valid
         used[:] = 0
-        fast_geometry = self.cells.shape[1] == 4 and validate and not orient
-        if fast_geometry:
-            clear = _k.tet_cells_clearly_valid(self.points, self.cells, _DEGENERATE_RTOL, used) == 0
-        else:
-            clear = _k.cell_ids_valid(self.cells, n, used) == 0
+        fast_geometry = cells.shape[1] == 4 and validate and not orient
+        self.cells, bad, counted = _k.own_cells(self.points, cells, index, fast_geometry, _DEGENERATE_RTOL, used)
+        clear = bad == 0
         if not clear:
+            copy, self.cells = self.cells, cells  # the caller's values: a wrapped id is named as the caller gave it
             self._check_cells(n)
-        self._check_duplicates()
+            self.cells = copy
+        self._check_duplicates(counted)
         self.cell_type = _CELL_TYPES[self.cells.shape[1]]
         self.fields = _Fields(self)
         self._iso_methods = {}  # (field, method) -> a prepared IsosurfaceMethod, for isosurface()
@@ -276,7 +279,7 @@ class UnstructuredVolume:
         for a in (self.points, self.cells, *self.fields._data.values()):
             a.setflags(write=False)
 
-    def _check_duplicates(self):
+    def _check_duplicates(self, counted=None):
         """No two cells with the same nodes (in any order), or a VolumeError naming them.
 
         Two copies of a cell share each of its faces, so an inner face of it
@@ -284,7 +287,7 @@ class UnstructuredVolume:
         it comes out twice. Always checked (cells grouped by smallest node), so
         that every method and the unprepared scan refuse such a volume alike.
         """
-        count, pairs = _k.find_duplicate_cells(self.cells, n_nodes=self.n_points)
+        count, pairs = _k.find_duplicate_cells(self.cells, n_nodes=self.n_points, counted=counted)
         if count:
             a, b = (int(x) for x in pairs[0])
             raise VolumeError(

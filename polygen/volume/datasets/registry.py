@@ -401,6 +401,8 @@ def load(name, *, seed=0, field=None, progress=False, cache=True):
         if use_cache:
             _write_cache(path, *arrays, payload)
     points, cells, fields = arrays
+    # the ids as a volume keeps them (the cache's are): one compiled constructor pass for every data set
+    cells = np.asarray(cells, index_dtype(len(points)))
     order = list(fields)
     if field is not None:
         order.remove(field)
