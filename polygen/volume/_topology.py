@@ -421,25 +421,14 @@ def _repeats_in_group(cells, keyed, hash_mask, lo, hi):
 @njit(parallel=True)
 def _count_repeats(cells, offsets, keyed, hash_mask, n_chunks):
     """The number of cells that repeat the node set of an earlier cell, from the groups of
-    :func:`_group_by_smallest_node`; independent of ``n_chunks``. A small group is compared here (in line),
-    a large one by :func:`_repeats_in_group`."""
+    :func:`_group_by_smallest_node`; independent of ``n_chunks``."""
     bounds = _chunk_bounds(offsets.shape[0] - 1, n_chunks)
     counts = np.zeros(n_chunks, np.int64)
-    ids = ~hash_mask
     for t in prange(n_chunks):
         n = 0
         for b in range(bounds[t], bounds[t + 1]):
-            lo = offsets[b]
-            hi = offsets[b + 1]
-            if hi - lo > 8:
-                n += _repeats_in_group(cells, keyed, hash_mask, lo, hi)
-                continue
-            for i in range(lo + 1, hi):
-                h = keyed[i] & hash_mask
-                for j in range(lo, i):
-                    if keyed[j] & hash_mask == h and _same_nodes(cells, keyed[j] & ids, keyed[i] & ids):
-                        n += 1
-                        break
+            if offsets[b + 1] - offsets[b] > 1:
+                n += _repeats_in_group(cells, keyed, hash_mask, offsets[b], offsets[b + 1])
         counts[t] = n
     return counts.sum()
 
