@@ -298,8 +298,8 @@ def own_cells(points, cells, dtype, geometry, rtol, used):
     id is in range and distinct in its cell.
 
     Reading the caller's rows once for the copy, the checks and the count, instead of a numpy copy and two
-    passes over it: the first constructor of a fresh process (the loader's volume freed) on 80M took 2.70
-    and 3.07 s against 3.19 and 5.78 s before (runs alternated); on 2M no change (0.083-0.096 s against 0.080-0.096), where the
+    passes over it: the first constructor of a fresh process on 80M took 2.70 and 3.07 s against 3.19 and
+    5.78 s before (runs alternated; 2.3-7.0 s in later runs, the page faults the same); on 2M no change (0.083-0.096 s against 0.080-0.096), where the
     15,000 first writes to fresh pages, the same number either way, are most of the time.
     """
     m, n = cells.shape[0], points.shape[0]
