@@ -175,7 +175,7 @@ def first_surface(points, cells, s, value):
     """Time to the first surface from arrays: polygen vs VTK's first vtkContourFilter (no tree)."""
     ctor, vol = [], None
     for _ in range(CTOR_REPEATS):
-        # one volume held at a time, as a user holds it (five 80M volumes held at once were 10 GB)
+        # one volume held at a time, as a user holds it (all five were held until the median was chosen)
         vol = None
         gc.collect()
         t, c, vol = timed_cpu(lambda: UnstructuredVolume(points, cells, {FIELD: s}))
