@@ -20,6 +20,7 @@ from polygen.volume.constructions import (
     prepare_construction,
     rss_bytes,
     timed_sweep,
+    timed_sweeps,
 )
 from polygen.volume.edge_centred import EdgeCentredTable
 from polygen.volume.isosurface import extract, same_surface
@@ -60,6 +61,23 @@ def test_array_searches_an_edge_array(data1):
         prepare_construction("nothing", data1)
     with pytest.raises(ValueError, match="repeat"):
         timed_sweep(m, [0.5], repeat=0)
+
+
+def test_interleaved_sweeps_give_each_construction_its_own_surfaces_and_minimum(data1):
+    """timed_sweeps: every method's sweep in each round, its surfaces the scan's, its times at most its last
+    round's; a repeat below 1 refused."""
+    values = isovalues(data1.scalars("fem"), 4)
+    ms = {label: prepare_construction(label, data1) for label in ("hash", "walk-fifo")}
+    out = timed_sweeps(ms, values, repeat=3)
+    assert list(out) == ["hash", "walk-fifo"]
+    for label, (isos, times, probes) in out.items():
+        assert times.shape == (4, 3) and np.isfinite(times).all()
+        assert all(same_surface(extract(data1, v, field="fem"), edge_keyed(label, i, data1))
+                   for v, i in zip(values, isos))
+        assert (times <= np.array([[i.t1, i.t2, i.t3] for i in isos])).all()
+        assert (probes > 0) == (label == "hash")
+    with pytest.raises(ValueError, match="repeat"):
+        timed_sweeps(ms, values, repeat=0)
 
 
 @pytest.mark.parametrize("label", NO_STORED_EDGES)

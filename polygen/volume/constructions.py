@@ -154,6 +154,28 @@ def timed_sweep(m, values, *, repeat=3):
     return isos, times, probes
 
 
+def timed_sweeps(ms, values, *, repeat=3):
+    """:func:`timed_sweep` of several prepared methods, interleaved: each of ``repeat`` rounds runs every
+    method's whole sweep in turn, so that a load on the machine falls on all of them alike (one method's
+    runs after another's measured the second under another load: on a 2-core CI machine running other
+    tests beside, notebook 08 once measured the new construction's t_p at 0.96 of the old one's, against
+    0.63-0.71 quiet).
+
+    ``ms``: name -> prepared method. Returns name -> ``(isos, times, probes)`` as :func:`timed_sweep`
+    (each stage time at its minimum over the rounds; the surfaces and probes of the last round).
+    """
+    if repeat < 1:
+        raise ValueError(f"repeat must be at least 1; got {repeat}")
+    out = {}
+    for _ in range(repeat):
+        for name, m in ms.items():
+            isos, times, probes = timed_sweep(m, values, repeat=1)
+            if name in out:
+                times = np.minimum(out[name][1], times)
+            out[name] = (isos, times, probes)
+    return out
+
+
 def rss_bytes():
     """This process's resident memory in bytes (Linux ``/proc/self/statm``), or None where it cannot be read.
 
