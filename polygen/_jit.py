@@ -124,6 +124,34 @@ def njit(fn=None, **kwargs):
     return _plain_types(numba.njit(**kwargs)(fn))
 
 
+def read_only(a):
+    """``a`` read-only: itself when it is already, else a read-only view (the caller's array stays writable).
+
+    numba types an array's writability: a kernel called with a writable array
+    where it had a read-only one (or the reverse) is compiled again, seconds
+    for a large one. Arrays a kernel only reads go in read-only everywhere.
+    """
+    if not a.flags.writeable:
+        return a
+    v = a.view()
+    v.setflags(write=False)
+    return v
+
+
+def note_read_only(state):
+    """For ``__getstate__``: ``state`` (a copy of an object's ``__dict__``) with the names of its read-only
+    arrays under ``"_read_only"``, which :func:`restore_read_only` makes read-only again (pickling and deepcopy
+    hand arrays back writable, and the kernels would be compiled again for them; see :func:`read_only`)."""
+    state["_read_only"] = [k for k, v in state.items() if isinstance(v, np.ndarray) and not v.flags.writeable]
+    return state
+
+
+def restore_read_only(obj):
+    """For ``__setstate__``, after ``obj.__dict__`` was updated: the arrays :func:`note_read_only` named, read-only."""
+    for name in obj.__dict__.pop("_read_only", ()):
+        getattr(obj, name).setflags(write=False)
+
+
 @numba.njit(parallel=True, cache=CACHE)
 def _touch(n):  # pragma: no cover - trivially small; it makes numba choose its threading layer
     total = 0

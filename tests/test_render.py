@@ -601,10 +601,16 @@ def test_renderers_pickle_and_copy(keep):
     cam, step = _view(vol, 16)
     s = vol.scalars()
     tf = TransferFunction.ramp(s.min(), s.max(), opacity=(0.05, 0.4), unit=step * 4)
+    from polygen.volume.render import _kernels
+
     rc = RayCaster(vol, keep_samples=keep)
     image = rc.render(cam, tf, step=step).image
+    image = rc.render(cam, tf, step=step).image  # with kept samples: composited again, without a walk
+    builds = {k: len(getattr(_kernels, k).signatures) for k in ("cast", "composite_samples")}
     for other in (pickle.loads(pickle.dumps(rc)), copy.deepcopy(rc)):
         np.testing.assert_array_equal(other.render(cam, tf, step=step).image, image)
+    # the copies' arrays are read-only again, as the original's: their kernels are not compiled a second time
+    assert {k: len(getattr(_kernels, k).signatures) for k in builds} == builds
     sr = ShellRenderer(vol, cam)
     shells = sr.render(tf, step=step).image
     for other in (pickle.loads(pickle.dumps(sr)), copy.deepcopy(sr)):

@@ -199,6 +199,25 @@ def test_fields_are_read_only_copies():
 
 
 @pytest.mark.parametrize("method", METHODS)
+def test_a_method_prepared_on_a_callers_array_keeps_its_values(method):
+    """A field given as an array (not by name) is copied: the caller writing it later changes no surface.
+
+    Before, a float64 array was kept as it was, so the method answered for the new values with a preparation
+    (ranges, lists, skeletons) made for the old ones. The kernels get the copy read-only, like a named field.
+    """
+    points, cells = grid_tets(8)
+    vol = UnstructuredVolume(points, cells, {"g": points[:, 0]}, orient=True)
+    f = two_blobs(points)
+    m = registry.get_method(method)(vol, field=f)
+    refs = [scan(vol, v, field=f.copy()) for v in (0.35, 0.6)]
+    f[:] = f[::-1]  # the caller's own array, changed in place
+    for v, ref in zip((0.35, 0.6), refs):
+        iso = m.extract(v)
+        assert ref.n_triangles and same_surface(iso, ref, geometry=False), (method, v)
+    assert not same_surface(scan(vol, 0.35, field=f), refs[0], geometry=False)  # a change the test would see
+
+
+@pytest.mark.parametrize("method", METHODS)
 def test_replaced_field_gives_the_new_surface(method):
     """Issue 19.2: ``vol.fields["f"] = new`` after a first extraction: the next one is the new field's."""
     points, cells = grid_tets(10)

@@ -961,7 +961,7 @@ class UnstructuredVolume:
 
     def locate(self, xyz) -> np.ndarray:
         """(K,) int64 a cell containing each point of ``xyz (K, 3)``, -1 outside."""
-        return self._interpolate(xyz, np.zeros(self.n_points))[1]
+        return self._interpolate(xyz, _jit.read_only(np.zeros(self.n_points)))[1]  # read-only as a field is
 
     def interpolate(self, xyz, field=None) -> np.ndarray:
         """(K,) float64 the field at points ``xyz (K, 3)`` by Def. 5.5, NaN outside.

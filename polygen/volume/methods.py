@@ -33,12 +33,13 @@ import time
 
 import numpy as np
 
+from polygen import _jit
 from polygen.volume import registry as _registry
 from polygen.volume.isosurface import _scan_unprepared
 from polygen.volume.isosurface import extract as _extract
 from polygen.volume.propagate import Propagator
 from polygen.volume.seeds.source import seed_source as _seed_source
-from polygen.volume.surface import IsoSurfaceError, same_surface
+from polygen.volume.surface import IsoSurfaceError, same_surface, volume_arrays
 from polygen.volume.surface import check_normals as _check_normals
 from polygen.volume.surface import check_threads as _check_threads
 from polygen.volume.surface import check_value as _check_value
@@ -201,6 +202,8 @@ class IsosurfaceMethod(abc.ABC):
 
     def __init__(self, vol, field=None, **params):
         self.vol = vol
+        if field is not None and not isinstance(field, str):
+            field = volume_arrays(vol, field)[2]  # node values: a read-only copy (checked), never the caller's
         self.field = field
         self._lock = threading.RLock()
         # the array prepared on, when the field is named: a replaced field must not give a stale surface
@@ -252,10 +255,11 @@ class IsosurfaceMethod(abc.ABC):
             state = self.__dict__.copy()
         del state["_lock"]
         state["_as_of"] = 0
-        return state
+        return _jit.note_read_only(state)
 
     def __setstate__(self, state):
         self.__dict__.update(state)
+        _jit.restore_read_only(self)
         self._lock = threading.RLock()
 
     def _check_field(self):

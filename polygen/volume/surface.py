@@ -375,8 +375,18 @@ def volume_arrays(vol, field):
         raise IsoSurfaceError(f"expected an UnstructuredVolume; got {type(vol).__name__}") from None
     if isinstance(field, str) or field is None:
         s = vol.scalars(field)
+    elif any(field is f for f in (getattr(vol, "fields", None) or {}).values()):
+        s = field  # the volume's own field: read-only float64, checked when it was added
     else:
-        s = np.asarray(field, dtype=np.float64)
+        # node values given as an array: a read-only copy, so that a method never keeps the caller's array
+        # (written later, it would leave the preparation stale) and the kernels see one array type (numba
+        # builds each once, not again for a writable field: a second build of the edge-centred table's flood
+        # is ~9 s). An array that is already such a copy (read-only float64 owning its memory, as the methods
+        # keep one) is checked, not copied again.
+        s = np.asarray(field)
+        if not (s.dtype == np.float64 and s.flags.c_contiguous and s.flags.owndata and not s.flags.writeable):
+            s = np.array(s, dtype=np.float64, order="C")
+            s.setflags(write=False)
         if s.shape != (vol.n_points,):
             raise IsoSurfaceError(f"field values must have shape ({vol.n_points},); got {s.shape}")
         if not np.all(np.isfinite(s)):
@@ -388,7 +398,7 @@ def volume_arrays(vol, field):
             if not (np.isfinite(span) and np.isfinite(reach)):
                 raise IsoSurfaceError(f"field values span {s.min():.6g} .. {s.max():.6g}: their range (times the "
                                       "coordinates, in the crossing points (5.2)) overflows float64; rescale them")
-    return points, cells, np.ascontiguousarray(s, np.float64), cell_type
+    return points, cells, s, cell_type
 
 
 def check_value(value):

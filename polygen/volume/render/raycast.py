@@ -133,10 +133,14 @@ class RayCaster:
         with self._lock:
             state = self.__dict__.copy()
         del state["_lock"]
-        return state
+        return _jit.note_read_only(state)
 
     def __setstate__(self, state):
         self.__dict__.update(state)
+        _jit.restore_read_only(self)
+        if self._kept is not None:  # the kept samples, read-only like the ones it made
+            for a in self._kept[2:]:
+                a.setflags(write=False)
         self._lock = threading.Lock()
 
     @staticmethod

@@ -198,10 +198,11 @@ class ShellRenderer:
         with self._lock:
             state = self.__dict__.copy()
         del state["_lock"]
-        return state
+        return _jit.note_read_only(state)
 
     def __setstate__(self, state):
         self.__dict__.update(state)
+        _jit.restore_read_only(self)
         self._lock = threading.RLock()
 
     # ------------------------------------------------------------------ the eye

@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 
+from polygen import _jit
 from polygen.volume.render.view import RenderError
 
 __all__ = ["TransferFunction", "Lighting", "OPTICAL_MODELS", "check_tf", "check_optical_model"]
@@ -122,9 +123,10 @@ class TransferFunction:
         ``"opacity"``: the corrected opacities and ``tau = 0``; ``"attenuation"``: the table's
         opacities (attenuation per ``unit``) and ``tau = step / unit``.
         """
+        # read-only both (the table's own opacities are): one build of the kernels for either model
         if check_optical_model(optical_model) == "opacity":
-            return np.ascontiguousarray(self.corrected(step)), 0.0
-        return np.ascontiguousarray(self.opacity), float(step) / self.unit
+            return _jit.read_only(np.ascontiguousarray(self.corrected(step))), 0.0
+        return _jit.read_only(np.ascontiguousarray(self.opacity)), float(step) / self.unit
 
     def __call__(self, s):
         """``(rgb (..., 3), opacity (...))`` of the table at scalar values ``s``."""
