@@ -198,8 +198,9 @@ def test_fields_are_read_only_copies():
     assert np.array_equal(vol.fields["f"], -f)
 
 
+@pytest.mark.parametrize("read_only", [False, True])
 @pytest.mark.parametrize("method", METHODS)
-def test_a_method_prepared_on_a_callers_array_keeps_its_values(method):
+def test_a_method_prepared_on_a_callers_array_keeps_its_values(method, read_only):
     """A field given as an array (not by name) is copied: the caller writing it later changes no surface.
 
     Before, a float64 array was kept as it was, so the method answered for the new values with a preparation
@@ -208,8 +209,11 @@ def test_a_method_prepared_on_a_callers_array_keeps_its_values(method):
     points, cells = grid_tets(8)
     vol = UnstructuredVolume(points, cells, {"g": points[:, 0]}, orient=True)
     f = two_blobs(points)
+    if read_only:  # the caller's own read-only array is copied too: the caller may make it writable again
+        f.setflags(write=False)
     m = registry.get_method(method)(vol, field=f)
     refs = [scan(vol, v, field=f.copy()) for v in (0.35, 0.6)]
+    f.setflags(write=True)
     f[:] = f[::-1]  # the caller's own array, changed in place
     for v, ref in zip((0.35, 0.6), refs):
         iso = m.extract(v)

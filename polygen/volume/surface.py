@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import time
+import weakref
 
 import numpy as np
 from polygen import _jit
@@ -366,6 +367,10 @@ def component_table(vertices, triangles):
             "closed": closed, "touches_boundary": touches}
 
 
+#: the node-value copies :func:`volume_arrays` made and that are alive, by id
+_VALUE_COPIES = weakref.WeakValueDictionary()
+
+
 def volume_arrays(vol, field):
     """(points, cells, s, cell_type) of ``vol``, the scalars from ``field``."""
     try:
@@ -381,12 +386,13 @@ def volume_arrays(vol, field):
         # node values given as an array: a read-only copy, so that a method never keeps the caller's array
         # (written later, it would leave the preparation stale) and the kernels see one array type (numba
         # builds each once, not again for a writable field: a second build of the edge-centred table's flood
-        # is ~9 s). An array that is already such a copy (read-only float64 owning its memory, as the methods
-        # keep one) is checked, not copied again.
-        s = np.asarray(field)
-        if not (s.dtype == np.float64 and s.flags.c_contiguous and s.flags.owndata and not s.flags.writeable):
-            s = np.array(s, dtype=np.float64, order="C")
+        # is ~9 s). A copy made here (a method keeps one and hands it on to its parts) is checked, not copied
+        # again; any other array is copied, read-only or not.
+        s = field if _VALUE_COPIES.get(id(field)) is field else None
+        if s is None:
+            s = np.array(field, dtype=np.float64, order="C")
             s.setflags(write=False)
+            _VALUE_COPIES[id(s)] = s
         if s.shape != (vol.n_points,):
             raise IsoSurfaceError(f"field values must have shape ({vol.n_points},); got {s.shape}")
         if not np.all(np.isfinite(s)):
