@@ -812,8 +812,13 @@ class UnstructuredVolume:
         """(M, 6|12) int32 (int64 past 2**31 cell edges) id (row of :attr:`edges`) of each local edge of each cell."""
         edges, cell_edges = self._edge_table
         if cell_edges is None:  # dropped after a preparation (release_preparation_tables): build it again
-            self.__dict__.pop("_edge_table", None)
-            edges, cell_edges = self._edge_table
+            # under the table's lock, where _edges_into cannot put back a table without cell edges between the
+            # check and the build (it did once, under CI's load: a scan got None, in the four-thread stress test)
+            with self._table_lock:
+                table = self.__dict__.get("_edge_table")
+                if table is None or table[1] is None:
+                    table = self.__dict__["_edge_table"] = self._build_edge_table()
+                cell_edges = table[1]
         return cell_edges
 
     @functools.cached_property
