@@ -43,7 +43,6 @@ import json, os, time  # noqa: E401
 from pathlib import Path
 
 FULL = os.environ.get("POLYGEN_FULL") == "1"   # the paper's four volumes for Table 2 when set
-
 import matplotlib.pyplot as plt
 import numpy as np
 
@@ -51,9 +50,8 @@ import polygen
 from polygen import plotting
 from polygen.plotting import volume as plot_volume
 from polygen.volume import datasets, isovalues, methods
-from polygen.volume.constructions import builder_of as builder
-from polygen.volume.constructions import (construction_memory, edge_keyed, prepare_construction, timed_sweep,
-                                          timed_sweeps)
+from polygen.volume.constructions import (builder_of as builder, construction_memory, edge_keyed,
+                                          prepare_construction, timed_sweep, timed_sweeps)
 from polygen.volume.seeds.source import seed_source
 from polygen.volume.edge_centred import EdgeCentredWalk
 from polygen.volume.isosurface import extract, same_surface
