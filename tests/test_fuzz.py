@@ -245,8 +245,8 @@ def _mutate(name, points, cells, f, rng):
         f = f * 1e-300
     elif name == "largest valid values":  # max - min just inside float64 (about 1.7e308 over two)
         f = (f - f.min()) / (np.ptp(f) or 1.0) * 1e307 - 5e306
-    elif name == "integer field":
-        f = np.round(f * 3).astype(np.int64)
+    elif name == "integer field":  # clipped to int64's range: a field scaled by 1e135 has no integer version
+        f = np.round(np.clip(f * 3, -2.0**62, 2.0**62)).astype(np.int64)
     return points, cells, f, orient
 
 
